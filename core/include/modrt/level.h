@@ -1,0 +1,71 @@
+// modrt — a built level: the run-time form of a LevelDescription (SPEC §4, MRT §6.2–6.3).
+//
+// Every block keeps its samples in the canonical order of its dictionary shape (cube.h
+// SampleLayout), so the shape's Td_b, Ub, ... apply unchanged; `quarter_turns` maps the
+// canonical block onto the world grid. Level-wide signals (ld, lightmap) concatenate the
+// blocks' samples: block i owns [sample_offset, sample_offset + sample_count).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "modrt/dictionary.h"
+
+namespace modrt {
+
+struct LevelBlock {
+  int shape = 0;                          // dictionary shape index
+  int quarter_turns = 0;                  // world = rotate(canonical, quarter_turns)
+  glm::ivec3 cell{0};
+  std::array<glm::dvec3, 8> corners{};    // world corners (x + 2y + 4z), see level_description.h
+  std::array<int, kFaceCount> neighbour{};  // per canonical face: connected block, or -1
+  std::uint32_t sample_offset = 0;
+  std::uint32_t sample_count = 0;
+};
+
+// r(slot) = sum over records of T * b(source); slot = light entering `block` through its
+// canonical side face `entry_face` (MRT §6.3: Trlf_r R... Rb_rlf concatenated and summed).
+struct ResponseSlot {
+  std::uint32_t block = 0;
+  int entry_face = 0;
+  // Ur row -> block sample: for each row of Ur (dead-end samples), the sample of `block`
+  // it lands on after rotating -Z onto entry_face, or -1 where that face is missing.
+  std::vector<std::int32_t> ur_row_to_sample;
+};
+
+struct ResponseRecord {
+  std::uint32_t source_block = 0;
+  std::uint32_t slot = 0;
+  Matrix T;  // kr x kb
+};
+
+// One lightmap texel copied to another in the padded atlas (MRT §6.2, [Loos et al. 2011]).
+struct PaddingRecord {
+  std::uint32_t dst;  // atlas texel index (y * width + x)
+  std::uint32_t src;
+};
+
+struct LightmapAtlas {
+  int width = 0, height = 0;
+  int tile = 0;                            // res + 2 (1-texel padding on each side)
+  // Atlas texel of each level sample (the unpadded interior of its face's tile).
+  std::vector<std::uint32_t> sample_texel;
+  // Tile origin (top-left padded texel) per block and canonical face; -1 when missing.
+  std::vector<std::array<std::int32_t, kFaceCount>> tile_origin_x, tile_origin_y;
+  std::vector<PaddingRecord> padding;
+};
+
+struct Level {
+  int res = 0;
+  std::uint32_t kb = 0, kr = 0;
+  std::vector<LevelBlock> blocks;
+  std::uint32_t sample_count = 0;
+  std::vector<ResponseSlot> slots;
+  std::vector<ResponseRecord> records;  // sorted by slot
+  LightmapAtlas atlas;
+};
+
+}  // namespace modrt

@@ -1,0 +1,50 @@
+// modrt — the scalar reference runtime for a whole level (SPEC §5, MRT §7.3 steps 2–6, 8).
+//
+// Level-wide signals are RGB-interleaved and concatenate the blocks (level.h):
+//   ld, lightmap, albedo: 3 * level.sample_count
+//   b: 3 * kb per block (block i at 3 * kb * i)
+//   r: 3 * kr per response slot
+#pragma once
+
+#include <span>
+
+#include "modrt/level.h"
+#include "modrt/reference_runtime.h"
+
+namespace modrt {
+
+// Sizes of the per-frame buffers a caller allocates once.
+struct LevelBufferSizes {
+  std::size_t ld = 0, b = 0, r = 0, lightmap = 0, atlas = 0, probes = 0;
+};
+LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict);
+
+// Checks that the level was built against this dictionary (res, kb, kr, shapes).
+Status check_level_matches(const Level& level, const Dictionary& dict);
+
+// Step 2: b = Td_b ld per block. Validates ld.
+Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b);
+// Step 4: r = Tb->r b (records summed per slot).
+void level_compute_r(const Level& level, std::span<const float> b, std::span<float> r);
+// Steps 3 and 5: lightmap = Ub b + Ur r (rotated onto each slot's entry face).
+void level_compute_lightmap(const Level& level, const Dictionary& dict, std::span<const float> b,
+                            std::span<const float> r, std::span<float> lightmap);
+// Steps 2–5 in one call.
+Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b,
+                      std::span<float> r, std::span<float> lightmap);
+
+// Multi-bounce feedback for a level, as multi_bounce() for one block (same clamps).
+Result<MultiBounceReport> level_multi_bounce(const Level& level, const Dictionary& dict,
+                                             std::span<const float> ld_direct, std::span<const float> albedo,
+                                             const MultiBounceSettings& settings, std::span<float> b,
+                                             std::span<float> r, std::span<float> lightmap);
+
+// Step 6: writes the lightmap into the padded atlas (3 * width * height floats) and fills
+// the padding from the records. Texels not covered by any tile are zero.
+void level_fill_atlas(const Level& level, std::span<const float> lightmap, std::span<float> atlas);
+
+// Step 8: volume probes (radiance SH9, 9 g^3 per block, canonical block frame) from b.
+void level_compute_probes(const Level& level, const Dictionary& dict, std::span<const float> b,
+                          std::span<float> probes);
+
+}  // namespace modrt

@@ -1,0 +1,53 @@
+// modrt — the scalar reference runtime for one block (SPEC §5, MRT §7.3 steps 1–3, 8–9).
+//
+// This is the oracle every backend is checked against: plain loops in float with double
+// accumulation, no SIMD, no skipping. RGB signals are interleaved per sample:
+// ld[3*s + c]; b[3*k + c]; lightmap[3*s + c]; vector irradiance [3*(4*s + i) + c];
+// probes [3*(9*p + j) + c]. Operators are scalar and applied per channel.
+#pragma once
+
+#include <cstddef>
+#include <span>
+
+#include "modrt/dictionary.h"
+
+namespace modrt {
+
+// Fails with non_finite (NaN/Inf) or invalid_argument (negative, wrong size), naming the
+// first offending sample and channel. `what` prefixes the message (e.g. "ld").
+Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what);
+
+// b = Td_b ld (MRT eq. 3). ld: 3n, b: 3kb. Validates ld.
+Status compute_b(const ShapeOperators& op, std::span<const float> ld, std::span<float> b);
+// lightmap = Ub b (E_ind / pi at the samples). b: 3kb, lightmap: 3n.
+void apply_Ub(const ShapeOperators& op, std::span<const float> b, std::span<float> lightmap);
+// OHLSH vector irradiance = U_vec_b b. out: 3 * 4n.
+void apply_Ub_vec(const ShapeOperators& op, std::span<const float> b, std::span<float> out);
+// Volume probe radiance SH9 = Ubvol b. out: 3 * 9 g^3.
+void apply_Ubvol(const ShapeOperators& op, std::span<const float> b, std::span<float> out);
+
+struct MultiBounceSettings {
+  int max_iterations = 200;
+  float tolerance = 1e-6f;   // stop when max |b_{k+1} - b_k| <= tolerance * max |b_k|
+  float max_albedo = 0.95f;  // albedo is clamped to this in the feedback, so the bounce
+                             // series is geometric with ratio <= max_albedo
+};
+
+struct MultiBounceReport {
+  int iterations = 0;
+  bool converged = false;
+  bool albedo_clamped = false;  // some albedo exceeded max_albedo and was clamped
+  bool value_clamped = false;   // some lightmap texel hit the energy bound and was clamped
+  float energy_bound = 0.0f;    // max(ld_direct) / (1 - max albedo used): no texel exceeds it
+};
+
+// Multi-bounce feedback ld = ld_direct + albedo * lightmap, b = Td_b ld, lightmap = Ub b,
+// iterated to convergence. The feedback uses max(lightmap, 0) clamped to energy_bound (the
+// maximum principle of a transport operator with row sums <= 1), so even an operator
+// whose low-rank error pushes its spectral radius above 1 cannot diverge.
+// ld_direct, albedo: 3n; b: 3kb; lightmap: 3n.
+Result<MultiBounceReport> multi_bounce(const ShapeOperators& op, std::span<const float> ld_direct,
+                                       std::span<const float> albedo, const MultiBounceSettings& settings,
+                                       std::span<float> b, std::span<float> lightmap);
+
+}  // namespace modrt

@@ -1,0 +1,190 @@
+#include "modrt/file_io.h"
+
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace modrt {
+namespace {
+
+std::string os_error(int err) { return std::strerror(err); }
+
+Status io_error(const std::string& path, const std::string& what, int err) {
+  return Status::error(ErrorCode::io_error, path + ": " + what + ": " + os_error(err));
+}
+
+// Closes a file descriptor on scope exit unless released.
+class Fd {
+ public:
+  explicit Fd(int fd) : fd_(fd) {}
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  ~Fd() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int get() const { return fd_; }
+  // Closes now and reports the error of close(2) (0 on success).
+  int close_now() {
+    const int fd = fd_;
+    fd_ = -1;
+    return (fd >= 0 && ::close(fd) != 0) ? errno : 0;
+  }
+
+ private:
+  int fd_;
+};
+
+Status write_all(int fd, std::span<const std::byte> bytes, const std::string& tmp) {
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const std::size_t chunk = std::min<std::size_t>(bytes.size() - done, std::size_t(1) << 30);
+    const ssize_t n = ::write(fd, bytes.data() + done, chunk);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return io_error(tmp, "write failed", errno);
+    }
+    if (n == 0) return Status::error(ErrorCode::io_error, tmp + ": write failed: no progress");
+    done += std::size_t(n);
+  }
+  return Status::success();
+}
+
+// Reads until `limit` bytes or end of file; appends to `out`.
+Status read_up_to(int fd, std::uint64_t limit, std::vector<std::byte>& out, const std::string& path) {
+  std::array<std::byte, 1 << 16> buffer;
+  while (out.size() < limit) {
+    const std::uint64_t want = std::min<std::uint64_t>(buffer.size(), limit - out.size());
+    const ssize_t n = ::read(fd, buffer.data(), std::size_t(want));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return io_error(path, "read failed", errno);
+    }
+    if (n == 0) break;
+    out.insert(out.end(), buffer.begin(), buffer.begin() + n);
+  }
+  return Status::success();
+}
+
+Result<int> open_for_reading(const std::string& path, struct stat& st) {
+  int fd;
+  do {
+    fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) return io_error(path, "cannot open for reading", errno);
+  if (::fstat(fd, &st) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return io_error(path, "cannot stat", err);
+  }
+  if (S_ISDIR(st.st_mode)) {
+    ::close(fd);
+    return io_error(path, "cannot read", EISDIR);
+  }
+  return fd;
+}
+
+struct CrcTable {
+  std::array<std::uint32_t, 256> entries{};
+  CrcTable() {
+    for (std::uint32_t i = 0; i < 256; ++i) {
+      std::uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? (0xEDB88320u ^ (c >> 1)) : (c >> 1);
+      entries[i] = c;
+    }
+  }
+};
+
+}  // namespace
+
+Status write_file_atomic(const std::string& path, std::span<const std::byte> bytes) {
+  if (path.empty()) return Status::error(ErrorCode::io_error, "write_file_atomic: empty path");
+  const std::filesystem::path target(path);
+  if (target.has_parent_path()) {
+    std::error_code ec;
+    std::filesystem::create_directories(target.parent_path(), ec);
+    if (ec)
+      return Status::error(ErrorCode::io_error, path + ": cannot create directory " +
+                                                    target.parent_path().string() + ": " + ec.message());
+  }
+
+  static std::atomic<std::uint64_t> counter{0};
+  const std::string tmp = path + ".tmp." + std::to_string(long(::getpid())) + "." + std::to_string(counter++);
+  int raw;
+  do {
+    raw = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_TRUNC | O_CLOEXEC, 0644);
+  } while (raw < 0 && errno == EINTR);
+  if (raw < 0) return io_error(tmp, "cannot create temporary file", errno);
+  Fd fd(raw);
+
+  auto fail = [&](Status s) {
+    fd.close_now();
+    ::unlink(tmp.c_str());
+    return s;
+  };
+  if (Status s = write_all(fd.get(), bytes, tmp); !s.ok()) return fail(std::move(s));
+  if (::fsync(fd.get()) != 0) return fail(io_error(tmp, "fsync failed", errno));
+  if (const int err = fd.close_now(); err != 0) return fail(io_error(tmp, "close failed", err));
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    return io_error(path, "cannot rename " + tmp + " over it", err);
+  }
+  // Make the rename itself durable; failure here does not undo a completed write.
+  const std::string dir = target.has_parent_path() ? target.parent_path().string() : std::string(".");
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    (void)::fsync(dfd);
+    ::close(dfd);
+  }
+  return Status::success();
+}
+
+Result<std::vector<std::byte>> read_file(const std::string& path, std::uint64_t max_bytes) {
+  struct stat st {};
+  Result<int> opened = open_for_reading(path, st);
+  if (!opened.ok()) return opened.status();
+  Fd fd(opened.value());
+  std::vector<std::byte> out;
+  if (S_ISREG(st.st_mode)) {
+    const std::uint64_t size = std::uint64_t(st.st_size);
+    if (size > max_bytes)
+      return Status::error(ErrorCode::resource_limit, path + ": file is " + std::to_string(size) +
+                                                          " bytes, larger than the limit of " +
+                                                          std::to_string(max_bytes) + " bytes");
+    out.reserve(std::size_t(size));
+  }
+  // Read one byte past the limit to notice files that grew or are not regular.
+  const std::uint64_t limit = max_bytes == UINT64_MAX ? max_bytes : max_bytes + 1;
+  if (Status s = read_up_to(fd.get(), limit, out, path); !s.ok()) return s;
+  if (out.size() > max_bytes)
+    return Status::error(ErrorCode::resource_limit, path + ": file is more than " + std::to_string(max_bytes) +
+                                                        " bytes, larger than the limit of " +
+                                                        std::to_string(max_bytes) + " bytes");
+  return out;
+}
+
+Result<std::vector<std::byte>> read_file_prefix(const std::string& path, std::uint64_t count) {
+  struct stat st {};
+  Result<int> opened = open_for_reading(path, st);
+  if (!opened.ok()) return opened.status();
+  Fd fd(opened.value());
+  std::vector<std::byte> out;
+  if (Status s = read_up_to(fd.get(), count, out, path); !s.ok()) return s;
+  return out;
+}
+
+std::uint32_t crc32(std::span<const std::byte> bytes, std::uint32_t seed) {
+  static const CrcTable table;
+  std::uint32_t c = seed ^ 0xFFFFFFFFu;
+  for (std::byte b : bytes) c = table.entries[(c ^ std::to_integer<std::uint32_t>(b)) & 0xFFu] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+}  // namespace modrt

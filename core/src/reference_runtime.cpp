@@ -1,0 +1,123 @@
+#include "modrt/reference_runtime.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace modrt {
+namespace {
+
+// out[3r + c] = sum_k A(r, k) * in[3k + c], accumulated in double.
+void apply_rgb(const Matrix& A, std::span<const float> in, std::span<float> out) {
+  for (std::uint32_t r = 0; r < A.rows; ++r) {
+    const float* row = A.data.data() + std::size_t(r) * A.cols;
+    double acc[3] = {0.0, 0.0, 0.0};
+    for (std::uint32_t k = 0; k < A.cols; ++k) {
+      const double a = row[k];
+      acc[0] += a * in[3 * k + 0];
+      acc[1] += a * in[3 * k + 1];
+      acc[2] += a * in[3 * k + 2];
+    }
+    for (int c = 0; c < 3; ++c) out[3 * r + c] = float(acc[c]);
+  }
+}
+
+}  // namespace
+
+Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what) {
+  if (rgb.size() != 3 * samples)
+    return Status::error(ErrorCode::invalid_argument, std::string(what) + ": has " + std::to_string(rgb.size()) +
+                                                          " floats, expected 3 x " + std::to_string(samples));
+  static constexpr const char* kChannel[3] = {"R", "G", "B"};
+  for (std::size_t i = 0; i < rgb.size(); ++i) {
+    const float v = rgb[i];
+    if (!std::isfinite(v))
+      return Status::error(ErrorCode::non_finite, std::string(what) + ": sample " + std::to_string(i / 3) +
+                                                      " channel " + kChannel[i % 3] + " is " +
+                                                      (std::isnan(v) ? "NaN" : "Inf"));
+    if (v < 0.0f)
+      return Status::error(ErrorCode::invalid_argument, std::string(what) + ": sample " + std::to_string(i / 3) +
+                                                            " channel " + kChannel[i % 3] + " is negative (" +
+                                                            std::to_string(v) + ")");
+  }
+  return Status::success();
+}
+
+Status compute_b(const ShapeOperators& op, std::span<const float> ld, std::span<float> b) {
+  if (Status s = validate_light_signal(ld, op.Td_b.cols, "ld"); !s.ok()) return s;
+  if (b.size() != 3 * std::size_t(op.Td_b.rows))
+    return Status::error(ErrorCode::invalid_argument, "b: has " + std::to_string(b.size()) + " floats, expected 3 x " +
+                                                          std::to_string(op.Td_b.rows));
+  apply_rgb(op.Td_b, ld, b);
+  return Status::success();
+}
+
+void apply_Ub(const ShapeOperators& op, std::span<const float> b, std::span<float> lightmap) {
+  apply_rgb(op.Ub, b, lightmap);
+}
+
+void apply_Ub_vec(const ShapeOperators& op, std::span<const float> b, std::span<float> out) {
+  apply_rgb(op.Ub_vec, b, out);
+}
+
+void apply_Ubvol(const ShapeOperators& op, std::span<const float> b, std::span<float> out) {
+  apply_rgb(op.Ubvol, b, out);
+}
+
+Result<MultiBounceReport> multi_bounce(const ShapeOperators& op, std::span<const float> ld_direct,
+                                       std::span<const float> albedo, const MultiBounceSettings& settings,
+                                       std::span<float> b, std::span<float> lightmap) {
+  const std::size_t n = op.sample_count();
+  if (Status s = validate_light_signal(ld_direct, n, "ld_direct"); !s.ok()) return s;
+  if (Status s = validate_light_signal(albedo, n, "albedo"); !s.ok()) return s;
+  if (lightmap.size() != 3 * n || b.size() != 3 * std::size_t(op.kb()))
+    return Status::error(ErrorCode::invalid_argument, "multi_bounce: output spans have the wrong size");
+  if (!(settings.max_albedo >= 0.0f && settings.max_albedo < 1.0f) || settings.max_iterations < 1)
+    return Status::error(ErrorCode::invalid_argument,
+                         "multi_bounce: settings.max_albedo must be in [0, 1) and max_iterations >= 1");
+
+  MultiBounceReport report;
+  std::vector<float> rho(albedo.begin(), albedo.end());
+  float rho_max = 0.0f;
+  for (float& r : rho) {
+    if (r > settings.max_albedo) {
+      r = settings.max_albedo;
+      report.albedo_clamped = true;
+    }
+    rho_max = std::max(rho_max, r);
+  }
+  const float ld_max = *std::max_element(ld_direct.begin(), ld_direct.end());
+  report.energy_bound = ld_max / (1.0f - rho_max);
+
+  std::vector<float> ld(ld_direct.begin(), ld_direct.end());
+  std::vector<float> b_prev(b.size(), 0.0f);
+  apply_rgb(op.Td_b, ld, b);
+  for (int it = 1; it <= settings.max_iterations; ++it) {
+    apply_rgb(op.Ub, b, lightmap);
+    for (std::size_t i = 0; i < ld.size(); ++i) {
+      float l = std::max(lightmap[i], 0.0f);
+      if (l > report.energy_bound) {
+        l = report.energy_bound;
+        report.value_clamped = true;
+      }
+      ld[i] = ld_direct[i] + rho[i] * l;
+    }
+    std::copy(b.begin(), b.end(), b_prev.begin());
+    apply_rgb(op.Td_b, ld, b);
+    report.iterations = it;
+    float delta = 0.0f, scale = 0.0f;
+    for (std::size_t k = 0; k < b.size(); ++k) {
+      delta = std::max(delta, std::abs(b[k] - b_prev[k]));
+      scale = std::max(scale, std::abs(b[k]));
+    }
+    if (delta <= settings.tolerance * scale) {
+      report.converged = true;
+      break;
+    }
+  }
+  apply_rgb(op.Ub, b, lightmap);
+  return report;
+}
+
+}  // namespace modrt

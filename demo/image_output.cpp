@@ -1,0 +1,45 @@
+#include "image_output.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+namespace modrt::demo {
+
+void encode_srgb8(std::span<const float> linear_rgb, float scale, std::span<std::uint8_t> out) {
+  for (std::size_t i = 0; i < linear_rgb.size(); ++i) {
+    float v = linear_rgb[i] * scale;
+    v = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+    const float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+    out[i] = std::uint8_t(std::lround(s * 255.0f));
+  }
+}
+
+Status write_rgb8_image(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path target(path);
+  if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+  // Keep the extension last so OpenImageIO picks the right writer for the temp file.
+  const fs::path temp = target.parent_path() /
+                        (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
+  auto out = OIIO::ImageOutput::create(temp.string());
+  if (!out) return Status::error(ErrorCode::io_error, path + ": no image writer: " + OIIO::geterror());
+  const OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+  if (!out->open(temp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
+    const std::string error = out->geterror();
+    fs::remove(temp, ec);
+    return Status::error(ErrorCode::io_error, path + ": " + error);
+  }
+  fs::rename(temp, target, ec);
+  if (ec) {
+    fs::remove(temp, ec);
+    return Status::error(ErrorCode::io_error, path + ": rename failed: " + ec.message());
+  }
+  return Status::success();
+}
+
+}  // namespace modrt::demo

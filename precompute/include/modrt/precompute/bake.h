@@ -1,0 +1,51 @@
+// modrt precompute — the dictionary bake (SPEC §3, MRT §7.1): per dictionary shape, the
+// lighting prior, F, the reduced transfer with enrichment, vector irradiance and volume
+// probes; then the float Dictionary the run time loads.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "modrt/dictionary.h"
+#include "modrt/precompute/linalg.h"
+#include "modrt/precompute/reduction.h"
+
+namespace modrt::precompute {
+
+// Everything computed for one shape, in double, before conversion to float. Tests and
+// reports use the intermediate matrices; the dictionary keeps only the operators.
+struct ShapeBake {
+  FaceMask mask = kAllFaces;
+  SampleLayout layout;
+  RowMatrixXd F;           // n x n one-bounce operator
+  MatrixXd Ld;             // n x m prior lighting patterns (unit columns)
+  LightPrior prior;        // final prior (after enrichment)
+  LightPrior raw_prior;    // prior before enrichment
+  ReducedTransfer transfer;  // final Ub, Td_b, Limp
+  ReducedTransfer raw_transfer;  // before enrichment
+  MatrixXd Ub_vec;         // 4n x kb OHLSH vector irradiance
+  MatrixXd Ubvol;          // 9 g^3 x kb probe SH
+};
+
+struct BakeProgress {
+  // Called after each stage: stage name, shape index, seconds the stage took.
+  std::function<void(const std::string& stage, int shape, double seconds)> on_stage;
+};
+
+// Bakes one shape. `with_sh` = false skips vector irradiance and probes (tests that only
+// need F and the reduced transfer). Throws std::runtime_error / std::invalid_argument; the
+// tool and API boundaries convert to Status.
+ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh = true,
+                     const BakeProgress& progress = {});
+
+ShapeOperators to_operators(const ShapeBake& bake);
+
+// The interface part of the dictionary settings.
+struct InterfaceSettings;
+InterfaceSettings interface_settings(const DictionarySettings& settings);
+
+// Bakes the six-shape 2D cube dictionary and, unless settings.lightfield_spatial == 0, the
+// interface operators (shape index -1 in progress reports). Never throws: errors come back as a Status.
+Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress = {});
+
+}  // namespace modrt::precompute

@@ -1,0 +1,86 @@
+// modrt precompute — interface lightfields and the operators that couple blocks
+// (MRT §5, §6.3, appendix A; SPEC §3.8).
+//
+// A lightfield lives on a side face of a cell and describes radiance crossing it. It is
+// expressed in the *exit frame* of the face it leaves through: position (u, v) on the
+// face (cube.h face frame), travel direction t = x u_axis + y v_axis + z out, out = the
+// face's outward normal, (x, y) = concentric_square_to_disk(a, b) and z = sqrt(1-x^2-y^2).
+// Square (a, b) bins are equal projected solid angle (concentric + Malley). Sample index:
+//   ((py * S + px) * D + dy) * D + dx,   s = S^2 D^2,
+// positions at bin centres ((px + 0.5) / S, ...), directions averaged over an
+// supersample^2 grid inside each direction bin.
+// Light entering a cell through face e is described in the exit frame of the neighbour's
+// opposite face (entry_frame(e)), so the lightfield leaving one block is the lightfield
+// entering the next without resampling. All side walls are rotations of each other with
+// matching frames, so one canonical set of operators serves every interface.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "modrt/cube.h"
+#include "modrt/precompute/linalg.h"
+
+namespace modrt::precompute {
+
+struct InterfaceSettings {
+  int spatial = 12;          // S: positions per interface edge (12^2)
+  int directional = 24;      // D: direction bins per square edge (24^2)
+  int supersample = 5;       // directional super-sampling per bin edge (5^2)
+  int krlf = 128;            // reduced lightfield modes (columns of Hrlf)
+  int kr = 32;               // response modes (columns of Ur)
+  int enrichment_iterations = 3;
+  int response_rays = 4096;  // gather rays per sample for G = Frlf Hrlf
+  std::uint64_t seed = 0x1f1f;
+};
+
+// A face's lightfield frame: origin, in-plane axes and the direction light travels.
+struct LightfieldFrame {
+  glm::dvec3 origin, u_axis, v_axis, out;
+};
+LightfieldFrame exit_frame(int face);
+LightfieldFrame entry_frame(int face);  // frame of light entering through `face`
+
+// Canonical configuration: light enters through -Z (travelling +Z); it leaves straight on
+// through +Z, to the left through +X, to the right through -X.
+inline constexpr int kCanonicalEntryFace = kFaceNegZ;
+enum class Propagation { straight = 0, left = 1, right = 2 };
+int propagation_exit_face(Propagation p);  // in the canonical configuration
+// For light entering a cell through `entry` and leaving through `exit` (both side faces),
+// the propagation kind (straight/left/right); fails for exit == entry.
+bool classify_propagation(int entry, int exit, Propagation& out);
+// Quarter turns that map the canonical entry face (-Z) onto side face `face`.
+int turns_to_face(int face);
+
+// Operators in double, before conversion to the dictionary's floats.
+struct InterfaceBake {
+  InterfaceSettings settings;
+  MatrixXd Hrlf;                                 // s x krlf (enriched)
+  std::array<MatrixXd, 3> R;                     // krlf x krlf, indexed by Propagation
+  // Rb_rlf[shape][face]: krlf x kb for each missing side face of each dictionary shape.
+  std::array<std::array<MatrixXd, kFaceCount>, kDictionaryShapeCount> Rb_rlf;
+  MatrixXd G;                                    // n(dead end) x krlf response to Hrlf
+  MatrixXd Ur;                                   // n(dead end) x kr
+  MatrixXd Trlf_r;                               // kr x krlf
+  VectorXd sigma_lf;                             // singular values of the raw Hlf
+  VectorXd sigma_G;
+};
+
+// Limp of each dictionary shape (n_shape x kb, canonical sample layout at `res`).
+using ShapeLimps = std::array<const MatrixXd*, kDictionaryShapeCount>;
+
+InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceSettings& settings,
+                              const std::function<void(const std::string&, double)>& on_stage = {});
+
+// --- pieces, exposed for tests ---
+// Lightfield leaving `shape_mask`'s missing face `face` for each column of Limp.
+MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res, const InterfaceSettings& s);
+// P_dir: resamples a lightfield entering through -Z to the given exit face (free space).
+SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s);
+MatrixXd propagate_lightfield(const MatrixXd& in, Propagation dir, const InterfaceSettings& s);
+// Frlf * in: E/pi at the samples of the dead-end shape lit by lightfields entering through -Z.
+MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);
+
+}  // namespace modrt::precompute

@@ -1,0 +1,56 @@
+// modrt precompute — the actual (warped) geometry of a built level as one Embree scene,
+// and the references computed on it: direct light from sphere lights with shadows, and the
+// exact one-bounce indirect light F_level ld (SPEC §7: no low rank, no modularity).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "modrt/level.h"
+#include "modrt/level_description.h"
+#include "modrt/precompute/level_build.h"
+
+namespace modrt::precompute {
+
+struct LevelHit {
+  int block = -1;  // -1: nothing hit (the ray left the level)
+  int face = -1;   // canonical face of that block
+  double u = 0, v = 0, t = 0;
+};
+
+class LevelScene {
+ public:
+  // Every present face is tessellated into `subdivisions`^2 bilinear cells (2 triangles
+  // each) of its trilinear warp; throws std::runtime_error when Embree fails.
+  LevelScene(const Level& level, int subdivisions);
+  ~LevelScene();
+  LevelScene(const LevelScene&) = delete;
+  LevelScene& operator=(const LevelScene&) = delete;
+
+  LevelHit intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near = 1e-6) const;
+  bool occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near = 1e-6) const;
+
+  const Level& level() const { return level_; }
+  const LevelSampleGeometry& samples() const { return samples_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  const Level& level_;
+  LevelSampleGeometry samples_;
+};
+
+// ld = albedo * E / pi at every level sample for the given lights (RGB, 3N), with shadow
+// rays against the whole level (`light_samples` points per sphere light).
+std::vector<float> level_direct_light(const LevelScene& scene, std::span<const LightDescription> lights,
+                                      std::span<const float> albedo, int light_samples);
+
+// E_ind / pi = F_level ld at every level sample by `rays` cosine-weighted stratified gather
+// rays; hits sample ld bilinearly on the hit face's texel grid (RGB, 3N).
+std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays, std::uint64_t seed);
+
+// Per-sample RGB albedo (3N) of a built level from its description (per world face).
+std::vector<float> level_albedo(const Level& level, const LevelDescription& description);
+
+}  // namespace modrt::precompute

@@ -1,0 +1,48 @@
+// modrt precompute — deterministic sampling: a seeded RNG per work item, stratified
+// square samples, and the maps from the square to the disk, hemisphere and sphere.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace modrt::precompute {
+
+// SplitMix64: tiny, statistically solid, and seedable per (seed, stream) so that results
+// do not depend on how TBB schedules work across threads.
+class Rng {
+ public:
+  Rng(std::uint64_t seed, std::uint64_t stream);
+  std::uint64_t next_u64();
+  double next_double();  // uniform in [0, 1)
+
+ private:
+  std::uint64_t state_;
+};
+
+// `count` jittered samples on [0,1)^2, stratified on an nx x ny grid with nx*ny == count
+// (nx the largest divisor of count not above its square root).
+void stratified_square(int count, Rng& rng, std::vector<glm::dvec2>& out);
+
+// Shirley–Chiu concentric map of the square [0,1]^2 onto the unit disk, and its inverse.
+glm::dvec2 concentric_square_to_disk(const glm::dvec2& s);
+glm::dvec2 concentric_disk_to_square(const glm::dvec2& d);
+
+// Cosine-weighted hemisphere direction around +z (pdf = cos(theta) / pi).
+glm::dvec3 cosine_hemisphere(const glm::dvec2& s);
+// Uniform hemisphere around +z (pdf = 1 / (2 pi)) and uniform sphere (pdf = 1 / (4 pi)).
+glm::dvec3 uniform_hemisphere(const glm::dvec2& s);
+glm::dvec3 uniform_sphere(const glm::dvec2& s);
+
+// Direction given in a local frame (x = tangent, y = bitangent, z = normal) to world.
+inline glm::dvec3 to_world(const glm::dvec3& local, const glm::dvec3& t, const glm::dvec3& b,
+                           const glm::dvec3& n) {
+  return local.x * t + local.y * b + local.z * n;
+}
+
+// `count` points on the sphere of radius r around c, spread evenly (Fibonacci lattice).
+void sphere_surface_points(const glm::dvec3& c, double r, int count, std::vector<glm::dvec3>& out);
+
+}  // namespace modrt::precompute

@@ -1,0 +1,22 @@
+// modrt precompute — the one-bounce operator F of a block (SPEC §3.3, MRT §3.1).
+//
+// Row s of F maps outgoing diffuse radiance at every sample to E_ind / pi at sample s:
+// cosine-weighted stratified gather rays; a ray that hits a present face samples that
+// face's texel grid bilinearly (weights 1/rays); a ray leaving through a missing face
+// contributes nothing. So a row sums to the cosine-weighted fraction of the hemisphere
+// that sees present faces (1 in a closed box).
+#pragma once
+
+#include <cstdint>
+
+#include "modrt/cube.h"
+#include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/linalg.h"
+
+namespace modrt::precompute {
+
+// Rows [row_begin, row_end) are gathered (row_end < 0: all); other rows stay zero.
+RowMatrixXd gather_transport(const BlockScene& scene, const SampleLayout& layout, int rays,
+                             std::uint64_t seed, int row_begin = 0, int row_end = -1);
+
+}  // namespace modrt::precompute

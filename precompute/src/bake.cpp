@@ -1,0 +1,149 @@
+#include "modrt/precompute/bake.h"
+
+#include <chrono>
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+#include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/direct_light.h"
+#include "modrt/precompute/interfaces.h"
+#include "modrt/precompute/sh_operators.h"
+#include "modrt/precompute/transport.h"
+
+namespace modrt::precompute {
+namespace {
+
+class StageTimer {
+ public:
+  StageTimer(const BakeProgress& progress, int shape) : progress_(progress), shape_(shape) {}
+  void done(const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    if (progress_.on_stage) progress_.on_stage(stage, shape_, std::chrono::duration<double>(now - start_).count());
+    start_ = now;
+  }
+
+ private:
+  const BakeProgress& progress_;
+  int shape_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+Matrix to_float(const MatrixXd& m) {
+  Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out(std::uint32_t(r), std::uint32_t(c)) = float(m(r, c));
+  return out;
+}
+
+int shape_index_of(FaceMask mask) {
+  for (int s = 0; s < kDictionaryShapeCount; ++s)
+    if (dictionary_shape_mask(s) == mask) return s;
+  return -1;
+}
+
+}  // namespace
+
+InterfaceSettings interface_settings(const DictionarySettings& s) {
+  InterfaceSettings is;
+  is.spatial = int(s.lightfield_spatial);
+  is.directional = int(s.lightfield_directional);
+  is.supersample = int(s.lightfield_supersample);
+  is.krlf = int(s.krlf);
+  is.kr = int(s.kr);
+  is.enrichment_iterations = int(s.interface_enrichment_iterations);
+  is.response_rays = int(s.response_rays);
+  is.seed = s.seed ^ 0x1f1f1f1full;
+  return is;
+}
+
+ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh,
+                     const BakeProgress& progress) {
+  if (Status s = validate_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
+  ShapeBake bake;
+  bake.mask = mask;
+  bake.layout = SampleLayout::make(mask, int(settings.res));
+  const BlockScene scene(mask);
+  StageTimer timer(progress, shape_index_of(mask));
+  const std::uint64_t shape_seed = settings.seed ^ (std::uint64_t(mask) << 40);
+
+  bake.Ld = light_prior_matrix(scene, bake.layout, int(settings.prior_grid), settings.light_radius,
+                               int(settings.light_samples));
+  bake.raw_prior = truncated_left_svd(bake.Ld, int(settings.kd));
+  timer.done("prior");
+
+  bake.F = gather_transport(scene, bake.layout, int(settings.rays), shape_seed);
+  timer.done("F");
+
+  bake.raw_transfer = reduce_transfer(bake.F, bake.raw_prior, int(settings.kb));
+  bake.prior = bake.raw_prior;
+  bake.transfer = bake.raw_transfer;
+  const MatrixXd face_constants = face_constant_columns(bake.layout);
+  for (std::uint32_t it = 0; it < settings.enrichment_iterations; ++it) {
+    bake.prior = enrich_prior(bake.prior, face_constants, bake.transfer.Ub, int(settings.kd));
+    bake.transfer = reduce_transfer(bake.F, bake.prior, int(settings.kb));
+  }
+  timer.done("reduce+enrich");
+
+  if (with_sh) {
+    bake.Ub_vec = vector_irradiance_operator(scene, bake.layout, bake.transfer.Limp, int(settings.sh_rays),
+                                             shape_seed ^ 0x5A5Aull);
+    timer.done("vector irradiance");
+    bake.Ubvol = volume_probe_operator(scene, bake.layout, bake.transfer.Limp, int(settings.probe_grid),
+                                       int(settings.sh_rays), shape_seed ^ 0xA5A5ull);
+    timer.done("volume probes");
+  }
+  return bake;
+}
+
+ShapeOperators to_operators(const ShapeBake& bake) {
+  ShapeOperators op;
+  op.face_mask = bake.mask;
+  op.Ub = to_float(bake.transfer.Ub);
+  op.Td_b = to_float(bake.transfer.Td_b);
+  op.Limp = to_float(bake.transfer.Limp);
+  op.Ub_vec = to_float(bake.Ub_vec);
+  op.Ubvol = to_float(bake.Ubvol);
+  op.sigma_M.resize(std::size_t(bake.transfer.sigma_M.size()));
+  for (Eigen::Index i = 0; i < bake.transfer.sigma_M.size(); ++i) op.sigma_M[std::size_t(i)] = float(bake.transfer.sigma_M(i));
+  return op;
+}
+
+Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress) {
+  if (Status s = validate_settings(settings); !s.ok()) return s;
+  try {
+    Dictionary dict;
+    dict.settings = settings;
+    std::vector<ShapeBake> bakes;
+    for (int s = 0; s < kDictionaryShapeCount; ++s) {
+      bakes.push_back(bake_shape(dictionary_shape_mask(s), settings, true, progress));
+      bakes.back().F.resize(0, 0);  // the largest intermediate; not needed any more
+      dict.shapes.push_back(to_operators(bakes.back()));
+    }
+    if (settings.lightfield_spatial > 0) {
+      ShapeLimps limps{};
+      for (int s = 0; s < kDictionaryShapeCount; ++s) limps[std::size_t(s)] = &bakes[std::size_t(s)].transfer.Limp;
+      const InterfaceBake ib = bake_interfaces(limps, int(settings.res), interface_settings(settings),
+                                               [&](const std::string& stage, double seconds) {
+                                                 if (progress.on_stage) progress.on_stage("interfaces: " + stage, -1, seconds);
+                                               });
+      for (int s = 0; s < kDictionaryShapeCount; ++s)
+        for (int f = 0; f < kFaceCount; ++f)
+          if (ib.Rb_rlf[std::size_t(s)][std::size_t(f)].size() > 0)
+            dict.shapes[std::size_t(s)].Rb_rlf[std::size_t(f)] = to_float(ib.Rb_rlf[std::size_t(s)][std::size_t(f)]);
+      dict.interfaces.R_straight = to_float(ib.R[0]);
+      dict.interfaces.R_left = to_float(ib.R[1]);
+      dict.interfaces.R_right = to_float(ib.R[2]);
+      dict.interfaces.Trlf_r = to_float(ib.Trlf_r);
+      dict.interfaces.Ur = to_float(ib.Ur);
+    }
+    if (Status v = validate_dictionary(dict, "baked dictionary"); !v.ok()) return v;
+    return dict;
+  } catch (const std::bad_alloc&) {
+    return Status::error(ErrorCode::resource_limit, "bake: out of memory");
+  } catch (const std::exception& e) {
+    return Status::error(ErrorCode::internal_error, std::string("bake: ") + e.what());
+  }
+}
+
+}  // namespace modrt::precompute

@@ -1,0 +1,80 @@
+#include "modrt/precompute/direct_light.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "modrt/precompute/sampling.h"
+
+namespace modrt::precompute {
+
+void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light,
+                  int samples, std::span<double> out) {
+  std::vector<glm::dvec3> points;
+  if (light.radius > 0.0 && samples > 1)
+    sphere_surface_points(light.center, light.radius, samples, points);
+  else
+    points.assign(1, light.center);
+  const double r2 = std::max(light.radius * light.radius, 1e-12);
+  const int n = layout.sample_count();
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& range) {
+    for (int s = range.begin(); s != range.end(); ++s) {
+      const glm::dvec3 x = layout.position(s);
+      const glm::dvec3 nrm = layout.normal(s);
+      const glm::dvec3 to_light = light.center - x;
+      const double d2 = glm::dot(to_light, to_light);
+      const double cosine = glm::dot(nrm, to_light) / std::sqrt(std::max(d2, 1e-300));
+      if (cosine <= 0.0) {
+        out[s] = 0.0;
+        continue;
+      }
+      int visible = 0;
+      for (const glm::dvec3& p : points) {
+        // A light point behind the sample's own plane cannot be seen through it.
+        if (glm::dot(p - x, nrm) <= 0.0) continue;
+        if (!scene.occluded(x, p)) ++visible;
+      }
+      const double V = double(visible) / double(points.size());
+      out[s] = light.intensity * V * cosine / std::max(d2, r2) / std::numbers::pi;
+    }
+  });
+}
+
+std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid) {
+  std::vector<glm::dvec3> lattice;
+  for (int k = 0; k < grid; ++k)
+    for (int j = 0; j < grid; ++j)
+      for (int i = 0; i < grid; ++i)
+        lattice.push_back({(i + 0.5) / grid, (j + 0.5) / grid, (k + 0.5) / grid});
+  std::vector<glm::dvec3> positions = lattice;
+  for (int f = 0; f < kFaceCount; ++f) {
+    if (face_present(mask, f)) continue;
+    const glm::dvec3 outward = -face_frame(f).normal;
+    for (const glm::dvec3& p : lattice) positions.push_back(p + outward);
+  }
+  return positions;
+}
+
+MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid, double radius,
+                            int samples) {
+  const std::vector<glm::dvec3> positions = prior_light_positions(layout.mask, grid);
+  const int n = layout.sample_count();
+  MatrixXd Ld(n, Eigen::Index(positions.size()));
+  std::vector<double> column(static_cast<std::size_t>(n));
+  Eigen::Index kept = 0;
+  for (const glm::dvec3& c : positions) {
+    direct_light(scene, layout, SphereLight{c, radius, 1.0}, samples, column);
+    Eigen::Map<const VectorXd> col(column.data(), n);
+    const double norm = col.norm();
+    if (!(norm > 1e-12)) continue;
+    Ld.col(kept++) = col / norm;
+  }
+  Ld.conservativeResize(Eigen::NoChange, kept);
+  return Ld;
+}
+
+}  // namespace modrt::precompute

@@ -1,0 +1,279 @@
+#include "modrt/precompute/level_build.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <glm/geometric.hpp>
+
+#include "modrt/precompute/interfaces.h"
+#include "modrt/precompute/linalg.h"
+
+namespace modrt::precompute {
+namespace {
+
+MatrixXd to_eigen(const Matrix& m) {
+  MatrixXd e(m.rows, m.cols);
+  for (std::uint32_t r = 0; r < m.rows; ++r)
+    for (std::uint32_t c = 0; c < m.cols; ++c) e(r, c) = m(r, c);
+  return e;
+}
+
+Matrix to_float(const MatrixXd& m) {
+  Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out(std::uint32_t(r), std::uint32_t(c)) = float(m(r, c));
+  return out;
+}
+
+// Texel (i, j) of canonical face f after `turns` quarter turns: walls map texel for texel;
+// floor and ceiling turn in their plane.
+void rotate_texel(int f, int i, int j, int res, int turns, int& f_out, int& i_out, int& j_out) {
+  f_out = rotate_face(f, turns);
+  const glm::dvec3 p = rotate_point(face_point(f, (i + 0.5) / res, (j + 0.5) / res), turns);
+  const FaceFrame& frame = face_frame(f_out);
+  const glm::dvec3 rel = p - frame.origin;
+  i_out = std::clamp(int(std::floor(glm::dot(rel, frame.u_axis) * res)), 0, res - 1);
+  j_out = std::clamp(int(std::floor(glm::dot(rel, frame.v_axis) * res)), 0, res - 1);
+}
+
+// Sample of `face` in block `b` whose texel contains canonical point p (on that face).
+int texel_sample(const SampleLayout& layout, int face, const glm::dvec3& p) {
+  const FaceFrame& fr = face_frame(face);
+  const glm::dvec3 rel = p - fr.origin;
+  const int i = std::clamp(int(std::floor(glm::dot(rel, fr.u_axis) * layout.res)), 0, layout.res - 1);
+  const int j = std::clamp(int(std::floor(glm::dot(rel, fr.v_axis) * layout.res)), 0, layout.res - 1);
+  return layout.index(face, i, j);
+}
+
+// Face whose inward normal is `n` (a unit axis vector).
+int face_with_normal(const glm::dvec3& n) {
+  for (int f = 0; f < kFaceCount; ++f)
+    if (glm::dot(face_frame(f).normal, n) > 0.5) return f;
+  return -1;
+}
+
+// The padded atlas: one (res + 2)^2 tile per present face; padding texels copy the texel
+// that continues the surface across the tile edge: the adjacent face of the same block
+// across a crease, the same face of the connected block across an interface, or the
+// face's own edge texel where the surface ends (MRT §6.2).
+void build_atlas(Level& level) {
+  const int res = level.res, tile = res + 2;
+  LightmapAtlas& atlas = level.atlas;
+  atlas.tile = tile;
+  int tiles = 0;
+  for (const LevelBlock& b : level.blocks) tiles += face_count(dictionary_shape_mask(b.shape));
+  const int cols = std::max(1, int(std::ceil(std::sqrt(double(tiles)))));
+  const int rows = (tiles + cols - 1) / cols;
+  atlas.width = cols * tile;
+  atlas.height = rows * tile;
+  atlas.sample_texel.assign(level.sample_count, 0);
+  atlas.tile_origin_x.assign(level.blocks.size(), {});
+  atlas.tile_origin_y.assign(level.blocks.size(), {});
+  int t = 0;
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), res);
+    for (int f = 0; f < kFaceCount; ++f) {
+      atlas.tile_origin_x[bi][std::size_t(f)] = atlas.tile_origin_y[bi][std::size_t(f)] = -1;
+      if (!face_present(layout.mask, f)) continue;
+      const int ox = (t % cols) * tile, oy = (t / cols) * tile;
+      ++t;
+      atlas.tile_origin_x[bi][std::size_t(f)] = ox;
+      atlas.tile_origin_y[bi][std::size_t(f)] = oy;
+      for (int j = 0; j < res; ++j)
+        for (int i = 0; i < res; ++i)
+          atlas.sample_texel[b.sample_offset + std::uint32_t(layout.index(f, i, j))] =
+              std::uint32_t((oy + 1 + j) * atlas.width + ox + 1 + i);
+    }
+  }
+  const double d = 0.5 / res;
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), res);
+    for (int f = 0; f < kFaceCount; ++f) {
+      if (!face_present(layout.mask, f)) continue;
+      const FaceFrame& fr = face_frame(f);
+      const int ox = atlas.tile_origin_x[bi][std::size_t(f)], oy = atlas.tile_origin_y[bi][std::size_t(f)];
+      for (int pj = -1; pj <= res; ++pj)
+        for (int pi = -1; pi <= res; ++pi) {
+          const bool out_u = pi < 0 || pi >= res, out_v = pj < 0 || pj >= res;
+          if (!out_u && !out_v) continue;
+          const std::uint32_t dst = std::uint32_t((oy + 1 + pj) * atlas.width + ox + 1 + pi);
+          const int ci = std::clamp(pi, 0, res - 1), cj = std::clamp(pj, 0, res - 1);
+          std::uint32_t src_block = std::uint32_t(bi);
+          int src_sample = layout.index(f, ci, cj);  // default: clamp to the own edge texel
+          if (out_u != out_v) {
+            const double u = (pi + 0.5) / res, v = (pj + 0.5) / res;
+            const glm::dvec3 edge = face_point(f, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0));
+            const glm::dvec3 out_dir = out_u ? (pi < 0 ? -fr.u_axis : fr.u_axis) : (pj < 0 ? -fr.v_axis : fr.v_axis);
+            const int g = face_with_normal(-out_dir);
+            if (face_present(layout.mask, g)) {
+              src_sample = texel_sample(layout, g, edge + d * fr.normal);  // fold across the crease
+            } else if (const int nb = b.neighbour[std::size_t(g)]; nb >= 0) {
+              const LevelBlock& c = level.blocks[std::size_t(nb)];
+              const glm::dvec3 world = glm::dvec3(b.cell) + rotate_point(edge + d * out_dir, b.quarter_turns);
+              const glm::dvec3 local = rotate_point(world - glm::dvec3(c.cell), -c.quarter_turns);
+              const int fc = rotate_face(rotate_face(f, b.quarter_turns), -c.quarter_turns);
+              const SampleLayout cl = SampleLayout::make(dictionary_shape_mask(c.shape), res);
+              if (face_present(cl.mask, fc)) {
+                src_block = std::uint32_t(nb);
+                src_sample = texel_sample(cl, fc, local);
+              }
+            }
+          }
+          const std::uint32_t src = atlas.sample_texel[level.blocks[src_block].sample_offset + std::uint32_t(src_sample)];
+          atlas.padding.push_back({dst, src});
+        }
+    }
+  }
+}
+
+}  // namespace
+
+glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
+  return trilinear(b.corners, rotate_point(p, b.quarter_turns));
+}
+
+LevelSampleGeometry level_sample_geometry(const Level& level) {
+  LevelSampleGeometry g;
+  g.position.resize(level.sample_count);
+  g.normal.resize(level.sample_count);
+  g.block.resize(level.sample_count);
+  g.face.resize(level.sample_count);
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int s = 0; s < layout.sample_count(); ++s) {
+      const std::size_t k = b.sample_offset + std::size_t(s);
+      const glm::dvec3 p = layout.position(s);
+      g.position[k] = block_to_world(b, p);
+      // Normal of the warped face: cross product of the mapped face tangents.
+      const int f = layout.face_of(s);
+      const FaceFrame& fr = face_frame(f);
+      const double h = 1e-4;
+      const glm::dvec3 du = block_to_world(b, p + h * fr.u_axis) - block_to_world(b, p - h * fr.u_axis);
+      const glm::dvec3 dv = block_to_world(b, p + h * fr.v_axis) - block_to_world(b, p - h * fr.v_axis);
+      g.normal[k] = glm::normalize(glm::cross(du, dv));
+      g.block[k] = int(bi);
+      g.face[k] = f;
+    }
+  }
+  return g;
+}
+
+Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
+                          const LevelBuildSettings& settings) {
+  Result<LevelConnectivity> connectivity = validate_level(description);
+  if (!connectivity.ok()) return connectivity.status();
+  if (dict.interfaces.empty())
+    return Status::error(ErrorCode::invalid_argument,
+                         "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
+  if (settings.dmax < 0) return Status::error(ErrorCode::invalid_argument, "build_level: dmax must be >= 0");
+
+  Level level;
+  level.res = int(dict.settings.res);
+  level.kb = dict.settings.kb;
+  level.kr = dict.interfaces.Ur.cols;
+  const std::size_t count = description.blocks.size();
+  level.blocks.resize(count);
+  std::uint32_t offset = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const BlockDescription& d = description.blocks[i];
+    Result<ShapeOrientation> o = canonicalise_face_mask(d.faces);
+    if (!o.ok()) return Status::error(o.status().code(), "block " + std::to_string(i) + ": " + o.status().message());
+    LevelBlock& b = level.blocks[i];
+    b.shape = o->shape;
+    b.quarter_turns = o->quarter_turns;
+    b.cell = d.cell;
+    b.corners = block_corners(description, d);
+    for (int f = 0; f < kFaceCount; ++f) {
+      const int world = rotate_face(f, b.quarter_turns);
+      b.neighbour[std::size_t(f)] =
+          connectivity->connected[i][std::size_t(world)] ? connectivity->neighbour[i][std::size_t(world)] : -1;
+    }
+    b.sample_offset = offset;
+    b.sample_count = std::uint32_t(face_count(dictionary_shape_mask(b.shape)) * level.res * level.res);
+    offset += b.sample_count;
+  }
+  level.sample_count = offset;
+
+  // Response slots: one per (block, connected canonical side face).
+  const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), level.res);
+  std::vector<std::array<int, kFaceCount>> slot_of(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    slot_of[i].fill(-1);
+    const LevelBlock& b = level.blocks[i];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int e = 0; e < kFaceCount; ++e) {
+      if (b.neighbour[std::size_t(e)] < 0) continue;
+      ResponseSlot slot;
+      slot.block = std::uint32_t(i);
+      slot.entry_face = e;
+      slot.ur_row_to_sample.assign(std::size_t(dead_end.sample_count()), -1);
+      const int turns = turns_to_face(e);
+      for (int s = 0; s < dead_end.sample_count(); ++s) {
+        const int f = dead_end.face_of(s), t = s % dead_end.texels_per_face();
+        int f2, i2, j2;
+        rotate_texel(f, t % level.res, t / level.res, level.res, turns, f2, i2, j2);
+        if (face_present(layout.mask, f2)) slot.ur_row_to_sample[std::size_t(s)] = layout.index(f2, i2, j2);
+      }
+      slot_of[i][std::size_t(e)] = int(level.slots.size());
+      level.slots.push_back(std::move(slot));
+    }
+  }
+
+  // Breadth-first propagation from every block (MRT §6.3). Transport is linear, so all
+  // paths reaching the same (block, entry face) at the same depth are summed before they
+  // propagate further: the cost grows with depth x blocks, not with the number of paths
+  // (which is exponential in dmax once a maze has loops). Paths reaching the same
+  // (source, slot) at any depth are summed into one record.
+  const MatrixXd Trlf_r = to_eigen(dict.interfaces.Trlf_r);
+  const std::array<MatrixXd, 3> R = {to_eigen(dict.interfaces.R_straight), to_eigen(dict.interfaces.R_left),
+                                     to_eigen(dict.interfaces.R_right)};
+  for (std::size_t src = 0; src < count; ++src) {
+    const LevelBlock& sb = level.blocks[src];
+    std::map<int, MatrixXd> accumulated;  // slot -> krlf x kb lightfield sum
+    std::map<std::pair<int, int>, MatrixXd> frontier, next;  // (block, canonical entry) -> krlf x kb
+    auto add = [](std::map<std::pair<int, int>, MatrixXd>& m, std::pair<int, int> key, MatrixXd A) {
+      auto [it, inserted] = m.try_emplace(key, std::move(A));
+      if (!inserted) it->second += A;
+    };
+    for (int f = 0; f < kFaceCount; ++f) {
+      const int nb = sb.neighbour[std::size_t(f)];
+      if (nb < 0) continue;
+      const int entry_world = rotate_face(f, sb.quarter_turns) ^ 1;
+      const int entry = rotate_face(entry_world, -level.blocks[std::size_t(nb)].quarter_turns);
+      add(frontier, {nb, entry}, to_eigen(dict.shapes[std::size_t(sb.shape)].Rb_rlf[std::size_t(f)]));
+    }
+    for (int depth = 1; depth <= settings.dmax && !frontier.empty(); ++depth) {
+      next.clear();
+      for (const auto& [key, A] : frontier) {
+        const auto [block, entry] = key;
+        const LevelBlock& b = level.blocks[std::size_t(block)];
+        const int slot = slot_of[std::size_t(block)][std::size_t(entry)];
+        auto [it, inserted] = accumulated.try_emplace(slot, A);
+        if (!inserted) it->second += A;
+        if (depth == settings.dmax) continue;
+        for (int f = 0; f < kFaceCount; ++f) {
+          const int nb = b.neighbour[std::size_t(f)];
+          Propagation dir;
+          if (nb < 0 || f == entry || !classify_propagation(entry, f, dir)) continue;
+          const int entry_world = rotate_face(f, b.quarter_turns) ^ 1;
+          const int nb_entry = rotate_face(entry_world, -level.blocks[std::size_t(nb)].quarter_turns);
+          add(next, {nb, nb_entry}, R[std::size_t(dir)] * A);
+        }
+      }
+      frontier.swap(next);
+    }
+    for (const auto& [slot, A] : accumulated)
+      level.records.push_back({std::uint32_t(src), std::uint32_t(slot), to_float(Trlf_r * A)});
+  }
+  build_atlas(level);
+  std::stable_sort(level.records.begin(), level.records.end(),
+                   [](const ResponseRecord& a, const ResponseRecord& b) { return a.slot < b.slot; });
+  return level;
+}
+
+}  // namespace modrt::precompute

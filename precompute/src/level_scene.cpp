@@ -1,0 +1,225 @@
+#include "modrt/precompute/level_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <embree3/rtcore.h>
+#include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/sampling.h"
+
+namespace modrt::precompute {
+
+struct LevelScene::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  struct Cell {
+    int block, face, i, j;
+  };
+  std::vector<Cell> cells;  // per quad (primID / 2)
+  int subdivisions = 1;
+};
+
+namespace {
+
+// Walls of neighbouring blocks coincide back to back; a ray must only see the side facing
+// it. Triangles wind so that Ng = (v1 - v0) x (v2 - v0) is the inward normal.
+void front_faces_only(const RTCFilterFunctionNArguments* args) {
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const float dot = RTCRayN_dir_x(args->ray, args->N, i) * RTCHitN_Ng_x(args->hit, args->N, i) +
+                      RTCRayN_dir_y(args->ray, args->N, i) * RTCHitN_Ng_y(args->hit, args->N, i) +
+                      RTCRayN_dir_z(args->ray, args->N, i) * RTCHitN_Ng_z(args->hit, args->N, i);
+    if (dot >= 0.0f) args->valid[i] = 0;
+  }
+}
+
+}  // namespace
+
+LevelScene::LevelScene(const Level& level, int subdivisions)
+    : impl_(std::make_unique<Impl>()), level_(level), samples_(level_sample_geometry(level)) {
+  impl_->subdivisions = subdivisions;
+  impl_->device = rtcNewDevice("threads=1,set_affinity=0");
+  if (!impl_->device) throw std::runtime_error("Embree: rtcNewDevice failed");
+  impl_->scene = rtcNewScene(impl_->device);
+  std::vector<float> vertices;
+  std::vector<unsigned> indices;
+  const int m = subdivisions;
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    for (int f = 0; f < kFaceCount; ++f) {
+      if (!face_present(dictionary_shape_mask(b.shape), f)) continue;
+      const unsigned base = unsigned(vertices.size() / 3);
+      for (int j = 0; j <= m; ++j)
+        for (int i = 0; i <= m; ++i) {
+          const glm::dvec3 p = block_to_world(b, face_point(f, double(i) / m, double(j) / m));
+          vertices.insert(vertices.end(), {float(p.x), float(p.y), float(p.z)});
+        }
+      for (int j = 0; j < m; ++j)
+        for (int i = 0; i < m; ++i) {
+          const unsigned v00 = base + unsigned(j * (m + 1) + i), v10 = v00 + 1, v01 = v00 + unsigned(m + 1),
+                         v11 = v01 + 1;
+          indices.insert(indices.end(), {v00, v10, v11, v00, v11, v01});
+          impl_->cells.push_back({int(bi), f, i, j});
+        }
+    }
+  }
+  RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof(float), vertices.size() / 3));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), indices.size() / 3));
+  if (!vb || !ib) throw std::runtime_error("Embree: cannot allocate level geometry");
+  std::copy(vertices.begin(), vertices.end(), vb);
+  std::copy(indices.begin(), indices.end(), ib);
+  rtcSetGeometryIntersectFilterFunction(geom, front_faces_only);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(impl_->scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(impl_->scene);
+  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw std::runtime_error("Embree: level scene build failed");
+}
+
+LevelScene::~LevelScene() {
+  if (impl_->scene) rtcReleaseScene(impl_->scene);
+  if (impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh{};
+  rh.ray.org_x = float(origin.x);
+  rh.ray.org_y = float(origin.y);
+  rh.ray.org_z = float(origin.z);
+  rh.ray.dir_x = float(dir.x);
+  rh.ray.dir_y = float(dir.y);
+  rh.ray.dir_z = float(dir.z);
+  rh.ray.tnear = float(t_near);
+  rh.ray.tfar = 1e30f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &rh);
+  LevelHit hit;
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  const Impl::Cell& c = impl_->cells[rh.hit.primID / 2];
+  // Barycentrics of (v00, v10, v11) or (v00, v11, v01) -> position inside the cell.
+  double s, t;
+  if (rh.hit.primID % 2 == 0) {
+    s = rh.hit.u + rh.hit.v;
+    t = rh.hit.v;
+  } else {
+    s = rh.hit.u;
+    t = rh.hit.u + rh.hit.v;
+  }
+  const int m = impl_->subdivisions;
+  hit.block = c.block;
+  hit.face = c.face;
+  hit.u = std::clamp((c.i + s) / m, 0.0, 1.0);
+  hit.v = std::clamp((c.j + t) / m, 0.0, 1.0);
+  hit.t = rh.ray.tfar;
+  return hit;
+}
+
+bool LevelScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  const glm::dvec3 d = target - origin;
+  RTCRay ray{};
+  ray.org_x = float(origin.x);
+  ray.org_y = float(origin.y);
+  ray.org_z = float(origin.z);
+  ray.dir_x = float(d.x);
+  ray.dir_y = float(d.y);
+  ray.dir_z = float(d.z);
+  ray.tnear = float(t_near);
+  ray.tfar = float(1.0 - 1e-6);
+  ray.mask = 0xFFFFFFFFu;
+  rtcOccluded1(impl_->scene, &context, &ray);
+  return ray.tfar < 0.0f;
+}
+
+std::vector<float> level_albedo(const Level& level, const LevelDescription& description) {
+  std::vector<float> albedo(3 * std::size_t(level.sample_count));
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int s = 0; s < layout.sample_count(); ++s) {
+      const int world_face = rotate_face(layout.face_of(s), b.quarter_turns);
+      const glm::dvec3& a = description.blocks[bi].albedo[std::size_t(world_face)];
+      for (int c = 0; c < 3; ++c) albedo[3 * (b.sample_offset + std::size_t(s)) + std::size_t(c)] = float(a[c]);
+    }
+  }
+  return albedo;
+}
+
+std::vector<float> level_direct_light(const LevelScene& scene, std::span<const LightDescription> lights,
+                                      std::span<const float> albedo, int light_samples) {
+  const LevelSampleGeometry& g = scene.samples();
+  const std::size_t n = g.position.size();
+  std::vector<float> ld(3 * n, 0.0f);
+  for (const LightDescription& light : lights) {
+    std::vector<glm::dvec3> points;
+    if (light.radius > 0.0 && light_samples > 1)
+      sphere_surface_points(light.position, light.radius, light_samples, points);
+    else
+      points.assign(1, light.position);
+    const double r2 = std::max(light.radius * light.radius, 1e-12);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t s = range.begin(); s != range.end(); ++s) {
+        const glm::dvec3 to_light = light.position - g.position[s];
+        const double d2 = glm::dot(to_light, to_light);
+        const double cosine = glm::dot(g.normal[s], to_light) / std::sqrt(std::max(d2, 1e-300));
+        if (cosine <= 0.0) continue;
+        int visible = 0;
+        for (const glm::dvec3& p : points)
+          if (glm::dot(p - g.position[s], g.normal[s]) > 0.0 && !scene.occluded(g.position[s], p)) ++visible;
+        const double E_over_pi =
+            light.intensity * double(visible) / double(points.size()) * cosine / std::max(d2, r2) / std::numbers::pi;
+        for (int c = 0; c < 3; ++c)
+          ld[3 * s + std::size_t(c)] += float(double(albedo[3 * s + std::size_t(c)]) * light.color[c] * E_over_pi);
+      }
+    });
+  }
+  return ld;
+}
+
+std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays, std::uint64_t seed) {
+  const Level& level = scene.level();
+  const LevelSampleGeometry& g = scene.samples();
+  const std::size_t n = g.position.size();
+  std::vector<float> out(3 * n, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<glm::dvec2> strata;
+    for (std::size_t s = range.begin(); s != range.end(); ++s) {
+      Rng rng(seed, s);
+      stratified_square(rays, rng, strata);
+      // Tangent frame of the warped face at the sample.
+      const glm::dvec3 nrm = g.normal[s];
+      const glm::dvec3 helper = std::abs(nrm.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+      const glm::dvec3 t = glm::normalize(glm::cross(helper, nrm));
+      const glm::dvec3 b = glm::cross(nrm, t);
+      double acc[3] = {0, 0, 0};
+      for (const glm::dvec2& u : strata) {
+        const LevelHit hit = scene.intersect(g.position[s], to_world(cosine_hemisphere(u), t, b, nrm));
+        if (hit.block < 0) continue;
+        const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
+        const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
+        const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
+        for (int k = 0; k < 4; ++k) {
+          const std::size_t idx = hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]));
+          for (int c = 0; c < 3; ++c) acc[c] += taps.w[k] * ld[3 * idx + std::size_t(c)];
+        }
+      }
+      for (int c = 0; c < 3; ++c) out[3 * s + std::size_t(c)] = float(acc[c] / rays);
+    }
+  });
+  return out;
+}
+
+}  // namespace modrt::precompute

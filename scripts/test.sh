@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Build modrt with warnings as errors and run the test suite.
+#
+#   scripts/test.sh           # build-tests/: RelWithDebInfo, -DMODRT_WERROR=ON
+#   scripts/test.sh --asan    # build-asan/:  AddressSanitizer + UBSan, -O1 -g, WERROR
+#
+# Exits non-zero if the configure, the build or any test fails. Same settings as the
+# CMake presets "tests" and "asan".
+set -euo pipefail
+
+usage() {
+  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+}
+
+asan=0
+for arg in "$@"; do
+  case "$arg" in
+    --asan) asan=1 ;;
+    -h | --help) usage; exit 0 ;;
+    *) echo "test.sh: unknown argument '$arg'" >&2; usage >&2; exit 2 ;;
+  esac
+done
+
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo_root"
+
+scripts/install-deps.sh
+
+if ((asan)); then
+  build_dir=build-asan
+  cmake_args=(
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo
+    "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g"
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g"
+    -DMODRT_ASAN=ON
+    -DMODRT_WERROR=ON
+    -DMODRT_BUILD_TESTS=ON
+  )
+  # Exported before the build too: gtest_discover_tests runs the test binaries then.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+  export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+else
+  build_dir=build-tests
+  cmake_args=(
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo
+    -DMODRT_WERROR=ON
+    -DMODRT_BUILD_TESTS=ON
+  )
+fi
+
+echo "test.sh: configuring $build_dir"
+cmake -S . -B "$build_dir" "${cmake_args[@]}"
+echo "test.sh: building $build_dir"
+cmake --build "$build_dir" -j"$(nproc)"
+echo "test.sh: running tests in $build_dir"
+ctest --test-dir "$build_dir" --output-on-failure -j2 --timeout 900
+echo "test.sh: all tests passed ($build_dir)"

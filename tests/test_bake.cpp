@@ -1,0 +1,235 @@
+// The per-shape bake: implicit lighting, low-rank accuracy against F, enrichment, the
+// furnace, vector irradiance and probes, and bad settings (MRT §4, appendix A, §6.4–6.5).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include <Eigen/SVD>
+
+#include "modrt/precompute/bake.h"
+#include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/direct_light.h"
+#include "modrt/precompute/sampling.h"
+#include "modrt/reference_runtime.h"
+#include "modrt/sh.h"
+
+namespace modrt::precompute {
+namespace {
+
+DictionarySettings fast_settings(std::uint32_t res) {
+  DictionarySettings s;
+  s.res = res;
+  s.rays = 1024;
+  s.sh_rays = 256;
+  s.probe_grid = 2;
+  return s;
+}
+
+double relative_l2(const VectorXd& x, const VectorXd& ref) { return (x - ref).norm() / ref.norm(); }
+
+double percentile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(p * double(v.size() - 1) + 0.5))];
+}
+
+// ld for `count` random sphere lights strictly inside the block (margin 0.1).
+std::vector<VectorXd> random_light_patterns(FaceMask mask, const SampleLayout& layout, int count) {
+  const BlockScene scene(mask);
+  Rng rng(1234, mask);
+  std::vector<VectorXd> out;
+  std::vector<double> ld(std::size_t(layout.sample_count()));
+  for (int i = 0; i < count; ++i) {
+    const glm::dvec3 c(0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double());
+    const double radius = (i % 2) ? 0.05 : 0.0;  // alternate sphere and point lights
+    direct_light(scene, layout, SphereLight{c, radius, 1.0}, radius > 0 ? 16 : 1, ld);
+    out.push_back(Eigen::Map<VectorXd>(ld.data(), Eigen::Index(ld.size())));
+  }
+  return out;
+}
+
+std::vector<double> mrt_errors(const RowMatrixXd& F, const ReducedTransfer& t, const std::vector<VectorXd>& lights) {
+  std::vector<double> err;
+  for (const VectorXd& ld : lights) err.push_back(relative_l2(t.Ub * (t.Td_b * ld), F * ld));
+  return err;
+}
+
+TEST(Bake, ImplicitLightingReproducesUbAndTdbInvertsIt) {
+  const ShapeBake bake = bake_shape(dictionary_shape_mask(1), fast_settings(8), false);
+  for (const ReducedTransfer* t : {&bake.raw_transfer, &bake.transfer}) {
+    // MRT §4.1: Ub = F Limp.
+    EXPECT_LE((bake.F * t->Limp - t->Ub).norm() / t->Ub.norm(), 1e-6);
+    // Td_b Limp = Sm^-1 Um^T F P P^T P S Vm = I (the stable form is consistent with Limp).
+    const MatrixXd I = t->Td_b * t->Limp;
+    EXPECT_LE((I - MatrixXd::Identity(I.rows(), I.cols())).norm(), 1e-6);
+  }
+  // The prior is orthonormal.
+  const MatrixXd PtP = bake.prior.P.transpose() * bake.prior.P;
+  EXPECT_LE((PtP - MatrixXd::Identity(PtP.rows(), PtP.cols())).norm(), 1e-9);
+}
+
+// MRT Table 2 / §4: within-prior lighting is reproduced by the low-rank transfer.
+class LowRank : public ::testing::TestWithParam<int> {};
+
+TEST_P(LowRank, RandomLightsMatchFAndBeatTruncatedSvd) {
+  const int shape = GetParam();
+  const FaceMask mask = dictionary_shape_mask(shape);
+  DictionarySettings s = fast_settings(16);
+  const ShapeBake bake = bake_shape(mask, s, false);
+  const std::vector<VectorXd> lights = random_light_patterns(mask, bake.layout, 50);
+
+  std::vector<double> err = mrt_errors(bake.F, bake.transfer, lights);
+  const double median = percentile(err, 0.5), p90 = percentile(err, 0.9);
+  std::printf("%s: kb 32, res 16: MRT relative L2 median %.2f%%, p90 %.2f%%\n", dictionary_shape_name(shape),
+              100 * median, 100 * p90);
+  EXPECT_LE(median, 0.08);
+  EXPECT_LE(p90, 0.20);
+
+  // Error falls as kb grows (same prior; small slack for sampling noise between ranks).
+  double previous = 1e30;
+  for (int kb : {1, 2, 4, 8, 16, 32}) {
+    const ReducedTransfer t = reduce_transfer(bake.F, bake.prior, kb);
+    const double m = percentile(mrt_errors(bake.F, t, lights), 0.5);
+    std::printf("  kb %2d: median %.2f%%\n", kb, 100 * m);
+    EXPECT_LE(m, previous * 1.02) << "kb " << kb;
+    previous = m;
+  }
+
+  // A truncated SVD of F with the same rank is worse (MRT §3.1 vs §4).
+  const Eigen::BDCSVD<MatrixXd> svd(MatrixXd(bake.F), Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const MatrixXd U = svd.matrixU().leftCols(32) * svd.singularValues().head(32).asDiagonal();
+  const MatrixXd Vt = svd.matrixV().leftCols(32).transpose();
+  std::vector<double> err_svd;
+  for (const VectorXd& ld : lights) err_svd.push_back(relative_l2(U * (Vt * ld), bake.F * ld));
+  const double median_svd = percentile(err_svd, 0.5);
+  std::printf("  truncated SVD(F) rank 32: median %.2f%%\n", 100 * median_svd);
+  EXPECT_LT(median, median_svd);
+}
+
+INSTANTIATE_TEST_SUITE_P(ClosedAndDeadEnd, LowRank, ::testing::Values(0, 1),
+                         [](const ::testing::TestParamInfo<int>& param_info) {
+                           return std::string(dictionary_shape_name(param_info.param));
+                         });
+
+TEST(Bake, EnrichmentReproducesPerFaceConstantLight) {
+  for (int shape : {0, 1}) {
+    const ShapeBake bake = bake_shape(dictionary_shape_mask(shape), fast_settings(16), false);
+    const MatrixXd C = face_constant_columns(bake.layout);
+    double worst_enriched = 0.0, worst_raw = 0.0;
+    for (Eigen::Index f = 0; f < C.cols(); ++f) {
+      const VectorXd ld = C.col(f);
+      const VectorXd ref = bake.F * ld;
+      const double e = relative_l2(bake.transfer.Ub * (bake.transfer.Td_b * ld), ref);
+      const double r = relative_l2(bake.raw_transfer.Ub * (bake.raw_transfer.Td_b * ld), ref);
+      worst_enriched = std::max(worst_enriched, e);
+      worst_raw = std::max(worst_raw, r);
+    }
+    std::printf("%s: one lit face, worst relative L2: %.2f%% enriched vs %.2f%% without enrichment\n",
+                dictionary_shape_name(shape), 100 * worst_enriched, 100 * worst_raw);
+    EXPECT_LE(worst_enriched, 0.10);
+    EXPECT_GT(worst_raw, 2.0 * worst_enriched);
+  }
+}
+
+class BakedOperators : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    DictionarySettings s = fast_settings(8);
+    bake_ = new ShapeBake(bake_shape(kAllFaces, s, true));
+    op_ = new ShapeOperators(to_operators(*bake_));
+  }
+  static void TearDownTestSuite() {
+    delete bake_;
+    delete op_;
+  }
+  static ShapeBake* bake_;
+  static ShapeOperators* op_;
+};
+ShapeBake* BakedOperators::bake_ = nullptr;
+ShapeOperators* BakedOperators::op_ = nullptr;
+
+// Closed box, uniform ld = E, albedo 0.5: radiance E / (1 - rho) everywhere.
+TEST_F(BakedOperators, FurnaceConvergesToAnalyticValue) {
+  const std::size_t n = op_->sample_count();
+  const float E = 0.7f;
+  std::vector<float> ld(3 * n, E), albedo(3 * n, 0.5f), b(3 * op_->kb()), lightmap(3 * n);
+  Result<MultiBounceReport> r = multi_bounce(*op_, ld, albedo, {}, b, lightmap);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_TRUE(r->converged);
+  EXPECT_FALSE(r->albedo_clamped);
+  double worst = 0.0;
+  for (float v : lightmap) worst = std::max(worst, std::abs(v / (E / (1.0 - 0.5)) - 1.0));
+  std::printf("furnace rho 0.5: %d iterations, worst texel error %.3f%%\n", r->iterations, 100 * worst);
+  EXPECT_LE(worst, 0.02);
+}
+
+TEST_F(BakedOperators, FeedbackWithAlbedoAtOrAboveOneStaysFiniteAndSaysSo) {
+  const std::size_t n = op_->sample_count();
+  for (float rho : {1.0f, 1.5f, 1e6f}) {
+    std::vector<float> ld(3 * n, 1.0f), albedo(3 * n, rho), b(3 * op_->kb()), lightmap(3 * n);
+    MultiBounceSettings settings;
+    settings.max_iterations = 1000;
+    Result<MultiBounceReport> r = multi_bounce(*op_, ld, albedo, settings, b, lightmap);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    EXPECT_TRUE(r->albedo_clamped) << rho;
+    for (float v : lightmap) {
+      ASSERT_TRUE(std::isfinite(v)) << rho;
+      // Clamped albedo 0.95 gives radiance 1 / (1 - 0.95) = 20 in the closed box.
+      ASSERT_LE(v, 1.05f * r->energy_bound) << rho;
+    }
+    EXPECT_NEAR(lightmap[0], 20.0f, 0.4f) << rho;
+  }
+}
+
+// Uniform radiance 1 in a closed box: E/pi = 1 at every sample, probes see L = 1 in all
+// directions (SH: c0 = 2 sqrt(pi), the rest 0).
+TEST_F(BakedOperators, VectorIrradianceAndProbesOfAUniformBox) {
+  const std::size_t n = op_->sample_count();
+  std::vector<float> ld(3 * n, 1.0f), b(3 * op_->kb());
+  ASSERT_TRUE(compute_b(*op_, ld, b).ok());
+  std::vector<float> vec(3 * 4 * n), probes(3 * op_->Ubvol.rows);
+  apply_Ub_vec(*op_, b, vec);
+  apply_Ubvol(*op_, b, probes);
+  double worst = 0.0;
+  for (std::size_t s = 0; s < n; ++s) {
+    double a[4];
+    for (int i = 0; i < 4; ++i) a[i] = vec[3 * (4 * s + std::size_t(i))];
+    worst = std::max(worst, std::abs(ohlsh_eval(a, {0, 0, 1}) - 1.0));  // face frame: normal = +z
+  }
+  std::printf("uniform box: vector irradiance worst error %.3f\n", worst);
+  EXPECT_LE(worst, 0.05);
+  for (std::uint32_t p = 0; p < op_->Ubvol.rows / 9; ++p) {
+    EXPECT_NEAR(probes[3 * (9 * p)], 2.0 * std::sqrt(std::numbers::pi), 0.05 * 3.545) << "probe " << p;
+    for (int j = 1; j < 9; ++j) EXPECT_NEAR(probes[3 * (9 * p + std::size_t(j))], 0.0, 0.1) << p << "," << j;
+  }
+}
+
+TEST(Bake, BadSettingsAreClearErrors) {
+  DictionarySettings s = fast_settings(4);
+  s.res = 0;
+  Result<Dictionary> r = bake_dictionary(s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), ErrorCode::invalid_argument);
+  EXPECT_NE(r.status().message().find("res"), std::string::npos) << r.status().message();
+  s = fast_settings(4);
+  s.rays = 0;
+  r = bake_dictionary(s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("rays"), std::string::npos) << r.status().message();
+  s = fast_settings(4);
+  s.kb = s.kd + 1;
+  EXPECT_FALSE(bake_dictionary(s).ok());
+}
+
+TEST(Bake, NanLightSignalIsRejected) {
+  const ShapeOperators op = to_operators(bake_shape(kAllFaces, fast_settings(2), false));
+  std::vector<float> ld(3 * op.sample_count(), 0.5f), b(3 * op.kb());
+  ld[7] = std::numeric_limits<float>::quiet_NaN();
+  const Status s = compute_b(op, ld, b);
+  EXPECT_EQ(s.code(), ErrorCode::non_finite);
+  EXPECT_NE(s.message().find("sample 2"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace modrt::precompute

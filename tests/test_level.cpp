@@ -1,0 +1,359 @@
+// Levels (MRT §5, §6.2–6.3): interface transport against the exact one-bounce reference on
+// the real geometry, propagation symmetry, seams, energy and multi-bounce stability.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+
+#include "modrt/level_runtime.h"
+#include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/level_scene.h"
+#include "modrt/precompute/maze.h"
+
+namespace modrt::precompute {
+namespace {
+
+// A small dictionary with interfaces, baked once per build tree and cached on disk so the
+// test processes ctest starts do not each bake it.
+const Dictionary& test_dictionary() {
+  static const Dictionary dict = [] {
+    DictionarySettings s;
+    s.res = 8;
+    s.rays = 1024;
+    s.sh_rays = 64;
+    s.probe_grid = 2;
+    s.lightfield_spatial = 6;
+    s.lightfield_directional = 12;
+    s.lightfield_supersample = 3;
+    s.response_rays = 1024;
+    Result<Dictionary> d = load_or_bake_dictionary(s, MODRT_TEST_CACHE_DIR);
+    if (!d.ok()) {
+      std::fprintf(stderr, "test dictionary: %s\n", d.status().to_string().c_str());
+      std::abort();
+    }
+    return std::move(d).value();
+  }();
+  return dict;
+}
+
+struct Frame {
+  std::vector<float> ld, b, r, lightmap;
+};
+
+Frame evaluate(const Level& level, std::vector<float> ld) {
+  const LevelBufferSizes sizes = level_buffer_sizes(level, test_dictionary());
+  Frame f;
+  f.ld = std::move(ld);
+  f.b.resize(sizes.b);
+  f.r.resize(sizes.r);
+  f.lightmap.resize(sizes.lightmap);
+  const Status s = level_evaluate(level, test_dictionary(), f.ld, f.b, f.r, f.lightmap);
+  EXPECT_TRUE(s.ok()) << s.to_string();
+  return f;
+}
+
+Level build(const LevelDescription& d, int dmax = 8) {
+  LevelBuildSettings settings;
+  settings.dmax = dmax;
+  Result<Level> level = build_level(d, test_dictionary(), settings);
+  EXPECT_TRUE(level.ok()) << level.status().to_string();
+  return std::move(level).value();
+}
+
+double block_norm(const Level& level, std::size_t bi, const std::vector<float>& x, const std::vector<float>* minus) {
+  const LevelBlock& b = level.blocks[bi];
+  double sum = 0.0;
+  for (std::size_t i = 3 * b.sample_offset; i < 3 * (b.sample_offset + b.sample_count); ++i) {
+    const double d = x[i] - (minus ? (*minus)[i] : 0.0f);
+    sum += d * d;
+  }
+  return std::sqrt(sum);
+}
+
+struct NamedLevel {
+  const char* name;
+  LevelDescription description;
+};
+
+std::vector<NamedLevel> accuracy_levels() {
+  std::vector<NamedLevel> out = {{"corridor", corridor_level()}, {"l_corner", l_corner_level()}};
+  out.push_back({"maze11", maze_level(11).value()});
+  return out;
+}
+
+// Exact one-bounce reference on the real geometry vs MRT; blocks lit only through
+// interfaces must be within 25% median relative L2 (the bound).
+TEST(LevelAccuracy, InterfaceTransportMatchesOneBounceReference) {
+  for (const NamedLevel& nl : accuracy_levels()) {
+    const Level level = build(nl.description);
+    const LevelScene scene(level, level.res);
+    const std::vector<float> albedo = level_albedo(level, nl.description);
+    const std::vector<float> ld = level_direct_light(scene, nl.description.lights, albedo, 8);
+    const std::vector<float> ref = level_one_bounce(scene, ld, 2048, 99);
+    const Frame f = evaluate(level, ld);
+    std::vector<double> indirect_only;
+    std::printf("%s (%zu blocks):\n", nl.name, level.blocks.size());
+    for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+      const double ref_norm = block_norm(level, bi, ref, nullptr);
+      const double err = block_norm(level, bi, f.lightmap, &ref) / std::max(ref_norm, 1e-30);
+      const bool direct = block_norm(level, bi, ld, nullptr) > 0.0;
+      std::printf("  block %2zu (%s, %s): relative L2 %.1f%%\n", bi, dictionary_shape_name(level.blocks[bi].shape),
+                  direct ? "direct light" : "interfaces only", 100 * err);
+      if (!direct && ref_norm > 0.0) indirect_only.push_back(err);
+    }
+    if (indirect_only.empty()) continue;
+    std::sort(indirect_only.begin(), indirect_only.end());
+    const double median = indirect_only[indirect_only.size() / 2];
+    std::printf("  median over %zu interface-only blocks: %.1f%%\n", indirect_only.size(), 100 * median);
+    EXPECT_LE(median, 0.25) << nl.name;
+  }
+}
+
+TEST(LevelAccuracy, ResponseIsZeroWithoutAPathAndNonZeroWithOne) {
+  // Two closed neighbours: no interface, no records, no response.
+  LevelDescription closed = corridor_level();
+  for (BlockDescription& b : closed.blocks) b.faces = kAllFaces;
+  const Level level = build(closed);
+  EXPECT_TRUE(level.records.empty());
+  EXPECT_TRUE(level.slots.empty());
+  const LevelScene scene(level, level.res);
+  const std::vector<float> ld = level_direct_light(scene, closed.lights, level_albedo(level, closed), 4);
+  const Frame f = evaluate(level, ld);
+  EXPECT_GT(block_norm(level, 0, f.lightmap, nullptr), 0.0);
+  EXPECT_EQ(block_norm(level, 1, f.lightmap, nullptr), 0.0);
+
+  // Light only in block 0 of the L: block 2 around the corner receives light only
+  // through the response; it must not be zero.
+  LevelDescription l = l_corner_level();
+  const Level ll = build(l);
+  std::vector<float> ld_l(3 * ll.sample_count, 0.0f);
+  for (std::size_t i = 0; i < 3 * ll.blocks[0].sample_count; ++i) ld_l[i] = 1.0f;
+  const Frame fl = evaluate(ll, ld_l);
+  EXPECT_GT(block_norm(ll, 2, fl.lightmap, nullptr), 1e-3 * block_norm(ll, 0, fl.lightmap, nullptr));
+}
+
+// Rotating the whole maze by a quarter turn permutes the lightmaps and nothing else:
+// the same canonical operators are used, only the bookkeeping changes.
+LevelDescription rotate_level(const LevelDescription& in, bool mirror) {
+  LevelDescription out = in;
+  auto map_point = [&](glm::dvec3 p) { return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x); };
+  auto map_face = [&](int f) {
+    if (mirror) return (f == kFaceNegX || f == kFacePosX) ? (f ^ 1) : f;
+    return rotate_face(f, 1);
+  };
+  for (BlockDescription& b : out.blocks) {
+    const BlockDescription src = b;
+    // Cell c spans [c, c+1]; map its centre and take the cell containing the image.
+    const glm::dvec3 centre = map_point(glm::dvec3(src.cell) + 0.5);
+    b.cell = glm::ivec3(glm::floor(centre));
+    b.faces = 0;
+    for (int f = 0; f < kFaceCount; ++f) {
+      if (face_present(src.faces, f)) b.faces |= FaceMask(1u << map_face(f));
+      b.albedo[std::size_t(map_face(f))] = src.albedo[std::size_t(f)];
+    }
+  }
+  for (LightDescription& l : out.lights) l.position = map_point(l.position);
+  return out;
+}
+
+// For every sample of level a, the sample of level b at the mapped world position.
+std::vector<std::size_t> sample_permutation(const Level& a, const Level& b, bool mirror) {
+  const LevelSampleGeometry ga = level_sample_geometry(a), gb = level_sample_geometry(b);
+  std::map<std::tuple<long, long, long>, std::size_t> index;
+  auto key = [](glm::dvec3 p) { return std::make_tuple(std::lround(p.x * 1e4), std::lround(p.y * 1e4), std::lround(p.z * 1e4)); };
+  for (std::size_t i = 0; i < gb.position.size(); ++i) index[key(gb.position[i])] = i;
+  std::vector<std::size_t> perm(ga.position.size(), SIZE_MAX);
+  for (std::size_t i = 0; i < ga.position.size(); ++i) {
+    const glm::dvec3 p = ga.position[i];
+    const glm::dvec3 q = mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x);
+    auto it = index.find(key(q));
+    if (it != index.end()) perm[i] = it->second;
+  }
+  return perm;
+}
+
+void expect_symmetric(const LevelDescription& maze, bool mirror, double tolerance) {
+  const LevelDescription turned = rotate_level(maze, mirror);
+  const Level a = build(maze), b = build(turned);
+  const std::vector<std::size_t> perm = sample_permutation(a, b, mirror);
+  for (std::size_t p : perm) ASSERT_NE(p, SIZE_MAX) << "a sample has no image in the transformed level";
+  const LevelScene scene(a, a.res);
+  const std::vector<float> ld_a = level_direct_light(scene, maze.lights, level_albedo(a, maze), 8);
+  std::vector<float> ld_b(ld_a.size());
+  for (std::size_t i = 0; i < perm.size(); ++i)
+    for (int c = 0; c < 3; ++c) ld_b[3 * perm[i] + std::size_t(c)] = ld_a[3 * i + std::size_t(c)];
+  const Frame fa = evaluate(a, ld_a), fb = evaluate(b, ld_b);
+  double diff = 0.0, norm = 0.0;
+  for (std::size_t i = 0; i < perm.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double d = fa.lightmap[3 * i + std::size_t(c)] - fb.lightmap[3 * perm[i] + std::size_t(c)];
+      diff += d * d;
+      norm += double(fa.lightmap[3 * i + std::size_t(c)]) * fa.lightmap[3 * i + std::size_t(c)];
+    }
+  std::printf("%s: relative L2 difference %.2e\n", mirror ? "mirror" : "quarter turn", std::sqrt(diff / norm));
+  EXPECT_LE(std::sqrt(diff / norm), tolerance);
+}
+
+TEST(LevelSymmetry, QuarterTurnGivesTheSameLightmapsUpToPermutation) {
+  expect_symmetric(l_corner_level(), false, 1e-4);
+  expect_symmetric(maze_level(11).value(), false, 1e-4);
+}
+
+// A mirror image swaps left and right propagation and mirrors every texel grid; the baked
+// operators are only mirror-symmetric up to their Monte Carlo sampling noise, hence the
+// looser bound.
+TEST(LevelSymmetry, MirrorImageAgreesWithinSamplingNoise) {
+  expect_symmetric(l_corner_level(), true, 0.05);
+  expect_symmetric(maze_level(11).value(), true, 0.05);
+}
+
+// Bilinear lookups at every point of every shared tile edge agree from both sides.
+TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
+  const LevelDescription maze = maze_level(11).value();
+  const Level level = build(maze);
+  const LevelScene scene(level, level.res);
+  const std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 8);
+  const Frame f = evaluate(level, ld);
+  const LightmapAtlas& atlas = level.atlas;
+  std::vector<float> texels(3 * std::size_t(atlas.width) * std::size_t(atlas.height));
+  level_fill_atlas(level, f.lightmap, texels);
+  const int res = level.res;
+  // Bilinear lookup on face f of block bi at face coordinates (u, v) in [0,1].
+  auto lookup = [&](std::size_t bi, int face, double u, double v, int c) {
+    const double x = atlas.tile_origin_x[bi][std::size_t(face)] + 1 + u * res - 0.5;
+    const double y = atlas.tile_origin_y[bi][std::size_t(face)] + 1 + v * res - 0.5;
+    const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+    const double ax = x - x0, ay = y - y0;
+    double sum = 0.0;
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a)
+        sum += (a ? ax : 1 - ax) * (b ? ay : 1 - ay) *
+               texels[3 * (std::size_t(y0 + b) * std::size_t(atlas.width) + std::size_t(x0 + a)) + std::size_t(c)];
+    return sum;
+  };
+  auto uv_on = [](int face, const glm::dvec3& p) {
+    const FaceFrame& fr = face_frame(face);
+    return glm::dvec2(glm::dot(p - fr.origin, fr.u_axis), glm::dot(p - fr.origin, fr.v_axis));
+  };
+  int edges = 0;
+  double worst = 0.0, scale = 0.0;
+  for (float v : f.lightmap) scale = std::max(scale, double(std::abs(v)));
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const FaceMask mask = dictionary_shape_mask(b.shape);
+    for (int f0 = 0; f0 < kFaceCount; ++f0) {
+      if (!face_present(mask, f0)) continue;
+      for (int side = 0; side < 4; ++side)
+        for (int k = 0; k < res; ++k) {
+          const double t = (k + 0.5) / res;
+          const glm::dvec2 uv = side == 0 ? glm::dvec2(0, t) : side == 1 ? glm::dvec2(1, t) : side == 2 ? glm::dvec2(t, 0) : glm::dvec2(t, 1);
+          const glm::dvec3 p = face_point(f0, uv.x, uv.y);
+          // The other surface at this edge: a present face of this block, or the same
+          // world face of the connected block.
+          std::size_t other_block = bi;
+          int other_face = -1;
+          glm::dvec2 other_uv;
+          for (int g = 0; g < kFaceCount; ++g) {
+            if (g == f0) continue;
+            const glm::dvec2 q = uv_on(g, p);
+            const glm::dvec3 back = face_point(g, q.x, q.y);
+            if (glm::length(back - p) > 1e-9 || q.x < -1e-9 || q.x > 1 + 1e-9 || q.y < -1e-9 || q.y > 1 + 1e-9) continue;
+            if (face_present(mask, g)) {
+              other_face = g;
+              other_uv = q;
+            } else if (b.neighbour[std::size_t(g)] >= 0) {
+              const LevelBlock& c = level.blocks[std::size_t(b.neighbour[std::size_t(g)])];
+              const glm::dvec3 world = glm::dvec3(b.cell) + rotate_point(p, b.quarter_turns);
+              const glm::dvec3 local = rotate_point(world - glm::dvec3(c.cell), -c.quarter_turns);
+              const int fc = rotate_face(rotate_face(f0, b.quarter_turns), -c.quarter_turns);
+              if (face_present(dictionary_shape_mask(c.shape), fc)) {
+                other_block = std::size_t(b.neighbour[std::size_t(g)]);
+                other_face = fc;
+                other_uv = uv_on(fc, local);
+              }
+            }
+          }
+          if (other_face < 0) continue;  // the surface ends here (open edge): nothing to match
+          ++edges;
+          for (int c = 0; c < 3; ++c) {
+            const double here = lookup(bi, f0, uv.x, uv.y, c);
+            const double there = lookup(other_block, other_face, other_uv.x, other_uv.y, c);
+            worst = std::max(worst, std::abs(here - there));
+          }
+        }
+    }
+  }
+  std::printf("%d edge points checked, worst difference %.2e (relative to max %.3g)\n", edges, worst / scale, scale);
+  EXPECT_GT(edges, 0);
+  EXPECT_LE(worst, 1e-4 * scale);
+}
+
+TEST(LevelEnergy, IndirectNeverExceedsTheClosedBoxBoundAndGrowsWithDmax) {
+  const LevelDescription maze = maze_level(11).value();
+  double previous = -1.0;
+  for (int dmax : {0, 1, 2, 4, 8, 12}) {
+    const Level level = build(maze, dmax);
+    const LevelScene scene(level, level.res);
+    const std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 4);
+    const Frame f = evaluate(level, ld);
+    // One bounce on equal-area samples: what leaves all surfaces is at most what lands on
+    // them (a closed box keeps all of it).
+    for (int c = 0; c < 3; ++c) {
+      double out = 0.0, in = 0.0;
+      for (std::size_t i = std::size_t(c); i < ld.size(); i += 3) {
+        out += ld[i];
+        in += f.lightmap[i];
+      }
+      EXPECT_LE(in, 1.02 * out) << "dmax " << dmax << " channel " << c;
+    }
+    double total = 0.0;
+    for (float v : f.lightmap) total += v;
+    std::printf("dmax %2d: %zu records, total indirect %.5g\n", dmax, level.records.size(), total);
+    EXPECT_GE(total, previous * (1.0 - 1e-4)) << "dmax " << dmax;
+    previous = total;
+  }
+}
+
+TEST(LevelMultiBounce, FortyOneBlockMazeStaysBoundedOverThousandIterations) {
+  const LevelDescription maze = maze_level(41).value();
+  const Level level = build(maze);
+  const LevelScene scene(level, level.res);
+  std::vector<float> albedo = level_albedo(level, maze);
+  const std::vector<float> ld = level_direct_light(scene, maze.lights, albedo, 4);
+  const LevelBufferSizes sizes = level_buffer_sizes(level, test_dictionary());
+  std::vector<float> b(sizes.b), r(sizes.r), lightmap(sizes.lightmap);
+  for (float rho : {0.7f, 1.0f}) {
+    std::fill(albedo.begin(), albedo.end(), rho);
+    MultiBounceSettings settings;
+    settings.max_iterations = 1000;
+    settings.tolerance = 0.0f;  // run all 1000 iterations
+    Result<MultiBounceReport> report = level_multi_bounce(level, test_dictionary(), ld, albedo, settings, b, r, lightmap);
+    ASSERT_TRUE(report.ok()) << report.status().to_string();
+    EXPECT_EQ(report->iterations, 1000);
+    for (float v : lightmap) {
+      ASSERT_TRUE(std::isfinite(v));
+      ASSERT_LE(v, 1.1f * report->energy_bound);
+    }
+    std::printf("albedo %.2f: 1000 iterations, energy bound %.3g, value clamp %s, albedo clamp %s\n", rho,
+                report->energy_bound, report->value_clamped ? "hit" : "not hit", report->albedo_clamped ? "yes" : "no");
+  }
+}
+
+TEST(LevelBuild, DictionaryWithoutInterfacesIsAClearError) {
+  Dictionary no_interfaces = test_dictionary();
+  no_interfaces.interfaces = {};
+  Result<Level> level = build_level(corridor_level(), no_interfaces);
+  ASSERT_FALSE(level.ok());
+  EXPECT_NE(level.status().message().find("interface"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace modrt::precompute

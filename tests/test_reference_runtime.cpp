@@ -1,0 +1,136 @@
+// The scalar reference runtime against direct double-precision linear algebra.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "modrt/reference_runtime.h"
+
+namespace modrt {
+namespace {
+
+Matrix random_matrix(std::uint32_t rows, std::uint32_t cols, std::mt19937& rng, float scale) {
+  std::uniform_real_distribution<float> dist(-scale, scale);
+  Matrix m(rows, cols);
+  for (float& v : m.data) v = dist(rng);
+  return m;
+}
+
+Eigen::MatrixXd to_eigen(const Matrix& m) {
+  Eigen::MatrixXd e(m.rows, m.cols);
+  for (std::uint32_t r = 0; r < m.rows; ++r)
+    for (std::uint32_t c = 0; c < m.cols; ++c) e(r, c) = m(r, c);
+  return e;
+}
+
+// Synthetic operators: n samples, kb modes, Ub with small gain so feedback converges.
+ShapeOperators synthetic(std::uint32_t n, std::uint32_t kb, std::uint32_t probes, std::mt19937& rng) {
+  ShapeOperators op;
+  op.Ub = random_matrix(n, kb, rng, 0.3f);
+  op.Td_b = random_matrix(kb, n, rng, 1.0f / float(n));
+  op.Limp = random_matrix(n, kb, rng, 1.0f);
+  op.Ub_vec = random_matrix(4 * n, kb, rng, 1.0f);
+  op.Ubvol = random_matrix(9 * probes, kb, rng, 1.0f);
+  return op;
+}
+
+std::vector<float> random_signal(std::size_t count, std::mt19937& rng) {
+  std::uniform_real_distribution<float> dist(0.0f, 2.0f);
+  std::vector<float> v(count);
+  for (float& x : v) x = dist(rng);
+  return v;
+}
+
+Eigen::MatrixXd channels(const std::vector<float>& rgb) {  // 3-interleaved -> rows x 3
+  Eigen::MatrixXd m(Eigen::Index(rgb.size() / 3), 3);
+  for (std::size_t i = 0; i < rgb.size(); ++i) m(Eigen::Index(i / 3), Eigen::Index(i % 3)) = rgb[i];
+  return m;
+}
+
+TEST(ReferenceRuntime, EveryStageEqualsDoubleLinearAlgebra) {
+  std::mt19937 rng(5);
+  for (std::uint32_t n : {1u, 7u, 64u, 150u})
+    for (std::uint32_t kb : {1u, 5u, 32u}) {
+      const ShapeOperators op = synthetic(n, kb, 8, rng);
+      const std::vector<float> ld = random_signal(3 * n, rng);
+      std::vector<float> b(3 * kb), lightmap(3 * n), vec(12 * n), probes(3 * 72);
+      ASSERT_TRUE(compute_b(op, ld, b).ok());
+      apply_Ub(op, b, lightmap);
+      apply_Ub_vec(op, b, vec);
+      apply_Ubvol(op, b, probes);
+      const Eigen::MatrixXd b_ref = to_eigen(op.Td_b) * channels(ld);
+      EXPECT_LE((channels(b) - b_ref).norm(), 1e-5 * b_ref.norm() + 1e-7);
+      const Eigen::MatrixXd B = channels(b);
+      const Eigen::MatrixXd l_ref = to_eigen(op.Ub) * B;
+      EXPECT_LE((channels(lightmap) - l_ref).norm(), 1e-5 * l_ref.norm() + 1e-7);
+      const Eigen::MatrixXd v_ref = to_eigen(op.Ub_vec) * B;
+      EXPECT_LE((channels(vec) - v_ref).norm(), 1e-5 * v_ref.norm() + 1e-7);
+      const Eigen::MatrixXd p_ref = to_eigen(op.Ubvol) * B;
+      EXPECT_LE((channels(probes) - p_ref).norm(), 1e-5 * p_ref.norm() + 1e-7);
+    }
+}
+
+// Converged feedback solves b = Td_b (ld + rho * Ub b) exactly when no clamp is active.
+TEST(ReferenceRuntime, MultiBounceSolvesTheFeedbackEquation) {
+  std::mt19937 rng(9);
+  const std::uint32_t n = 40, kb = 6;
+  ShapeOperators op = synthetic(n, kb, 1, rng);
+  for (float& v : op.Ub.data) v = std::abs(v);  // keep the lightmap positive (no max(.,0) clamp)
+  for (float& v : op.Td_b.data) v = std::abs(v);
+  const std::vector<float> ld = random_signal(3 * n, rng);
+  const std::vector<float> albedo(3 * n, 0.4f);
+  std::vector<float> b(3 * kb), lightmap(3 * n);
+  MultiBounceSettings settings;
+  settings.tolerance = 1e-7f;
+  Result<MultiBounceReport> r = multi_bounce(op, ld, albedo, settings, b, lightmap);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_TRUE(r->converged);
+  ASSERT_FALSE(r->value_clamped);
+  const Eigen::MatrixXd T = to_eigen(op.Td_b), U = to_eigen(op.Ub);
+  const Eigen::MatrixXd K = Eigen::MatrixXd::Identity(kb, kb) - 0.4 * T * U;
+  const Eigen::MatrixXd b_ref = K.lu().solve(T * channels(ld));
+  EXPECT_LE((channels(b) - b_ref).norm(), 1e-4 * b_ref.norm());
+  EXPECT_LE((channels(lightmap) - U * b_ref).norm(), 1e-4 * (U * b_ref).norm());
+}
+
+TEST(ReferenceRuntime, DivergentOperatorIsHeldByTheEnergyBound) {
+  std::mt19937 rng(3);
+  const std::uint32_t n = 16, kb = 4;
+  ShapeOperators op = synthetic(n, kb, 1, rng);
+  for (float& v : op.Ub.data) v = 5.0f + std::abs(v);  // gain far above 1: would diverge
+  for (float& v : op.Td_b.data) v = std::abs(v) + 0.1f;
+  const std::vector<float> ld(3 * n, 1.0f), albedo(3 * n, 0.9f);
+  std::vector<float> b(3 * kb), lightmap(3 * n);
+  Result<MultiBounceReport> r = multi_bounce(op, ld, albedo, {}, b, lightmap);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->value_clamped);
+  for (float v : lightmap) EXPECT_TRUE(std::isfinite(v));
+}
+
+TEST(ReferenceRuntime, BadSignalsAreClearErrors) {
+  std::mt19937 rng(1);
+  const ShapeOperators op = synthetic(10, 3, 1, rng);
+  std::vector<float> b(9);
+  std::vector<float> ld(30, 1.0f);
+  ld[4] = std::numeric_limits<float>::infinity();
+  Status s = compute_b(op, ld, b);
+  EXPECT_EQ(s.code(), ErrorCode::non_finite);
+  EXPECT_NE(s.message().find("sample 1 channel G is Inf"), std::string::npos) << s.message();
+  ld[4] = -1.0f;
+  EXPECT_EQ(compute_b(op, ld, b).code(), ErrorCode::invalid_argument);
+  std::vector<float> short_ld(29, 1.0f);
+  s = compute_b(op, short_ld, b);
+  EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(s.message().find("expected 3 x 10"), std::string::npos) << s.message();
+  std::vector<float> good(30, 1.0f), albedo(30, 0.5f), lm(30);
+  MultiBounceSettings bad;
+  bad.max_albedo = 1.0f;
+  EXPECT_FALSE(multi_bounce(op, good, albedo, bad, b, lm).ok());
+}
+
+}  // namespace
+}  // namespace modrt
