@@ -70,7 +70,7 @@ TEST(TransportF, RowSumsEqualVisibleFractionOfTheHemisphere) {
     const FaceMask mask = dictionary_shape_mask(shape);
     const SampleLayout layout = SampleLayout::make(mask, 6);
     const BlockScene scene(mask);
-    const RowMatrixXd F = gather_transport(scene, layout, 4096, 11);
+    const RowMatrixXd F = gather_transport(scene, layout, 16384, 11);
     double worst = 0.0;
     for (int s = 0; s < layout.sample_count(); ++s) {
       // Visible fraction = 1 - form factor to the missing faces (Lambert, exact).

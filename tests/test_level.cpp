@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -164,17 +165,21 @@ LevelDescription rotate_level(const LevelDescription& in, bool mirror) {
   return out;
 }
 
-// For every sample of level a, the sample of level b at the mapped world position.
+// For every sample of level a, the sample of level b at the mapped world position and
+// normal (back-to-back walls of neighbouring blocks share positions, not normals).
 std::vector<std::size_t> sample_permutation(const Level& a, const Level& b, bool mirror) {
   const LevelSampleGeometry ga = level_sample_geometry(a), gb = level_sample_geometry(b);
-  std::map<std::tuple<long, long, long>, std::size_t> index;
-  auto key = [](glm::dvec3 p) { return std::make_tuple(std::lround(p.x * 1e4), std::lround(p.y * 1e4), std::lround(p.z * 1e4)); };
-  for (std::size_t i = 0; i < gb.position.size(); ++i) index[key(gb.position[i])] = i;
+  auto transform = [&](glm::dvec3 p) { return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x); };
+  using Key = std::array<long, 6>;
+  auto key = [](glm::dvec3 p, glm::dvec3 n) {
+    return Key{std::lround(p.x * 1e4), std::lround(p.y * 1e4), std::lround(p.z * 1e4),
+               std::lround(n.x),       std::lround(n.y),       std::lround(n.z)};
+  };
+  std::map<Key, std::size_t> index;
+  for (std::size_t i = 0; i < gb.position.size(); ++i) index[key(gb.position[i], gb.normal[i])] = i;
   std::vector<std::size_t> perm(ga.position.size(), SIZE_MAX);
   for (std::size_t i = 0; i < ga.position.size(); ++i) {
-    const glm::dvec3 p = ga.position[i];
-    const glm::dvec3 q = mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x);
-    auto it = index.find(key(q));
+    auto it = index.find(key(transform(ga.position[i]), transform(ga.normal[i])));
     if (it != index.end()) perm[i] = it->second;
   }
   return perm;
@@ -199,6 +204,18 @@ void expect_symmetric(const LevelDescription& maze, bool mirror, double toleranc
       norm += double(fa.lightmap[3 * i + std::size_t(c)]) * fa.lightmap[3 * i + std::size_t(c)];
     }
   std::printf("%s: relative L2 difference %.2e\n", mirror ? "mirror" : "quarter turn", std::sqrt(diff / norm));
+  if (std::sqrt(diff / norm) > tolerance)
+    for (std::size_t bi = 0; bi < a.blocks.size(); ++bi) {
+      double d2 = 0.0, n2 = 0.0;
+      for (std::size_t i = a.blocks[bi].sample_offset; i < a.blocks[bi].sample_offset + a.blocks[bi].sample_count; ++i)
+        for (int c = 0; c < 3; ++c) {
+          const double d = fa.lightmap[3 * i + std::size_t(c)] - fb.lightmap[3 * perm[i] + std::size_t(c)];
+          d2 += d * d;
+          n2 += double(fa.lightmap[3 * i + std::size_t(c)]) * fa.lightmap[3 * i + std::size_t(c)];
+        }
+      std::printf("  block %zu (%s, turns %d -> %d): %.2e\n", bi, dictionary_shape_name(a.blocks[bi].shape),
+                  a.blocks[bi].quarter_turns, b.blocks[bi].quarter_turns, std::sqrt(d2 / n2));
+    }
   EXPECT_LE(std::sqrt(diff / norm), tolerance);
 }
 
@@ -207,12 +224,14 @@ TEST(LevelSymmetry, QuarterTurnGivesTheSameLightmapsUpToPermutation) {
   expect_symmetric(maze_level(11).value(), false, 1e-4);
 }
 
-// A mirror image swaps left and right propagation and mirrors every texel grid; the baked
-// operators are only mirror-symmetric up to their Monte Carlo sampling noise, hence the
-// looser bound.
-TEST(LevelSymmetry, MirrorImageAgreesWithinSamplingNoise) {
-  expect_symmetric(l_corner_level(), true, 0.05);
-  expect_symmetric(maze_level(11).value(), true, 0.05);
+// A mirror image swaps left and right propagation and mirrors every texel grid. The bake
+// symmetrises F, the lightfield basis and the response under mirrors (symmetry.h), so the
+// only remaining difference is the lightfield discretisation: a left turn resamples
+// directions into bins of a frame turned by 90 degrees, where nearest-bin lookups are
+// not exactly mirror images of a right turn's. Measured ~7e-4; bound 2e-3.
+TEST(LevelSymmetry, MirrorImageAgreesWithinDiscretisation) {
+  expect_symmetric(l_corner_level(), true, 2e-3);
+  expect_symmetric(maze_level(11).value(), true, 2e-3);
 }
 
 // Bilinear lookups at every point of every shared tile edge agree from both sides.

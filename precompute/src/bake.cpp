@@ -9,6 +9,7 @@
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/interfaces.h"
 #include "modrt/precompute/sh_operators.h"
+#include "modrt/precompute/symmetry.h"
 #include "modrt/precompute/transport.h"
 
 namespace modrt::precompute {
@@ -73,6 +74,7 @@ ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool wit
   timer.done("prior");
 
   bake.F = gather_transport(scene, bake.layout, int(settings.rays), shape_seed);
+  symmetrize_transport(bake.F, bake.layout);
   timer.done("F");
 
   bake.raw_transfer = reduce_transfer(bake.F, bake.raw_prior, int(settings.kb));

@@ -16,6 +16,7 @@
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/reduction.h"
 #include "modrt/precompute/sampling.h"
+#include "modrt/precompute/symmetry.h"
 
 namespace modrt::precompute {
 namespace {
@@ -104,14 +105,25 @@ MatrixXd tall_scaled_basis(const MatrixXd& A, int k, VectorXd* sigma_out = nullp
   VectorXd sigma(m);
   for (Eigen::Index i = 0; i < m; ++i) sigma(i) = std::sqrt(std::max(0.0, lambda(m - 1 - i)));
   if (sigma_out) *sigma_out = sigma;
-  Eigen::Index keep = std::min<Eigen::Index>(k, m);
-  while (keep > 0 && !(sigma(keep - 1) > 1e-12 * sigma(0))) --keep;
+  const Eigen::Index keep = cluster_safe_rank(sigma, k);
   // U S = A V for the kept modes.
   MatrixXd V(A.cols(), keep);
   for (Eigen::Index i = 0; i < keep; ++i) V.col(i) = eig.eigenvectors().col(m - 1 - i);
   MatrixXd basis = MatrixXd::Zero(A.rows(), k);
   basis.leftCols(keep) = parallel_a_b(A, V);
   return basis;
+}
+
+// The mirror of a wall lightfield in its own frame: every reflection that keeps +Y and
+// maps a side wall onto a side wall reverses u (positions and directions alike).
+MatrixXd mirror_lightfield(const Grid& g, const MatrixXd& in) {
+  MatrixXd out(in.rows(), in.cols());
+  for (int py = 0; py < g.S; ++py)
+    for (int px = 0; px < g.S; ++px)
+      for (int dy = 0; dy < g.D; ++dy)
+        for (int dx = 0; dx < g.D; ++dx)
+          out.row(g.index(g.S - 1 - px, py, g.D - 1 - dx, dy)) = in.row(g.index(px, py, dx, dy));
+  return out;
 }
 
 MatrixXd unit_frobenius(const MatrixXd& m) {
@@ -319,7 +331,13 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
                                            propagation_operator(Propagation::left, settings),
                                            propagation_operator(Propagation::right, settings)};
   stage("propagation operators");
-  bake.Hrlf = tall_scaled_basis(Hlf, settings.krlf, &bake.sigma_lf);
+  // The raw lightfields and their mirror images: the reduced basis must be closed under
+  // mirroring for a level and its mirror image to light identically.
+  {
+    MatrixXd with_mirror(Hlf.rows(), 2 * Hlf.cols());
+    with_mirror << Hlf, mirror_lightfield(g, Hlf);
+    bake.Hrlf = tall_scaled_basis(with_mirror, settings.krlf, &bake.sigma_lf);
+  }
   for (int it = 0; it < settings.enrichment_iterations; ++it) {
     MatrixXd all(Hlf.rows(), 4 * bake.Hrlf.cols());
     all.leftCols(bake.Hrlf.cols()) = unit_frobenius(bake.Hrlf);
@@ -345,7 +363,16 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
     bake.Rb_rlf[std::size_t(b.shape)][std::size_t(b.face)] = coefficients.middleRows(0, coefficients.rows()).middleCols(b.first_col, b.cols);
   stage("R operators");
 
-  bake.G = response_to_lightfield(bake.Hrlf, res, settings);
+  {
+    // Frlf has the dead end's mirror symmetry (x -> 1 - x, the entry lightfield mirrored);
+    // its Monte Carlo estimate only approximately, so average the two.
+    const MatrixXd G = response_to_lightfield(bake.Hrlf, res, settings);
+    const MatrixXd G_mirrored = response_to_lightfield(mirror_lightfield(g, bake.Hrlf), res, settings);
+    const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), res);
+    const std::vector<int> perm = sample_permutation(dead_end, BlockSymmetry{true, 0});
+    bake.G.resize(G.rows(), G.cols());
+    for (Eigen::Index r = 0; r < G.rows(); ++r) bake.G.row(r) = 0.5 * (G.row(r) + G_mirrored.row(perm[std::size_t(r)]));
+  }
   Eigen::BDCSVD<MatrixXd> svd(bake.G, Eigen::ComputeThinU | Eigen::ComputeThinV);
   bake.sigma_G = svd.singularValues();
   const Eigen::Index kr = std::min<Eigen::Index>(settings.kr, bake.sigma_G.size());

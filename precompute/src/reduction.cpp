@@ -6,12 +6,22 @@
 
 namespace modrt::precompute {
 
+Eigen::Index cluster_safe_rank(const VectorXd& sigma, Eigen::Index k) {
+  Eigen::Index keep = std::min<Eigen::Index>(k, sigma.size());
+  if (keep == 0) return 0;
+  const double floor = 1e-13 * sigma(0);
+  while (keep > 0 && !(sigma(keep - 1) > floor)) --keep;
+  // Never cut through a cluster of (numerically) equal singular values: its subspace is
+  // invariant under the shape's symmetries, any part of it is not.
+  const double tie = 1e-9 * sigma(0);
+  while (keep > 0 && keep < sigma.size() && sigma(keep - 1) - sigma(keep) <= tie) --keep;
+  return keep;
+}
+
 LightPrior truncated_left_svd(const MatrixXd& columns, int k) {
   Eigen::BDCSVD<MatrixXd> svd(columns, Eigen::ComputeThinU);
   const VectorXd& sigma = svd.singularValues();
-  Eigen::Index keep = std::min<Eigen::Index>(k, sigma.size());
-  const double floor = sigma.size() > 0 ? 1e-13 * sigma(0) : 0.0;
-  while (keep > 0 && !(sigma(keep - 1) > floor)) --keep;
+  const Eigen::Index keep = cluster_safe_rank(sigma, k);
   return {svd.matrixU().leftCols(keep), sigma.head(keep)};
 }
 
@@ -20,7 +30,7 @@ ReducedTransfer reduce_transfer(const RowMatrixXd& F, const LightPrior& prior, i
   const MatrixXd M = F * PS;
   Eigen::BDCSVD<MatrixXd> svd(M, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const VectorXd& sigma = svd.singularValues();
-  const Eigen::Index k = std::min<Eigen::Index>(kb, sigma.size());
+  const Eigen::Index k = cluster_safe_rank(sigma, kb);
 
   ReducedTransfer out;
   out.sigma_M = sigma;

@@ -90,13 +90,19 @@ glm::dvec3 uniform_sphere(const glm::dvec2& s) {
 }
 
 void sphere_surface_points(const glm::dvec3& c, double r, int count, std::vector<glm::dvec3>& out) {
+  // Latitude rings about +Y with a multiple of 4 longitudes starting at +X: the set is
+  // invariant under quarter turns about Y and under the X and Z mirrors, so light
+  // patterns keep the symmetries of the block (see symmetry.h).
   out.clear();
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < count; ++k) {
-    const double z = 1.0 - 2.0 * (k + 0.5) / count;
-    const double rr = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const double phi = golden * k;
-    out.push_back(c + r * glm::dvec3(rr * std::cos(phi), rr * std::sin(phi), z));
+  const int rings = std::max(1, int(std::lround(std::sqrt(count / 4.0))));
+  const int longitudes = 4 * std::max(1, int(std::lround(count / (4.0 * rings))));
+  for (int i = 0; i < rings; ++i) {
+    const double y = 1.0 - 2.0 * (i + 0.5) / rings;
+    const double ring = std::sqrt(std::max(0.0, 1.0 - y * y));
+    for (int k = 0; k < longitudes; ++k) {
+      const double phi = 2.0 * std::numbers::pi * k / longitudes;
+      out.push_back(c + r * glm::dvec3(ring * std::cos(phi), y, ring * std::sin(phi)));
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include "modrt/precompute/sampling.h"
+#include "modrt/precompute/symmetry.h"
 
 namespace modrt::precompute {
 
@@ -33,6 +34,24 @@ RowMatrixXd gather_transport(const BlockScene& scene, const SampleLayout& layout
     }
   });
   return F;
+}
+
+void symmetrize_transport(RowMatrixXd& F, const SampleLayout& layout) {
+  const std::vector<BlockSymmetry> group = shape_symmetries(layout.mask);
+  if (group.size() <= 1) return;
+  std::vector<std::vector<int>> perms;
+  for (const BlockSymmetry& g : group) perms.push_back(sample_permutation(layout, g));
+  const Eigen::Index n = F.rows();
+  RowMatrixXd sum = RowMatrixXd::Zero(n, n);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 16), [&](const tbb::blocked_range<Eigen::Index>& range) {
+    for (Eigen::Index s = range.begin(); s != range.end(); ++s)
+      for (const std::vector<int>& p : perms) {
+        const double* src = F.row(p[std::size_t(s)]).data();
+        double* dst = sum.row(s).data();
+        for (Eigen::Index t = 0; t < n; ++t) dst[t] += src[p[std::size_t(t)]];
+      }
+  });
+  F = sum / double(group.size());
 }
 
 }  // namespace modrt::precompute

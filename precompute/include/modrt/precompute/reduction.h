@@ -24,8 +24,11 @@ struct ReducedTransfer {
   VectorXd sigma_M; // all singular values of M
 };
 
-// Left singular vectors and values of `columns`, truncated to k (fewer if the matrix has
-// fewer columns); values below 1e-13 * sigma_0 are dropped as numerically zero.
+// Number of leading modes to keep: at most k, without numerically zero values (below
+// 1e-13 sigma_0), and never splitting a cluster of equal values (gap <= 1e-9 sigma_0).
+Eigen::Index cluster_safe_rank(const VectorXd& sigma, Eigen::Index k);
+
+// Left singular vectors and values of `columns`, truncated to cluster_safe_rank(k).
 LightPrior truncated_left_svd(const MatrixXd& columns, int k);
 
 ReducedTransfer reduce_transfer(const RowMatrixXd& F, const LightPrior& prior, int kb);

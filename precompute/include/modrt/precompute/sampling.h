@@ -42,7 +42,9 @@ inline glm::dvec3 to_world(const glm::dvec3& local, const glm::dvec3& t, const g
   return local.x * t + local.y * b + local.z * n;
 }
 
-// `count` points on the sphere of radius r around c, spread evenly (Fibonacci lattice).
+// About `count` points on the sphere of radius r around c: latitude rings about +Y with a
+// multiple of 4 longitudes (the count is rounded to such a set), symmetric under quarter
+// turns about Y and the X/Z mirrors.
 void sphere_surface_points(const glm::dvec3& c, double r, int count, std::vector<glm::dvec3>& out);
 
 }  // namespace modrt::precompute
