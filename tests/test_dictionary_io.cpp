@@ -86,6 +86,7 @@ Dictionary make_dictionary(bool interfaces = true) {
     d.interfaces.R_right = random_matrix(rng, krlf, krlf);
     d.interfaces.Trlf_r = random_matrix(rng, kr, krlf);
     d.interfaces.Ur = random_matrix(rng, std::uint32_t(face_count(dictionary_shape_mask(1))) * 4, kr);
+    d.interfaces.Urvol = random_matrix(rng, 9 * g * g * g, kr);
   }
   return d;
 }
@@ -108,6 +109,7 @@ std::vector<std::pair<std::string, const Matrix*>> all_matrices(const Dictionary
   out.push_back({"R_right", &d.interfaces.R_right});
   out.push_back({"Trlf_r", &d.interfaces.Trlf_r});
   out.push_back({"Ur", &d.interfaces.Ur});
+  out.push_back({"Urvol", &d.interfaces.Urvol});
   return out;
 }
 
@@ -400,7 +402,7 @@ TEST(DictionaryIo, RowsTimesColsOverflowing32Bits) {
 
 TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   const std::vector<std::byte> good = serialized(make_dictionary());
-  for (std::uint32_t kind : {7u, 22u, 99u, 0u}) {
+  for (std::uint32_t kind : {7u, 23u, 99u, 0u}) {
     std::vector<std::byte> bytes = good;
     wr32(bytes, entry_at(3), kind);
     reseal(bytes);

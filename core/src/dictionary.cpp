@@ -150,6 +150,7 @@ Status validate_dictionary(const Dictionary& dict, const std::string& what) {
       {"R_right", &io.R_right, st.krlf, st.krlf},
       {"Trlf_r", &io.Trlf_r, st.kr, st.krlf},
       {"Ur", &io.Ur, std::uint64_t(face_count(dictionary_shape_mask(1))) * st.res * st.res, st.kr},
+      {"Urvol", &io.Urvol, 9ull * st.probe_grid * st.probe_grid * st.probe_grid, st.kr},
   };
   for (const auto& e : interface_matrices) {
     if (!with_interfaces) {

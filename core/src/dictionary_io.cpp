@@ -40,7 +40,7 @@ std::uint64_t get_u64(std::span<const std::byte> b, std::size_t at) {
 
 // --- section kinds ---
 
-bool is_interface_kind(std::uint32_t kind) { return kind >= 17 && kind <= 21; }
+bool is_interface_kind(std::uint32_t kind) { return kind >= 17 && kind <= 22; }
 bool is_shape_kind(std::uint32_t kind) { return (kind >= 1 && kind <= 6) || kind == 16; }
 
 bool is_missing_side_face(int shape, int face) {
@@ -88,6 +88,7 @@ Dims expected_dims(const DictionarySettings& s, std::uint32_t kind, std::uint32_
     case DictionarySectionKind::R_right: return {s.krlf, s.krlf};
     case DictionarySectionKind::Trlf_r: return {s.kr, s.krlf};
     case DictionarySectionKind::Ur: return {shape_samples(s, 1), s.kr};
+    case DictionarySectionKind::Urvol: return {9 * g * g * g, s.kr};
   }
   return {0, 0};
 }
@@ -125,6 +126,7 @@ std::vector<PlannedSection> plan_sections(const Dictionary& dict, bool float16) 
     add(DictionarySectionKind::R_right, kNoShape, 0, io.R_right);
     add(DictionarySectionKind::Trlf_r, kNoShape, 0, io.Trlf_r);
     add(DictionarySectionKind::Ur, kNoShape, 0, io.Ur);
+    add(DictionarySectionKind::Urvol, kNoShape, 0, io.Urvol);
   }
   return plan;
 }
@@ -432,6 +434,7 @@ const char* dictionary_section_name(std::uint32_t kind) {
     case 19: return "R_right";
     case 20: return "Trlf_r";
     case 21: return "Ur";
+    case 22: return "Urvol";
     default: return nullptr;
   }
 }
@@ -515,7 +518,7 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
       const std::pair<DictionarySectionKind, Matrix*> matrices[] = {
           {DictionarySectionKind::R_straight, &io.R_straight}, {DictionarySectionKind::R_left, &io.R_left},
           {DictionarySectionKind::R_right, &io.R_right},       {DictionarySectionKind::Trlf_r, &io.Trlf_r},
-          {DictionarySectionKind::Ur, &io.Ur},
+          {DictionarySectionKind::Ur, &io.Ur},                 {DictionarySectionKind::Urvol, &io.Urvol},
       };
       for (const auto& [kind, target] : matrices) {
         Result<Entry> e = require(kind, kNoShape, 0);

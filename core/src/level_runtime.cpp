@@ -153,12 +153,15 @@ void level_fill_atlas(const Level& level, std::span<const float> lightmap, std::
 }
 
 void level_compute_probes(const Level& level, const Dictionary& dict, std::span<const float> b,
-                          std::span<float> probes) {
-  std::size_t offset = 0;
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const Matrix& U = dict.shapes[std::size_t(level.blocks[i].shape)].Ubvol;
-    gemv_rgb(U, b.data() + 3 * std::size_t(level.kb) * i, probes.data() + offset, false);
-    offset += 3 * std::size_t(U.rows);
+                          std::span<const float> r, std::span<float> probes) {
+  const std::size_t per_block = 3 * std::size_t(dict.shapes[0].Ubvol.rows);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    gemv_rgb(dict.shapes[std::size_t(level.blocks[i].shape)].Ubvol, b.data() + 3 * std::size_t(level.kb) * i,
+             probes.data() + per_block * i, false);
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    gemv_rgb(level.probe_response[std::size_t(slot.entry_face)], r.data() + 3 * std::size_t(level.kr) * s,
+             probes.data() + per_block * slot.block, true);
   }
 }
 

@@ -54,6 +54,8 @@ InterfaceSettings interface_settings(const DictionarySettings& s) {
   is.kr = int(s.kr);
   is.enrichment_iterations = int(s.interface_enrichment_iterations);
   is.response_rays = int(s.response_rays);
+  is.probe_grid = int(s.probe_grid);
+  is.probe_rays = int(s.sh_rays);
   is.seed = s.seed ^ 0x1f1f1f1full;
   return is;
 }
@@ -138,6 +140,7 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
       dict.interfaces.R_right = to_float(ib.R[2]);
       dict.interfaces.Trlf_r = to_float(ib.Trlf_r);
       dict.interfaces.Ur = to_float(ib.Ur);
+      dict.interfaces.Urvol = to_float(ib.Urvol);
     }
     if (Status v = validate_dictionary(dict, "baked dictionary"); !v.ok()) return v;
     return dict;

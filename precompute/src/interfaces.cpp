@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -16,6 +17,8 @@
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/reduction.h"
 #include "modrt/precompute/sampling.h"
+#include "modrt/precompute/sh_operators.h"
+#include "modrt/sh.h"
 #include "modrt/precompute/symmetry.h"
 
 namespace modrt::precompute {
@@ -295,6 +298,41 @@ MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSett
   return out;
 }
 
+MatrixXd probe_response_to_lightfield(const MatrixXd& in, const InterfaceSettings& s) {
+  const Grid g(s);
+  const BlockScene scene(dictionary_shape_mask(1));
+  const LightfieldFrame in_frame = entry_frame(kCanonicalEntryFace);
+  const FaceFrame& entry_face = face_frame(kCanonicalEntryFace);
+  const int probes = s.probe_grid * s.probe_grid * s.probe_grid;
+  MatrixXd out = MatrixXd::Zero(9 * Eigen::Index(probes), in.cols());
+  tbb::parallel_for(tbb::blocked_range<int>(0, probes), [&](const tbb::blocked_range<int>& range) {
+    std::vector<glm::dvec2> strata;
+    Eigen::Matrix<double, 9, Eigen::Dynamic> acc(9, in.cols());
+    Eigen::RowVectorXd radiance(in.cols());
+    for (int p = range.begin(); p != range.end(); ++p) {
+      Rng rng(s.seed ^ 0x9e37ull, std::uint64_t(p));
+      stratified_square(s.probe_rays, rng, strata);
+      const glm::dvec3 x = probe_position(p, s.probe_grid);
+      acc.setZero();
+      for (const glm::dvec2& u : strata) {
+        const glm::dvec3 d = uniform_sphere(u);
+        if (scene.intersect(x, d).face >= 0) continue;
+        const double along = -glm::dot(d, entry_face.normal);
+        if (along <= 1e-12) continue;
+        const glm::dvec3 q = x + (glm::dot(x - entry_face.origin, entry_face.normal) / along) * d;
+        const Taps taps = lookup(g, in_frame, q, -d);
+        radiance.setZero();
+        for (int t = 0; t < taps.count; ++t) radiance += taps.weight[t] * in.row(taps.index[t]);
+        double y[9];
+        sh9_eval(d, y);
+        acc.noalias() += Eigen::Map<const Eigen::Matrix<double, 9, 1>>(y) * radiance;
+      }
+      out.middleRows(9 * Eigen::Index(p), 9) = acc * (4.0 * std::numbers::pi / s.probe_rays);
+    }
+  });
+  return out;
+}
+
 InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceSettings& settings,
                               const std::function<void(const std::string&, double)>& on_stage) {
   auto start = std::chrono::steady_clock::now();
@@ -380,6 +418,13 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
   bake.Trlf_r = MatrixXd::Zero(settings.kr, bake.G.cols());
   bake.Ur.leftCols(kr) = svd.matrixU().leftCols(kr);
   bake.Trlf_r.topRows(kr) = bake.sigma_G.head(kr).asDiagonal() * svd.matrixV().leftCols(kr).transpose();
+  // Probes: r = Sg~ Vg~^T c, so the probe response to c restricted to span(Vg~) is
+  // Gvol Vg~ Sg~^-1 r (MRT §6.5 "likewise for interface response").
+  const MatrixXd Gvol = probe_response_to_lightfield(bake.Hrlf, settings);
+  bake.Urvol = MatrixXd::Zero(Gvol.rows(), settings.kr);
+  for (Eigen::Index i = 0; i < kr; ++i)
+    if (bake.sigma_G(i) > 1e-12 * bake.sigma_G(0))
+      bake.Urvol.col(i) = Gvol * svd.matrixV().col(i) / bake.sigma_G(i);
   stage("response G, Ur, Trlf_r");
   return bake;
 }

@@ -5,10 +5,13 @@
 #include <map>
 #include <string>
 
+#include <Eigen/QR>
 #include <glm/geometric.hpp>
 
 #include "modrt/precompute/interfaces.h"
 #include "modrt/precompute/linalg.h"
+#include "modrt/precompute/sh_operators.h"
+#include "modrt/sh.h"
 
 namespace modrt::precompute {
 namespace {
@@ -128,6 +131,44 @@ void build_atlas(Level& level) {
         }
     }
   }
+}
+
+// 9x9 matrix D with coefficients of f(R^-1 w) = D * coefficients of f(w), R = `turns`
+// quarter turns about +Y; solved exactly (band-limited) by least squares on 64 directions.
+MatrixXd sh9_quarter_turn_matrix(int turns) {
+  constexpr int kDirections = 64;
+  MatrixXd A(kDirections, 9), B(kDirections, 9);
+  for (int n = 0; n < kDirections; ++n) {
+    const double z = 1.0 - 2.0 * (n + 0.5) / kDirections, phi = 2.399963229728653 * n;  // golden angle
+    const double rr = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const glm::dvec3 w(rr * std::cos(phi), rr * std::sin(phi), z);
+    double y[9], yr[9];
+    sh9_eval(w, y);
+    sh9_eval(rotate_direction(w, -turns), yr);
+    for (int i = 0; i < 9; ++i) {
+      A(n, i) = y[i];
+      B(n, i) = yr[i];
+    }
+  }
+  return A.colPivHouseholderQr().solve(B);  // column j: g_j = y_j o R^-1 in the y_i basis
+}
+
+// Urvol (canonical entry -Z) turned so light enters through side face `face`.
+Matrix turned_probe_response(const Matrix& Urvol, int grid, int face) {
+  const int turns = turns_to_face(face);
+  const MatrixXd D = sh9_quarter_turn_matrix(turns);
+  const MatrixXd U = to_eigen(Urvol);
+  MatrixXd out = MatrixXd::Zero(U.rows(), U.cols());
+  const int probes = grid * grid * grid;
+  for (int p = 0; p < probes; ++p) {
+    const glm::dvec3 q = rotate_point(probe_position(p, grid), turns);
+    const int ix = std::clamp(int(std::floor(q.x * grid)), 0, grid - 1);
+    const int iy = std::clamp(int(std::floor(q.y * grid)), 0, grid - 1);
+    const int iz = std::clamp(int(std::floor(q.z * grid)), 0, grid - 1);
+    const int p2 = (iz * grid + iy) * grid + ix;
+    out.middleRows(9 * Eigen::Index(p2), 9) = D * U.middleRows(9 * Eigen::Index(p), 9);
+  }
+  return to_float(out);
 }
 
 }  // namespace
@@ -271,6 +312,10 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
       level.records.push_back({std::uint32_t(src), std::uint32_t(slot), to_float(Trlf_r * A)});
   }
   build_atlas(level);
+  if (!dict.interfaces.Urvol.empty())
+    for (int f : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ})
+      level.probe_response[std::size_t(f)] =
+          turned_probe_response(dict.interfaces.Urvol, int(dict.settings.probe_grid), f);
   std::stable_sort(level.records.begin(), level.records.end(),
                    [](const ResponseRecord& a, const ResponseRecord& b) { return a.slot < b.slot; });
   return level;

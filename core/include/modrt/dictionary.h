@@ -85,6 +85,7 @@ struct InterfaceOperators {
   Matrix R_right;     // krlf x krlf: entering -Z -> leaving -X
   Matrix Trlf_r;      // kr x krlf: reduced lightfield -> response coefficients r
   Matrix Ur;          // n(dead end) x kr: E_ind/pi on the dead-end shape's samples per r mode
+  Matrix Urvol;       // 9 g^3 x kr: radiance SH9 at the dead end's volume probes per r mode
 
   bool empty() const { return Ur.empty(); }
 };

@@ -56,16 +56,16 @@
 // sigma_M is stored as one row (rows = 1, cols = its length, possibly 0). The writer
 // places the payloads contiguously after the table in table order (shape 0..5: Ub, Td_b,
 // Limp, Ub_vec, Ubvol, sigma_M, Rb_rlf per missing side face in ascending face order; then
-// R_straight, R_left, R_right, Trlf_r, Ur); readers must locate sections only through the
+// R_straight, R_left, R_right, Trlf_r, Ur, Urvol); readers must locate sections only through the
 // table. Payloads lie after the table, inside the file.
 //
 // Required sections: every per-shape kind 1..6 for each of the 6 shapes; when
 // settings.lightfield_spatial > 0 also Rb_rlf for every missing side face of every shape
-// and the five interface operators (kinds 17..21); when it is 0, no interface sections.
+// and the six interface operators (kinds 17..22); when it is 0, no interface sections.
 // Matrix sizes are implied by the settings (dictionary.h, validate_dictionary), with
 // n = face_count(shape mask) * res^2: Ub n x kb, Td_b kb x n, Limp n x kb, Ub_vec 4n x kb,
 // Ubvol 9 g^3 x kb (g = probe_grid), sigma_M 1 x (<= n), Rb_rlf krlf x kb,
-// R_* krlf x krlf, Trlf_r kr x krlf, Ur n(dead end) x kr.
+// R_* krlf x krlf, Trlf_r kr x krlf, Ur n(dead end) x kr, Urvol 9 g^3 x kr.
 //
 // Float16 (DictionaryWriteOptions::float16) stores every matrix as binary16 except
 // sigma_M, which is always float32. A value outside the float16 range is a save error,
@@ -104,7 +104,7 @@ inline constexpr std::uint32_t kNoShape = 0xFFFFFFFFu;
 inline constexpr std::uint64_t kMaxDictionaryFileBytes = std::uint64_t(2) << 30;  // 2 GiB
 
 // Section kinds. 1..15 are per-shape operators (7..15 reserved); 16..31 interface
-// operators (MRT §5; 22..31 reserved, e.g. Hrlf). A kind this build does not know is
+// operators (MRT §5; 23..31 reserved, e.g. Hrlf). A kind this build does not know is
 // an error ("unknown section kind K"): new kinds come with a new format version.
 enum class DictionarySectionKind : std::uint32_t {
   Ub = 1,
@@ -119,6 +119,7 @@ enum class DictionarySectionKind : std::uint32_t {
   R_right = 19,
   Trlf_r = 20,
   Ur = 21,
+  Urvol = 22,       // probe response, 9 g^3 x kr
 };
 // "Ub", "Rb_rlf", ...; nullptr for an unknown kind.
 const char* dictionary_section_name(std::uint32_t kind);

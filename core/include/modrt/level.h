@@ -65,6 +65,9 @@ struct Level {
   std::uint32_t sample_count = 0;
   std::vector<ResponseSlot> slots;
   std::vector<ResponseRecord> records;  // sorted by slot
+  // Urvol turned so that light enters through canonical side face e (probe positions
+  // permuted, SH9 rotated): 9 g^3 x kr per side face, empty for floor and ceiling.
+  std::array<Matrix, kFaceCount> probe_response;
   LightmapAtlas atlas;
 };
 

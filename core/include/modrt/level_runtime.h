@@ -43,8 +43,9 @@ Result<MultiBounceReport> level_multi_bounce(const Level& level, const Dictionar
 // the padding from the records. Texels not covered by any tile are zero.
 void level_fill_atlas(const Level& level, std::span<const float> lightmap, std::span<float> atlas);
 
-// Step 8: volume probes (radiance SH9, 9 g^3 per block, canonical block frame) from b.
+// Step 8: volume probes (radiance SH9, 9 g^3 per block, canonical block frame): Ubvol b
+// for light from the block itself plus the probe response to every slot's r.
 void level_compute_probes(const Level& level, const Dictionary& dict, std::span<const float> b,
-                          std::span<float> probes);
+                          std::span<const float> r, std::span<float> probes);
 
 }  // namespace modrt

@@ -33,6 +33,8 @@ struct InterfaceSettings {
   int kr = 32;               // response modes (columns of Ur)
   int enrichment_iterations = 3;
   int response_rays = 4096;  // gather rays per sample for G = Frlf Hrlf
+  int probe_grid = 4;        // g: volume probes per axis of the receiving cell
+  int probe_rays = 1024;     // sphere rays per probe
   std::uint64_t seed = 0x1f1f;
 };
 
@@ -64,6 +66,7 @@ struct InterfaceBake {
   MatrixXd G;                                    // n(dead end) x krlf response to Hrlf
   MatrixXd Ur;                                   // n(dead end) x kr
   MatrixXd Trlf_r;                               // kr x krlf
+  MatrixXd Urvol;                                // 9 g^3 x kr probe response (SH9 radiance)
   VectorXd sigma_lf;                             // singular values of the raw Hlf
   VectorXd sigma_G;
 };
@@ -82,5 +85,8 @@ SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s
 MatrixXd propagate_lightfield(const MatrixXd& in, Propagation dir, const InterfaceSettings& s);
 // Frlf * in: E/pi at the samples of the dead-end shape lit by lightfields entering through -Z.
 MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);
+// Radiance SH9 at the dead end's g^3 volume probes (sh_operators.h layout) lit by
+// lightfields entering through -Z: 9 g^3 x in.cols().
+MatrixXd probe_response_to_lightfield(const MatrixXd& in, const InterfaceSettings& s);
 
 }  // namespace modrt::precompute
