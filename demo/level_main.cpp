@@ -1,0 +1,182 @@
+// modrt-level: relights a whole level with the scalar reference runtime (MRT §7.3) and
+// writes a top-down map of the floor (indirect light, and direct + indirect) plus the
+// padded lightmap atlas. Levels come from JSON (docs/level-format.md) or a preset.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include "image_output.h"
+#include "modrt/dictionary_io.h"
+#include "modrt/level_runtime.h"
+#include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/level_json.h"
+#include "modrt/precompute/level_scene.h"
+#include "modrt/precompute/maze.h"
+
+namespace {
+
+using namespace modrt;
+
+Result<LevelDescription> load_level(const std::string& name) {
+  if (name == "corridor") return precompute::corridor_level();
+  if (name == "l_corner") return precompute::l_corner_level();
+  if (name.rfind("maze", 0) == 0 && name.find('.') == std::string::npos) {
+    try {
+      return precompute::maze_level(std::stoi(name.substr(4)));
+    } catch (const std::exception&) {
+      return Status::error(ErrorCode::invalid_argument, "--level " + name + ": expected mazeN, e.g. maze41");
+    }
+  }
+  return precompute::load_level_json(name);
+}
+
+float exposure_for(const std::vector<float>& rgb) {
+  std::vector<float> v(rgb);
+  std::sort(v.begin(), v.end());
+  const float p = v.empty() ? 1.0f : v[std::min(v.size() - 1, v.size() * 98 / 100)];
+  return p > 0.0f ? 0.85f / p : 1.0f;
+}
+
+// Floor of every block seen from above (x right, z down), `ppc` pixels per cell.
+std::vector<float> floor_map(const Level& level, const std::vector<float>& signal, int ppc, int& w, int& h) {
+  glm::ivec3 lo(1 << 30), hi(-(1 << 30));
+  std::map<std::pair<int, int>, std::size_t> at;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    lo = glm::min(lo, level.blocks[i].cell);
+    hi = glm::max(hi, level.blocks[i].cell);
+    at[{level.blocks[i].cell.x, level.blocks[i].cell.z}] = i;
+  }
+  w = (hi.x - lo.x + 1) * ppc;
+  h = (hi.z - lo.z + 1) * ppc;
+  std::vector<float> img(3 * std::size_t(w) * std::size_t(h), 0.0f);
+  const int res = level.res;
+  for (int py = 0; py < h; ++py)
+    for (int px = 0; px < w; ++px) {
+      const double wx = lo.x + (px + 0.5) / ppc, wz = lo.z + (py + 0.5) / ppc;
+      auto it = at.find({int(std::floor(wx)), int(std::floor(wz))});
+      if (it == at.end()) continue;
+      const LevelBlock& b = level.blocks[it->second];
+      const glm::dvec3 local = rotate_point(glm::dvec3(wx, b.cell.y, wz) - glm::dvec3(b.cell), -b.quarter_turns);
+      const FaceFrame& fr = face_frame(kFaceNegY);
+      const double u = glm::dot(local - fr.origin, fr.u_axis) * res - 0.5;
+      const double v = glm::dot(local - fr.origin, fr.v_axis) * res - 0.5;
+      const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), res);
+      const int x0 = int(std::floor(u)), y0 = int(std::floor(v));
+      const double ax = u - x0, ay = v - y0;
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0.0;
+        for (int bj = 0; bj < 2; ++bj)
+          for (int ai = 0; ai < 2; ++ai) {
+            const int i = std::clamp(x0 + ai, 0, res - 1), j = std::clamp(y0 + bj, 0, res - 1);
+            sum += (ai ? ax : 1 - ax) * (bj ? ay : 1 - ay) *
+                   signal[3 * (b.sample_offset + std::size_t(layout.index(kFaceNegY, i, j))) + std::size_t(c)];
+          }
+        img[3 * (std::size_t(py) * std::size_t(w) + std::size_t(px)) + std::size_t(c)] = float(sum);
+      }
+    }
+  return img;
+}
+
+Status write(const std::string& path, int w, int h, const std::vector<float>& rgb, float exposure) {
+  std::vector<std::uint8_t> px(rgb.size());
+  demo::encode_srgb8(rgb, exposure, px);
+  return demo::write_rgb8_image(path, w, h, px);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"modrt-level: relight a level (MRT scalar reference runtime) and write floor maps and the atlas"};
+  std::string level_name = "maze11", out_dir = "out", dictionary_path, cache_dir = precompute::default_cache_dir();
+  int bounces = 8, dmax = 8;
+  app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
+  app.add_option("--out", out_dir, "output directory");
+  app.add_option("--dictionary", dictionary_path, "dictionary file (default: bake on first use into the cache)");
+  app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
+  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
+  app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")->check(CLI::Range(0, 64));
+  CLI11_PARSE(app, argc, argv);
+
+  Result<LevelDescription> desc = load_level(level_name);
+  if (!desc.ok()) {
+    std::fprintf(stderr, "modrt-level: %s\n", desc.status().to_string().c_str());
+    return 1;
+  }
+  Result<Dictionary> dict =
+      dictionary_path.empty()
+          ? precompute::load_or_bake_dictionary(DictionarySettings{}, cache_dir, {},
+                                                [](const std::string& m) { std::printf("%s\n", m.c_str()); })
+          : load_dictionary(dictionary_path);
+  if (!dict.ok()) {
+    std::fprintf(stderr, "modrt-level: %s\n", dict.status().to_string().c_str());
+    return 1;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  precompute::LevelBuildSettings build_settings;
+  build_settings.dmax = dmax;
+  Result<Level> level = precompute::build_level(desc.value(), dict.value(), build_settings);
+  if (!level.ok()) {
+    std::fprintf(stderr, "modrt-level: %s: %s\n", level_name.c_str(), level.status().to_string().c_str());
+    return 1;
+  }
+  const double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+  std::vector<float> albedo, ld;
+  try {
+    const precompute::LevelScene scene(level.value(), level->res);
+    albedo = precompute::level_albedo(level.value(), desc.value());
+    ld = precompute::level_direct_light(scene, desc->lights, albedo, 16);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "modrt-level: direct light: %s\n", e.what());
+    return 1;
+  }
+  const LevelBufferSizes sizes = level_buffer_sizes(level.value(), dict.value());
+  std::vector<float> b(sizes.b), r(sizes.r), lightmap(sizes.lightmap), atlas(sizes.atlas);
+  const auto t1 = std::chrono::steady_clock::now();
+  if (bounces == 0) {
+    if (Status s = level_evaluate(level.value(), dict.value(), ld, b, r, lightmap); !s.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", s.to_string().c_str());
+      return 1;
+    }
+  } else {
+    MultiBounceSettings mb;
+    mb.max_iterations = bounces;
+    Result<MultiBounceReport> rep = level_multi_bounce(level.value(), dict.value(), ld, albedo, mb, b, r, lightmap);
+    if (!rep.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", rep.status().to_string().c_str());
+      return 1;
+    }
+  }
+  level_fill_atlas(level.value(), lightmap, atlas);
+  const double frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+
+  std::vector<float> shaded(lightmap.size());
+  for (std::size_t i = 0; i < shaded.size(); ++i) shaded[i] = ld[i] + albedo[i] * std::max(lightmap[i], 0.0f);
+  int w = 0, h = 0;
+  const std::vector<float> indirect_map = floor_map(level.value(), lightmap, 64, w, h);
+  const std::vector<float> shaded_map = floor_map(level.value(), shaded, 64, w, h);
+  const std::string base = out_dir + "/" + (level_name.find('/') == std::string::npos ? level_name : "level");
+  for (const auto& [path, status] :
+       {std::pair{base + "_floor_indirect.png", write(base + "_floor_indirect.png", w, h, indirect_map, exposure_for(indirect_map))},
+        std::pair{base + "_floor_shaded.png", write(base + "_floor_shaded.png", w, h, shaded_map, exposure_for(shaded_map))},
+        std::pair{base + "_atlas.png", write(base + "_atlas.png", level->atlas.width, level->atlas.height, atlas, exposure_for(atlas))}}) {
+    if (!status.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", status.to_string().c_str());
+      return 1;
+    }
+    std::printf("wrote %s\n", path.c_str());
+  }
+  std::printf("%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%d bounce iterations) %.1f ms\n",
+              level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms, bounces,
+              frame_ms);
+  return 0;
+}
