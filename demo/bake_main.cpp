@@ -8,6 +8,8 @@
 
 #include "modrt/dictionary_io.h"
 #include "modrt/precompute/bake.h"
+#include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/reduction.h"
 
 namespace {
@@ -21,13 +23,20 @@ void print_energy_table(const DictionarySettings& settings) {
   precompute::ShapeBake bake = precompute::bake_shape(dictionary_shape_mask(0), settings, false);
   const Eigen::BDCSVD<precompute::MatrixXd> svd_F(precompute::MatrixXd(bake.F));
   const Eigen::BDCSVD<precompute::MatrixXd> svd_Ld(bake.Ld);
+  // The prior normalises each light's pattern (docs/precompute.md); the paper's Ld keeps
+  // raw intensities, so print both.
+  const precompute::BlockScene scene(dictionary_shape_mask(0));
+  const Eigen::BDCSVD<precompute::MatrixXd> svd_raw(precompute::light_prior_matrix(
+      scene, bake.layout, int(settings.prior_grid), settings.light_radius, int(settings.light_samples), false));
   const precompute::VectorXd& sF = svd_F.singularValues();
   const precompute::VectorXd& sL = svd_Ld.singularValues();
+  const precompute::VectorXd& sR = svd_raw.singularValues();
   const precompute::VectorXd& sM = bake.raw_transfer.sigma_M;
-  std::printf("  energy   F / Ld / M\n");
+  std::printf("  energy   F / Ld / M   (Ld with raw intensities)\n");
   for (double e : {0.80, 0.90, 0.95})
-    std::printf("  %3.0f%%     %d / %d / %d\n", e * 100, precompute::modes_for_energy(sF, e),
-                precompute::modes_for_energy(sL, e), precompute::modes_for_energy(sM, e));
+    std::printf("  %3.0f%%     %d / %d / %d   (%d)\n", e * 100, precompute::modes_for_energy(sF, e),
+                precompute::modes_for_energy(sL, e), precompute::modes_for_energy(sM, e),
+                precompute::modes_for_energy(sR, e));
 }
 
 }  // namespace
@@ -39,6 +48,7 @@ int main(int argc, char** argv) {
   std::string preset = "default";
   bool float16 = false;
   bool energy_table = false;
+  bool energy_table_only = false;
   app.add_option("-o,--out", out, "output dictionary file (written atomically)");
   app.add_option("--preset", preset, "settings preset: default (res 16, kb 32) or mobile (res 6, kb 12); "
                                      "explicit flags override it")
@@ -50,11 +60,13 @@ int main(int argc, char** argv) {
   app.add_option("--enrich", s.enrichment_iterations, "basis enrichment iterations (MRT appendix A)");
   app.add_option("--prior-grid", s.prior_grid, "sphere lights per axis in the prior (grid^3 per cell)");
   app.add_option("--light-samples", s.light_samples, "shadow-ray points per prior sphere light");
+  app.add_option("--light-radius", s.light_radius, "radius of the prior's sphere lights (block units)");
   app.add_option("--probe-grid", s.probe_grid, "volume probes per block axis (g^3)");
   app.add_option("--sh-rays", s.sh_rays, "rays per sample/probe for SH projections");
   app.add_option("--seed", s.seed, "sampling seed");
   app.add_flag("--float16", float16, "store operators as float16");
   app.add_flag("--energy-table", energy_table, "also print the singular-value energy table (MRT Table 2)");
+  app.add_flag("--energy-table-only", energy_table_only, "print the energy table and exit without baking");
   CLI11_PARSE(app, argc, argv);
   if (preset == "mobile") {
     if (res->count() == 0) s.res = 6;
@@ -64,6 +76,15 @@ int main(int argc, char** argv) {
   if (Status v = validate_settings(s); !v.ok()) {
     std::fprintf(stderr, "modrt-bake: %s\n", v.to_string().c_str());
     return 2;
+  }
+  if (energy_table_only) {
+    try {
+      print_energy_table(s);
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "modrt-bake: energy table: %s\n", e.what());
+      return 1;
+    }
   }
   std::printf("baking: res %u, kd %u, kb %u, %u rays, %u enrichment pass(es), probes %u^3, %u SH rays\n", s.res, s.kd,
               s.kb, s.rays, s.enrichment_iterations, s.probe_grid, s.sh_rays);

@@ -60,7 +60,7 @@ std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid) {
 }
 
 MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid, double radius,
-                            int samples) {
+                            int samples, bool normalise) {
   const std::vector<glm::dvec3> positions = prior_light_positions(layout.mask, grid);
   const int n = layout.sample_count();
   MatrixXd Ld(n, Eigen::Index(positions.size()));
@@ -71,7 +71,7 @@ MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout,
     Eigen::Map<const VectorXd> col(column.data(), n);
     const double norm = col.norm();
     if (!(norm > 1e-12)) continue;
-    Ld.col(kept++) = col / norm;
+    Ld.col(kept++) = normalise ? VectorXd(col / norm) : VectorXd(col);
   }
   Ld.conservativeResize(Eigen::NoChange, kept);
   return Ld;

@@ -35,7 +35,8 @@ std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid);
 
 // Ld (n x m): one column per prior light, each normalised to unit L2 norm so that lights
 // near walls do not dominate the prior's SVD (all-zero columns are dropped).
+// normalise = false keeps raw intensities (for comparison with MRT Table 2 only).
 MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid,
-                            double radius, int samples);
+                            double radius, int samples, bool normalise = true);
 
 }  // namespace modrt::precompute
