@@ -8,8 +8,13 @@
 namespace modrt {
 namespace {
 
-// out[3r + c] = sum_k A(r, k) * in[3k + c], accumulated in double.
 void apply_rgb(const Matrix& A, std::span<const float> in, std::span<float> out) {
+  reference_gemv_rgb(A, in.data(), out.data(), false);
+}
+
+}  // namespace
+
+void reference_gemv_rgb(const Matrix& A, const float* in, float* out, bool accumulate) {
   for (std::uint32_t r = 0; r < A.rows; ++r) {
     const float* row = A.data.data() + std::size_t(r) * A.cols;
     double acc[3] = {0.0, 0.0, 0.0};
@@ -19,11 +24,54 @@ void apply_rgb(const Matrix& A, std::span<const float> in, std::span<float> out)
       acc[1] += a * in[3 * k + 1];
       acc[2] += a * in[3 * k + 2];
     }
-    for (int c = 0; c < 3; ++c) out[3 * r + c] = float(acc[c]);
+    for (int c = 0; c < 3; ++c) out[3 * r + c] = float((accumulate ? double(out[3 * r + c]) : 0.0) + acc[c]);
   }
 }
 
-}  // namespace
+Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::span<const float> albedo,
+                                       std::size_t samples, const MultiBounceSettings& settings) {
+  if (Status s = validate_light_signal(ld_direct, samples, "ld_direct"); !s.ok()) return s;
+  if (Status s = validate_light_signal(albedo, samples, "albedo"); !s.ok()) return s;
+  if (!(settings.max_albedo >= 0.0f && settings.max_albedo < 1.0f) || settings.max_iterations < 1)
+    return Status::error(ErrorCode::invalid_argument,
+                         "multi-bounce: settings.max_albedo must be in [0, 1) and max_iterations >= 1");
+  FeedbackClamp clamp;
+  clamp.rho.assign(albedo.begin(), albedo.end());
+  float rho_max = 0.0f;
+  for (float& r : clamp.rho) {
+    if (r > settings.max_albedo) {
+      r = settings.max_albedo;
+      clamp.albedo_clamped = true;
+    }
+    rho_max = std::max(rho_max, r);
+  }
+  const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
+  clamp.energy_bound = ld_max / (1.0f - rho_max);
+  return clamp;
+}
+
+bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct, std::span<const float> lightmap,
+                    std::span<float> ld) {
+  bool clamped = false;
+  for (std::size_t i = 0; i < ld.size(); ++i) {
+    float l = std::max(lightmap[i], 0.0f);
+    if (l > clamp.energy_bound) {
+      l = clamp.energy_bound;
+      clamped = true;
+    }
+    ld[i] = ld_direct[i] + clamp.rho[i] * l;
+  }
+  return clamped;
+}
+
+bool feedback_converged(std::span<const float> b, std::span<const float> b_prev, float tolerance) {
+  float delta = 0.0f, scale = 0.0f;
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    delta = std::max(delta, std::abs(b[k] - b_prev[k]));
+    scale = std::max(scale, std::abs(b[k]));
+  }
+  return delta <= tolerance * scale;
+}
 
 Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what) {
   if (rgb.size() != 3 * samples)
@@ -69,49 +117,23 @@ Result<MultiBounceReport> multi_bounce(const ShapeOperators& op, std::span<const
                                        std::span<const float> albedo, const MultiBounceSettings& settings,
                                        std::span<float> b, std::span<float> lightmap) {
   const std::size_t n = op.sample_count();
-  if (Status s = validate_light_signal(ld_direct, n, "ld_direct"); !s.ok()) return s;
-  if (Status s = validate_light_signal(albedo, n, "albedo"); !s.ok()) return s;
+  Result<FeedbackClamp> clamp = prepare_feedback(ld_direct, albedo, n, settings);
+  if (!clamp.ok()) return clamp.status();
   if (lightmap.size() != 3 * n || b.size() != 3 * std::size_t(op.kb()))
     return Status::error(ErrorCode::invalid_argument, "multi_bounce: output spans have the wrong size");
-  if (!(settings.max_albedo >= 0.0f && settings.max_albedo < 1.0f) || settings.max_iterations < 1)
-    return Status::error(ErrorCode::invalid_argument,
-                         "multi_bounce: settings.max_albedo must be in [0, 1) and max_iterations >= 1");
-
   MultiBounceReport report;
-  std::vector<float> rho(albedo.begin(), albedo.end());
-  float rho_max = 0.0f;
-  for (float& r : rho) {
-    if (r > settings.max_albedo) {
-      r = settings.max_albedo;
-      report.albedo_clamped = true;
-    }
-    rho_max = std::max(rho_max, r);
-  }
-  const float ld_max = *std::max_element(ld_direct.begin(), ld_direct.end());
-  report.energy_bound = ld_max / (1.0f - rho_max);
-
+  report.albedo_clamped = clamp->albedo_clamped;
+  report.energy_bound = clamp->energy_bound;
   std::vector<float> ld(ld_direct.begin(), ld_direct.end());
   std::vector<float> b_prev(b.size(), 0.0f);
   apply_rgb(op.Td_b, ld, b);
   for (int it = 1; it <= settings.max_iterations; ++it) {
     apply_rgb(op.Ub, b, lightmap);
-    for (std::size_t i = 0; i < ld.size(); ++i) {
-      float l = std::max(lightmap[i], 0.0f);
-      if (l > report.energy_bound) {
-        l = report.energy_bound;
-        report.value_clamped = true;
-      }
-      ld[i] = ld_direct[i] + rho[i] * l;
-    }
+    report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
     std::copy(b.begin(), b.end(), b_prev.begin());
     apply_rgb(op.Td_b, ld, b);
     report.iterations = it;
-    float delta = 0.0f, scale = 0.0f;
-    for (std::size_t k = 0; k < b.size(); ++k) {
-      delta = std::max(delta, std::abs(b[k] - b_prev[k]));
-      scale = std::max(scale, std::abs(b[k]));
-    }
-    if (delta <= settings.tolerance * scale) {
+    if (feedback_converged(b, b_prev, settings.tolerance)) {
       report.converged = true;
       break;
     }

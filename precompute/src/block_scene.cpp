@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <embree3/rtcore.h>
+#include "embree_rays.h"
 #include <glm/geometric.hpp>
 
 namespace modrt::precompute {
@@ -71,24 +72,9 @@ BlockScene::~BlockScene() {
 
 FaceHit BlockScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near,
                               double t_far) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  RTCRayHit rh{};
-  rh.ray.org_x = float(origin.x);
-  rh.ray.org_y = float(origin.y);
-  rh.ray.org_z = float(origin.z);
-  rh.ray.dir_x = float(dir.x);
-  rh.ray.dir_y = float(dir.y);
-  rh.ray.dir_z = float(dir.z);
-  rh.ray.tnear = float(t_near);
-  rh.ray.tfar = float(std::min(t_far, 1e30));
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &rh);
-
+  const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, t_near);
   FaceHit hit;
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || rh.ray.tfar >= t_far) return hit;
   hit.face = impl_->face_of_prim[rh.hit.primID];
   hit.t = rh.ray.tfar;
   // Face coordinates from the hit point in double: exact for planar faces and independent
@@ -101,21 +87,7 @@ FaceHit BlockScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, d
 }
 
 bool BlockScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  const glm::dvec3 d = target - origin;
-  RTCRay ray{};
-  ray.org_x = float(origin.x);
-  ray.org_y = float(origin.y);
-  ray.org_z = float(origin.z);
-  ray.dir_x = float(d.x);
-  ray.dir_y = float(d.y);
-  ray.dir_z = float(d.z);
-  ray.tnear = float(t_near);
-  ray.tfar = float(1.0 - 1e-6);  // stop just short of the target point itself
-  ray.mask = 0xFFFFFFFFu;
-  rtcOccluded1(impl_->scene, &context, &ray);
-  return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+  return embree_occluded(impl_->scene, origin, target, t_near);
 }
 
 BilinearTaps bilinear_taps(double u, double v, int res) {

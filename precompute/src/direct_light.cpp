@@ -12,35 +12,22 @@
 
 namespace modrt::precompute {
 
+void sphere_light_points(const glm::dvec3& center, double radius, int samples, std::vector<glm::dvec3>& out) {
+  if (radius > 0.0 && samples > 1)
+    sphere_surface_points(center, radius, samples, out);
+  else
+    out.assign(1, center);
+}
+
 void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light,
                   int samples, std::span<double> out) {
   std::vector<glm::dvec3> points;
-  if (light.radius > 0.0 && samples > 1)
-    sphere_surface_points(light.center, light.radius, samples, points);
-  else
-    points.assign(1, light.center);
-  const double r2 = std::max(light.radius * light.radius, 1e-12);
+  sphere_light_points(light.center, light.radius, samples, points);
+  auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
   const int n = layout.sample_count();
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& range) {
-    for (int s = range.begin(); s != range.end(); ++s) {
-      const glm::dvec3 x = layout.position(s);
-      const glm::dvec3 nrm = layout.normal(s);
-      const glm::dvec3 to_light = light.center - x;
-      const double d2 = glm::dot(to_light, to_light);
-      const double cosine = glm::dot(nrm, to_light) / std::sqrt(std::max(d2, 1e-300));
-      if (cosine <= 0.0) {
-        out[s] = 0.0;
-        continue;
-      }
-      int visible = 0;
-      for (const glm::dvec3& p : points) {
-        // A light point behind the sample's own plane cannot be seen through it.
-        if (glm::dot(p - x, nrm) <= 0.0) continue;
-        if (!scene.occluded(x, p)) ++visible;
-      }
-      const double V = double(visible) / double(points.size());
-      out[s] = light.intensity * V * cosine / std::max(d2, r2) / std::numbers::pi;
-    }
+    for (int s = range.begin(); s != range.end(); ++s)
+      out[std::size_t(s)] = sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, occluded);
   });
 }
 

@@ -6,11 +6,13 @@
 #include <stdexcept>
 
 #include <embree3/rtcore.h>
+#include "embree_rays.h"
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/sampling.h"
 
 namespace modrt::precompute {
@@ -91,20 +93,7 @@ LevelScene::~LevelScene() {
 }
 
 LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  RTCRayHit rh{};
-  rh.ray.org_x = float(origin.x);
-  rh.ray.org_y = float(origin.y);
-  rh.ray.org_z = float(origin.z);
-  rh.ray.dir_x = float(dir.x);
-  rh.ray.dir_y = float(dir.y);
-  rh.ray.dir_z = float(dir.z);
-  rh.ray.tnear = float(t_near);
-  rh.ray.tfar = 1e30f;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &rh);
+  const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, t_near);
   LevelHit hit;
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
   const Impl::Cell& c = impl_->cells[rh.hit.primID / 2];
@@ -127,21 +116,7 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
 }
 
 bool LevelScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  const glm::dvec3 d = target - origin;
-  RTCRay ray{};
-  ray.org_x = float(origin.x);
-  ray.org_y = float(origin.y);
-  ray.org_z = float(origin.z);
-  ray.dir_x = float(d.x);
-  ray.dir_y = float(d.y);
-  ray.dir_z = float(d.z);
-  ray.tnear = float(t_near);
-  ray.tfar = float(1.0 - 1e-6);
-  ray.mask = 0xFFFFFFFFu;
-  rtcOccluded1(impl_->scene, &context, &ray);
-  return ray.tfar < 0.0f;
+  return embree_occluded(impl_->scene, origin, target, t_near);
 }
 
 std::vector<float> level_albedo(const Level& level, const LevelDescription& description) {
@@ -163,24 +138,15 @@ std::vector<float> level_direct_light(const LevelScene& scene, std::span<const L
   const LevelSampleGeometry& g = scene.samples();
   const std::size_t n = g.position.size();
   std::vector<float> ld(3 * n, 0.0f);
+  auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
   for (const LightDescription& light : lights) {
+    const SphereLight sphere{light.position, light.radius, light.intensity};
     std::vector<glm::dvec3> points;
-    if (light.radius > 0.0 && light_samples > 1)
-      sphere_surface_points(light.position, light.radius, light_samples, points);
-    else
-      points.assign(1, light.position);
-    const double r2 = std::max(light.radius * light.radius, 1e-12);
+    sphere_light_points(light.position, light.radius, light_samples, points);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t s = range.begin(); s != range.end(); ++s) {
-        const glm::dvec3 to_light = light.position - g.position[s];
-        const double d2 = glm::dot(to_light, to_light);
-        const double cosine = glm::dot(g.normal[s], to_light) / std::sqrt(std::max(d2, 1e-300));
-        if (cosine <= 0.0) continue;
-        int visible = 0;
-        for (const glm::dvec3& p : points)
-          if (glm::dot(p - g.position[s], g.normal[s]) > 0.0 && !scene.occluded(g.position[s], p)) ++visible;
-        const double E_over_pi =
-            light.intensity * double(visible) / double(points.size()) * cosine / std::max(d2, r2) / std::numbers::pi;
+        const double E_over_pi = sphere_light_E_over_pi(g.position[s], g.normal[s], sphere, points, occluded);
+        if (E_over_pi <= 0.0) continue;
         for (int c = 0; c < 3; ++c)
           ld[3 * s + std::size_t(c)] += float(double(albedo[3 * s + std::size_t(c)]) * light.color[c] * E_over_pi);
       }

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <span>
+#include <vector>
 
 #include "modrt/dictionary.h"
 
@@ -40,6 +41,25 @@ struct MultiBounceReport {
   bool value_clamped = false;   // some lightmap texel hit the energy bound and was clamped
   float energy_bound = 0.0f;    // max(ld_direct) / (1 - max albedo used): no texel exceeds it
 };
+
+// Building blocks shared by the block and level reference runtimes.
+// out[3r + c] (+)= sum_k A(r, k) in[3k + c], accumulated in double.
+void reference_gemv_rgb(const Matrix& A, const float* in, float* out, bool accumulate);
+
+// The clamps of multi-bounce feedback, prepared once per solve.
+struct FeedbackClamp {
+  std::vector<float> rho;    // albedo clamped to settings.max_albedo
+  float energy_bound = 0.0f; // max(ld_direct) / (1 - max rho)
+  bool albedo_clamped = false;
+};
+// Validates ld_direct and albedo (3 * samples each) and the settings.
+Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::span<const float> albedo,
+                                       std::size_t samples, const MultiBounceSettings& settings);
+// ld = ld_direct + rho * min(max(lightmap, 0), energy_bound); true when the bound clamped.
+bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct, std::span<const float> lightmap,
+                    std::span<float> ld);
+// max |b - b_prev| <= tolerance * max |b|.
+bool feedback_converged(std::span<const float> b, std::span<const float> b_prev, float tolerance);
 
 // Multi-bounce feedback ld = ld_direct + albedo * lightmap, b = Td_b ld, lightmap = Ub b,
 // iterated to convergence. The feedback uses max(lightmap, 0) clamped to energy_bound (the

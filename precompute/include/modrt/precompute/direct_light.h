@@ -3,6 +3,8 @@
 // (MRT §4, SPEC §3.2) and of the references the runtime is checked against.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -23,6 +25,29 @@ struct SphereLight {
   double radius = 0.05;
   double intensity = 1.0;
 };
+
+// Visibility sample points of a sphere light: its centre for a point light (radius 0 or
+// one sample), else rings on its surface (sampling.h sphere_surface_points).
+void sphere_light_points(const glm::dvec3& center, double radius, int samples, std::vector<glm::dvec3>& out);
+
+// E / pi at point x with normal n from a sphere light whose visibility points are `points`;
+// occluded(x, p) tells whether the segment x -> p is blocked. The model of SphereLight.
+template <class Occluded>
+double sphere_light_E_over_pi(const glm::dvec3& x, const glm::dvec3& n, const SphereLight& light,
+                              std::span<const glm::dvec3> points, const Occluded& occluded) {
+  const glm::dvec3 to_light = light.center - x;
+  const double d2 = to_light.x * to_light.x + to_light.y * to_light.y + to_light.z * to_light.z;
+  const double cosine = (n.x * to_light.x + n.y * to_light.y + n.z * to_light.z) / std::sqrt(std::max(d2, 1e-300));
+  if (cosine <= 0.0) return 0.0;
+  int visible = 0;
+  for (const glm::dvec3& p : points) {
+    const glm::dvec3 to_p = p - x;
+    // A light point behind the sample's own plane cannot be seen through it.
+    if (n.x * to_p.x + n.y * to_p.y + n.z * to_p.z > 0.0 && !occluded(x, p)) ++visible;
+  }
+  const double r2 = std::max(light.radius * light.radius, 1e-12);
+  return light.intensity * double(visible) / double(points.size()) * cosine / std::max(d2, r2) / 3.14159265358979323846;
+}
 
 // ld = E / pi at every sample (albedo 1; the caller scales by albedo), into out[n].
 void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light,
