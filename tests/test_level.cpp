@@ -15,7 +15,7 @@
 #include <glm/vec2.hpp>
 
 #include "modrt/level_runtime.h"
-#include "modrt/precompute/dictionary_cache.h"
+#include "test_support.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
@@ -26,28 +26,7 @@
 namespace modrt::precompute {
 namespace {
 
-// A small dictionary with interfaces, baked once per build tree and cached on disk so the
-// test processes ctest starts do not each bake it.
-const Dictionary& test_dictionary() {
-  static const Dictionary dict = [] {
-    DictionarySettings s;
-    s.res = 8;
-    s.rays = 1024;
-    s.sh_rays = 256;
-    s.probe_grid = 2;
-    s.lightfield_spatial = 6;
-    s.lightfield_directional = 12;
-    s.lightfield_supersample = 3;
-    s.response_rays = 1024;
-    Result<Dictionary> d = load_or_bake_dictionary(s, MODRT_TEST_CACHE_DIR);
-    if (!d.ok()) {
-      std::fprintf(stderr, "test dictionary: %s\n", d.status().to_string().c_str());
-      std::abort();
-    }
-    return std::move(d).value();
-  }();
-  return dict;
-}
+const Dictionary& test_dictionary() { return test::small_test_dictionary(); }
 
 struct Frame {
   std::vector<float> ld, b, r, lightmap;

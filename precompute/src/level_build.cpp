@@ -177,6 +177,15 @@ glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
   return trilinear(b.corners, rotate_point(p, b.quarter_turns));
 }
 
+glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v) {
+  const FaceFrame& fr = face_frame(face);
+  const glm::dvec3 p = face_point(face, u, v);
+  const double h = 1e-4;
+  const glm::dvec3 du = block_to_world(b, p + h * fr.u_axis) - block_to_world(b, p - h * fr.u_axis);
+  const glm::dvec3 dv = block_to_world(b, p + h * fr.v_axis) - block_to_world(b, p - h * fr.v_axis);
+  return glm::normalize(glm::cross(du, dv));
+}
+
 LevelSampleGeometry level_sample_geometry(const Level& level) {
   LevelSampleGeometry g;
   g.position.resize(level.sample_count);
@@ -190,13 +199,9 @@ LevelSampleGeometry level_sample_geometry(const Level& level) {
       const std::size_t k = b.sample_offset + std::size_t(s);
       const glm::dvec3 p = layout.position(s);
       g.position[k] = block_to_world(b, p);
-      // Normal of the warped face: cross product of the mapped face tangents.
       const int f = layout.face_of(s);
-      const FaceFrame& fr = face_frame(f);
-      const double h = 1e-4;
-      const glm::dvec3 du = block_to_world(b, p + h * fr.u_axis) - block_to_world(b, p - h * fr.u_axis);
-      const glm::dvec3 dv = block_to_world(b, p + h * fr.v_axis) - block_to_world(b, p - h * fr.v_axis);
-      g.normal[k] = glm::normalize(glm::cross(du, dv));
+      const int t = s % layout.texels_per_face();
+      g.normal[k] = block_face_normal(b, f, (t % level.res + 0.5) / level.res, (t / level.res + 0.5) / level.res);
       g.block[k] = int(bi);
       g.face[k] = f;
     }

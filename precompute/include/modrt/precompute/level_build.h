@@ -31,5 +31,8 @@ LevelSampleGeometry level_sample_geometry(const Level& level);
 
 // World-space point of canonical block coordinates p in block `b`.
 glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p);
+// Unit inward normal of canonical face `face` of block `b` at face coordinates (u, v),
+// through the block's trilinear warp.
+glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v);
 
 }  // namespace modrt::precompute

@@ -1,0 +1,37 @@
+// Shared by the level-scale tests: a small dictionary with interface operators, baked once
+// per build tree and cached on disk so the test processes ctest starts do not each bake.
+#pragma once
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "modrt/precompute/dictionary_cache.h"
+
+namespace modrt::test {
+
+inline DictionarySettings small_test_settings() {
+  DictionarySettings s;
+  s.res = 8;
+  s.rays = 1024;
+  s.sh_rays = 256;
+  s.probe_grid = 2;
+  s.lightfield_spatial = 6;
+  s.lightfield_directional = 12;
+  s.lightfield_supersample = 3;
+  s.response_rays = 1024;
+  return s;
+}
+
+inline const Dictionary& small_test_dictionary() {
+  static const Dictionary dict = [] {
+    Result<Dictionary> d = precompute::load_or_bake_dictionary(small_test_settings(), MODRT_TEST_CACHE_DIR);
+    if (!d.ok()) {
+      std::fprintf(stderr, "test dictionary: %s\n", d.status().to_string().c_str());
+      std::abort();
+    }
+    return std::move(d).value();
+  }();
+  return dict;
+}
+
+}  // namespace modrt::test
