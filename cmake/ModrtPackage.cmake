@@ -7,8 +7,12 @@ set(MODRT_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/modrt"
     CACHE STRING "Where the modrt CMake package files are installed (relative to the prefix)")
 mark_as_advanced(MODRT_INSTALL_CMAKEDIR)
 
-# Libraries (exported as modrt::core, modrt::precompute) and their public headers.
+# Libraries (exported as modrt::core, modrt::cpu, modrt::precompute) and their public headers.
 set(_modrt_export_targets modrt_core)
+if(TARGET modrt_cpu)
+  list(APPEND _modrt_export_targets modrt_cpu)
+  install(DIRECTORY "${PROJECT_SOURCE_DIR}/cpu_neon/include/modrt" DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+endif()
 set(MODRT_PACKAGE_HAS_PRECOMPUTE OFF)
 if(TARGET modrt_precompute)
   list(APPEND _modrt_export_targets modrt_precompute)
@@ -30,7 +34,7 @@ if(MODRT_PACKAGE_HAS_PRECOMPUTE AND IS_DIRECTORY "${PROJECT_SOURCE_DIR}/precompu
 endif()
 
 # Command-line programs, when they were built.
-foreach(_modrt_program IN ITEMS modrt-bake modrt-relight)
+foreach(_modrt_program IN ITEMS modrt-bake modrt-relight modrt-level)
   if(TARGET ${_modrt_program})
     install(TARGETS ${_modrt_program} RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}")
   endif()

@@ -1,0 +1,67 @@
+// modrt::cpu — the numeric kernels of the SIMD CPU backend (SPEC §5 steps 2–6, 8).
+//
+// All kernels write into caller-provided buffers and never allocate. Each takes the ISA
+// explicitly; an ISA that is not supported (isa_supported() is false) runs the scalar twin.
+//
+// RGB layouts:
+//   interleaved: v[3 k + c] (c = 0, 1, 2 for R, G, B) — the level signals ld, b, r, lightmap.
+//   planar:      v[c * stride + k] — three channel arrays of `stride` floats each (stride >= the
+//                vector length). The GEMV kernels read their input planar so that one
+//                contiguous vector load per channel feeds every row (deinterleave_rgb).
+//
+// GEMV strategy (documented because the accuracy contract depends on it): rows are taken
+// four at a time; for each block of 8 (AVX2) or 4 (SSE4.1, NEON) columns the kernel loads
+// the three planar channel vectors once and issues 12 FMAs (4 rows x 3 channels) into 12
+// vector accumulators, so every matrix element is loaded once and used for all three
+// channels. Column tails (cols not a multiple of the vector width) and row tails (rows not
+// a multiple of 4) are handled without reading past the end of any array. The lanes are
+// reduced pairwise (hadd), then the column tail is added. SIMD variants accumulate in
+// float; the scalar twin accumulates in double, like core's reference_gemv_rgb.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "modrt/cpu/isa.h"
+#include "modrt/level.h"
+
+namespace modrt::cpu {
+
+// planar[c * stride + k] = rgb[3 k + c] for k < n. stride >= n.
+void deinterleave_rgb(const float* rgb, std::size_t n, float* planar, std::size_t stride);
+
+// Floats of scratch gemv_rgb_interleaved needs for a matrix with `cols` columns.
+constexpr std::size_t gemv_scratch_bound(std::size_t cols) { return 3 * cols; }
+
+// out[3 r + c] (+)= sum_k A[r * lda + k] * planar[c * stride + k], r < rows, k < cols.
+// A is row-major with leading dimension lda >= cols. accumulate: add to out, else overwrite.
+void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* planar,
+              std::size_t stride, float* out, bool accumulate);
+
+// The same with an interleaved input in[3 k + c]; `scratch` holds gemv_scratch_bound(A.cols)
+// floats (the planar copy of `in`).
+void gemv_rgb_interleaved(Isa isa, const Matrix& A, const float* in, float* out, bool accumulate,
+                          std::span<float> scratch);
+
+// The Ur r scatter of one response slot (SPEC §5 step 5): for every row r of A with
+// row_to_sample[r] >= 0, out[3 row_to_sample[r] + c] += sum_k A[r * lda + k] planar[c * stride + k].
+// Rows mapped to -1 (faces the destination block lacks) are skipped.
+void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out);
+
+// Multi-bounce feedback over `count` floats (3 x samples, interleaved):
+// ld[i] = ld_direct[i] + rho[i] * min(max(lightmap[i], 0), bound). Returns true when the bound
+// clamped some value. Bit-identical to core's apply_feedback on every ISA (no FMA contraction).
+bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound, float* ld,
+                  std::size_t count);
+
+// Atlas padding (SPEC §5 step 6): atlas[3 dst + c] = atlas[3 src + c], records applied in
+// order (corner records read texels written by earlier edge records). Scalar on every ISA:
+// the copies are dependent gathers, not vector work.
+void copy_padding(std::span<const PaddingRecord> records, float* atlas);
+
+// atlas[3 texel[s] + c] = lightmap[3 s + c] for every sample s (the unpadded tile interiors).
+void scatter_texels(std::span<const std::uint32_t> sample_texel, const float* lightmap, float* atlas);
+
+}  // namespace modrt::cpu

@@ -1,0 +1,65 @@
+// ISA detection, done once (function-local statics) and forced by set_isa().
+#include "modrt/cpu/isa.h"
+
+#include "simd_config.h"
+
+namespace modrt::cpu {
+namespace {
+
+std::vector<Isa> detect() {
+  std::vector<Isa> isas{Isa::scalar};
+#if MODRT_CPU_X86
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("sse4.1")) isas.push_back(Isa::sse41);
+  // GCC and Clang check the OS's XSAVE support (XGETBV) for AVX features here.
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) isas.push_back(Isa::avx2);
+#endif
+#if MODRT_CPU_NEON
+  isas.push_back(Isa::neon);
+#endif
+  return isas;
+}
+
+const std::vector<Isa>& isas() {
+  static const std::vector<Isa> list = detect();
+  return list;
+}
+
+Isa& active() {
+  static Isa isa = isas().back();
+  return isa;
+}
+
+}  // namespace
+
+const char* isa_name(Isa isa) {
+  switch (isa) {
+    case Isa::scalar: return "scalar";
+    case Isa::sse41: return "sse41";
+    case Isa::avx2: return "avx2";
+    case Isa::neon: return "neon";
+  }
+  return "unknown";
+}
+
+std::vector<Isa> supported_isas() { return isas(); }
+
+bool isa_supported(Isa isa) {
+  for (Isa i : isas())
+    if (i == isa) return true;
+  return false;
+}
+
+Isa best_isa() { return isas().back(); }
+
+Isa active_isa() { return active(); }
+
+bool set_isa(Isa isa) {
+  if (!isa_supported(isa)) return false;
+  active() = isa;
+  return true;
+}
+
+}  // namespace modrt::cpu
+
+#include "simd_config_end.h"
