@@ -33,7 +33,9 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b,
                       std::span<float> r, std::span<float> lightmap);
 
-// Multi-bounce feedback for a level, as multi_bounce() for one block (same clamps).
+// Multi-bounce feedback for a level, as multi_bounce() for one block (same clamps). This is
+// the oracle: it iterates to convergence and allocates its scratch per call. Per-frame code
+// uses modrt::cpu::CpuLevelRuntime::multi_bounce_step (one iteration, no allocation).
 Result<MultiBounceReport> level_multi_bounce(const Level& level, const Dictionary& dict,
                                              std::span<const float> ld_direct, std::span<const float> albedo,
                                              const MultiBounceSettings& settings, std::span<float> b,
