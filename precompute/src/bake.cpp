@@ -30,13 +30,6 @@ class StageTimer {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
-Matrix to_float(const MatrixXd& m) {
-  Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
-  for (Eigen::Index r = 0; r < m.rows(); ++r)
-    for (Eigen::Index c = 0; c < m.cols(); ++c) out(std::uint32_t(r), std::uint32_t(c)) = float(m(r, c));
-  return out;
-}
-
 int shape_index_of(FaceMask mask) {
   for (int s = 0; s < kDictionaryShapeCount; ++s)
     if (dictionary_shape_mask(s) == mask) return s;

@@ -16,20 +16,6 @@
 namespace modrt::precompute {
 namespace {
 
-MatrixXd to_eigen(const Matrix& m) {
-  MatrixXd e(m.rows, m.cols);
-  for (std::uint32_t r = 0; r < m.rows; ++r)
-    for (std::uint32_t c = 0; c < m.cols; ++c) e(r, c) = m(r, c);
-  return e;
-}
-
-Matrix to_float(const MatrixXd& m) {
-  Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
-  for (Eigen::Index r = 0; r < m.rows(); ++r)
-    for (Eigen::Index c = 0; c < m.cols(); ++c) out(std::uint32_t(r), std::uint32_t(c)) = float(m(r, c));
-  return out;
-}
-
 // Texel (i, j) of canonical face f after `turns` quarter turns: walls map texel for texel;
 // floor and ceiling turn in their plane.
 void rotate_texel(int f, int i, int j, int res, int turns, int& f_out, int& i_out, int& j_out) {
