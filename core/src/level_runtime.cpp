@@ -5,6 +5,18 @@
 #include <vector>
 
 namespace modrt {
+namespace {
+
+Status mismatch(const std::string& what) {
+  return Status::error(ErrorCode::invalid_argument, "level does not match the dictionary: " + what +
+                                                        ": rebuild the level against this dictionary");
+}
+
+bool has_size(const Matrix& m, std::size_t rows, std::size_t cols) {
+  return m.rows == rows && m.cols == cols && m.data.size() == rows * cols;
+}
+
+}  // namespace
 
 LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict) {
   LevelBufferSizes s;
@@ -122,6 +134,56 @@ void level_compute_probes(const Level& level, const Dictionary& dict, std::span<
     reference_gemv_rgb(level.probe_response[std::size_t(slot.entry_face)], r.data() + 3 * std::size_t(level.kr) * s,
              probes.data() + per_block * slot.block, true);
   }
+}
+
+Status check_level_operators(const Level& level, const Dictionary& dict) {
+  if (Status s = check_level_matches(level, dict); !s.ok()) return s;
+  const std::size_t kb = level.kb, kr = level.kr;
+  std::size_t probes = dict.shapes.empty() ? 0 : dict.shapes[0].Ubvol.rows;
+  std::size_t offset = 0;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const LevelBlock& blk = level.blocks[i];
+    const std::string name = "block " + std::to_string(i);
+    if (blk.shape < 0 || std::size_t(blk.shape) >= dict.shapes.size())
+      return mismatch(name + " uses shape " + std::to_string(blk.shape) + ", the dictionary has " +
+                      std::to_string(dict.shapes.size()));
+    const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
+    const std::size_t n = blk.sample_count;
+    if (!has_size(op.Td_b, kb, n) || !has_size(op.Ub, n, kb) || (probes > 0 && !has_size(op.Ubvol, probes, kb)))
+      return mismatch(name + ": shape " + std::to_string(blk.shape) + " operators are not " + std::to_string(kb) +
+                      " x " + std::to_string(n) + " samples");
+    if (blk.sample_offset != offset) return mismatch(name + ": sample offsets are not contiguous");
+    offset += n;
+  }
+  if (offset != level.sample_count) return mismatch("block sample counts do not add up to the level's");
+  const Matrix& Ur = dict.interfaces.Ur;
+  if (!level.slots.empty() && Ur.data.size() != std::size_t(Ur.rows) * Ur.cols)
+    return mismatch("dictionary Ur is malformed");
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    const std::string name = "slot " + std::to_string(s);
+    if (slot.block >= level.blocks.size() || slot.ur_row_to_sample.size() != Ur.rows)
+      return mismatch(name + ": block or Ur row map out of range");
+    const std::uint32_t n = level.blocks[slot.block].sample_count;
+    for (std::int32_t m : slot.ur_row_to_sample)
+      if (m >= std::int32_t(n)) return mismatch(name + ": Ur row maps past the block's samples");
+    if (slot.entry_face < 0 || slot.entry_face >= kFaceCount) return mismatch(name + ": bad entry face");
+    if (probes > 0 && !has_size(level.probe_response[std::size_t(slot.entry_face)], probes, kr))
+      return mismatch(name + ": probe response is not " + std::to_string(probes) + " x " + std::to_string(kr));
+  }
+  for (std::size_t i = 0; i < level.records.size(); ++i) {
+    const ResponseRecord& rec = level.records[i];
+    if (rec.source_block >= level.blocks.size() || rec.slot >= level.slots.size() || !has_size(rec.T, kr, kb))
+      return mismatch("record " + std::to_string(i) + " is out of range or not kr x kb");
+  }
+  const std::size_t texels = std::size_t(std::max(level.atlas.width, 0)) * std::size_t(std::max(level.atlas.height, 0));
+  if (!level.atlas.sample_texel.empty() && level.atlas.sample_texel.size() != level.sample_count)
+    return mismatch("atlas sample_texel does not cover the level's samples");
+  for (std::uint32_t t : level.atlas.sample_texel)
+    if (t >= texels) return mismatch("atlas sample texel out of range");
+  for (const PaddingRecord& p : level.atlas.padding)
+    if (p.dst >= texels || p.src >= texels) return mismatch("atlas padding record out of range");
+  return Status::success();
 }
 
 }  // namespace modrt

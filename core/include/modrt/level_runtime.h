@@ -21,6 +21,10 @@ LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict);
 
 // Checks that the level was built against this dictionary (res, kb, kr, shapes).
 Status check_level_matches(const Level& level, const Dictionary& dict);
+// check_level_matches, then every operator size, index and offset a runtime relies on
+// (shapes, Td_b / Ub / Ubvol sizes, contiguous sample offsets, slots, records, atlas).
+// Backends call it once at creation so that per-frame code can index without checks.
+Status check_level_operators(const Level& level, const Dictionary& dict);
 
 // Step 2: b = Td_b ld per block. Validates ld.
 Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b);
