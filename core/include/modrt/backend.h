@@ -1,0 +1,59 @@
+// modrt — the run-time backend interface (SPEC §5): what the CPU (modrt::cpu) and OpenGL ES
+// (modrt::gles) backends both implement, so a caller swaps them by a flag.
+//
+// A backend evaluates one built level every frame: ld (or ld_direct plus multi-bounce
+// feedback) -> b -> r -> lightmap -> padded atlas (-> volume probes). Results stay inside the
+// backend (CPU memory or GL textures); the read_* calls copy them out in core's layouts
+// (level_runtime.h), which is what conformance tests and CPU-side consumers use. A GPU
+// backend's read_* wait for the GPU, so a renderer samples its textures instead.
+//
+// Errors: every call returns a Status and never throws. A failed update leaves the previous
+// results in place.
+#pragma once
+
+#include <span>
+
+#include "modrt/level_runtime.h"
+#include "modrt/status.h"
+
+namespace modrt {
+
+enum class BackendKind { cpu, gles };
+const char* backend_kind_name(BackendKind kind);  // "cpu", "gles"
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+
+  virtual BackendKind kind() const = 0;
+  // Human-readable configuration, e.g. "cpu avx2" or "gles float32 targets, float32 operators".
+  virtual const char* description() const = 0;
+  // Sizes of ld, lightmap, atlas and probes for this level (level_buffer_sizes).
+  virtual const LevelBufferSizes& sizes() const = 0;
+
+  // Steps 2–6 (and 9 when the backend computes probes): b = Td_b ld, r = Tb->r b,
+  // lightmap = Ub b + Ur r, atlas with padding. Rejects NaN, Inf and negative ld (the
+  // message names sample and channel); then nothing changes.
+  virtual Status update(std::span<const float> ld) = 0;
+
+  // Multi-bounce feedback (SPEC §2, core's apply_feedback): set_albedo() validates and
+  // stores albedo (3 x samples) clamped to max_albedo < 1; multi_bounce_step() runs one
+  // feedback iteration on the previous update's lightmap, ld = ld_direct + rho *
+  // min(max(lightmap, 0), max(ld_direct) / (1 - max rho)), then update(ld). k steps after
+  // update(ld_direct) equal level_multi_bounce after k iterations.
+  virtual Status set_albedo(std::span<const float> albedo, float max_albedo = 0.95f) = 0;
+  virtual Status multi_bounce_step(std::span<const float> ld_direct) = 0;
+
+  // Copies of the last update's results (sizes().lightmap, .atlas, .probes floats, RGB
+  // interleaved). read_probes fails when the level or backend has no probes.
+  virtual Status read_lightmap(std::span<float> lightmap) = 0;
+  virtual Status read_atlas(std::span<float> atlas) = 0;
+  virtual Status read_probes(std::span<float> probes) = 0;
+
+ protected:
+  Backend() = default;
+  Backend(const Backend&) = default;
+  Backend& operator=(const Backend&) = default;
+};
+
+}  // namespace modrt

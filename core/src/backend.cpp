@@ -1,0 +1,13 @@
+#include "modrt/backend.h"
+
+namespace modrt {
+
+const char* backend_kind_name(BackendKind kind) {
+  switch (kind) {
+    case BackendKind::cpu: return "cpu";
+    case BackendKind::gles: return "gles";
+  }
+  return "unknown";
+}
+
+}  // namespace modrt

@@ -1,0 +1,17 @@
+// modrt::cpu — CpuLevelRuntime behind the Backend interface (modrt/backend.h), so a caller
+// switches between the CPU and GLES backends by a flag. It keeps the lightmap, atlas and
+// probes in CPU memory; update() fills all three (probes only when the dictionary has them).
+#pragma once
+
+#include <memory>
+
+#include "modrt/backend.h"
+#include "modrt/cpu/cpu_level_runtime.h"
+
+namespace modrt::cpu {
+
+// `level` and `dict` are borrowed and must outlive the backend.
+Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
+                                                    const CpuRuntimeOptions& options = {});
+
+}  // namespace modrt::cpu
