@@ -14,8 +14,9 @@
 #ifndef GL_GLES_PROTOTYPES
 #define GL_GLES_PROTOTYPES 0
 #endif
-#include <GLES2/gl2ext.h>
 #include <GLES3/gl3.h>
+// After gl3.h, which defines the calling-convention macros gl2ext.h uses.
+#include <GLES2/gl2ext.h>
 
 #include <string>
 
