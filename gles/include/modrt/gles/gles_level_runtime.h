@@ -1,0 +1,156 @@
+// modrt::gles — the OpenGL ES 3.0 level runtime (SPEC §5 steps 2–6, 8, 9): operators live
+// in textures, every stage is a fragment-shader pass into float render targets, and the
+// lightmap ends in a padded atlas texture that a renderer samples directly.
+//
+// Passes per update (gles/README.md has the texture layouts):
+//   b.frag      b = Td_b ld            (Td_b packed four modes per RGBA texel)
+//   r.frag      r = Tb->r b            (records as 4x4 blocks, summed per slot)
+//   atlas.frag  Ub b + Ur r into the padded atlas; padding texels evaluate their source
+//   probes.frag Ubvol b + turned Urvol r (when the dictionary has probes and they are on)
+//   feedback.frag ld = ld_direct + rho min(max(atlas, 0), bound) (multi_bounce_step only)
+// Shaders are strictly "#version 300 es" with no extension required.
+//
+// Intermediate signals (b, r, feedback ld) are RGBA32UI render targets holding float bit
+// patterns: exact float32 in every ES 3.0 context (they are never filtered). The outputs a
+// renderer samples, the atlas and the probes, use the TargetFormat:
+//   float32  RGBA32F; renderable with EXT_color_buffer_float (and on desktop GL);
+//   float16  RGBA16F; renderable with EXT_color_buffer_half_float or _float;
+//   bits32   RGBA32UI holding float bit patterns: exact, renderable in every ES 3.0
+//            context, so it is the fallback when no float target is renderable. It cannot
+//            be filtered: a renderer fetches the four texels and filters in its shader.
+// Default: the first of float32, float16, bits32 that the context can render to.
+//
+// The GL context must be current on the calling thread for every call, and the Level and
+// Dictionary are borrowed (must outlive the runtime). GL objects are released by the
+// destructor, which also needs the context current.
+#pragma once
+
+#include <array>
+#include <initializer_list>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "modrt/backend.h"
+#include "modrt/level.h"
+#include "modrt/platform/gl_functions.h"
+#include "modrt/platform/gpu_timer.h"
+
+namespace modrt::gles {
+
+enum class TargetFormat { float32, float16, bits32 };
+enum class OperatorFormat { float32, float16 };
+const char* target_format_name(TargetFormat f);      // "float32", "float16", "bits32"
+const char* operator_format_name(OperatorFormat f);  // "float32", "float16"
+
+struct GlesRuntimeOptions {
+  std::optional<TargetFormat> target;                  // none: best renderable (see above); else required
+  OperatorFormat operators = OperatorFormat::float32;  // float16 halves operator memory
+  bool probes = true;        // evaluate volume probes in update() when the dictionary has them
+  bool check_errors = true;  // glGetError after every pass (a failed check names the pass)
+};
+
+// Per-pass time of the last update()/multi_bounce_step(), nanoseconds, when timing is on.
+struct GlesPassTimes {
+  std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0;
+};
+
+class GlesLevelRuntime final : public Backend {
+ public:
+  // Checks the level against the dictionary, the context's limits and formats, compiles the
+  // shaders (a failure names the shader and carries the compiler log), uploads every
+  // operator once and allocates every texture. Nothing is allocated per frame afterwards.
+  // `gl` is the current context's table (platform::GlContext::gl(), or loaded from the host
+  // app's context); `gles_context` is false for a desktop GL core context (OSMesa), where
+  // float targets are always renderable and timer queries are core.
+  static Result<std::unique_ptr<GlesLevelRuntime>> create(const platform::GlFunctions& gl, bool gles_context,
+                                                          const Level& level, const Dictionary& dict,
+                                                          const GlesRuntimeOptions& options = {});
+  ~GlesLevelRuntime() override;
+
+  BackendKind kind() const override { return BackendKind::gles; }
+  const char* description() const override { return description_.c_str(); }
+  const LevelBufferSizes& sizes() const override { return sizes_; }
+
+  Status update(std::span<const float> ld) override;
+  Status set_albedo(std::span<const float> albedo, float max_albedo = 0.95f) override;
+  Status multi_bounce_step(std::span<const float> ld_direct) override;
+  Status read_lightmap(std::span<float> lightmap) override;
+  Status read_atlas(std::span<float> atlas) override;
+  Status read_probes(std::span<float> probes) override;
+
+  TargetFormat target_format() const { return target_; }
+  // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
+  // texelFetch for bits32; float32 needs OES_texture_float_linear to filter.
+  GLuint atlas_texture() const { return atlas_.texture; }
+  // The b and r of the last update (level_runtime.h layouts), for tests and tools.
+  Status read_b(std::span<float> b);
+  Status read_r(std::span<float> r);
+
+  // Optional per-pass timing (GpuTimer: GPU queries where available). Off by default
+  // because CPU-clock timing adds a glFinish per pass.
+  void set_timing(bool on);
+  const GlesPassTimes& pass_times() const { return times_; }
+
+ private:
+  struct Target {  // one render target texture and its framebuffer
+    GLuint texture = 0;
+    GLuint framebuffer = 0;
+    int width = 0, height = 0;
+  };
+  struct Signal3 {  // R, G, B planes of b or r (RGBA32UI), four modes per texel, one MRT framebuffer
+    std::array<GLuint, 3> textures{};
+    GLuint framebuffer = 0;
+    int width = 0, height = 0;
+  };
+  struct Program {
+    GLuint id = 0;
+    GLint u_bound = -1;  // feedback's per-frame uniform; everything else is set once
+  };
+  explicit GlesLevelRuntime(const platform::GlFunctions& gl);
+  Status build(const Level& level, const Dictionary& dict, bool gles_context,
+               const GlesRuntimeOptions& options);
+  Status run_passes(bool from_feedback);
+  Status check(const char* what) const;
+  void draw(const Program& program, GLuint framebuffer, int width, int height,
+            std::initializer_list<GLuint> textures);
+  void begin_pass(int scope);
+  void end_pass(int scope);
+  Status read_target(GLuint framebuffer, int attachment, int width, int height, bool bits);
+  Status read_signal3(const Signal3& s, int groups, std::size_t items, std::size_t modes,
+                      std::span<float> out);
+
+  const platform::GlFunctions& gl_;
+  const Level* level_ = nullptr;
+  const Dictionary* dict_ = nullptr;
+  LevelBufferSizes sizes_;
+  TargetFormat target_ = TargetFormat::float32;
+  GlesRuntimeOptions options_;
+  std::string description_;
+  int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0;
+  bool has_probes_ = false, has_albedo_ = false, updated_ = false;
+
+  // Operator and table textures (uploaded once).
+  GLuint td_b_ = 0, ub_ = 0, ur_ = 0, t_ = 0, ubvol_ = 0, probe_response_ = 0;
+  GLuint block_info_ = 0, block_slots_ = 0, slot_info_ = 0, record_block_ = 0;
+  GLuint texel_sample_ = 0, sample_info_ = 0, sample_slots_ = 0, sample_rows_ = 0;
+  // Per-frame inputs (CPU uploads) and signals.
+  GLuint ld_ = 0, ld_direct_ = 0, rho_ = 0;
+  int sample_rows_count_ = 0;  // rows of the per-sample linear textures
+  int max_texture_size_ = 0;
+  std::vector<GLuint> textures_;  // every texture created, for the destructor
+  std::vector<GLuint> framebuffers_;
+  std::vector<GLuint> programs_;
+  Signal3 b_, r_;
+  Target atlas_, probes_, ld_feedback_;
+  float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
+  GLuint vao_ = 0;
+  Program prog_b_, prog_b_feedback_, prog_r_, prog_atlas_, prog_feedback_, prog_probes_;
+  std::vector<float> readback_;  // 4 floats per texel of the largest target
+  bool timing_ = false;
+  GlesPassTimes times_;
+  std::unique_ptr<platform::GpuTimer> timer_;
+};
+
+}  // namespace modrt::gles

@@ -1,0 +1,46 @@
+// Steps 3, 5 and 6 in one pass over the padded lightmap atlas (MRT §6.2–6.3):
+// texel = Ub b (own block) + sum over the block's response slots of Ur r. Padding texels
+// (SPEC §4) evaluate the sample they copy, so padding costs no separate pass and no
+// read-after-write of the atlas. Ub is packed four modes per texel: texel
+// (shape * n_max + t) * groups + g = Ub[t][4g..4g+3]; Ur likewise with r_groups.
+uniform sampler2D u_ub;
+uniform sampler2D u_ur;
+uniform isampler2D u_texel_sample;  // atlas-sized: sample whose value the texel shows, or -1
+uniform isampler2D u_sample_info;   // per sample: (block, local index t, atlas x, atlas y)
+uniform isampler2D u_sample_slots;  // per sample: up to four response slots, -1 = none
+uniform isampler2D u_sample_rows;   // per sample: the Ur row of each of those slots
+uniform isampler2D u_block_info;    // per block: (shape, sample_offset, sample_count, 0)
+uniform usampler2D u_b_red, u_b_green, u_b_blue;
+uniform usampler2D u_r_red, u_r_green, u_r_blue;
+uniform int u_groups, u_r_groups, u_n_max;
+
+layout(location = 0) out OUTPUT_TYPE o_color;
+
+void main() {
+  int s = texelFetch(u_texel_sample, ivec2(gl_FragCoord.xy), 0).x;
+  vec3 acc = vec3(0.0);
+  if (s >= 0) {
+    ivec4 info = load_int(u_sample_info, s);
+    int shape = load_int(u_block_info, info.x).x;
+    int ub = (shape * u_n_max + info.y) * u_groups;
+    int bb = info.x * u_groups;
+    for (int g = 0; g < u_groups; ++g) {
+      vec4 u = load(u_ub, ub + g);
+      acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
+                  dot(u, load_signal(u_b_blue, bb + g)));
+    }
+    ivec4 slots = load_int(u_sample_slots, s);
+    ivec4 rows = load_int(u_sample_rows, s);
+    for (int k = 0; k < 4; ++k) {
+      if (slots[k] < 0) break;
+      int ur = rows[k] * u_r_groups;
+      int rb = slots[k] * u_r_groups;
+      for (int g = 0; g < u_r_groups; ++g) {
+        vec4 u = load(u_ur, ur + g);
+        acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
+                    dot(u, load_signal(u_r_blue, rb + g)));
+      }
+    }
+  }
+  o_color = store_output(vec4(acc, 1.0));
+}

@@ -1,0 +1,38 @@
+// Shared by every modrt pass. The C++ side puts "#version 300 es" and these defines first:
+//   LINEAR_SHIFT      log2 of the width of every linear-layout texture (see gles/README.md)
+//   OUTPUT_BITS       1: the atlas and probes are RGBA32UI targets holding float bit patterns
+//                     (TargetFormat::bits32); 0: RGBA32F or RGBA16F targets.
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+precision highp isampler2D;
+precision highp usampler2D;
+
+#define LINEAR_WIDTH (1 << LINEAR_SHIFT)
+
+// Long 1D arrays are stored row by row in 2D textures LINEAR_WIDTH texels wide.
+ivec2 lin(int i) { return ivec2(i & (LINEAR_WIDTH - 1), i >> LINEAR_SHIFT); }
+
+// Index of this fragment in a linear-layout render target.
+int fragment_index() { return (int(gl_FragCoord.y) << LINEAR_SHIFT) + int(gl_FragCoord.x); }
+
+// Intermediate signals (b, r, feedback ld) are RGBA32UI textures holding float bit
+// patterns: exact float32, renderable in every ES 3.0 context, and never filtered.
+vec4 load_signal(usampler2D t, int i) { return uintBitsToFloat(texelFetch(t, lin(i), 0)); }
+uvec4 store_signal(vec4 v) { return floatBitsToUint(v); }
+
+// Outputs a renderer samples (atlas, probes) use the runtime's TargetFormat.
+#if OUTPUT_BITS
+#define OUTPUT_SAMPLER usampler2D
+#define OUTPUT_TYPE uvec4
+vec4 load_output_2d(usampler2D t, ivec2 p) { return uintBitsToFloat(texelFetch(t, p, 0)); }
+OUTPUT_TYPE store_output(vec4 v) { return floatBitsToUint(v); }
+#else
+#define OUTPUT_SAMPLER sampler2D
+#define OUTPUT_TYPE vec4
+vec4 load_output_2d(sampler2D t, ivec2 p) { return texelFetch(t, p, 0); }
+OUTPUT_TYPE store_output(vec4 v) { return v; }
+#endif
+
+vec4 load(sampler2D t, int i) { return texelFetch(t, lin(i), 0); }
+ivec4 load_int(isampler2D t, int i) { return texelFetch(t, lin(i), 0); }

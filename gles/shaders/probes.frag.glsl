@@ -1,0 +1,45 @@
+// Step 9 (MRT §6.5): volume probes, radiance SH9 per probe. Fragment i = block * rows + row
+// (row = 9 p + j): Ubvol b of the block itself plus, for each slot entering the block, the
+// probe response turned onto the slot's entry face times r. Both operators are packed four
+// modes per texel: Ubvol texel (shape * rows + row) * groups + g, response texel
+// (face * rows + row) * r_groups + g.
+uniform sampler2D u_ubvol;
+uniform sampler2D u_probe_response;
+uniform isampler2D u_block_info;   // per block: (shape, sample_offset, sample_count, 0)
+uniform isampler2D u_block_slots;  // per block: up to four slots entering it, -1 = none
+uniform isampler2D u_slot_info;    // per slot: (first record, record count, block, entry face)
+uniform usampler2D u_b_red, u_b_green, u_b_blue;
+uniform usampler2D u_r_red, u_r_green, u_r_blue;
+uniform int u_count, u_rows, u_groups, u_r_groups;
+
+layout(location = 0) out OUTPUT_TYPE o_sh;
+
+void main() {
+  int i = fragment_index();
+  vec3 acc = vec3(0.0);
+  if (i < u_count) {
+    int block = i / u_rows;
+    int row = i - block * u_rows;
+    int shape = load_int(u_block_info, block).x;
+    int op = (shape * u_rows + row) * u_groups;
+    int bb = block * u_groups;
+    for (int g = 0; g < u_groups; ++g) {
+      vec4 u = load(u_ubvol, op + g);
+      acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
+                  dot(u, load_signal(u_b_blue, bb + g)));
+    }
+    ivec4 slots = load_int(u_block_slots, block);
+    for (int k = 0; k < 4; ++k) {
+      if (slots[k] < 0) break;
+      int face = load_int(u_slot_info, slots[k]).w;
+      int pr = (face * u_rows + row) * u_r_groups;
+      int rb = slots[k] * u_r_groups;
+      for (int g = 0; g < u_r_groups; ++g) {
+        vec4 u = load(u_probe_response, pr + g);
+        acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
+                    dot(u, load_signal(u_r_blue, rb + g)));
+      }
+    }
+  }
+  o_sh = store_output(vec4(acc, 1.0));
+}

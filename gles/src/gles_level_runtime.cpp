@@ -1,0 +1,625 @@
+#include "modrt/gles/gles_level_runtime.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <string>
+#include <tuple>
+
+#include "gl_objects.h"
+#include "modrt/reference_runtime.h"
+
+namespace modrt::gles {
+
+// Shader sources, generated from gles/shaders/*.glsl by cmake/EmbedShaders.cmake.
+extern const char* const kCommon;
+extern const char* const kFullscreenVert;
+extern const char* const kBFrag;
+extern const char* const kRFrag;
+extern const char* const kAtlasFrag;
+extern const char* const kFeedbackFrag;
+extern const char* const kProbesFrag;
+
+const char* target_format_name(TargetFormat f) {
+  switch (f) {
+    case TargetFormat::float32: return "float32";
+    case TargetFormat::float16: return "float16";
+    case TargetFormat::bits32: return "bits32";
+  }
+  return "unknown";
+}
+
+const char* operator_format_name(OperatorFormat f) {
+  return f == OperatorFormat::float16 ? "float16" : "float32";
+}
+
+namespace {
+
+// Timer scopes, one per pass.
+enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kScopeCount };
+
+int groups_of(std::size_t modes) { return int((modes + 3) / 4); }
+
+Status wrong_size(const char* what, std::size_t got, std::size_t expected) {
+  return Status::error(ErrorCode::invalid_argument, std::string("gles: ") + what + ": has " +
+                                                        std::to_string(got) + " floats, expected " +
+                                                        std::to_string(expected));
+}
+
+GLenum output_internal_format(TargetFormat f) {
+  switch (f) {
+    case TargetFormat::float32: return GL_RGBA32F;
+    case TargetFormat::float16: return GL_RGBA16F;
+    case TargetFormat::bits32: return GL_RGBA32UI;
+  }
+  return GL_RGBA32F;
+}
+
+// Packs `m` (rows x cols, row-major) four columns per RGBA texel: texel (row_base + r) *
+// groups + g holds m[r][4g..4g+3], zero beyond cols.
+void pack_rows(const Matrix& m, std::size_t row_base, int groups, std::vector<float>& out) {
+  for (std::uint32_t r = 0; r < m.rows; ++r)
+    for (std::uint32_t c = 0; c < m.cols; ++c) out[((row_base + r) * std::size_t(groups)) * 4 + c] = m(r, c);
+}
+
+// Packs the transpose-friendly layout of Td_b (kb x n): texel (block_base + g) * n_max + t
+// holds Td_b[4g..4g+3][t].
+void pack_columns(const Matrix& m, std::size_t group_base, std::size_t n_max, std::vector<float>& out) {
+  for (std::uint32_t r = 0; r < m.rows; ++r)
+    for (std::uint32_t t = 0; t < m.cols; ++t) out[((group_base + r / 4) * n_max + t) * 4 + r % 4] = m(r, t);
+}
+
+}  // namespace
+
+GlesLevelRuntime::GlesLevelRuntime(const platform::GlFunctions& gl) : gl_(gl) {}
+
+GlesLevelRuntime::~GlesLevelRuntime() {
+  timer_.reset();
+  for (GLuint p : programs_) gl_.glDeleteProgram(p);
+  if (!framebuffers_.empty()) gl_.glDeleteFramebuffers(GLsizei(framebuffers_.size()), framebuffers_.data());
+  if (!textures_.empty()) gl_.glDeleteTextures(GLsizei(textures_.size()), textures_.data());
+  if (vao_) gl_.glDeleteVertexArrays(1, &vao_);
+}
+
+Result<std::unique_ptr<GlesLevelRuntime>> GlesLevelRuntime::create(const platform::GlFunctions& gl,
+                                                                   bool gles_context, const Level& level,
+                                                                   const Dictionary& dict,
+                                                                   const GlesRuntimeOptions& options) {
+  if (!gl.glGetError) return Status::error(ErrorCode::invalid_argument, "gles: GL functions are not loaded");
+  if (Status s = check_level_operators(level, dict); !s.ok()) return s;
+  std::unique_ptr<GlesLevelRuntime> rt(new GlesLevelRuntime(gl));
+  while (gl.glGetError() != GL_NO_ERROR) {
+  }  // errors left by the caller are not ours
+  if (Status s = rt->build(level, dict, gles_context, options); !s.ok()) return s;
+  return rt;
+}
+
+Status GlesLevelRuntime::check(const char* what) const {
+  if (!options_.check_errors) return Status::success();
+  const GLenum e = gl_.glGetError();
+  if (e == GL_NO_ERROR) return Status::success();
+  while (gl_.glGetError() != GL_NO_ERROR) {
+  }
+  return Status::error(ErrorCode::internal_error,
+                       std::string("gles: ") + what + ": " + platform::gl_error_name(e));
+}
+
+Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool gles_context,
+                               const GlesRuntimeOptions& options) {
+  level_ = &level;
+  dict_ = &dict;
+  options_ = options;
+  sizes_ = level_buffer_sizes(level, dict);
+  groups_ = groups_of(level.kb);
+  r_groups_ = groups_of(level.kr);
+  for (const ShapeOperators& op : dict.shapes) n_max_ = std::max(n_max_, int(op.sample_count()));
+  probe_rows_ = dict.shapes.empty() ? 0 : int(dict.shapes[0].Ubvol.rows);
+  has_probes_ = options.probes && probe_rows_ > 0;
+  gl_.glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size_);
+
+  // ---- target format: requested, or the best the context renders to ----
+  const bool float_rt = !gles_context || platform::has_gl_extension(gl_, "GL_EXT_color_buffer_float");
+  const bool half_rt = float_rt || platform::has_gl_extension(gl_, "GL_EXT_color_buffer_half_float");
+  if (options.target) {
+    target_ = *options.target;
+    if ((target_ == TargetFormat::float32 && !float_rt) || (target_ == TargetFormat::float16 && !half_rt))
+      return Status::error(
+          ErrorCode::invalid_argument,
+          std::string("gles: ") + target_format_name(target_) + " render targets need EXT_color_buffer_" +
+              (target_ == TargetFormat::float32 ? "float" : "half_float") +
+              ", which this context lacks; use bits32 (exact, RGBA32UI) or leave the format unset");
+  } else {
+    target_ = float_rt ? TargetFormat::float32 : half_rt ? TargetFormat::float16 : TargetFormat::bits32;
+  }
+  const GLenum output_format = output_internal_format(target_);
+  const GLenum op_format = options.operators == OperatorFormat::float16 ? GL_RGBA16F : GL_RGBA32F;
+  description_ = std::string("gles ") + target_format_name(target_) + " targets, " +
+                 operator_format_name(options.operators) + " operators";
+
+  // ---- integer tables ----
+  const std::size_t blocks = level.blocks.size(), slots = level.slots.size(), samples = level.sample_count;
+  std::vector<std::int32_t> block_info(4 * std::max<std::size_t>(blocks, 1), 0);
+  std::vector<std::int32_t> block_slots(4 * std::max<std::size_t>(blocks, 1), -1);
+  for (std::size_t i = 0; i < blocks; ++i) {
+    const LevelBlock& b = level.blocks[i];
+    block_info[4 * i + 0] = b.shape;
+    block_info[4 * i + 1] = std::int32_t(b.sample_offset);
+    block_info[4 * i + 2] = std::int32_t(b.sample_count);
+  }
+  // Records grouped by slot (stable), so r.frag walks one contiguous range per slot.
+  std::vector<std::uint32_t> order(level.records.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return level.records[a].slot < level.records[b].slot;
+  });
+  std::vector<std::int32_t> slot_info(4 * std::max<std::size_t>(slots, 1), 0);
+  for (std::size_t s = 0; s < slots; ++s) {
+    slot_info[4 * s + 2] = std::int32_t(level.slots[s].block);
+    slot_info[4 * s + 3] = level.slots[s].entry_face;
+  }
+  std::vector<std::int32_t> record_block(4 * std::max<std::size_t>(order.size(), 1), 0);
+  for (std::size_t j = 0; j < order.size(); ++j) {
+    const ResponseRecord& rec = level.records[order[j]];
+    record_block[4 * j] = std::int32_t(rec.source_block);
+    if (slot_info[4 * rec.slot + 1]++ == 0) slot_info[4 * rec.slot] = std::int32_t(j);
+  }
+  std::vector<std::int32_t> sample_info(4 * std::max<std::size_t>(samples, 1), 0);
+  std::vector<std::int32_t> sample_slots(4 * std::max<std::size_t>(samples, 1), -1);
+  std::vector<std::int32_t> sample_rows(4 * std::max<std::size_t>(samples, 1), -1);
+  const LightmapAtlas& atlas = level.atlas;
+  for (std::size_t i = 0; i < blocks; ++i) {
+    const LevelBlock& b = level.blocks[i];
+    for (std::uint32_t t = 0; t < b.sample_count; ++t) {
+      const std::size_t s = b.sample_offset + t;
+      const std::uint32_t texel = atlas.sample_texel.empty() ? 0 : atlas.sample_texel[s];
+      sample_info[4 * s + 0] = std::int32_t(i);
+      sample_info[4 * s + 1] = std::int32_t(t);
+      sample_info[4 * s + 2] = atlas.width > 0 ? std::int32_t(texel % std::uint32_t(atlas.width)) : 0;
+      sample_info[4 * s + 3] = atlas.width > 0 ? std::int32_t(texel / std::uint32_t(atlas.width)) : 0;
+    }
+  }
+  for (std::size_t s = 0; s < slots; ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    const LevelBlock& b = level.blocks[slot.block];
+    int k = 0;
+    while (k < 4 && block_slots[4 * slot.block + std::size_t(k)] >= 0) ++k;
+    if (k == 4)
+      return Status::error(ErrorCode::invalid_argument, "gles: block " + std::to_string(slot.block) +
+                                                            " has more than four response slots");
+    block_slots[4 * slot.block + std::size_t(k)] = std::int32_t(s);
+    for (std::size_t row = 0; row < slot.ur_row_to_sample.size(); ++row) {
+      const std::int32_t local = slot.ur_row_to_sample[row];
+      if (local < 0) continue;
+      const std::size_t g = b.sample_offset + std::size_t(local);
+      int m = 0;
+      while (m < 4 && sample_slots[4 * g + std::size_t(m)] >= 0) ++m;
+      if (m == 4)
+        return Status::error(ErrorCode::invalid_argument,
+                             "gles: sample " + std::to_string(g) + " receives more than four response slots");
+      sample_slots[4 * g + std::size_t(m)] = std::int32_t(s);
+      sample_rows[4 * g + std::size_t(m)] = std::int32_t(row);
+    }
+  }
+  // Which sample each atlas texel shows: interior texels their own, padding texels what the
+  // padding records copy into them (replayed in order, exactly as level_fill_atlas does).
+  const std::size_t atlas_texels =
+      std::size_t(std::max(atlas.width, 0)) * std::size_t(std::max(atlas.height, 0));
+  std::vector<std::int32_t> texel_sample(std::max<std::size_t>(atlas_texels, 1), -1);
+  for (std::size_t s = 0; s < atlas.sample_texel.size(); ++s)
+    texel_sample[atlas.sample_texel[s]] = std::int32_t(s);
+  for (const PaddingRecord& p : atlas.padding) texel_sample[p.dst] = texel_sample[p.src];
+
+  // ---- operators, packed four modes per texel ----
+  const std::size_t shapes = dict.shapes.size();
+  std::vector<float> td_b(4 * std::max<std::size_t>(shapes * std::size_t(groups_) * std::size_t(n_max_), 1),
+                          0.0f);
+  std::vector<float> ub(4 * std::max<std::size_t>(shapes * std::size_t(n_max_) * std::size_t(groups_), 1),
+                        0.0f);
+  for (std::size_t sh = 0; sh < shapes; ++sh) {
+    pack_columns(dict.shapes[sh].Td_b, sh * std::size_t(groups_), std::size_t(n_max_), td_b);
+    pack_rows(dict.shapes[sh].Ub, sh * std::size_t(n_max_), groups_, ub);
+  }
+  const Matrix& Ur = dict.interfaces.Ur;
+  std::vector<float> ur(4 * std::max<std::size_t>(std::size_t(Ur.rows) * std::size_t(r_groups_), 1), 0.0f);
+  if (!Ur.empty()) pack_rows(Ur, 0, r_groups_, ur);
+  // Records: texel ((j * r_groups + go) * groups + gi) * 4 + c = T[4go..4go+3][4gi + c].
+  const std::size_t per_record = std::size_t(r_groups_) * std::size_t(groups_) * 4;
+  std::vector<float> t(4 * std::max<std::size_t>(order.size() * per_record, 1), 0.0f);
+  for (std::size_t j = 0; j < order.size(); ++j) {
+    const Matrix& T = level.records[order[j]].T;
+    for (std::uint32_t row = 0; row < T.rows; ++row)
+      for (std::uint32_t col = 0; col < T.cols; ++col) {
+        const std::size_t texel =
+            ((j * std::size_t(r_groups_) + row / 4) * std::size_t(groups_) + col / 4) * 4 + col % 4;
+        t[4 * texel + row % 4] = T(row, col);
+      }
+  }
+  std::vector<float> ubvol, probe_response;
+  if (has_probes_) {
+    const std::size_t rows = std::size_t(probe_rows_);
+    ubvol.assign(4 * shapes * rows * std::size_t(groups_), 0.0f);
+    for (std::size_t sh = 0; sh < shapes; ++sh) pack_rows(dict.shapes[sh].Ubvol, sh * rows, groups_, ubvol);
+    probe_response.assign(4 * kFaceCount * rows * std::size_t(r_groups_), 0.0f);
+    for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f)
+      if (level.probe_response[f].rows == rows)
+        pack_rows(level.probe_response[f], f * rows, r_groups_, probe_response);
+  }
+
+  // ---- textures ----
+  Status limit;
+  auto linear_texture = [&](const char* name, GLenum format, std::size_t texels) -> GLuint {
+    const int rows = linear_rows(texels);
+    if (rows > max_texture_size_ && limit.ok())
+      limit = Status::error(
+          ErrorCode::resource_limit,
+          std::string("gles: ") + name + " needs a " + std::to_string(kLinearWidth) + " x " +
+              std::to_string(rows) + " texture, over this context's GL_MAX_TEXTURE_SIZE " +
+              std::to_string(max_texture_size_) + ": the level is too large for the GLES backend");
+    const GLuint tex =
+        create_texture(gl_, format, kLinearWidth, std::min(rows, std::max(max_texture_size_, 1)));
+    textures_.push_back(tex);
+    return tex;
+  };
+  auto float_table = [&](const char* name, GLenum format, const std::vector<float>& data) {
+    const GLuint tex = linear_texture(name, format, data.size() / 4);
+    if (limit.ok())
+      upload_linear(gl_, tex, GL_RGBA, GL_FLOAT, 4, data.data(), data.size() / 4, sizeof(float));
+    return tex;
+  };
+  auto int_table = [&](const char* name, const std::vector<std::int32_t>& data) {
+    const GLuint tex = linear_texture(name, GL_RGBA32I, data.size() / 4);
+    if (limit.ok())
+      upload_linear(gl_, tex, GL_RGBA_INTEGER, GL_INT, 4, data.data(), data.size() / 4, sizeof(std::int32_t));
+    return tex;
+  };
+  td_b_ = float_table("Td_b", op_format, td_b);
+  ub_ = float_table("Ub", op_format, ub);
+  ur_ = float_table("Ur", op_format, ur);
+  t_ = float_table("Tb_r records", op_format, t);
+  if (has_probes_) {
+    ubvol_ = float_table("Ubvol", op_format, ubvol);
+    probe_response_ = float_table("probe response", op_format, probe_response);
+  }
+  block_info_ = int_table("block table", block_info);
+  block_slots_ = int_table("block slot table", block_slots);
+  slot_info_ = int_table("slot table", slot_info);
+  record_block_ = int_table("record table", record_block);
+  sample_info_ = int_table("sample table", sample_info);
+  sample_slots_ = int_table("sample slot table", sample_slots);
+  sample_rows_ = int_table("sample row table", sample_rows);
+  const int atlas_w = std::max(atlas.width, 1), atlas_h = std::max(atlas.height, 1);
+  if (atlas_w > max_texture_size_ || atlas_h > max_texture_size_)
+    return Status::error(ErrorCode::resource_limit, "gles: the lightmap atlas (" + std::to_string(atlas_w) +
+                                                        " x " + std::to_string(atlas_h) +
+                                                        ") exceeds GL_MAX_TEXTURE_SIZE " +
+                                                        std::to_string(max_texture_size_));
+  texel_sample_ = create_texture(gl_, GL_R32I, atlas_w, atlas_h);
+  textures_.push_back(texel_sample_);
+  gl_.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl_.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas_w, atlas_h, GL_RED_INTEGER, GL_INT, texel_sample.data());
+  // Per-frame inputs: RGB32F so that the caller's interleaved RGB uploads without repacking.
+  sample_rows_count_ = linear_rows(samples);
+  ld_ = linear_texture("ld", GL_RGB32F, samples);
+  ld_direct_ = linear_texture("ld_direct", GL_RGB32F, samples);
+  rho_ = linear_texture("albedo", GL_RGB32F, samples);
+  if (!limit.ok()) return limit;
+  if (Status s = check("uploading operators"); !s.ok()) return s;
+
+  // ---- signal targets ----
+  const char* fmt = target_format_name(target_);
+  auto signal3 = [&](const char* name, std::size_t texels, Signal3& out) -> Status {
+    out.width = kLinearWidth;
+    out.height = linear_rows(texels);
+    if (out.height > max_texture_size_)
+      return Status::error(ErrorCode::resource_limit,
+                           std::string("gles: ") + name + " exceeds GL_MAX_TEXTURE_SIZE");
+    for (GLuint& tex : out.textures) {
+      tex = create_texture(gl_, GL_RGBA32UI, out.width, out.height);
+      textures_.push_back(tex);
+    }
+    Result<GLuint> fb =
+        create_framebuffer(gl_, name, {out.textures[0], out.textures[1], out.textures[2]}, "RGBA32UI");
+    if (!fb.ok()) return fb.status();
+    out.framebuffer = fb.value();
+    framebuffers_.push_back(fb.value());
+    return Status::success();
+  };
+  auto target = [&](const char* name, int width, int height, GLenum format, Target& out) -> Status {
+    if (height > max_texture_size_)
+      return Status::error(ErrorCode::resource_limit,
+                           std::string("gles: ") + name + " exceeds GL_MAX_TEXTURE_SIZE");
+    out.width = width;
+    out.height = height;
+    out.texture = create_texture(gl_, format, width, height);
+    textures_.push_back(out.texture);
+    Result<GLuint> fb =
+        create_framebuffer(gl_, name, {out.texture}, format == GL_RGBA32UI ? "RGBA32UI" : fmt);
+    if (!fb.ok()) return fb.status();
+    out.framebuffer = fb.value();
+    framebuffers_.push_back(fb.value());
+    return Status::success();
+  };
+  if (Status s = signal3("b", blocks * std::size_t(groups_), b_); !s.ok()) return s;
+  if (Status s = signal3("r", slots * std::size_t(r_groups_), r_); !s.ok()) return s;
+  if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
+  if (Status s = target("feedback ld", kLinearWidth, sample_rows_count_, GL_RGBA32UI, ld_feedback_); !s.ok())
+    return s;
+  if (has_probes_) {
+    if (Status s = target("probes", kLinearWidth, linear_rows(blocks * std::size_t(probe_rows_)),
+                          output_format, probes_);
+        !s.ok())
+      return s;
+  }
+  std::size_t largest = std::size_t(atlas_w) * std::size_t(atlas_h);
+  for (const Target* tg : {&ld_feedback_, &probes_})
+    largest = std::max(largest, std::size_t(tg->width) * std::size_t(tg->height));
+  largest = std::max(largest, std::size_t(b_.width) * std::size_t(b_.height));
+  largest = std::max(largest, std::size_t(r_.width) * std::size_t(r_.height));
+  readback_.assign(4 * largest, 0.0f);
+
+  // ---- programs ----
+  const std::string defines = "#version 300 es\n#define LINEAR_SHIFT " + std::to_string(kLinearShift) +
+                              "\n#define OUTPUT_BITS " + (target_ == TargetFormat::bits32 ? "1" : "0") + "\n";
+  const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
+                    ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
+  auto program = [&](const char* name, const std::string& head, const char* fragment,
+                     Program& out) -> Status {
+    Result<GLuint> p =
+        build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
+    if (!p.ok()) return p.status();
+    out.id = p.value();
+    programs_.push_back(p.value());
+    gl_.glUseProgram(out.id);
+    return Status::success();
+  };
+  for (auto [prog, head, name] : {std::tuple{&prog_b_, &ld_upload, "b.frag"},
+                                  std::tuple{&prog_b_feedback_, &ld_signal, "b.frag (feedback)"}}) {
+    if (Status s = program(name, *head, kBFrag, *prog); !s.ok()) return s;
+    assign_sampler_units(gl_, prog->id, {"u_td_b", "u_block_info", "u_ld"});
+    set_int(gl_, prog->id, "u_count", int(blocks) * groups_);
+    set_int(gl_, prog->id, "u_groups", groups_);
+    set_int(gl_, prog->id, "u_n_max", n_max_);
+  }
+  if (Status s = program("r.frag", defines, kRFrag, prog_r_); !s.ok()) return s;
+  assign_sampler_units(gl_, prog_r_.id,
+                       {"u_t", "u_slot_info", "u_record_block", "u_b_red", "u_b_green", "u_b_blue"});
+  set_int(gl_, prog_r_.id, "u_count", int(slots) * r_groups_);
+  set_int(gl_, prog_r_.id, "u_groups", groups_);
+  set_int(gl_, prog_r_.id, "u_r_groups", r_groups_);
+  if (Status s = program("atlas.frag", defines, kAtlasFrag, prog_atlas_); !s.ok()) return s;
+  assign_sampler_units(
+      gl_, prog_atlas_.id,
+      {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
+       "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
+  set_int(gl_, prog_atlas_.id, "u_groups", groups_);
+  set_int(gl_, prog_atlas_.id, "u_r_groups", r_groups_);
+  set_int(gl_, prog_atlas_.id, "u_n_max", n_max_);
+  if (Status s = program("feedback.frag", defines, kFeedbackFrag, prog_feedback_); !s.ok()) return s;
+  assign_sampler_units(gl_, prog_feedback_.id, {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas"});
+  set_int(gl_, prog_feedback_.id, "u_count", int(samples));
+  prog_feedback_.u_bound = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound");
+  if (has_probes_) {
+    if (Status s = program("probes.frag", defines, kProbesFrag, prog_probes_); !s.ok()) return s;
+    assign_sampler_units(gl_, prog_probes_.id,
+                         {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
+                          "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
+    set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
+    set_int(gl_, prog_probes_.id, "u_rows", probe_rows_);
+    set_int(gl_, prog_probes_.id, "u_groups", groups_);
+    set_int(gl_, prog_probes_.id, "u_r_groups", r_groups_);
+  }
+  gl_.glUseProgram(0);
+  gl_.glGenVertexArrays(1, &vao_);  // desktop core profiles draw only with a VAO bound
+  timer_ = std::make_unique<platform::GpuTimer>(gl_, gles_context, kScopeCount);
+  return check("creating targets and programs");
+}
+
+void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int width, int height,
+                            std::initializer_list<GLuint> textures) {
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+  gl_.glViewport(0, 0, width, height);
+  gl_.glUseProgram(program.id);
+  GLenum unit = GL_TEXTURE0;
+  for (GLuint t : textures) {
+    gl_.glActiveTexture(unit++);
+    gl_.glBindTexture(GL_TEXTURE_2D, t);
+  }
+  gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+void GlesLevelRuntime::begin_pass(int scope) {
+  if (timing_) timer_->begin(scope);
+}
+
+void GlesLevelRuntime::end_pass(int scope) {
+  if (timing_) timer_->end(scope);
+}
+
+void GlesLevelRuntime::set_timing(bool on) { timing_ = on; }
+
+Status GlesLevelRuntime::run_passes(bool from_feedback) {
+  const int blocks = int(level_->blocks.size());
+  gl_.glDisable(GL_BLEND);
+  gl_.glDisable(GL_DEPTH_TEST);
+  gl_.glDisable(GL_SCISSOR_TEST);
+  gl_.glBindVertexArray(vao_);
+
+  if (from_feedback) {
+    begin_pass(kFeedback);
+    gl_.glUseProgram(prog_feedback_.id);
+    gl_.glUniform1f(prog_feedback_.u_bound, feedback_bound_);
+    draw(prog_feedback_, ld_feedback_.framebuffer, ld_feedback_.width, ld_feedback_.height,
+         {ld_direct_, rho_, sample_info_, atlas_.texture});
+    end_pass(kFeedback);
+    if (Status s = check("feedback pass"); !s.ok()) return s;
+  }
+  begin_pass(kB);
+  if (from_feedback)
+    draw(prog_b_feedback_, b_.framebuffer, b_.width, b_.height, {td_b_, block_info_, ld_feedback_.texture});
+  else
+    draw(prog_b_, b_.framebuffer, b_.width, b_.height, {td_b_, block_info_, ld_});
+  end_pass(kB);
+  if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
+
+  begin_pass(kR);
+  if (!level_->slots.empty())
+    draw(prog_r_, r_.framebuffer, r_.width, r_.height,
+         {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]});
+  end_pass(kR);
+  if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
+
+  begin_pass(kAtlas);
+  draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
+       {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
+        b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]});
+  end_pass(kAtlas);
+  if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
+
+  if (has_probes_ && blocks > 0) {
+    begin_pass(kProbes);
+    draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
+         {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
+          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]});
+    end_pass(kProbes);
+    if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
+  }
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl_.glUseProgram(0);
+  gl_.glBindVertexArray(0);
+  updated_ = true;
+  if (timing_) {
+    times_.upload = timer_->elapsed_ns(kUpload);
+    times_.feedback = from_feedback ? timer_->elapsed_ns(kFeedback) : 0;
+    times_.b = timer_->elapsed_ns(kB);
+    times_.r = timer_->elapsed_ns(kR);
+    times_.atlas = timer_->elapsed_ns(kAtlas);
+    times_.probes = has_probes_ ? timer_->elapsed_ns(kProbes) : 0;
+    timer_->reset();
+  }
+  return Status::success();
+}
+
+Status GlesLevelRuntime::update(std::span<const float> ld) {
+  if (Status s = validate_light_signal(ld, level_->sample_count, "ld"); !s.ok()) return s;
+  if (timing_) timer_->reset();
+  begin_pass(kUpload);
+  upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3, ld.data(), level_->sample_count, sizeof(float));
+  end_pass(kUpload);
+  if (Status s = check("uploading ld"); !s.ok()) return s;
+  return run_passes(false);
+}
+
+Status GlesLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {
+  if (Status s = validate_light_signal(albedo, level_->sample_count, "albedo"); !s.ok()) return s;
+  if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
+    return Status::error(ErrorCode::invalid_argument, "gles: multi-bounce: max_albedo must be in [0, 1)");
+  // Clamped on the CPU once (as core's prepare_feedback), uploaded once; reuses readback_
+  // as scratch so that nothing is allocated after create().
+  std::vector<float>& rho = readback_;
+  rho_max_ = 0.0f;
+  for (std::size_t i = 0; i < albedo.size(); ++i) {
+    rho[i] = std::min(albedo[i], max_albedo);
+    rho_max_ = std::max(rho_max_, rho[i]);
+  }
+  upload_linear(gl_, rho_, GL_RGB, GL_FLOAT, 3, rho.data(), level_->sample_count, sizeof(float));
+  has_albedo_ = true;
+  return check("uploading albedo");
+}
+
+Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
+  if (!has_albedo_)
+    return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call set_albedo first");
+  if (!updated_)
+    return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call update first");
+  if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
+  const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
+  feedback_bound_ = ld_max / (1.0f - rho_max_);
+  if (timing_) timer_->reset();
+  begin_pass(kUpload);
+  upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
+  end_pass(kUpload);
+  if (Status s = check("uploading ld_direct"); !s.ok()) return s;
+  return run_passes(true);
+}
+
+Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int width, int height, bool bits) {
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+  gl_.glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + attachment));
+  gl_.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  // RGBA32UI targets hold float bit patterns: reading them as unsigned ints into float
+  // storage yields the floats exactly.
+  if (bits)
+    gl_.glReadPixels(0, 0, width, height, GL_RGBA_INTEGER, GL_UNSIGNED_INT, readback_.data());
+  else
+    gl_.glReadPixels(0, 0, width, height, GL_RGBA, GL_FLOAT, readback_.data());
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return check("reading back a render target");
+}
+
+Status GlesLevelRuntime::read_signal3(const Signal3& s, int groups, std::size_t items, std::size_t modes,
+                                      std::span<float> out) {
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  for (int c = 0; c < 3; ++c) {
+    if (Status st = read_target(s.framebuffer, c, s.width, s.height, true); !st.ok()) return st;
+    for (std::size_t i = 0; i < items; ++i)
+      for (std::size_t k = 0; k < modes; ++k)
+        out[3 * modes * i + 3 * k + std::size_t(c)] =
+            readback_[4 * (i * std::size_t(groups) + k / 4) + k % 4];
+  }
+  return Status::success();
+}
+
+Status GlesLevelRuntime::read_b(std::span<float> b) {
+  if (b.size() != sizes_.b) return wrong_size("b", b.size(), sizes_.b);
+  return read_signal3(b_, groups_, level_->blocks.size(), level_->kb, b);
+}
+
+Status GlesLevelRuntime::read_r(std::span<float> r) {
+  if (r.size() != sizes_.r) return wrong_size("r", r.size(), sizes_.r);
+  if (level_->slots.empty()) return Status::success();
+  return read_signal3(r_, r_groups_, level_->slots.size(), level_->kr, r);
+}
+
+Status GlesLevelRuntime::read_atlas(std::span<float> atlas) {
+  if (atlas.size() != sizes_.atlas) return wrong_size("atlas", atlas.size(), sizes_.atlas);
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  if (atlas.empty()) return Status::success();
+  if (Status s =
+          read_target(atlas_.framebuffer, 0, atlas_.width, atlas_.height, target_ == TargetFormat::bits32);
+      !s.ok())
+    return s;
+  for (std::size_t i = 0; i < atlas.size() / 3; ++i)
+    for (std::size_t c = 0; c < 3; ++c) atlas[3 * i + c] = readback_[4 * i + c];
+  return Status::success();
+}
+
+Status GlesLevelRuntime::read_lightmap(std::span<float> lightmap) {
+  if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  if (lightmap.empty()) return Status::success();
+  if (Status s =
+          read_target(atlas_.framebuffer, 0, atlas_.width, atlas_.height, target_ == TargetFormat::bits32);
+      !s.ok())
+    return s;
+  const std::vector<std::uint32_t>& texel = level_->atlas.sample_texel;
+  for (std::size_t s = 0; s < texel.size(); ++s)
+    for (std::size_t c = 0; c < 3; ++c) lightmap[3 * s + c] = readback_[4 * std::size_t(texel[s]) + c];
+  return Status::success();
+}
+
+Status GlesLevelRuntime::read_probes(std::span<float> probes) {
+  if (!has_probes_)
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles: no probes (the dictionary has none or GlesRuntimeOptions::probes is off)");
+  if (probes.size() != sizes_.probes) return wrong_size("probes", probes.size(), sizes_.probes);
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  if (Status s =
+          read_target(probes_.framebuffer, 0, probes_.width, probes_.height, target_ == TargetFormat::bits32);
+      !s.ok())
+    return s;
+  for (std::size_t i = 0; i < probes.size() / 3; ++i)
+    for (std::size_t c = 0; c < 3; ++c) probes[3 * i + c] = readback_[4 * i + c];
+  return Status::success();
+}
+
+}  // namespace modrt::gles
