@@ -7,11 +7,18 @@ set(MODRT_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/modrt"
     CACHE STRING "Where the modrt CMake package files are installed (relative to the prefix)")
 mark_as_advanced(MODRT_INSTALL_CMAKEDIR)
 
-# Libraries (exported as modrt::core, modrt::cpu, modrt::precompute) and their public headers.
+# Libraries (exported as modrt::core, modrt::cpu, modrt::platform, modrt::gles, modrt::precompute) and their public headers.
 set(_modrt_export_targets modrt_core)
 if(TARGET modrt_cpu)
   list(APPEND _modrt_export_targets modrt_cpu)
   install(DIRECTORY "${PROJECT_SOURCE_DIR}/cpu_neon/include/modrt" DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
+endif()
+set(MODRT_PACKAGE_HAS_GLES OFF)
+if(TARGET modrt_gles)
+  list(APPEND _modrt_export_targets modrt_platform modrt_gles)
+  set(MODRT_PACKAGE_HAS_GLES ON)
+  install(DIRECTORY "${PROJECT_SOURCE_DIR}/platform/include/modrt" "${PROJECT_SOURCE_DIR}/gles/include/modrt"
+          DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}")
 endif()
 set(MODRT_PACKAGE_HAS_PRECOMPUTE OFF)
 if(TARGET modrt_precompute)

@@ -1,0 +1,178 @@
+// modrt-bench-gles — Google Benchmark timings of the OpenGL ES backend (gles/) per frame,
+// with the CPU backend's AVX2/NEON/best-ISA frame on the same level in the same run for a
+// ratio. Speed is measured only here.
+//
+//   BM_GlesLevelFrame/<blocks>/<context>   update(ld) + glFinish, wall clock; counters:
+//        gpu_us  sum of the passes' GPU timer-query times (0 when the context has none)
+//        b_us, r_us, atlas_us, probes_us, upload_us  per pass
+//     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
+//   BM_CpuBackendFrame/<blocks>            the CPU backend's update (best ISA), for the ratio
+//
+// Levels: maze11 and maze41 built against the DEFAULT full dictionary (res 16, kb 32, kr 32),
+// loaded from the cache ($MODRT_CACHE_DIR, ...) or baked on first use (about a minute).
+// Set MODRT_BENCH_DICTIONARY=FILE to load a dictionary file instead (e.g. on a machine
+// without the cache). ld is a fixed synthetic non-negative pattern.
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "modrt/cpu/cpu_backend.h"
+#include "modrt/dictionary_io.h"
+#include "modrt/gles/gles_level_runtime.h"
+#include "modrt/platform/gl_context.h"
+#include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/maze.h"
+
+namespace {
+
+using namespace modrt;
+
+const Dictionary* dictionary() {
+  static const std::unique_ptr<Dictionary> dict = [] {
+    const char* file = std::getenv("MODRT_BENCH_DICTIONARY");
+    Result<Dictionary> d =
+        file ? load_dictionary(file)
+             : precompute::load_or_bake_dictionary(DictionarySettings{}, precompute::default_cache_dir());
+    if (!d.ok()) {
+      std::fprintf(stderr, "modrt-bench-gles: %s\n", d.status().to_string().c_str());
+      return std::unique_ptr<Dictionary>();
+    }
+    return std::make_unique<Dictionary>(std::move(d).value());
+  }();
+  return dict.get();
+}
+
+struct BenchLevel {
+  Level level;
+  std::vector<float> ld;
+};
+
+const BenchLevel* bench_level(int blocks) {
+  static std::map<int, std::unique_ptr<BenchLevel>> cache;
+  auto it = cache.find(blocks);
+  if (it != cache.end()) return it->second.get();
+  std::unique_ptr<BenchLevel> out;
+  if (const Dictionary* dict = dictionary()) {
+    Result<LevelDescription> desc = precompute::maze_level(blocks);
+    Result<Level> level =
+        desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
+    if (level.ok()) {
+      out = std::make_unique<BenchLevel>();
+      out->level = std::move(level).value();
+      out->ld.resize(3 * std::size_t(out->level.sample_count));
+      for (std::size_t i = 0; i < out->ld.size(); ++i) out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
+    } else {
+      std::fprintf(stderr, "modrt-bench-gles: maze %d: %s\n", blocks, level.status().to_string().c_str());
+    }
+  }
+  return cache.emplace(blocks, std::move(out)).first->second.get();
+}
+
+// Destroyed at the end of main(), not by static destructors (OSMesa crashes if its context
+// outlives Mesa's exit handlers).
+std::map<int, std::unique_ptr<platform::GlContext>>& contexts() {
+  static std::map<int, std::unique_ptr<platform::GlContext>> cache;
+  return cache;
+}
+
+platform::GlContext* context(int index) {
+  static const platform::ContextRequest requests[] = {
+      platform::ContextRequest::auto_select, platform::ContextRequest::egl_surfaceless,
+      platform::ContextRequest::osmesa, platform::ContextRequest::egl_device};
+  std::map<int, std::unique_ptr<platform::GlContext>>& cache = contexts();
+  auto it = cache.find(index);
+  if (it == cache.end()) {
+    Result<std::unique_ptr<platform::GlContext>> c = platform::create_context(requests[index]);
+    std::unique_ptr<platform::GlContext> ctx;
+    if (c.ok()) {
+      ctx = std::move(c).value();
+      std::fprintf(stderr, "modrt-bench-gles: context %d: %s | %s | %s\n%s", index,
+                   platform::context_kind_name(ctx->info().kind), ctx->info().renderer.c_str(),
+                   ctx->info().version.c_str(), ctx->info().selection_report.c_str());
+      std::fputc('\n', stderr);
+    } else {
+      std::fprintf(stderr, "modrt-bench-gles: context %d: %s\n", index, c.status().to_string().c_str());
+    }
+    it = cache.emplace(index, std::move(ctx)).first;
+  }
+  if (it->second && !it->second->make_current().ok()) return nullptr;
+  return it->second.get();
+}
+
+void BM_GlesLevelFrame(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  platform::GlContext* ctx = context(int(state.range(1)));
+  if (!bl || !ctx) {
+    state.SkipWithError("no dictionary/level or no such GL context here");
+    return;
+  }
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), {});
+  if (!rt.ok()) {
+    state.SkipWithError(rt.status().to_string().c_str());
+    return;
+  }
+  gles::GlesLevelRuntime& runtime = *rt.value();
+  for (int warm = 0; warm < 3; ++warm) (void)runtime.update(bl->ld);
+  ctx->gl().glFinish();
+  for (auto _ : state) {
+    if (!runtime.update(bl->ld).ok()) state.SkipWithError("update failed");
+    ctx->gl().glFinish();
+  }
+  // Per-pass times from a separate, timed run of frames (timer queries where available).
+  runtime.set_timing(true);
+  gles::GlesPassTimes sum{};
+  constexpr int kTimedFrames = 20;
+  for (int i = 0; i < kTimedFrames; ++i) {
+    (void)runtime.update(bl->ld);
+    const gles::GlesPassTimes& t = runtime.pass_times();
+    sum.upload += t.upload, sum.b += t.b, sum.r += t.r, sum.atlas += t.atlas, sum.probes += t.probes;
+  }
+  auto us = [](std::uint64_t ns) { return double(ns) / kTimedFrames / 1000.0; };
+  state.counters["upload_us"] = us(sum.upload);
+  state.counters["b_us"] = us(sum.b);
+  state.counters["r_us"] = us(sum.r);
+  state.counters["atlas_us"] = us(sum.atlas);
+  state.counters["probes_us"] = us(sum.probes);
+  state.counters["gpu_us"] = us(sum.b + sum.r + sum.atlas + sum.probes);
+  state.counters["blocks"] = double(bl->level.blocks.size());
+  state.counters["records"] = double(bl->level.records.size());
+  state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " " + runtime.description());
+}
+BENCHMARK(BM_GlesLevelFrame)
+    ->ArgsProduct({{11, 41}, {0, 1, 2, 3}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
+
+void BM_CpuBackendFrame(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  if (!bl) {
+    state.SkipWithError("no dictionary/level");
+    return;
+  }
+  Result<std::unique_ptr<Backend>> be = cpu::create_cpu_backend(bl->level, *dictionary());
+  if (!be.ok()) {
+    state.SkipWithError(be.status().to_string().c_str());
+    return;
+  }
+  for (auto _ : state)
+    if (!be.value()->update(bl->ld).ok()) state.SkipWithError("update failed");
+  state.SetLabel(be.value()->description());
+}
+BENCHMARK(BM_CpuBackendFrame)->Arg(11)->Arg(41)->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  contexts().clear();
+  return 0;
+}
