@@ -2,7 +2,8 @@
 // fragment-shader passes equal core's scalar reference, for a single block, a corridor and
 // the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts this
 // machine offers (EGL surfaceless GLES 3.2 and OSMesa GL 4.5 core running the ES 3.0
-// shaders). Tolerances (relative L2 over all values): 1e-4 for float32 and bits32 targets,
+// shaders), and through EGL device (a GPU where there is one, else Mesa's software device).
+// Tolerances (relative L2 over all values): 1e-4 for float32 and bits32 targets,
 // 2e-3 for float16 targets or float16 operators. A context kind that cannot be created is
 // skipped with the reason printed.
 #include <gtest/gtest.h>
@@ -345,7 +346,8 @@ std::string context_name(const ::testing::TestParamInfo<ContextRequest>& info) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesBackend,
-                         ::testing::Values(ContextRequest::egl_surfaceless, ContextRequest::osmesa),
+                         ::testing::Values(ContextRequest::egl_surfaceless, ContextRequest::osmesa,
+                                           ContextRequest::egl_device),
                          context_name);
 
 }  // namespace
