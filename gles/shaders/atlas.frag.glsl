@@ -12,8 +12,6 @@ uniform isampler2D u_sample_rows;   // per sample: the Ur row of each of those s
 uniform isampler2D u_block_info;    // per block: (shape, sample_offset, sample_count, 0)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
-uniform int u_groups, u_r_groups, u_n_max;
-
 layout(location = 0) out OUTPUT_TYPE o_color;
 
 void main() {
@@ -22,9 +20,9 @@ void main() {
   if (s >= 0) {
     ivec4 info = load_int(u_sample_info, s);
     int shape = load_int(u_block_info, info.x).x;
-    int ub = (shape * u_n_max + info.y) * u_groups;
-    int bb = info.x * u_groups;
-    for (int g = 0; g < u_groups; ++g) {
+    int ub = (shape * N_MAX + info.y) * GROUPS;
+    int bb = info.x * GROUPS;
+    for (int g = 0; g < GROUPS; ++g) {
       vec4 u = load(u_ub, ub + g);
       acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
                   dot(u, load_signal(u_b_blue, bb + g)));
@@ -33,9 +31,9 @@ void main() {
     ivec4 rows = load_int(u_sample_rows, s);
     for (int k = 0; k < 4; ++k) {
       if (slots[k] < 0) break;
-      int ur = rows[k] * u_r_groups;
-      int rb = slots[k] * u_r_groups;
-      for (int g = 0; g < u_r_groups; ++g) {
+      int ur = rows[k] * R_GROUPS;
+      int rb = slots[k] * R_GROUPS;
+      for (int g = 0; g < R_GROUPS; ++g) {
         vec4 u = load(u_ur, ur + g);
         acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
                     dot(u, load_signal(u_r_blue, rb + g)));

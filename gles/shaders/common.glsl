@@ -1,5 +1,11 @@
 // Shared by every modrt pass. The C++ side puts "#version 300 es" and these defines first:
 //   LINEAR_SHIFT      log2 of the width of every linear-layout texture (see gles/README.md)
+//   GROUPS, R_GROUPS  ceil(kb / 4), ceil(kr / 4): mode groups of four
+//   N_MAX             the largest shape's sample count
+//   PROBE_ROWS        9 g^3, rows of Ubvol (0 without probes)
+//   B_CHUNK, B_CHUNKS samples per partial sum of b, and partial sums per block (b.frag)
+// Sizes are compile-time constants, not uniforms, so that loops have constant trip counts the
+// compiler can unroll and software-pipeline (the passes are texture-latency bound).
 //   OUTPUT_BITS       1: the atlas and probes are RGBA32UI targets holding float bit patterns
 //                     (TargetFormat::bits32); 0: RGBA32F or RGBA16F targets.
 precision highp float;

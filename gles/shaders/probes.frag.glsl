@@ -10,7 +10,7 @@ uniform isampler2D u_block_slots;  // per block: up to four slots entering it, -
 uniform isampler2D u_slot_info;    // per slot: (first record, record count, block, entry face)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
-uniform int u_count, u_rows, u_groups, u_r_groups;
+uniform int u_count;  // blocks * PROBE_ROWS
 
 layout(location = 0) out OUTPUT_TYPE o_sh;
 
@@ -18,12 +18,12 @@ void main() {
   int i = fragment_index();
   vec3 acc = vec3(0.0);
   if (i < u_count) {
-    int block = i / u_rows;
-    int row = i - block * u_rows;
+    int block = i / PROBE_ROWS;
+    int row = i - block * PROBE_ROWS;
     int shape = load_int(u_block_info, block).x;
-    int op = (shape * u_rows + row) * u_groups;
-    int bb = block * u_groups;
-    for (int g = 0; g < u_groups; ++g) {
+    int op = (shape * PROBE_ROWS + row) * GROUPS;
+    int bb = block * GROUPS;
+    for (int g = 0; g < GROUPS; ++g) {
       vec4 u = load(u_ubvol, op + g);
       acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
                   dot(u, load_signal(u_b_blue, bb + g)));
@@ -32,9 +32,9 @@ void main() {
     for (int k = 0; k < 4; ++k) {
       if (slots[k] < 0) break;
       int face = load_int(u_slot_info, slots[k]).w;
-      int pr = (face * u_rows + row) * u_r_groups;
-      int rb = slots[k] * u_r_groups;
-      for (int g = 0; g < u_r_groups; ++g) {
+      int pr = (face * PROBE_ROWS + row) * R_GROUPS;
+      int rb = slots[k] * R_GROUPS;
+      for (int g = 0; g < R_GROUPS; ++g) {
         vec4 u = load(u_probe_response, pr + g);
         acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
                     dot(u, load_signal(u_r_blue, rb + g)));

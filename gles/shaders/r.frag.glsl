@@ -1,14 +1,14 @@
 // Step 4 (MRT §6.3): r = Tb->r b, the records of each response slot summed. One fragment
-// computes four response modes of one slot; fragment i = slot * r_groups + go. Record j's
+// computes the part of four response modes of one slot that comes from four b modes, over
+// all the slot's records; fragment i = (slot * R_GROUPS + go) * GROUPS + gi, and
+// reduce.frag adds the GROUPS parts (GROUPS times more parallel fragments). Record j's
 // kr x kb matrix T is stored in 4x4 blocks, one mat4 per (go, gi) in four texels:
 // texel ((j * r_groups + go) * groups + gi) * 4 + c = T[4go..4go+3][4gi + c].
 uniform sampler2D u_t;
 uniform isampler2D u_slot_info;     // per slot: (first record, record count, block, entry face)
 uniform isampler2D u_record_block;  // per record: (source block, 0, 0, 0)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
-uniform int u_count;     // slots * r_groups
-uniform int u_groups;    // ceil(kb / 4)
-uniform int u_r_groups;  // ceil(kr / 4)
+uniform int u_count;  // slots * R_GROUPS * GROUPS
 
 layout(location = 0) out uvec4 o_red;
 layout(location = 1) out uvec4 o_green;
@@ -18,19 +18,18 @@ void main() {
   int i = fragment_index();
   vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
   if (i < u_count) {
-    int slot = i / u_r_groups;
-    int go = i - slot * u_r_groups;
+    int gi = i % GROUPS;
+    int so = i / GROUPS;
+    int slot = so / R_GROUPS;
+    int go = so - slot * R_GROUPS;
     ivec4 info = load_int(u_slot_info, slot);
     for (int j = info.x; j < info.x + info.y; ++j) {
-      int source = load_int(u_record_block, j).x * u_groups;
-      int base = (j * u_r_groups + go) * u_groups * 4;
-      for (int gi = 0; gi < u_groups; ++gi) {
-        int t = base + gi * 4;
-        mat4 m = mat4(load(u_t, t), load(u_t, t + 1), load(u_t, t + 2), load(u_t, t + 3));
-        red += m * load_signal(u_b_red, source + gi);
-        green += m * load_signal(u_b_green, source + gi);
-        blue += m * load_signal(u_b_blue, source + gi);
-      }
+      int source = load_int(u_record_block, j).x * GROUPS + gi;
+      int t = ((j * R_GROUPS + go) * GROUPS + gi) * 4;
+      mat4 m = mat4(load(u_t, t), load(u_t, t + 1), load(u_t, t + 2), load(u_t, t + 3));
+      red += m * load_signal(u_b_red, source);
+      green += m * load_signal(u_b_green, source);
+      blue += m * load_signal(u_b_blue, source);
     }
   }
   o_red = store_signal(red);

@@ -15,6 +15,7 @@ namespace modrt::gles {
 extern const char* const kCommon;
 extern const char* const kFullscreenVert;
 extern const char* const kBFrag;
+extern const char* const kReduceFrag;
 extern const char* const kRFrag;
 extern const char* const kAtlasFrag;
 extern const char* const kFeedbackFrag;
@@ -34,6 +35,10 @@ const char* operator_format_name(OperatorFormat f) {
 }
 
 namespace {
+
+// Samples per partial sum in b.frag: enough independent fragments to fill a GPU, few enough
+// partials (n / 64) for b_reduce.frag to add cheaply.
+constexpr int kBChunk = 64;
 
 // Timer scopes, one per pass.
 enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kScopeCount };
@@ -114,6 +119,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   r_groups_ = groups_of(level.kr);
   for (const ShapeOperators& op : dict.shapes) n_max_ = std::max(n_max_, int(op.sample_count()));
   probe_rows_ = dict.shapes.empty() ? 0 : int(dict.shapes[0].Ubvol.rows);
+  b_chunks_ = std::max(1, (n_max_ + kBChunk - 1) / kBChunk);
   has_probes_ = options.probes && probe_rows_ > 0;
   gl_.glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size_);
 
@@ -339,7 +345,14 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     framebuffers_.push_back(fb.value());
     return Status::success();
   };
+  if (Status s =
+          signal3("b partial sums", blocks * std::size_t(groups_) * std::size_t(b_chunks_), b_partial_);
+      !s.ok())
+    return s;
   if (Status s = signal3("b", blocks * std::size_t(groups_), b_); !s.ok()) return s;
+  if (Status s = signal3("r partial sums", slots * std::size_t(r_groups_) * std::size_t(groups_), r_partial_);
+      !s.ok())
+    return s;
   if (Status s = signal3("r", slots * std::size_t(r_groups_), r_); !s.ok()) return s;
   if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
   if (Status s = target("feedback ld", kLinearWidth, sample_rows_count_, GL_RGBA32UI, ld_feedback_); !s.ok())
@@ -353,13 +366,17 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   std::size_t largest = std::size_t(atlas_w) * std::size_t(atlas_h);
   for (const Target* tg : {&ld_feedback_, &probes_})
     largest = std::max(largest, std::size_t(tg->width) * std::size_t(tg->height));
-  largest = std::max(largest, std::size_t(b_.width) * std::size_t(b_.height));
-  largest = std::max(largest, std::size_t(r_.width) * std::size_t(r_.height));
+  largest = std::max(largest, std::size_t(b_partial_.width) * std::size_t(b_partial_.height));
+  largest = std::max(largest, std::size_t(r_partial_.width) * std::size_t(r_partial_.height));
   readback_.assign(4 * largest, 0.0f);
 
   // ---- programs ----
-  const std::string defines = "#version 300 es\n#define LINEAR_SHIFT " + std::to_string(kLinearShift) +
-                              "\n#define OUTPUT_BITS " + (target_ == TargetFormat::bits32 ? "1" : "0") + "\n";
+  const std::string defines =
+      "#version 300 es\n#define LINEAR_SHIFT " + std::to_string(kLinearShift) + "\n#define OUTPUT_BITS " +
+      (target_ == TargetFormat::bits32 ? "1" : "0") + "\n#define GROUPS " + std::to_string(groups_) +
+      "\n#define R_GROUPS " + std::to_string(r_groups_) + "\n#define N_MAX " + std::to_string(n_max_) +
+      "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) +
+      "\n#define B_CHUNKS " + std::to_string(b_chunks_) + "\n";
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
   auto program = [&](const char* name, const std::string& head, const char* fragment,
@@ -376,24 +393,25 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                                   std::tuple{&prog_b_feedback_, &ld_signal, "b.frag (feedback)"}}) {
     if (Status s = program(name, *head, kBFrag, *prog); !s.ok()) return s;
     assign_sampler_units(gl_, prog->id, {"u_td_b", "u_block_info", "u_ld"});
-    set_int(gl_, prog->id, "u_count", int(blocks) * groups_);
-    set_int(gl_, prog->id, "u_groups", groups_);
-    set_int(gl_, prog->id, "u_n_max", n_max_);
+    set_int(gl_, prog->id, "u_count", int(blocks) * groups_ * b_chunks_);
+  }
+  for (auto [prog, parts, count, name] :
+       {std::tuple{&prog_b_reduce_, b_chunks_, blocks * std::size_t(groups_), "reduce.frag (b)"},
+        std::tuple{&prog_r_reduce_, groups_, slots * std::size_t(r_groups_), "reduce.frag (r)"}}) {
+    const std::string head = defines + "#define PARTS " + std::to_string(parts) + "\n";
+    if (Status s = program(name, head, kReduceFrag, *prog); !s.ok()) return s;
+    assign_sampler_units(gl_, prog->id, {"u_partial_red", "u_partial_green", "u_partial_blue"});
+    set_int(gl_, prog->id, "u_count", int(count));
   }
   if (Status s = program("r.frag", defines, kRFrag, prog_r_); !s.ok()) return s;
   assign_sampler_units(gl_, prog_r_.id,
                        {"u_t", "u_slot_info", "u_record_block", "u_b_red", "u_b_green", "u_b_blue"});
-  set_int(gl_, prog_r_.id, "u_count", int(slots) * r_groups_);
-  set_int(gl_, prog_r_.id, "u_groups", groups_);
-  set_int(gl_, prog_r_.id, "u_r_groups", r_groups_);
+  set_int(gl_, prog_r_.id, "u_count", int(slots) * r_groups_ * groups_);
   if (Status s = program("atlas.frag", defines, kAtlasFrag, prog_atlas_); !s.ok()) return s;
   assign_sampler_units(
       gl_, prog_atlas_.id,
       {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
        "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
-  set_int(gl_, prog_atlas_.id, "u_groups", groups_);
-  set_int(gl_, prog_atlas_.id, "u_r_groups", r_groups_);
-  set_int(gl_, prog_atlas_.id, "u_n_max", n_max_);
   if (Status s = program("feedback.frag", defines, kFeedbackFrag, prog_feedback_); !s.ok()) return s;
   assign_sampler_units(gl_, prog_feedback_.id, {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas"});
   set_int(gl_, prog_feedback_.id, "u_count", int(samples));
@@ -404,9 +422,6 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                          {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
                           "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
     set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
-    set_int(gl_, prog_probes_.id, "u_rows", probe_rows_);
-    set_int(gl_, prog_probes_.id, "u_groups", groups_);
-    set_int(gl_, prog_probes_.id, "u_r_groups", r_groups_);
   }
   gl_.glUseProgram(0);
   gl_.glGenVertexArrays(1, &vao_);  // desktop core profiles draw only with a VAO bound
@@ -455,16 +470,22 @@ Status GlesLevelRuntime::run_passes(bool from_feedback) {
   }
   begin_pass(kB);
   if (from_feedback)
-    draw(prog_b_feedback_, b_.framebuffer, b_.width, b_.height, {td_b_, block_info_, ld_feedback_.texture});
+    draw(prog_b_feedback_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
+         {td_b_, block_info_, ld_feedback_.texture});
   else
-    draw(prog_b_, b_.framebuffer, b_.width, b_.height, {td_b_, block_info_, ld_});
+    draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height, {td_b_, block_info_, ld_});
+  draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
+       {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]});
   end_pass(kB);
   if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
 
   begin_pass(kR);
-  if (!level_->slots.empty())
-    draw(prog_r_, r_.framebuffer, r_.width, r_.height,
+  if (!level_->slots.empty()) {
+    draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
          {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]});
+    draw(prog_r_reduce_, r_.framebuffer, r_.width, r_.height,
+         {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]});
+  }
   end_pass(kR);
   if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
 

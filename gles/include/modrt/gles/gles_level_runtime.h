@@ -3,8 +3,10 @@
 // lightmap ends in a padded atlas texture that a renderer samples directly.
 //
 // Passes per update (gles/README.md has the texture layouts):
-//   b.frag      b = Td_b ld            (Td_b packed four modes per RGBA texel)
-//   r.frag      r = Tb->r b            (records as 4x4 blocks, summed per slot)
+//   b.frag      partial sums of b = Td_b ld over 64-sample chunks (Td_b packed four modes
+//               per RGBA texel); reduce.frag adds them
+//   r.frag      r = Tb->r b, split by input mode group (records as 4x4 blocks, summed per
+//               slot); reduce.frag adds the parts
 //   atlas.frag  Ub b + Ur r into the padded atlas; padding texels evaluate their source
 //   probes.frag Ubvol b + turned Urvol r (when the dictionary has probes and they are on)
 //   feedback.frag ld = ld_direct + rho min(max(atlas, 0), bound) (multi_bounce_step only)
@@ -128,7 +130,7 @@ class GlesLevelRuntime final : public Backend {
   TargetFormat target_ = TargetFormat::float32;
   GlesRuntimeOptions options_;
   std::string description_;
-  int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0;
+  int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0, b_chunks_ = 1;
   bool has_probes_ = false, has_albedo_ = false, updated_ = false;
 
   // Operator and table textures (uploaded once).
@@ -142,11 +144,12 @@ class GlesLevelRuntime final : public Backend {
   std::vector<GLuint> textures_;  // every texture created, for the destructor
   std::vector<GLuint> framebuffers_;
   std::vector<GLuint> programs_;
-  Signal3 b_, r_;
+  Signal3 b_partial_, b_, r_partial_, r_;
   Target atlas_, probes_, ld_feedback_;
   float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
   GLuint vao_ = 0;
-  Program prog_b_, prog_b_feedback_, prog_r_, prog_atlas_, prog_feedback_, prog_probes_;
+  Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
+      prog_probes_;
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   bool timing_ = false;
   GlesPassTimes times_;
