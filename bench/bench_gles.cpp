@@ -2,7 +2,9 @@
 // with the CPU backend's AVX2/NEON/best-ISA frame on the same level in the same run for a
 // ratio. Speed is measured only here.
 //
-//   BM_GlesLevelFrame/<blocks>/<context>   update(ld) + glFinish, wall clock; counters:
+//   BM_GlesLevelFrame/<blocks>/<context>/<moving>   update(ld) + glFinish, wall clock;
+//     moving 0: the full path (skipping off); 1: one block's ld changes per frame, skipping on
+//     counters:
 //        gpu_us  sum of the passes' GPU timer-query times (0 when the context has none)
 //        b_us, r_us, atlas_us, probes_us, upload_us  per pass
 //     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
@@ -14,6 +16,7 @@
 // without the cache). ld is a fixed synthetic non-negative pattern.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -111,17 +114,33 @@ void BM_GlesLevelFrame(benchmark::State& state) {
     state.SkipWithError("no dictionary/level or no such GL context here");
     return;
   }
+  const bool moving_light = state.range(2) != 0;
+  gles::GlesRuntimeOptions options;
+  options.skip_unchanged = moving_light;  // the full path recomputes everything every frame
   Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
-      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), {});
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
   if (!rt.ok()) {
     state.SkipWithError(rt.status().to_string().c_str());
     return;
   }
   gles::GlesLevelRuntime& runtime = *rt.value();
-  for (int warm = 0; warm < 3; ++warm) (void)runtime.update(bl->ld);
+  // Moving light: each frame the ld of one block (cycling through the level) changes, as
+  // when a light moves inside it; the rest of the level's ld stays bit-identical.
+  std::vector<float> ld = bl->ld;
+  std::size_t frame = 0;
+  auto next_ld = [&]() -> const std::vector<float>& {
+    if (!moving_light) return bl->ld;
+    const LevelBlock& blk = bl->level.blocks[(frame * 7) % bl->level.blocks.size()];
+    const float scale = 1.0f + 0.01f * float(frame % 17);
+    for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+      ld[3 * std::size_t(blk.sample_offset) + i] = bl->ld[3 * std::size_t(blk.sample_offset) + i] * scale;
+    ++frame;
+    return ld;
+  };
+  for (int warm = 0; warm < 3; ++warm) (void)runtime.update(next_ld());
   ctx->gl().glFinish();
   for (auto _ : state) {
-    if (!runtime.update(bl->ld).ok()) state.SkipWithError("update failed");
+    if (!runtime.update(next_ld()).ok()) state.SkipWithError("update failed");
     ctx->gl().glFinish();
   }
   // Per-pass times from a separate, timed run of frames (timer queries where available).
@@ -129,7 +148,7 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   gles::GlesPassTimes sum{};
   constexpr int kTimedFrames = 20;
   for (int i = 0; i < kTimedFrames; ++i) {
-    (void)runtime.update(bl->ld);
+    (void)runtime.update(next_ld());
     const gles::GlesPassTimes& t = runtime.pass_times();
     sum.upload += t.upload, sum.b += t.b, sum.r += t.r, sum.atlas += t.atlas, sum.probes += t.probes;
   }
@@ -142,10 +161,13 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   state.counters["gpu_us"] = us(sum.b + sum.r + sum.atlas + sum.probes);
   state.counters["blocks"] = double(bl->level.blocks.size());
   state.counters["records"] = double(bl->level.records.size());
+  const gles::GlesSkipStats& skip = runtime.skip_stats();
+  state.counters["redrawn_blocks"] =
+      double(skip.blocks_redrawn) / double(std::max<std::uint64_t>(skip.frames, 1));
   state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " " + runtime.description());
 }
 BENCHMARK(BM_GlesLevelFrame)
-    ->ArgsProduct({{11, 41}, {0, 1, 2, 3}})
+    ->ArgsProduct({{11, 41}, {0, 1, 2, 3}, {0, 1}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 

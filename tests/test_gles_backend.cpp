@@ -324,7 +324,9 @@ TEST_P(GlesBackend, ShaderErrorsNameTheShaderAndCarryTheLog) {
 
 TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
   const TestLevel& t = test_levels()[3];
-  std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
+  GlesRuntimeOptions options;
+  options.skip_unchanged = false;  // the same ld every frame: time the full path
+  std::unique_ptr<GlesLevelRuntime> rt = make(t.level, options);
   ASSERT_TRUE(rt);
   rt->set_timing(true);
   // llvmpipe answers a process's first GL_TIME_ELAPSED query with a timestamp, which the
@@ -336,6 +338,77 @@ TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
   EXPECT_GT(times.atlas, 0u);
   EXPECT_GT(times.probes, 0u);
   EXPECT_EQ(times.feedback, 0u);
+}
+
+// Skipping is exact: over an animated sequence on the 41-block maze in which one or three
+// blocks' ld change per frame (a light moving through the level) and some frames repeat,
+// the incremental runtime's atlas and probes equal the full path's bit for bit, and its
+// counters show what it skipped. After a multi-bounce frame the next update is full again.
+TEST_P(GlesBackend, SkippingUnchangedWorkIsExact) {
+  const TestLevel& t = test_levels()[3];
+  GlesRuntimeOptions full_options;
+  full_options.skip_unchanged = false;
+  std::unique_ptr<GlesLevelRuntime> incremental = make(t.level), full = make(t.level, full_options);
+  ASSERT_TRUE(incremental && full);
+  const LevelBufferSizes& s = full->sizes();
+  std::vector<float> a_inc(s.atlas), a_full(s.atlas), p_inc(s.probes), p_full(s.probes);
+  const std::size_t blocks = t.level.blocks.size();
+  std::vector<float> ld = t.ld;
+  constexpr int kFrames = 24;
+  std::uint64_t unchanged_frames = 0, changed_blocks = blocks;  // the first frame is full
+  std::vector<float> previous;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    if (frame % 5 != 4) {  // every fifth frame the light does not move: same ld
+      const int moved = frame % 3 == 0 ? 3 : 1;
+      for (int m = 0; m < moved; ++m) {
+        const LevelBlock& blk = t.level.blocks[std::size_t(frame * 7 + m * 13) % blocks];
+        for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+          ld[3 * std::size_t(blk.sample_offset) + i] =
+              t.ld[3 * std::size_t(blk.sample_offset) + i] * (1.0f + 0.05f * float((frame + m) % 9));
+      }
+    }
+    if (frame > 0) {
+      std::uint64_t changed = 0;
+      for (const LevelBlock& blk : t.level.blocks)
+        changed += !std::equal(ld.begin() + 3 * blk.sample_offset,
+                               ld.begin() + 3 * (blk.sample_offset + blk.sample_count),
+                               previous.begin() + 3 * blk.sample_offset);
+      unchanged_frames += changed == 0;
+      changed_blocks += changed;
+    }
+    previous = ld;
+    ASSERT_TRUE(incremental->update(ld).ok());
+    ASSERT_TRUE(full->update(ld).ok());
+    ASSERT_TRUE(incremental->read_atlas(a_inc).ok() && full->read_atlas(a_full).ok());
+    ASSERT_TRUE(incremental->read_probes(p_inc).ok() && full->read_probes(p_full).ok());
+    ASSERT_EQ(a_inc, a_full) << "frame " << frame;
+    ASSERT_EQ(p_inc, p_full) << "frame " << frame;
+  }
+  const Reference ref = reference(t.level, ld);
+  EXPECT_LE(rel_l2(a_inc, ref.atlas), kFloat32Tolerance);
+  const GlesSkipStats& st = incremental->skip_stats();
+  EXPECT_EQ(st.frames, std::uint64_t(kFrames));
+  EXPECT_GE(unchanged_frames, 4u);
+  EXPECT_EQ(st.frames_skipped, unchanged_frames);
+  EXPECT_EQ(st.frames_partial, kFrames - unchanged_frames - 1);  // all but the first and the unchanged
+  EXPECT_EQ(st.blocks_b, changed_blocks);
+  // Light reaches blocks beyond the changed ones through Tb->r, but not all of them.
+  EXPECT_LT(st.blocks_b, st.blocks_redrawn);
+  EXPECT_LT(st.blocks_redrawn, (kFrames - unchanged_frames) * blocks);
+  EXPECT_EQ(full->skip_stats().frames_partial, 0u);
+  std::printf(
+      "  %s: %llu frames, %llu skipped, %llu partial; b recomputed for %llu block-frames, r for %llu "
+      "slot-frames, tiles redrawn for %llu block-frames (full path: %llu)\n",
+      incremental->description(), (unsigned long long)st.frames, (unsigned long long)st.frames_skipped,
+      (unsigned long long)st.frames_partial, (unsigned long long)st.blocks_b, (unsigned long long)st.slots_r,
+      (unsigned long long)st.blocks_redrawn, (unsigned long long)(std::uint64_t(kFrames) * blocks));
+
+  // A multi-bounce frame changes every block's ld: the next update is a full one.
+  ASSERT_TRUE(incremental->set_albedo(t.albedo).ok());
+  ASSERT_TRUE(incremental->multi_bounce_step(ld).ok());
+  ASSERT_TRUE(incremental->update(ld).ok());
+  ASSERT_TRUE(incremental->read_atlas(a_inc).ok());
+  EXPECT_EQ(a_inc, a_full);
 }
 
 std::string context_name(const ::testing::TestParamInfo<ContextRequest>& info) {

@@ -33,10 +33,12 @@ void set_int(const platform::GlFunctions& gl, GLuint program, const char* name, 
 
 // A 2D texture with immutable storage, nearest filtering and clamped addressing.
 GLuint create_texture(const platform::GlFunctions& gl, GLenum internal_format, int width, int height);
-// Uploads `texels` RGBA texels of `data` (4 per texel, float or int32) into a linear texture,
-// row by row (the last row partial).
+// Uploads `texels` texels of `data` (`components` per texel, float or int32) into a linear
+// texture starting at texel `first` (data points at texel `first`'s values): a partial first
+// row, whole rows, a partial last row.
 void upload_linear(const platform::GlFunctions& gl, GLuint texture, GLenum format, GLenum type,
-                   int components, const void* data, std::size_t texels, std::size_t bytes_per_component);
+                   int components, const void* data, std::size_t texels, std::size_t bytes_per_component,
+                   std::size_t first = 0);
 
 // A framebuffer with `textures` as colour attachments 0..n-1 and draw buffers set. Fails when
 // the framebuffer is incomplete, naming `name` and the texture format.

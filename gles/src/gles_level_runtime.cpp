@@ -424,13 +424,45 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
   }
   gl_.glUseProgram(0);
+  ld_prev_.assign(3 * samples, 0.0f);
+  dirty_block_.assign(blocks, 1);
+  dirty_slot_.assign(slots, 1);
+  dirty_atlas_.assign(blocks, 1);
+  // The tiles each block's samples appear in: its own, plus neighbours' tiles whose padding
+  // copies its edge texels (SPEC §4), so that a changed block redraws all of them.
+  {
+    std::vector<std::vector<Rect>> tiles(blocks);
+    for (std::size_t i = 0; i < blocks && !atlas.tile_origin_x.empty(); ++i)
+      for (int f = 0; f < kFaceCount; ++f) {
+        const int ox = atlas.tile_origin_x[i][std::size_t(f)], oy = atlas.tile_origin_y[i][std::size_t(f)];
+        if (ox < 0 || oy < 0) continue;
+        for (int y = oy; y < oy + atlas.tile; ++y)
+          for (int x = ox; x < ox + atlas.tile; ++x) {
+            const std::int32_t sample = texel_sample[std::size_t(y) * std::size_t(atlas_w) + std::size_t(x)];
+            if (sample < 0) continue;
+            std::vector<Rect>& list = tiles[std::size_t(sample_info[4 * std::size_t(sample)])];
+            if (list.empty() || list.back().x != ox || list.back().y != oy)
+              list.push_back(Rect{ox, oy, atlas.tile, atlas.tile});
+          }
+      }
+    block_tile_begin_.assign(blocks + 1, 0);
+    tile_rects_.clear();
+    for (std::size_t i = 0; i < blocks; ++i) {
+      for (const Rect& r : tiles[i])
+        if (std::none_of(tile_rects_.begin() + block_tile_begin_[i], tile_rects_.end(),
+                         [&](const Rect& q) { return q.x == r.x && q.y == r.y; }))
+          tile_rects_.push_back(r);
+      block_tile_begin_[i + 1] = std::uint32_t(tile_rects_.size());
+    }
+  }
+  rects_.reserve(std::max({blocks, slots, tile_rects_.size()}) + 1);
   gl_.glGenVertexArrays(1, &vao_);  // desktop core profiles draw only with a VAO bound
   timer_ = std::make_unique<platform::GpuTimer>(gl_, gles_context, kScopeCount);
   return check("creating targets and programs");
 }
 
 void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int width, int height,
-                            std::initializer_list<GLuint> textures) {
+                            std::initializer_list<GLuint> textures, std::span<const Rect> scissors) {
   gl_.glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
   gl_.glViewport(0, 0, width, height);
   gl_.glUseProgram(program.id);
@@ -439,7 +471,35 @@ void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int widt
     gl_.glActiveTexture(unit++);
     gl_.glBindTexture(GL_TEXTURE_2D, t);
   }
-  gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
+  if (scissors.empty()) {
+    gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
+    return;
+  }
+  gl_.glEnable(GL_SCISSOR_TEST);
+  for (const Rect& r : scissors) {
+    gl_.glScissor(r.x, r.y, r.w, r.h);
+    gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+  gl_.glDisable(GL_SCISSOR_TEST);
+}
+
+std::span<const GlesLevelRuntime::Rect> GlesLevelRuntime::linear_rects(const std::vector<std::uint8_t>& flags,
+                                                                       int per) {
+  rects_.clear();
+  const std::size_t n = flags.size();
+  for (std::size_t i = 0; i < n;) {
+    if (!flags[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < n && flags[j]) ++j;
+    const std::size_t first = i * std::size_t(per), last = j * std::size_t(per) - 1;
+    const int row0 = int(first >> kLinearShift), row1 = int(last >> kLinearShift);
+    rects_.push_back(Rect{0, row0, kLinearWidth, row1 - row0 + 1});
+    i = j;
+  }
+  return rects_;
 }
 
 void GlesLevelRuntime::begin_pass(int scope) {
@@ -452,7 +512,7 @@ void GlesLevelRuntime::end_pass(int scope) {
 
 void GlesLevelRuntime::set_timing(bool on) { timing_ = on; }
 
-Status GlesLevelRuntime::run_passes(bool from_feedback) {
+Status GlesLevelRuntime::run_passes(bool from_feedback, bool partial) {
   const int blocks = int(level_->blocks.size());
   gl_.glDisable(GL_BLEND);
   gl_.glDisable(GL_DEPTH_TEST);
@@ -473,26 +533,38 @@ Status GlesLevelRuntime::run_passes(bool from_feedback) {
     draw(prog_b_feedback_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
          {td_b_, block_info_, ld_feedback_.texture});
   else
-    draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height, {td_b_, block_info_, ld_});
+    draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height, {td_b_, block_info_, ld_},
+         partial ? linear_rects(dirty_block_, groups_ * b_chunks_) : std::span<const Rect>{});
   draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
-       {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]});
+       {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]},
+       partial ? linear_rects(dirty_block_, groups_) : std::span<const Rect>{});
   end_pass(kB);
   if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
 
   begin_pass(kR);
-  if (!level_->slots.empty()) {
+  if (!level_->slots.empty() && !(partial && linear_rects(dirty_slot_, 1).empty())) {
     draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
-         {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]});
+         {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]},
+         partial ? linear_rects(dirty_slot_, r_groups_ * groups_) : std::span<const Rect>{});
     draw(prog_r_reduce_, r_.framebuffer, r_.width, r_.height,
-         {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]});
+         {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]},
+         partial ? linear_rects(dirty_slot_, r_groups_) : std::span<const Rect>{});
   }
   end_pass(kR);
   if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
 
   begin_pass(kAtlas);
+  if (partial) {
+    rects_.clear();
+    for (std::size_t i = 0; i < dirty_atlas_.size(); ++i)
+      if (dirty_atlas_[i])
+        rects_.insert(rects_.end(), tile_rects_.begin() + block_tile_begin_[i],
+                      tile_rects_.begin() + block_tile_begin_[i + 1]);
+  }
   draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
        {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
-        b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]});
+        b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
+       partial ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   end_pass(kAtlas);
   if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
 
@@ -500,7 +572,8 @@ Status GlesLevelRuntime::run_passes(bool from_feedback) {
     begin_pass(kProbes);
     draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
          {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
-          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]});
+          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
+         partial ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
     end_pass(kProbes);
     if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
   }
@@ -522,12 +595,57 @@ Status GlesLevelRuntime::run_passes(bool from_feedback) {
 
 Status GlesLevelRuntime::update(std::span<const float> ld) {
   if (Status s = validate_light_signal(ld, level_->sample_count, "ld"); !s.ok()) return s;
+  const Level& level = *level_;
+  const bool full = force_full_ || !options_.skip_unchanged;
+  std::size_t dirty = 0;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
+    const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
+    const bool changed =
+        full || std::memcmp(ld.data() + first, ld_prev_.data() + first, count * sizeof(float)) != 0;
+    dirty_block_[i] = changed;
+    if (changed) {
+      std::memcpy(ld_prev_.data() + first, ld.data() + first, count * sizeof(float));
+      ++dirty;
+    }
+  }
+  if (dirty == 0 && !full) {
+    ++stats_.frames, ++stats_.frames_skipped;
+    times_ = GlesPassTimes{};
+    return Status::success();
+  }
+  const bool partial = !full && 2 * dirty <= level.blocks.size();
+  std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(!partial));
+  for (const ResponseRecord& rec : level.records)
+    if (dirty_block_[rec.source_block]) dirty_slot_[rec.slot] = 1;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) dirty_atlas_[i] = dirty_block_[i] || !partial;
+  for (std::size_t s = 0; s < level.slots.size(); ++s)
+    if (dirty_slot_[s]) dirty_atlas_[level.slots[s].block] = 1;
+
   if (timing_) timer_->reset();
   begin_pass(kUpload);
-  upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3, ld.data(), level_->sample_count, sizeof(float));
+  if (partial) {
+    for (std::size_t i = 0; i < level.blocks.size(); ++i)
+      if (dirty_block_[i])
+        upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3,
+                      ld.data() + 3 * std::size_t(level.blocks[i].sample_offset),
+                      level.blocks[i].sample_count, sizeof(float), level.blocks[i].sample_offset);
+  } else {
+    upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3, ld.data(), level.sample_count, sizeof(float));
+  }
   end_pass(kUpload);
+  force_full_ = true;  // until this frame has fully succeeded
   if (Status s = check("uploading ld"); !s.ok()) return s;
-  return run_passes(false);
+  if (Status s = run_passes(false, partial); !s.ok()) return s;
+  force_full_ = false;
+  ++stats_.frames;
+  stats_.frames_partial += partial;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    stats_.blocks_b += dirty_block_[i];
+    stats_.blocks_redrawn += dirty_atlas_[i];
+  }
+  for (std::uint8_t d : dirty_slot_) stats_.slots_r += d;
+  return Status::success();
 }
 
 Status GlesLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {
@@ -560,7 +678,9 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
   end_pass(kUpload);
   if (Status s = check("uploading ld_direct"); !s.ok()) return s;
-  return run_passes(true);
+  // Feedback changes every block's ld; the next update() must not compare against ld_prev_.
+  force_full_ = true;
+  return run_passes(true, false);
 }
 
 Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int width, int height, bool bits) {

@@ -31,6 +31,7 @@
 #include <initializer_list>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,23 @@ struct GlesRuntimeOptions {
   OperatorFormat operators = OperatorFormat::float32;  // float16 halves operator memory
   bool probes = true;        // evaluate volume probes in update() when the dictionary has them
   bool check_errors = true;  // glGetError after every pass (a failed check names the pass)
+  // update() recomputes only what an ld change reaches (see GlesSkipStats); exact, so off
+  // only to measure the full path.
+  bool skip_unchanged = true;
+};
+
+// What update() skipped. Exact skipping (error bound 0: every skipped value's inputs are
+// bit-identical to the last update's): a block whose ld did not change keeps its b; a slot
+// none of whose records has a changed source keeps its r; atlas tiles and probes of blocks
+// whose b and incoming r are unchanged are not redrawn; identical ld skips the frame. When
+// more than half the blocks changed, the passes run over everything (fewer draws).
+struct GlesSkipStats {
+  std::uint64_t frames = 0;          // update() calls that succeeded
+  std::uint64_t frames_skipped = 0;  // ld identical to the last update: nothing ran
+  std::uint64_t frames_partial = 0;  // only the changed part was recomputed
+  std::uint64_t blocks_b = 0;        // blocks whose b was recomputed, summed over frames
+  std::uint64_t slots_r = 0;         // slots whose r was recomputed
+  std::uint64_t blocks_redrawn = 0;  // blocks whose atlas tiles (and probes) were redrawn
 };
 
 // Per-pass time of the last update()/multi_bounce_step(), nanoseconds, when timing is on.
@@ -94,6 +112,7 @@ class GlesLevelRuntime final : public Backend {
   // because CPU-clock timing adds a glFinish per pass.
   void set_timing(bool on);
   const GlesPassTimes& pass_times() const { return times_; }
+  const GlesSkipStats& skip_stats() const { return stats_; }
 
  private:
   struct Target {  // one render target texture and its framebuffer
@@ -113,10 +132,17 @@ class GlesLevelRuntime final : public Backend {
   explicit GlesLevelRuntime(const platform::GlFunctions& gl);
   Status build(const Level& level, const Dictionary& dict, bool gles_context,
                const GlesRuntimeOptions& options);
-  Status run_passes(bool from_feedback);
+  struct Rect {
+    int x = 0, y = 0, w = 0, h = 0;
+  };
+  // Runs the passes; with `partial`, only over the dirty_* items (scissored draws).
+  Status run_passes(bool from_feedback, bool partial);
+  // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
+  // items, consecutive items merged; appended to rects_ (cleared first).
+  std::span<const Rect> linear_rects(const std::vector<std::uint8_t>& flags, int per);
   Status check(const char* what) const;
   void draw(const Program& program, GLuint framebuffer, int width, int height,
-            std::initializer_list<GLuint> textures);
+            std::initializer_list<GLuint> textures, std::span<const Rect> scissors = {});
   void begin_pass(int scope);
   void end_pass(int scope);
   Status read_target(GLuint framebuffer, int attachment, int width, int height, bool bits);
@@ -151,6 +177,16 @@ class GlesLevelRuntime final : public Backend {
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
       prog_probes_;
   std::vector<float> readback_;  // 4 floats per texel of the largest target
+  // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
+  // creation; rects_ has capacity for every item so that no frame allocates.
+  std::vector<float> ld_prev_;
+  std::vector<std::uint8_t> dirty_block_, dirty_slot_, dirty_atlas_;
+  // Atlas tiles showing block i's samples: tile_rects_[block_tile_begin_[i] .. [i + 1]).
+  std::vector<std::uint32_t> block_tile_begin_;
+  std::vector<Rect> tile_rects_;
+  std::vector<Rect> rects_;
+  bool force_full_ = true;
+  GlesSkipStats stats_;
   bool timing_ = false;
   GlesPassTimes times_;
   std::unique_ptr<platform::GpuTimer> timer_;
