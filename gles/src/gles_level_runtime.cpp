@@ -475,12 +475,12 @@ void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int widt
     gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
     return;
   }
-  gl_.glEnable(GL_SCISSOR_TEST);
+  // A viewport per rect: the full-viewport triangle then covers just the rect, and
+  // gl_FragCoord stays in window coordinates, so the shaders need no change.
   for (const Rect& r : scissors) {
-    gl_.glScissor(r.x, r.y, r.w, r.h);
+    gl_.glViewport(r.x, r.y, r.w, r.h);
     gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
   }
-  gl_.glDisable(GL_SCISSOR_TEST);
 }
 
 std::span<const GlesLevelRuntime::Rect> GlesLevelRuntime::linear_rects(const std::vector<std::uint8_t>& flags,
@@ -512,7 +512,7 @@ void GlesLevelRuntime::end_pass(int scope) {
 
 void GlesLevelRuntime::set_timing(bool on) { timing_ = on; }
 
-Status GlesLevelRuntime::run_passes(bool from_feedback, bool partial) {
+Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) {
   const int blocks = int(level_->blocks.size());
   gl_.glDisable(GL_BLEND);
   gl_.glDisable(GL_DEPTH_TEST);
@@ -534,27 +534,27 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, bool partial) {
          {td_b_, block_info_, ld_feedback_.texture});
   else
     draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height, {td_b_, block_info_, ld_},
-         partial ? linear_rects(dirty_block_, groups_ * b_chunks_) : std::span<const Rect>{});
+         partial.b ? linear_rects(dirty_block_, groups_ * b_chunks_) : std::span<const Rect>{});
   draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
        {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]},
-       partial ? linear_rects(dirty_block_, groups_) : std::span<const Rect>{});
+       partial.b ? linear_rects(dirty_block_, groups_) : std::span<const Rect>{});
   end_pass(kB);
   if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
 
   begin_pass(kR);
-  if (!level_->slots.empty() && !(partial && linear_rects(dirty_slot_, 1).empty())) {
+  if (!level_->slots.empty() && !(partial.r && linear_rects(dirty_slot_, 1).empty())) {
     draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
          {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]},
-         partial ? linear_rects(dirty_slot_, r_groups_ * groups_) : std::span<const Rect>{});
+         partial.r ? linear_rects(dirty_slot_, r_groups_ * groups_) : std::span<const Rect>{});
     draw(prog_r_reduce_, r_.framebuffer, r_.width, r_.height,
          {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]},
-         partial ? linear_rects(dirty_slot_, r_groups_) : std::span<const Rect>{});
+         partial.r ? linear_rects(dirty_slot_, r_groups_) : std::span<const Rect>{});
   }
   end_pass(kR);
   if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
 
   begin_pass(kAtlas);
-  if (partial) {
+  if (partial.atlas) {
     rects_.clear();
     for (std::size_t i = 0; i < dirty_atlas_.size(); ++i)
       if (dirty_atlas_[i])
@@ -564,7 +564,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, bool partial) {
   draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
        {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
         b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-       partial ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+       partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   end_pass(kAtlas);
   if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
 
@@ -573,7 +573,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, bool partial) {
     draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
          {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
           b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-         partial ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
+         partial.atlas ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
     end_pass(kProbes);
     if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
   }
@@ -614,13 +614,25 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
     times_ = GlesPassTimes{};
     return Status::success();
   }
-  const bool partial = !full && 2 * dirty <= level.blocks.size();
+  // Each pass runs over its changed items only while they are few (partial_fraction).
+  const double fraction = double(options_.partial_fraction);
+  const bool partial =
+      !full && 2 * dirty <= level.blocks.size() && double(dirty) <= fraction * double(level.blocks.size());
   std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(!partial));
   for (const ResponseRecord& rec : level.records)
     if (dirty_block_[rec.source_block]) dirty_slot_[rec.slot] = 1;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) dirty_atlas_[i] = dirty_block_[i] || !partial;
   for (std::size_t s = 0; s < level.slots.size(); ++s)
     if (dirty_slot_[s]) dirty_atlas_[level.slots[s].block] = 1;
+  const auto count = [](const std::vector<std::uint8_t>& v) {
+    return std::size_t(std::count(v.begin(), v.end(), 1));
+  };
+  Partial pass;
+  pass.b = partial;
+  pass.r = partial && double(count(dirty_slot_)) <= fraction * double(level.slots.size());
+  pass.atlas = partial && double(count(dirty_atlas_)) <= fraction * double(level.blocks.size());
+  if (!pass.r) std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
+  if (!pass.atlas) std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
 
   if (timing_) timer_->reset();
   begin_pass(kUpload);
@@ -636,7 +648,7 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   end_pass(kUpload);
   force_full_ = true;  // until this frame has fully succeeded
   if (Status s = check("uploading ld"); !s.ok()) return s;
-  if (Status s = run_passes(false, partial); !s.ok()) return s;
+  if (Status s = run_passes(false, pass); !s.ok()) return s;
   force_full_ = false;
   ++stats_.frames;
   stats_.frames_partial += partial;
@@ -680,7 +692,7 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   if (Status s = check("uploading ld_direct"); !s.ok()) return s;
   // Feedback changes every block's ld; the next update() must not compare against ld_prev_.
   force_full_ = true;
-  return run_passes(true, false);
+  return run_passes(true, Partial{});
 }
 
 Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int width, int height, bool bits) {

@@ -55,17 +55,22 @@ struct GlesRuntimeOptions {
   // update() recomputes only what an ld change reaches (see GlesSkipStats); exact, so off
   // only to measure the full path.
   bool skip_unchanged = true;
+  // A pass runs over its changed items only while they are at most this fraction of all
+  // (b: at most half of the blocks regardless); past it, one draw over everything costs less
+  // than many small ones. 1 always takes the partial path (tests); 0 never.
+  float partial_fraction = 0.25f;
 };
 
 // What update() skipped. Exact skipping (error bound 0: every skipped value's inputs are
 // bit-identical to the last update's): a block whose ld did not change keeps its b; a slot
 // none of whose records has a changed source keeps its r; atlas tiles and probes of blocks
-// whose b and incoming r are unchanged are not redrawn; identical ld skips the frame. When
-// more than half the blocks changed, the passes run over everything (fewer draws).
+// whose b and incoming r are unchanged are not redrawn; identical ld skips the frame. A pass
+// runs over everything (one draw instead of many) when more than partial_fraction of its
+// items changed; the counters count what was recomputed.
 struct GlesSkipStats {
   std::uint64_t frames = 0;          // update() calls that succeeded
   std::uint64_t frames_skipped = 0;  // ld identical to the last update: nothing ran
-  std::uint64_t frames_partial = 0;  // only the changed part was recomputed
+  std::uint64_t frames_partial = 0;  // at least the b pass ran over changed blocks only
   std::uint64_t blocks_b = 0;        // blocks whose b was recomputed, summed over frames
   std::uint64_t slots_r = 0;         // slots whose r was recomputed
   std::uint64_t blocks_redrawn = 0;  // blocks whose atlas tiles (and probes) were redrawn
@@ -135,8 +140,10 @@ class GlesLevelRuntime final : public Backend {
   struct Rect {
     int x = 0, y = 0, w = 0, h = 0;
   };
-  // Runs the passes; with `partial`, only over the dirty_* items (scissored draws).
-  Status run_passes(bool from_feedback, bool partial);
+  struct Partial {                             // which passes run over their dirty_* items only
+    bool b = false, r = false, atlas = false;  // atlas covers the probes too
+  };
+  Status run_passes(bool from_feedback, const Partial& partial);
   // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
   // items, consecutive items merged; appended to rects_ (cleared first).
   std::span<const Rect> linear_rects(const std::vector<std::uint8_t>& flags, int per);
