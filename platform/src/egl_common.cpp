@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
-#include <map>
-#include <mutex>
 #include <string_view>
 
 #include "context_kinds.h"
@@ -12,44 +10,17 @@
 namespace modrt::platform::detail {
 namespace {
 
-// EGLDisplays are per-process singletons: two contexts of one kind share one display, and
-// eglTerminate would pull it out from under the other. So the displays we initialised are
-// reference counted and terminated only when their last context goes. Displays that were
-// already initialised (by the host app) are never terminated by us.
-struct DisplayRefs {
-  std::mutex mutex;
-  std::map<EGLDisplay, int> count;
-};
-DisplayRefs& display_refs() {
-  static auto* refs = new DisplayRefs;  // never destroyed: contexts may outlive static teardown
-  return *refs;
-}
-
-// Initialises `display`; `*owned` tells whether this call holds a reference to release.
-Status acquire_display(EGLDisplay display, const char* kind, bool* owned, EGLint* major, EGLint* minor) {
-  DisplayRefs& refs = display_refs();
-  std::lock_guard<std::mutex> lock(refs.mutex);
-  auto it = refs.count.find(display);
-  // eglQueryString fails (EGL_NOT_INITIALIZED) exactly when nobody has initialised it yet.
-  const bool initialised_elsewhere =
-      it == refs.count.end() && eglQueryString(display, EGL_VERSION) != nullptr;
+// EGLDisplays are per-process singletons (eglGetPlatformDisplay returns the same handle each
+// time, and eglInitialize on an initialised display only reports its version), so contexts of
+// one kind share one. modrt never calls eglTerminate: it would pull the display out from under
+// every other context on it, the host app's included, and with Mesa it also unloads the
+// driver, orphaning state the driver allocated once (a leak per terminate). A display stays
+// initialised until the process ends, as in most GL applications.
+Status initialise_display(EGLDisplay display, const char* kind, EGLint* major, EGLint* minor) {
   eglGetError();
   if (!eglInitialize(display, major, minor))
     return Status::error(ErrorCode::internal_error, std::string(kind) + ": " + egl_failure("eglInitialize"));
-  *owned = !initialised_elsewhere;
-  if (*owned) ++refs.count[display];
   return Status::success();
-}
-
-void release_display(EGLDisplay display) {
-  DisplayRefs& refs = display_refs();
-  std::lock_guard<std::mutex> lock(refs.mutex);
-  auto it = refs.count.find(display);
-  if (it == refs.count.end()) return;
-  if (--it->second == 0) {
-    refs.count.erase(it);
-    eglTerminate(display);
-  }
 }
 
 void* egl_gl_loader(const char* name, void*) { return reinterpret_cast<void*>(eglGetProcAddress(name)); }
@@ -87,13 +58,12 @@ class EglContext final : public GlContext {
   EGLDisplay display_ = EGL_NO_DISPLAY;
   EGLContext context_ = EGL_NO_CONTEXT;
   EGLSurface surface_ = EGL_NO_SURFACE;
-  bool owns_display_ref_ = false;
   std::string name_;
 };
 
 Status EglContext::init(const EglSetup& setup, const ContextOptions& options) {
   EGLint major = 0, minor = 0;
-  if (Status s = acquire_display(display_, name_.c_str(), &owns_display_ref_, &major, &minor); !s) return s;
+  if (Status s = initialise_display(display_, name_.c_str(), &major, &minor); !s) return s;
   const char* extensions = eglQueryString(display_, EGL_EXTENSIONS);
   const bool egl15 = major > 1 || (major == 1 && minor >= 5);
   const bool surfaceless = setup.surface == EglSurfaceMode::surfaceless_if_possible &&
@@ -171,10 +141,6 @@ void EglContext::release() {
   if (surface_ != EGL_NO_SURFACE) {
     eglDestroySurface(display_, surface_);
     surface_ = EGL_NO_SURFACE;
-  }
-  if (owns_display_ref_) {
-    release_display(display_);
-    owns_display_ref_ = false;
   }
 }
 
