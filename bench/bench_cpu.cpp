@@ -18,50 +18,16 @@
 
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/level_runtime.h"
-#include "modrt/precompute/dictionary_cache.h"
-#include "modrt/precompute/level_build.h"
-#include "modrt/precompute/maze.h"
+
+#include "bench_levels.h"
 
 namespace {
 
 using namespace modrt;
 
-const Dictionary* dictionary() {
-  static const std::unique_ptr<Dictionary> dict = [] {
-    Result<Dictionary> d = precompute::load_or_bake_dictionary(DictionarySettings{}, precompute::default_cache_dir());
-    if (!d.ok()) {
-      std::fprintf(stderr, "modrt-bench-cpu: %s\n", d.status().to_string().c_str());
-      return std::unique_ptr<Dictionary>();
-    }
-    return std::make_unique<Dictionary>(std::move(d).value());
-  }();
-  return dict.get();
-}
-
-struct BenchLevel {
-  Level level;
-  std::vector<float> ld;
-};
-
-const BenchLevel* bench_level(int blocks) {
-  static std::map<int, std::unique_ptr<BenchLevel>> cache;
-  auto it = cache.find(blocks);
-  if (it != cache.end()) return it->second.get();
-  std::unique_ptr<BenchLevel> out;
-  if (const Dictionary* dict = dictionary()) {
-    Result<LevelDescription> desc = precompute::maze_level(blocks);
-    Result<Level> level = desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
-    if (level.ok()) {
-      out = std::make_unique<BenchLevel>();
-      out->level = std::move(level).value();
-      out->ld.resize(3 * std::size_t(out->level.sample_count));
-      for (std::size_t i = 0; i < out->ld.size(); ++i) out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
-    } else {
-      std::fprintf(stderr, "modrt-bench-cpu: maze %d: %s\n", blocks, level.status().to_string().c_str());
-    }
-  }
-  return cache.emplace(blocks, std::move(out)).first->second.get();
-}
+using bench::bench_level;
+using bench::BenchLevel;
+using bench::dictionary;
 
 void set_counters(benchmark::State& state, const Level& level) {
   state.counters["samples"] = double(level.sample_count);

@@ -10,10 +10,8 @@
 //     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
 //   BM_CpuBackendFrame/<blocks>            the CPU backend's update (best ISA), for the ratio
 //
-// Levels: maze11 and maze41 built against the DEFAULT full dictionary (res 16, kb 32, kr 32),
-// loaded from the cache ($MODRT_CACHE_DIR, ...) or baked on first use (about a minute).
-// Set MODRT_BENCH_DICTIONARY=FILE to load a dictionary file instead (e.g. on a machine
-// without the cache). ld is a fixed synthetic non-negative pattern.
+// Levels: maze11 and maze41 against the default full dictionary (bench_levels.h;
+// MODRT_BENCH_DICTIONARY=FILE loads a dictionary file instead of the cache).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -23,58 +21,18 @@
 #include <memory>
 #include <vector>
 
+#include "bench_levels.h"
 #include "modrt/cpu/cpu_backend.h"
-#include "modrt/dictionary_io.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/platform/gl_context.h"
-#include "modrt/precompute/dictionary_cache.h"
-#include "modrt/precompute/level_build.h"
-#include "modrt/precompute/maze.h"
 
 namespace {
 
 using namespace modrt;
 
-const Dictionary* dictionary() {
-  static const std::unique_ptr<Dictionary> dict = [] {
-    const char* file = std::getenv("MODRT_BENCH_DICTIONARY");
-    Result<Dictionary> d =
-        file ? load_dictionary(file)
-             : precompute::load_or_bake_dictionary(DictionarySettings{}, precompute::default_cache_dir());
-    if (!d.ok()) {
-      std::fprintf(stderr, "modrt-bench-gles: %s\n", d.status().to_string().c_str());
-      return std::unique_ptr<Dictionary>();
-    }
-    return std::make_unique<Dictionary>(std::move(d).value());
-  }();
-  return dict.get();
-}
-
-struct BenchLevel {
-  Level level;
-  std::vector<float> ld;
-};
-
-const BenchLevel* bench_level(int blocks) {
-  static std::map<int, std::unique_ptr<BenchLevel>> cache;
-  auto it = cache.find(blocks);
-  if (it != cache.end()) return it->second.get();
-  std::unique_ptr<BenchLevel> out;
-  if (const Dictionary* dict = dictionary()) {
-    Result<LevelDescription> desc = precompute::maze_level(blocks);
-    Result<Level> level =
-        desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
-    if (level.ok()) {
-      out = std::make_unique<BenchLevel>();
-      out->level = std::move(level).value();
-      out->ld.resize(3 * std::size_t(out->level.sample_count));
-      for (std::size_t i = 0; i < out->ld.size(); ++i) out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
-    } else {
-      std::fprintf(stderr, "modrt-bench-gles: maze %d: %s\n", blocks, level.status().to_string().c_str());
-    }
-  }
-  return cache.emplace(blocks, std::move(out)).first->second.get();
-}
+using bench::bench_level;
+using bench::BenchLevel;
+using bench::dictionary;
 
 // Destroyed at the end of main(), not by static destructors (OSMesa crashes if its context
 // outlives Mesa's exit handlers).

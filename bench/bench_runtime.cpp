@@ -82,8 +82,8 @@ std::unique_ptr<Dictionary> load_dictionary_for_bench(const DictionarySettings& 
     std::fprintf(stderr, "modrt-bench-runtime: %s\n", error.c_str());
     return nullptr;
   }
-  std::fprintf(stderr, "modrt-bench-runtime: %s dictionary (%s) %s in %.1f s\n", label, describe(settings).c_str(),
-               cached ? "loaded" : "baked", seconds);
+  std::fprintf(stderr, "modrt-bench-runtime: %s dictionary (%s) %s in %.1f s\n", label,
+               describe(settings).c_str(), cached ? "loaded" : "baked", seconds);
   return std::make_unique<Dictionary>(std::move(dict).value());
 }
 
@@ -249,7 +249,8 @@ BENCHMARK(BM_ScalarLevelFrameMobile)->Arg(11)->Arg(41)->Unit(benchmark::kMicrose
 
 void BM_ScalarBlock(benchmark::State& state) {
   const int kb = static_cast<int>(state.range(0));
-  const DictionarySlot& d = kb == static_cast<int>(mobile_settings().kb) ? mobile_dictionary() : full_dictionary();
+  const DictionarySlot& d =
+      kb == static_cast<int>(mobile_settings().kb) ? mobile_dictionary() : full_dictionary();
   if (!d.dict) {
     state.SkipWithError(d.error.c_str());
     return;

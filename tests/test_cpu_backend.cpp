@@ -14,14 +14,11 @@
 #include <string>
 #include <vector>
 
+#include "level_fixtures.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/kernels.h"
 #include "modrt/level_runtime.h"
-#include "modrt/precompute/level_build.h"
-#include "modrt/precompute/level_scene.h"
-#include "modrt/precompute/maze.h"
 #include "modrt/reference_runtime.h"
-#include "test_support.h"
 
 // ---- counting replaceable global allocation functions (this test binary only) ----
 namespace {
@@ -29,11 +26,13 @@ std::atomic<bool> g_count_allocations{false};
 std::atomic<long> g_allocations{0};
 
 void* counted_alloc(std::size_t n) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (g_count_allocations.load(std::memory_order_relaxed))
+    g_allocations.fetch_add(1, std::memory_order_relaxed);
   return std::malloc(n ? n : 1);
 }
 void* counted_aligned_alloc(std::size_t n, std::align_val_t al) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (g_count_allocations.load(std::memory_order_relaxed))
+    g_allocations.fetch_add(1, std::memory_order_relaxed);
   const std::size_t a = std::max(std::size_t(al), sizeof(void*));
   return std::aligned_alloc(a, (std::max<std::size_t>(n, 1) + a - 1) / a * a);
 }
@@ -115,8 +114,8 @@ struct Worst {
   }
 };
 
-void expect_close(std::span<const float> got, std::span<const float> ref, const std::string& what, Worst* worst,
-                  std::span<const double> scale = {}) {
+void expect_close(std::span<const float> got, std::span<const float> ref, const std::string& what,
+                  Worst* worst, std::span<const double> scale = {}) {
   const Error e = compare(got, ref, scale);
   if (worst) worst->add(e);
   EXPECT_LE(e.rel_l2, kRelTolerance) << what;
@@ -196,7 +195,8 @@ TEST(CpuKernels, GemvHonoursLeadingDimensionAndStride) {
         const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
         const std::size_t lda = cols + 5, stride = cols + 3;
         std::vector<float> padded(rows * lda, std::numeric_limits<float>::quiet_NaN());
-        for (std::uint32_t r = 0; r < rows; ++r) std::copy_n(&A.data[r * std::size_t(cols)], cols, &padded[r * lda]);
+        for (std::uint32_t r = 0; r < rows; ++r)
+          std::copy_n(&A.data[r * std::size_t(cols)], cols, &padded[r * lda]);
         std::vector<float> planar(3 * stride, std::numeric_limits<float>::quiet_NaN());
         deinterleave_rgb(in.data(), cols, planar.data(), stride);
         std::vector<float> ref(3 * std::size_t(rows)), got(ref.size());
@@ -237,8 +237,10 @@ TEST(CpuKernels, ScatterMatchesReferenceForEveryIsaAndSize) {
         std::vector<float> planar(3 * std::size_t(cols));
         deinterleave_rgb(in.data(), cols, planar.data(), cols);
         gemv_rgb_scatter(isa, A.data.data(), rows, cols, cols, map.data(), planar.data(), cols, got.data());
-        expect_close(got, ref, std::string(isa_name(isa)) + " scatter " + std::to_string(rows) + "x" + std::to_string(cols),
-                     &worst);
+        expect_close(
+            got, ref,
+            std::string(isa_name(isa)) + " scatter " + std::to_string(rows) + "x" + std::to_string(cols),
+            &worst);
       }
     worst.print("gemv_rgb_scatter", isa);
   }
@@ -257,8 +259,8 @@ TEST(CpuKernels, FeedbackIsBitIdenticalToReference) {
         const std::vector<float> lightmap = random_vector(rng, n, -0.5f, hi);
         std::vector<float> ref(n), got(n);
         const bool ref_clamped = apply_feedback(clamp, ld_direct, lightmap, ref);
-        const bool got_clamped =
-            feedback_rgb(isa, ld_direct.data(), clamp.rho.data(), lightmap.data(), clamp.energy_bound, got.data(), n);
+        const bool got_clamped = feedback_rgb(isa, ld_direct.data(), clamp.rho.data(), lightmap.data(),
+                                              clamp.energy_bound, got.data(), n);
         EXPECT_EQ(got_clamped, ref_clamped) << isa_name(isa) << " " << samples;
 #if defined(__x86_64__)
         EXPECT_EQ(got, ref) << isa_name(isa) << " " << samples;
@@ -288,48 +290,11 @@ TEST(CpuKernels, PaddingCopiesInRecordOrder) {
 
 const Dictionary& dict() { return test::small_test_dictionary(); }
 
-struct TestLevel {
-  const char* name;
-  LevelDescription description;
-  Level level;
-  std::vector<float> ld, albedo;
-};
-
-const std::vector<TestLevel>& test_levels() {
-  static const std::vector<TestLevel> levels = [] {
-    std::vector<TestLevel> out;
-    for (const auto& [name, blocks] : {std::pair{"maze11", 11}, std::pair{"maze41", 41}}) {
-      TestLevel t{name, precompute::maze_level(blocks).value(), {}, {}, {}};
-      Result<Level> level = precompute::build_level(t.description, dict());
-      if (!level.ok()) {
-        std::fprintf(stderr, "%s: %s\n", name, level.status().to_string().c_str());
-        std::abort();
-      }
-      t.level = std::move(level).value();
-      const precompute::LevelScene scene(t.level, t.level.res);
-      t.albedo = precompute::level_albedo(t.level, t.description);
-      t.ld = precompute::level_direct_light(scene, t.description.lights, t.albedo, 4);
-      out.push_back(std::move(t));
-    }
-    return out;
-  }();
-  return levels;
-}
-
-struct Reference {
-  std::vector<float> b, r, lightmap, atlas, probes;
-};
-
-Reference reference(const Level& level, std::span<const float> ld) {
-  const LevelBufferSizes s = level_buffer_sizes(level, dict());
-  Reference ref{std::vector<float>(s.b), std::vector<float>(s.r), std::vector<float>(s.lightmap),
-                std::vector<float>(s.atlas), std::vector<float>(s.probes)};
-  const Status st = level_evaluate(level, dict(), ld, ref.b, ref.r, ref.lightmap);
-  EXPECT_TRUE(st.ok()) << st.to_string();
-  level_fill_atlas(level, ref.lightmap, ref.atlas);
-  level_compute_probes(level, dict(), ref.b, ref.r, ref.probes);
-  return ref;
-}
+using test::level_reference;
+using test::test_level;
+using test::test_levels;
+using test::TestLevel;
+using Reference = test::LevelReference;
 
 // (|Td_b| ld)_i per b element: the sum of the magnitudes that cancel into b_i.
 std::vector<double> b_magnitudes(const Level& level, std::span<const float> ld) {
@@ -355,7 +320,7 @@ std::vector<double> b_magnitudes(const Level& level, std::span<const float> ld) 
 // values) are held to 1e-5 with the plain floor.
 TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
   for (const TestLevel& t : test_levels()) {
-    const Reference ref = reference(t.level, t.ld);
+    const Reference ref = level_reference(t.level, t.ld);
     const std::vector<double> b_scale = b_magnitudes(t.level, t.ld);
     for (Isa isa : supported_isas()) {
       Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, 1});
@@ -376,7 +341,7 @@ TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
       expect_close(lightmap, ref.lightmap, what + " lightmap", &wl);
       expect_close(atlas, ref.atlas, what + " atlas", &wa);
       expect_close(probes, ref.probes, what + " probes", &wp);
-      std::printf("  %s\n", t.name);
+      std::printf("  %s\n", t.name.c_str());
       wb.print("b", isa), wr.print("r", isa), wl.print("lightmap", isa), wa.print("atlas", isa),
           wp.print("probes", isa);
     }
@@ -384,8 +349,8 @@ TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
 }
 
 TEST(CpuLevelRuntime, ScalarAtlasIsExact) {
-  const TestLevel& t = test_levels().front();
-  const Reference ref = reference(t.level, t.ld);
+  const TestLevel& t = test_level("maze11");
+  const Reference ref = level_reference(t.level, t.ld);
   Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 1});
   ASSERT_TRUE(rt.ok());
   std::vector<float> atlas(rt->sizes().atlas);
@@ -403,7 +368,8 @@ TEST(CpuLevelRuntime, MultiBounceStepsMatchLevelMultiBounce) {
     MultiBounceSettings settings;
     settings.max_iterations = kSteps;
     settings.tolerance = 0.0f;
-    const Result<MultiBounceReport> rep = level_multi_bounce(t.level, dict(), t.ld, albedo, settings, b, r, ref);
+    const Result<MultiBounceReport> rep =
+        level_multi_bounce(t.level, dict(), t.ld, albedo, settings, b, r, ref);
     ASSERT_TRUE(rep.ok()) << rep.status().to_string();
     ASSERT_EQ(rep->iterations, kSteps);
     for (Isa isa : supported_isas()) {
@@ -428,7 +394,7 @@ TEST(CpuLevelRuntime, MultiBounceStepsMatchLevelMultiBounce) {
 }
 
 TEST(CpuLevelRuntime, NoAllocationPerFrame) {
-  const TestLevel& t = test_levels().back();
+  const TestLevel& t = test_level("maze41");
   for (Isa isa : supported_isas()) {
     Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, 1});
     ASSERT_TRUE(rt.ok());
@@ -463,7 +429,7 @@ TEST(CpuLevelRuntime, NoAllocationPerFrame) {
 }
 
 TEST(CpuLevelRuntime, RejectsBadLightSignal) {
-  const TestLevel& t = test_levels().front();
+  const TestLevel& t = test_level("maze11");
   Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
   ASSERT_TRUE(rt.ok());
   std::vector<float> lightmap(rt->sizes().lightmap, 0.0f);
@@ -491,7 +457,7 @@ TEST(CpuLevelRuntime, RejectsBadLightSignal) {
 }
 
 TEST(CpuLevelRuntime, RejectsMismatchedDictionaryAndOptions) {
-  const TestLevel& t = test_levels().front();
+  const TestLevel& t = test_level("maze11");
   {
     Dictionary other = dict();
     other.settings.res = 4;

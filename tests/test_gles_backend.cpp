@@ -17,14 +17,11 @@
 #include <vector>
 
 #include "gl_objects.h"
+#include "level_fixtures.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
 #include "modrt/platform/gl_context.h"
-#include "modrt/precompute/level_build.h"
-#include "modrt/precompute/level_scene.h"
-#include "modrt/precompute/maze.h"
-#include "test_support.h"
 
 namespace modrt::gles {
 namespace {
@@ -77,54 +74,11 @@ ContextSlot& context_for(ContextRequest request) {
   return it->second;
 }
 
-struct TestLevel {
-  std::string name;
-  LevelDescription description;
-  Level level;
-  std::vector<float> ld, albedo;
-};
-
-const std::vector<TestLevel>& test_levels() {
-  static const std::vector<TestLevel> levels = [] {
-    std::vector<TestLevel> out;
-    const std::pair<const char*, LevelDescription> descriptions[] = {
-        {"single", precompute::maze_level(1).value()},
-        {"corridor", precompute::corridor_level()},
-        {"maze11", precompute::maze_level(11).value()},
-        {"maze41", precompute::maze_level(41).value()},
-    };
-    for (const auto& [name, description] : descriptions) {
-      TestLevel t{name, description, {}, {}, {}};
-      Result<Level> level = precompute::build_level(t.description, dict());
-      if (!level.ok()) {
-        std::fprintf(stderr, "%s: %s\n", name, level.status().to_string().c_str());
-        std::abort();
-      }
-      t.level = std::move(level).value();
-      const precompute::LevelScene scene(t.level, t.level.res);
-      t.albedo = precompute::level_albedo(t.level, t.description);
-      t.ld = precompute::level_direct_light(scene, t.description.lights, t.albedo, 4);
-      out.push_back(std::move(t));
-    }
-    return out;
-  }();
-  return levels;
-}
-
-struct Reference {
-  std::vector<float> b, r, lightmap, atlas, probes;
-};
-
-Reference reference(const Level& level, std::span<const float> ld) {
-  const LevelBufferSizes s = level_buffer_sizes(level, dict());
-  Reference ref{std::vector<float>(s.b), std::vector<float>(s.r), std::vector<float>(s.lightmap),
-                std::vector<float>(s.atlas), std::vector<float>(s.probes)};
-  const Status st = level_evaluate(level, dict(), ld, ref.b, ref.r, ref.lightmap);
-  EXPECT_TRUE(st.ok()) << st.to_string();
-  level_fill_atlas(level, ref.lightmap, ref.atlas);
-  level_compute_probes(level, dict(), ref.b, ref.r, ref.probes);
-  return ref;
-}
+using test::level_reference;
+using test::test_level;
+using test::test_levels;
+using test::TestLevel;
+using Reference = test::LevelReference;
 
 double rel_l2(std::span<const float> got, std::span<const float> ref) {
   EXPECT_EQ(got.size(), ref.size());
@@ -173,7 +127,7 @@ const FormatCase kFormats[] = {
 
 TEST_P(GlesBackend, UpdateMatchesScalarReference) {
   for (const TestLevel& t : test_levels()) {
-    const Reference ref = reference(t.level, t.ld);
+    const Reference ref = level_reference(t.level, t.ld);
     for (const FormatCase& f : kFormats) {
       std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {f.target, f.operators, true, true});
       ASSERT_TRUE(rt);
@@ -208,7 +162,7 @@ TEST_P(GlesBackend, UpdateMatchesScalarReference) {
 
 // The GLES and CPU backends through the one Backend interface: same inputs, same outputs.
 TEST_P(GlesBackend, AgreesWithCpuBackendThroughBackendInterface) {
-  const TestLevel& t = test_levels()[2];
+  const TestLevel& t = test_level("maze11");
   std::unique_ptr<GlesLevelRuntime> g = make(t.level);
   ASSERT_TRUE(g);
   Result<std::unique_ptr<Backend>> c = cpu::create_cpu_backend(t.level, dict());
@@ -266,7 +220,7 @@ TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
 }
 
 TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {
-  const TestLevel& t = test_levels()[2];
+  const TestLevel& t = test_level("maze11");
   std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
   ASSERT_TRUE(rt);
   std::vector<float> atlas(rt->sizes().atlas), after(rt->sizes().atlas);
@@ -291,7 +245,7 @@ TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {
 }
 
 TEST_P(GlesBackend, ProbesOffCostNothingAndSayWhy) {
-  const TestLevel& t = test_levels()[1];
+  const TestLevel& t = test_level("corridor");
   std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {std::nullopt, OperatorFormat::float32, false, true});
   ASSERT_TRUE(rt);
   ASSERT_TRUE(rt->update(t.ld).ok());
@@ -302,7 +256,7 @@ TEST_P(GlesBackend, ProbesOffCostNothingAndSayWhy) {
 }
 
 TEST_P(GlesBackend, RejectsMismatchedDictionary) {
-  const TestLevel& t = test_levels()[2];
+  const TestLevel& t = test_level("maze11");
   Dictionary other = dict();
   other.settings.res = 4;
   Result<std::unique_ptr<GlesLevelRuntime>> rt = GlesLevelRuntime::create(gl(), gles(), t.level, other);
@@ -324,7 +278,7 @@ TEST_P(GlesBackend, ShaderErrorsNameTheShaderAndCarryTheLog) {
 }
 
 TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
-  const TestLevel& t = test_levels()[3];
+  const TestLevel& t = test_level("maze41");
   GlesRuntimeOptions options;
   options.skip_unchanged = false;  // the same ld every frame: time the full path
   std::unique_ptr<GlesLevelRuntime> rt = make(t.level, options);
@@ -355,7 +309,7 @@ TEST_P(GlesBackend, SkippingUnchangedWorkIsExact) {
 }
 
 void GlesBackend::check_skipping(float fraction) {
-  const TestLevel& t = test_levels()[3];
+  const TestLevel& t = test_level("maze41");
   GlesRuntimeOptions full_options, options;
   full_options.skip_unchanged = false;
   options.partial_fraction = fraction;
@@ -395,7 +349,7 @@ void GlesBackend::check_skipping(float fraction) {
     ASSERT_EQ(a_inc, a_full) << "frame " << frame;
     ASSERT_EQ(p_inc, p_full) << "frame " << frame;
   }
-  const Reference ref = reference(t.level, ld);
+  const Reference ref = level_reference(t.level, ld);
   EXPECT_LE(rel_l2(a_inc, ref.atlas), kFloat32Tolerance);
   const GlesSkipStats& st = incremental->skip_stats();
   EXPECT_EQ(st.frames, std::uint64_t(kFrames));
