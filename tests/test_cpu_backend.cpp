@@ -1,6 +1,5 @@
-// SIMD CPU backend (cpu_neon/): every kernel and the level runtime against core's scalar
-// reference, for every ISA this CPU supports (Embree verify style: for (isa : isas)); no
-// allocation per frame; bad input.
+// SIMD CPU level runtime (cpu_neon/) against core's scalar reference for every ISA this CPU
+// supports (the kernels alone: test_cpu_kernels.cpp); no allocation per frame; bad input.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,9 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "cpu_test_support.h"
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_level_runtime.h"
-#include "modrt/cpu/kernels.h"
 #include "modrt/level_runtime.h"
 #include "modrt/reference_runtime.h"
 
@@ -71,230 +70,17 @@ void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { counte
 namespace modrt::cpu {
 namespace {
 
-constexpr double kRelTolerance = 1e-5;
-// Per-element floor as a fraction of the reference's RMS: an element that cancels to below
-// it is judged against it (float accumulation cannot resolve deeper cancellation).
-constexpr double kFloor = 0.1;
-
-struct Error {
-  double rel_l2 = 0.0;       // ||got - ref|| / ||ref||
-  double max_element = 0.0;  // max |got - ref| / max(|ref|, floor)
-};
-
-// Per-element errors are relative to max(|ref_i|, kFloor x RMS(ref)).
-// `scale` (optional, per element) raises the floor to kScaleFloor x scale_i; see the b check.
-constexpr double kScaleFloor = 0.01;
-Error compare(std::span<const float> got, std::span<const float> ref, std::span<const double> scale = {}) {
-  EXPECT_EQ(got.size(), ref.size());
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < ref.size(); ++i) {
-    num += (double(got[i]) - ref[i]) * (double(got[i]) - ref[i]);
-    den += double(ref[i]) * ref[i];
-  }
-  Error e;
-  if (ref.empty()) return e;
-  e.rel_l2 = den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
-  const double floor = std::max(kFloor * std::sqrt(den / double(ref.size())), 1e-30);
-  for (std::size_t i = 0; i < ref.size(); ++i)
-    e.max_element = std::max(e.max_element, std::abs(double(got[i]) - ref[i]) /
-                                                std::max({std::abs(double(ref[i])), floor,
-                                                          scale.empty() ? 0.0 : kScaleFloor * scale[i]}));
-  return e;
-}
-
-// Worst errors seen per ISA, printed at the end of each test for the record.
-struct Worst {
-  double rel_l2 = 0.0, max_element = 0.0;
-  void add(const Error& e) {
-    rel_l2 = std::max(rel_l2, e.rel_l2);
-    max_element = std::max(max_element, e.max_element);
-  }
-  void print(const char* what, Isa isa) const {
-    std::printf("  %-28s %-6s rel L2 %.3g, max element %.3g\n", what, isa_name(isa), rel_l2, max_element);
-  }
-};
-
-void expect_close(std::span<const float> got, std::span<const float> ref, const std::string& what,
-                  Worst* worst, std::span<const double> scale = {}) {
-  const Error e = compare(got, ref, scale);
-  if (worst) worst->add(e);
-  EXPECT_LE(e.rel_l2, kRelTolerance) << what;
-  EXPECT_LE(e.max_element, kRelTolerance) << what;
-}
-
-std::vector<float> random_vector(std::mt19937& rng, std::size_t n, float lo, float hi) {
-  std::uniform_real_distribution<float> d(lo, hi);
-  std::vector<float> v(n);
-  for (float& x : v) x = d(rng);
-  return v;
-}
-
-Matrix random_matrix(std::mt19937& rng, std::uint32_t rows, std::uint32_t cols) {
-  Matrix m(rows, cols);
-  m.data = random_vector(rng, m.data.size(), -1.0f, 1.0f);
-  return m;
-}
-
-const std::vector<std::uint32_t> kRowSizes = {0, 1, 2, 3, 4, 5, 7, 8, 9, 12, 13, 16, 17, 31, 33, 64};
-const std::vector<std::uint32_t> kColSizes = {0, 1, 2, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 100, 1537};
-
-TEST(CpuKernels, SupportedIsasStartWithScalarAndCanBeForced) {
-  const std::vector<Isa> isas = supported_isas();
-  ASSERT_FALSE(isas.empty());
-  EXPECT_EQ(isas.front(), Isa::scalar);
-  EXPECT_EQ(best_isa(), isas.back());
-  std::printf("  supported ISAs:");
-  for (Isa isa : isas) std::printf(" %s", isa_name(isa));
-  std::printf("\n");
-  const Isa before = active_isa();
-  for (Isa isa : isas) {
-    EXPECT_TRUE(set_isa(isa));
-    EXPECT_EQ(active_isa(), isa);
-  }
-  for (Isa isa : {Isa::scalar, Isa::sse41, Isa::avx2, Isa::neon}) {
-    if (!isa_supported(isa)) {
-      EXPECT_FALSE(set_isa(isa)) << isa_name(isa);
-    }
-  }
-  EXPECT_TRUE(set_isa(before));
-#if defined(MODRT_NO_SIMD)
-  EXPECT_EQ(isas.size(), 1u);
-#endif
-}
-
-TEST(CpuKernels, GemvMatchesReferenceForEveryIsaAndSize) {
-  for (Isa isa : supported_isas()) {
-    std::mt19937 rng(1234);
-    Worst worst;
-    for (std::uint32_t rows : kRowSizes)
-      for (std::uint32_t cols : kColSizes)
-        for (bool accumulate : {false, true}) {
-          const Matrix A = random_matrix(rng, rows, cols);
-          const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
-          std::vector<float> ref = random_vector(rng, 3 * std::size_t(rows), 0.0f, 1.0f);
-          std::vector<float> got = ref;
-          reference_gemv_rgb(A, in.data(), ref.data(), accumulate);
-          std::vector<float> scratch(gemv_scratch_bound(cols));
-          gemv_rgb_interleaved(isa, A, in.data(), got.data(), accumulate, scratch);
-          expect_close(got, ref,
-                       std::string(isa_name(isa)) + " " + std::to_string(rows) + "x" + std::to_string(cols) +
-                           (accumulate ? " accumulate" : ""),
-                       &worst);
-        }
-    worst.print("gemv_rgb", isa);
-  }
-}
-
-// Leading dimension > cols and a planar stride > cols (the padded layouts a caller may keep).
-TEST(CpuKernels, GemvHonoursLeadingDimensionAndStride) {
-  for (Isa isa : supported_isas()) {
-    std::mt19937 rng(99);
-    for (std::uint32_t rows : {1u, 5u, 13u})
-      for (std::uint32_t cols : {1u, 7u, 9u, 33u}) {
-        const Matrix A = random_matrix(rng, rows, cols);
-        const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
-        const std::size_t lda = cols + 5, stride = cols + 3;
-        std::vector<float> padded(rows * lda, std::numeric_limits<float>::quiet_NaN());
-        for (std::uint32_t r = 0; r < rows; ++r)
-          std::copy_n(&A.data[r * std::size_t(cols)], cols, &padded[r * lda]);
-        std::vector<float> planar(3 * stride, std::numeric_limits<float>::quiet_NaN());
-        deinterleave_rgb(in.data(), cols, planar.data(), stride);
-        std::vector<float> ref(3 * std::size_t(rows)), got(ref.size());
-        reference_gemv_rgb(A, in.data(), ref.data(), false);
-        gemv_rgb(isa, padded.data(), rows, cols, lda, planar.data(), stride, got.data(), false);
-        expect_close(got, ref, std::string(isa_name(isa)) + " padded", nullptr);
-      }
-  }
-}
-
-TEST(CpuKernels, ScatterMatchesReferenceForEveryIsaAndSize) {
-  for (Isa isa : supported_isas()) {
-    std::mt19937 rng(77);
-    Worst worst;
-    for (std::uint32_t rows : kRowSizes)
-      for (std::uint32_t cols : kColSizes) {
-        if (cols > 100) continue;
-        const Matrix A = random_matrix(rng, rows, cols);
-        const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
-        // Rows land on a shuffled subset of 2 x rows destination samples; about a third are -1.
-        const std::size_t samples = 2 * std::size_t(rows) + 1;
-        std::vector<std::int32_t> perm(samples);
-        for (std::size_t i = 0; i < samples; ++i) perm[i] = std::int32_t(i);
-        std::shuffle(perm.begin(), perm.end(), rng);
-        std::vector<std::int32_t> map(rows);
-        for (std::uint32_t r = 0; r < rows; ++r) map[r] = rng() % 3 == 0 ? -1 : perm[r];
-        if (rows >= 8) std::fill(map.begin(), map.begin() + 4, -1);  // a whole skipped 4-row group
-        std::vector<float> ref = random_vector(rng, 3 * samples, 0.0f, 1.0f);
-        std::vector<float> got = ref;
-        for (std::uint32_t r = 0; r < rows; ++r) {
-          if (map[r] < 0) continue;
-          for (int c = 0; c < 3; ++c) {
-            double acc = 0.0;
-            for (std::uint32_t k = 0; k < cols; ++k) acc += double(A(r, k)) * in[3 * k + std::size_t(c)];
-            ref[3 * std::size_t(map[r]) + std::size_t(c)] += float(acc);
-          }
-        }
-        std::vector<float> planar(3 * std::size_t(cols));
-        deinterleave_rgb(in.data(), cols, planar.data(), cols);
-        gemv_rgb_scatter(isa, A.data.data(), rows, cols, cols, map.data(), planar.data(), cols, got.data());
-        expect_close(
-            got, ref,
-            std::string(isa_name(isa)) + " scatter " + std::to_string(rows) + "x" + std::to_string(cols),
-            &worst);
-      }
-    worst.print("gemv_rgb_scatter", isa);
-  }
-}
-
-TEST(CpuKernels, FeedbackIsBitIdenticalToReference) {
-  for (Isa isa : supported_isas()) {
-    std::mt19937 rng(5);
-    for (std::size_t samples : {0u, 1u, 2u, 3u, 5u, 11u, 16u, 33u, 1000u}) {
-      const std::size_t n = 3 * samples;
-      FeedbackClamp clamp;
-      clamp.rho = random_vector(rng, n, 0.0f, 0.95f);
-      clamp.energy_bound = 2.0f;
-      const std::vector<float> ld_direct = random_vector(rng, n, 0.0f, 1.0f);
-      for (const float hi : {1.5f, 4.0f}) {  // without and with values above the bound
-        const std::vector<float> lightmap = random_vector(rng, n, -0.5f, hi);
-        std::vector<float> ref(n), got(n);
-        const bool ref_clamped = apply_feedback(clamp, ld_direct, lightmap, ref);
-        const bool got_clamped = feedback_rgb(isa, ld_direct.data(), clamp.rho.data(), lightmap.data(),
-                                              clamp.energy_bound, got.data(), n);
-        EXPECT_EQ(got_clamped, ref_clamped) << isa_name(isa) << " " << samples;
-#if defined(__x86_64__)
-        EXPECT_EQ(got, ref) << isa_name(isa) << " " << samples;
-#else  // core's apply_feedback may be FMA-contracted by the compiler here: one rounding apart
-        for (std::size_t i = 0; i < n; ++i) EXPECT_NEAR(got[i], ref[i], 2.5e-7f * std::abs(ref[i])) << i;
-#endif
-      }
-    }
-  }
-}
-
-TEST(CpuKernels, PaddingCopiesInRecordOrder) {
-  // 4 texels; record 2 reads texel 1, written by record 1: order matters.
-  std::vector<float> atlas = {1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-  const std::vector<PaddingRecord> records = {{1, 0}, {2, 1}, {3, 2}};
-  copy_padding(records, atlas.data());
-  for (int t = 0; t < 4; ++t)
-    for (int c = 0; c < 3; ++c) EXPECT_EQ(atlas[std::size_t(3 * t + c)], float(c + 1));
-  std::vector<float> a2(12, 0.0f);
-  const std::vector<std::uint32_t> texel = {3, 1};
-  const std::vector<float> lm = {1, 2, 3, 4, 5, 6};
-  scatter_texels(texel, lm.data(), a2.data());
-  EXPECT_EQ(a2, (std::vector<float>{0, 0, 0, 4, 5, 6, 0, 0, 0, 1, 2, 3}));
-}
+using namespace cpu_test;
 
 // ---- the level runtime against core's level_evaluate ----
 
-const Dictionary& dict() { return test::small_test_dictionary(); }
+const Dictionary& dict() { return modrt::test::small_test_dictionary(); }
 
-using test::level_reference;
-using test::test_level;
-using test::test_levels;
-using test::TestLevel;
-using Reference = test::LevelReference;
+using modrt::test::level_reference;
+using modrt::test::test_level;
+using modrt::test::test_levels;
+using modrt::test::TestLevel;
+using Reference = modrt::test::LevelReference;
 
 // (|Td_b| ld)_i per b element: the sum of the magnitudes that cancel into b_i.
 std::vector<double> b_magnitudes(const Level& level, std::span<const float> ld) {
