@@ -8,6 +8,8 @@
 //        gpu_us  sum of the passes' GPU timer-query times (0 when the context has none)
 //        b_us, r_us, atlas_us, probes_us, upload_us  per pass
 //     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
+//   BM_TbrOnCpu/<blocks>/<context>         Tb->r done on the CPU instead: read b back, SIMD
+//                                          records, upload r (compare with r_us above)
 //   BM_CpuBackendFrame/<blocks>            the CPU backend's update (best ISA), for the ratio
 //
 // Levels: maze11 and maze41 against the default full dictionary (bench_levels.h;
@@ -23,6 +25,7 @@
 
 #include "bench_levels.h"
 #include "modrt/cpu/cpu_backend.h"
+#include "modrt/cpu/kernels.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/platform/gl_context.h"
 
@@ -128,6 +131,62 @@ BENCHMARK(BM_GlesLevelFrame)
     ->ArgsProduct({{11, 41}, {0, 1, 2, 3}, {0, 1}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
+
+// Tb->r on the CPU instead of the GPU (gles/README.md: the runtime does it on the GPU). Per
+// frame this alternative reads b back (a pipeline sync), runs every record with the best
+// SIMD kernel and uploads r (three RGBA32UI planes, as the r pass writes them), then
+// glFinish. Compare with r_us of BM_GlesLevelFrame on the same context.
+void BM_TbrOnCpu(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  platform::GlContext* ctx = context(int(state.range(1)));
+  if (!bl || !ctx) {
+    state.SkipWithError("no dictionary/level or no such GL context here");
+    return;
+  }
+  const Level& level = bl->level;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, level, *dictionary(), {});
+  if (!rt.ok() || !rt.value()->update(bl->ld).ok()) {
+    state.SkipWithError("GLES runtime failed");
+    return;
+  }
+  const platform::GlFunctions& gl = ctx->gl();
+  const std::size_t kb = level.kb, kr = level.kr, groups = (kr + 3) / 4;
+  std::vector<float> b(3 * kb * level.blocks.size()), b_planar(b.size()), r(3 * kr * level.slots.size());
+  const std::size_t texels = level.slots.size() * groups;
+  const int width = 2048, rows = int((texels + width - 1) / width);
+  std::vector<float> planes(3 * std::size_t(width) * std::size_t(rows) * 4, 0.0f);
+  GLuint textures[3];
+  gl.glGenTextures(3, textures);
+  for (GLuint t : textures) {
+    gl.glBindTexture(GL_TEXTURE_2D, t);
+    gl.glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32UI, width, rows);
+  }
+  const cpu::Isa isa = cpu::active_isa();
+  for (auto _ : state) {
+    if (!rt.value()->read_b(b).ok()) state.SkipWithError("read_b failed");
+    for (std::size_t i = 0; i < level.blocks.size(); ++i)
+      cpu::deinterleave_rgb(b.data() + 3 * kb * i, kb, b_planar.data() + 3 * kb * i, kb);
+    std::fill(r.begin(), r.end(), 0.0f);
+    for (const ResponseRecord& rec : level.records)
+      cpu::gemv_rgb(isa, rec.T.data.data(), kr, kb, kb, b_planar.data() + 3 * kb * rec.source_block, kb,
+                    r.data() + 3 * kr * rec.slot, true);
+    for (std::size_t c = 0; c < 3; ++c) {
+      float* plane = planes.data() + c * std::size_t(width) * std::size_t(rows) * 4;
+      for (std::size_t slot = 0; slot < level.slots.size(); ++slot)
+        for (std::size_t k = 0; k < kr; ++k)
+          plane[4 * (slot * groups + k / 4) + k % 4] = r[3 * kr * slot + 3 * k + c];
+      gl.glBindTexture(GL_TEXTURE_2D, textures[c]);
+      gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, rows, GL_RGBA_INTEGER, GL_UNSIGNED_INT, plane);
+    }
+    gl.glFinish();
+  }
+  gl.glDeleteTextures(3, textures);
+  state.counters["records"] = double(level.records.size());
+  state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " readback b + " +
+                 cpu::isa_name(isa) + " records + upload r");
+}
+BENCHMARK(BM_TbrOnCpu)->ArgsProduct({{11, 41}, {0, 1, 2, 3}})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_CpuBackendFrame(benchmark::State& state) {
   const BenchLevel* bl = bench_level(int(state.range(0)));
