@@ -304,7 +304,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   gl_.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   gl_.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas_w, atlas_h, GL_RED_INTEGER, GL_INT, texel_sample.data());
   // Per-frame inputs: RGB32F so that the caller's interleaved RGB uploads without repacking.
-  sample_rows_count_ = linear_rows(samples);
+  const int feedback_rows = linear_rows(samples);
   ld_ = linear_texture("ld", GL_RGB32F, samples);
   ld_direct_ = linear_texture("ld_direct", GL_RGB32F, samples);
   rho_ = linear_texture("albedo", GL_RGB32F, samples);
@@ -355,7 +355,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     return s;
   if (Status s = signal3("r", slots * std::size_t(r_groups_), r_); !s.ok()) return s;
   if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
-  if (Status s = target("feedback ld", kLinearWidth, sample_rows_count_, GL_RGBA32UI, ld_feedback_); !s.ok())
+  if (Status s = target("feedback ld", kLinearWidth, feedback_rows, GL_RGBA32UI, ld_feedback_); !s.ok())
     return s;
   if (has_probes_) {
     if (Status s = target("probes", kLinearWidth, linear_rows(blocks * std::size_t(probe_rows_)),
@@ -455,6 +455,15 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       block_tile_begin_[i + 1] = std::uint32_t(tile_rects_.size());
     }
   }
+  // Which slots each block's b feeds, so that update() touches only changed blocks' records.
+  fed_begin_.assign(blocks + 1, 0);
+  for (const ResponseRecord& rec : level.records) ++fed_begin_[rec.source_block + 1];
+  for (std::size_t i = 0; i < blocks; ++i) fed_begin_[i + 1] += fed_begin_[i];
+  fed_slots_.assign(level.records.size(), 0);
+  {
+    std::vector<std::uint32_t> next(fed_begin_.begin(), fed_begin_.end() - 1);
+    for (const ResponseRecord& rec : level.records) fed_slots_[next[rec.source_block]++] = rec.slot;
+  }
   rects_.reserve(std::max({blocks, slots, tile_rects_.size()}) + 1);
   gl_.glGenVertexArrays(1, &vao_);  // desktop core profiles draw only with a VAO bound
   timer_ = std::make_unique<platform::GpuTimer>(gl_, gles_context, kScopeCount);
@@ -462,7 +471,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
 }
 
 void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int width, int height,
-                            std::initializer_list<GLuint> textures, std::span<const Rect> scissors) {
+                            std::initializer_list<GLuint> textures, std::span<const Rect> rects) {
   gl_.glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
   gl_.glViewport(0, 0, width, height);
   gl_.glUseProgram(program.id);
@@ -471,13 +480,13 @@ void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int widt
     gl_.glActiveTexture(unit++);
     gl_.glBindTexture(GL_TEXTURE_2D, t);
   }
-  if (scissors.empty()) {
+  if (rects.empty()) {
     gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
     return;
   }
   // A viewport per rect: the full-viewport triangle then covers just the rect, and
   // gl_FragCoord stays in window coordinates, so the shaders need no change.
-  for (const Rect& r : scissors) {
+  for (const Rect& r : rects) {
     gl_.glViewport(r.x, r.y, r.w, r.h);
     gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
   }
@@ -619,8 +628,9 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   const bool partial =
       !full && 2 * dirty <= level.blocks.size() && double(dirty) <= fraction * double(level.blocks.size());
   std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(!partial));
-  for (const ResponseRecord& rec : level.records)
-    if (dirty_block_[rec.source_block]) dirty_slot_[rec.slot] = 1;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    if (dirty_block_[i])
+      for (std::uint32_t k = fed_begin_[i]; k < fed_begin_[i + 1]; ++k) dirty_slot_[fed_slots_[k]] = 1;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) dirty_atlas_[i] = dirty_block_[i] || !partial;
   for (std::size_t s = 0; s < level.slots.size(); ++s)
     if (dirty_slot_[s]) dirty_atlas_[level.slots[s].block] = 1;

@@ -149,7 +149,7 @@ class GlesLevelRuntime final : public Backend {
   std::span<const Rect> linear_rects(const std::vector<std::uint8_t>& flags, int per);
   Status check(const char* what) const;
   void draw(const Program& program, GLuint framebuffer, int width, int height,
-            std::initializer_list<GLuint> textures, std::span<const Rect> scissors = {});
+            std::initializer_list<GLuint> textures, std::span<const Rect> rects = {});
   void begin_pass(int scope);
   void end_pass(int scope);
   Status read_target(GLuint framebuffer, int attachment, int width, int height, bool bits);
@@ -172,7 +172,6 @@ class GlesLevelRuntime final : public Backend {
   GLuint texel_sample_ = 0, sample_info_ = 0, sample_slots_ = 0, sample_rows_ = 0;
   // Per-frame inputs (CPU uploads) and signals.
   GLuint ld_ = 0, ld_direct_ = 0, rho_ = 0;
-  int sample_rows_count_ = 0;  // rows of the per-sample linear textures
   int max_texture_size_ = 0;
   std::vector<GLuint> textures_;  // every texture created, for the destructor
   std::vector<GLuint> framebuffers_;
@@ -192,6 +191,8 @@ class GlesLevelRuntime final : public Backend {
   std::vector<std::uint32_t> block_tile_begin_;
   std::vector<Rect> tile_rects_;
   std::vector<Rect> rects_;
+  // Slots fed by block i's b (a record with source i): fed_slots_[fed_begin_[i] .. [i + 1]).
+  std::vector<std::uint32_t> fed_begin_, fed_slots_;
   bool force_full_ = true;
   GlesSkipStats stats_;
   bool timing_ = false;
