@@ -16,14 +16,23 @@
 namespace modrt::precompute {
 
 struct PathTracerSettings {
-  int paths = 256;           // paths per point (stratified first direction)
-  int bounces = 8;           // indirect bounces: 1 = light reflected once (F ld), ...
-  int light_samples = 8;     // visibility points per sphere light at every path vertex
+  int paths = 256;        // paths per point (stratified first direction)
+  int bounces = 8;        // indirect bounces: 1 = light reflected once (F ld), ...
+  int light_samples = 8;  // visibility points per sphere light at every path vertex
   std::uint64_t seed = 7;
+  // Light-vertex connections, for lights whose reflected light is a small bright spot (a
+  // light close to a wall) that cosine-weighted paths rarely hit. At every path vertex x,
+  // one ray leaves a randomly chosen centre of `light_vertex_sources` in a uniform direction;
+  // its first hit y is joined to x by a shadow ray and brings back y's direct radiance.
+  // That sample and the cosine direction's hit are combined by the balance heuristic
+  // (multiple importance sampling, Veach §9.2), so the estimate stays unbiased for any
+  // sources; where a source sees nothing the paths alone carry the estimate. Empty: cosine
+  // paths only.
+  std::vector<glm::dvec3> light_vertex_sources;
 };
 
 struct IndirectEstimate {
-  std::vector<float> value;           // E_ind / pi, RGB interleaved (3 per point)
+  std::vector<float> value;  // E_ind / pi, RGB interleaved (3 per point)
   // Of each value: sample std / sqrt(paths), as for independent paths. The first direction
   // is stratified, so the true error is smaller: this is a conservative bound.
   std::vector<float> standard_error;
@@ -32,17 +41,22 @@ struct IndirectEstimate {
 // Outgoing *direct* diffuse radiance at a surface point: albedo * E_direct / pi for the
 // runtime's light model. Replaceable so analytic cases (furnace, one emitting face) can be
 // set up exactly.
-using DirectRadiance = std::function<glm::dvec3(const LevelHit& hit, const glm::dvec3& position,
-                                                const glm::dvec3& normal)>;
+using DirectRadiance =
+    std::function<glm::dvec3(const LevelHit& hit, const glm::dvec3& position, const glm::dvec3& normal)>;
 // Albedo at a surface point (RGB).
 using SurfaceAlbedo = std::function<glm::dvec3(const LevelHit& hit)>;
 
 // The runtime's light model on the level's geometry and per-face albedo.
-DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescription& description, int light_samples);
+DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescription& description,
+                                     int light_samples);
 SurfaceAlbedo level_surface_albedo(const LevelScene& scene, const LevelDescription& description);
+// The centres of the description's lights, as light-vertex sources.
+std::vector<glm::dvec3> level_light_centres(const LevelDescription& description);
 
 // E_ind / pi at each (position, normal): cosine-weighted paths of `bounces` segments; the
 // radiance a segment brings back is direct(y) + albedo(y) * (the next segment's estimate).
+// With light-vertex sources, each segment's direct(y) is shared with a light-vertex sample
+// by MIS (see PathTracerSettings).
 IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dvec3> positions,
                                 std::span<const glm::dvec3> normals, const DirectRadiance& direct,
                                 const SurfaceAlbedo& albedo, const PathTracerSettings& settings);
@@ -54,7 +68,7 @@ struct CameraHits {
   std::vector<LevelHit> hit;
   std::vector<glm::dvec3> position, normal;
 };
-CameraHits camera_hits(const LevelScene& scene, const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up,
-                       double vertical_fov_degrees, int width, int height);
+CameraHits camera_hits(const LevelScene& scene, const glm::dvec3& eye, const glm::dvec3& target,
+                       const glm::dvec3& up, double vertical_fov_degrees, int width, int height);
 
 }  // namespace modrt::precompute
