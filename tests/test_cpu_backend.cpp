@@ -1,5 +1,6 @@
 // SIMD CPU level runtime (cpu_neon/) against core's scalar reference for every ISA this CPU
-// supports (the kernels alone: test_cpu_kernels.cpp); no allocation per frame; bad input.
+// supports (the kernels alone: test_cpu_kernels.cpp); no allocation per frame; the thread
+// pool bit-identical to one thread; bad input.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -179,39 +180,86 @@ TEST(CpuLevelRuntime, MultiBounceStepsMatchLevelMultiBounce) {
   }
 }
 
+// No allocation per frame, with one thread and with the pool (threads = 2 and 3).
 TEST(CpuLevelRuntime, NoAllocationPerFrame) {
   const TestLevel& t = test_level("maze41");
-  for (Isa isa : supported_isas()) {
-    Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, 1});
-    ASSERT_TRUE(rt.ok());
-    const LevelBufferSizes& s = rt->sizes();
-    std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
-    ASSERT_TRUE(rt->set_albedo(t.albedo).ok());
-    bool ok = true;
-    g_allocations = 0;
-    g_count_allocations = true;
-    for (int frame = 0; frame < 10; ++frame) ok &= rt->evaluate(t.ld, lightmap).ok();
-    const long evaluate_allocations = g_allocations.load();
-    for (int frame = 0; frame < 10; ++frame) {
-      ok &= rt->multi_bounce_step(t.ld, lightmap).ok();
-      ok &= rt->fill_atlas(lightmap, atlas).ok();
-      ok &= rt->compute_probes(probes).ok();
+  for (int threads : {1, 2, 3})
+    for (Isa isa : supported_isas()) {
+      const std::string what = std::string(isa_name(isa)) + " threads " + std::to_string(threads);
+      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, threads});
+      ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+      EXPECT_EQ(rt->threads(), threads);
+      const LevelBufferSizes& s = rt->sizes();
+      std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
+      ASSERT_TRUE(rt->set_albedo(t.albedo).ok());
+      bool ok = true;
+      g_allocations = 0;
+      g_count_allocations = true;
+      for (int frame = 0; frame < 10; ++frame) ok &= rt->evaluate(t.ld, lightmap).ok();
+      const long evaluate_allocations = g_allocations.load();
+      for (int frame = 0; frame < 10; ++frame) {
+        ok &= rt->multi_bounce_step(t.ld, lightmap).ok();
+        ok &= rt->fill_atlas(lightmap, atlas).ok();
+        ok &= rt->compute_probes(probes).ok();
+      }
+      g_count_allocations = false;
+      const long other_allocations = g_allocations.load() - evaluate_allocations;
+      EXPECT_EQ(evaluate_allocations, 0) << what;
+      EXPECT_EQ(other_allocations, 0) << what;
+      EXPECT_TRUE(ok);
+      // The counter works: a failing call builds its error message on the heap.
+      std::vector<float> bad = t.ld;
+      bad[0] = -1.0f;
+      g_count_allocations = true;
+      const bool failed = !rt->evaluate(bad, lightmap).ok();
+      g_count_allocations = false;
+      EXPECT_TRUE(failed);
+      EXPECT_GT(g_allocations.load(), 0);
+      g_allocations = 0;
     }
-    g_count_allocations = false;
-    const long other_allocations = g_allocations.load() - evaluate_allocations;
-    EXPECT_EQ(evaluate_allocations, 0) << isa_name(isa);
-    EXPECT_EQ(other_allocations, 0) << isa_name(isa);
-    EXPECT_TRUE(ok);
-    // The counter works: a failing call builds its error message on the heap.
-    std::vector<float> bad = t.ld;
-    bad[0] = -1.0f;
-    g_count_allocations = true;
-    const bool failed = !rt->evaluate(bad, lightmap).ok();
-    g_count_allocations = false;
-    EXPECT_TRUE(failed);
-    EXPECT_GT(g_allocations.load(), 0);
-    g_allocations = 0;
-  }
+}
+
+// The pool changes who computes a block, not how: b, r, lightmap, atlas, probes and
+// multi-bounce results are bit-identical for 1, 2, 3 and 8 threads (more threads than this
+// machine's cores, and than the single block has).
+TEST(CpuLevelRuntime, ThreadsAreBitIdentical) {
+  for (const TestLevel& t : test_levels())
+    for (Isa isa : supported_isas()) {
+      struct Out {
+        std::vector<float> b, r, lightmap, atlas, probes, bounced;
+      };
+      auto run = [&](int threads) {
+        Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, threads});
+        EXPECT_TRUE(rt.ok()) << rt.status().to_string();
+        if (!rt.ok()) return Out{};
+        const LevelBufferSizes& s = rt->sizes();
+        Out o{
+            {}, {}, std::vector<float>(s.lightmap), std::vector<float>(s.atlas), std::vector<float>(s.probes),
+            {}};
+        EXPECT_TRUE(rt->evaluate(t.ld, o.lightmap).ok());
+        EXPECT_TRUE(rt->fill_atlas(o.lightmap, o.atlas).ok());
+        EXPECT_TRUE(rt->compute_probes(o.probes).ok());
+        o.b.assign(rt->b().begin(), rt->b().end());
+        o.r.assign(rt->r().begin(), rt->r().end());
+        o.bounced = o.lightmap;
+        EXPECT_TRUE(rt->set_albedo(t.albedo).ok());
+        for (int k = 0; k < 3; ++k) EXPECT_TRUE(rt->multi_bounce_step(t.ld, o.bounced).ok());
+        return o;
+      };
+      const Out one = run(1);
+      ASSERT_FALSE(one.lightmap.empty());
+      EXPECT_TRUE(std::any_of(one.lightmap.begin(), one.lightmap.end(), [](float v) { return v != 0.0f; }));
+      for (int threads : {2, 3, 8}) {
+        const Out many = run(threads);
+        const std::string what = t.name + " " + isa_name(isa) + " threads " + std::to_string(threads);
+        EXPECT_EQ(many.b, one.b) << what;
+        EXPECT_EQ(many.r, one.r) << what;
+        EXPECT_EQ(many.lightmap, one.lightmap) << what;
+        EXPECT_EQ(many.atlas, one.atlas) << what;
+        EXPECT_EQ(many.probes, one.probes) << what;
+        EXPECT_EQ(many.bounced, one.bounced) << what;
+      }
+    }
 }
 
 TEST(CpuLevelRuntime, RejectsBadLightSignal) {
@@ -267,7 +315,9 @@ TEST(CpuLevelRuntime, RejectsMismatchedDictionaryAndOptions) {
   }
   for (Isa isa : {Isa::scalar, Isa::sse41, Isa::avx2, Isa::neon})
     EXPECT_EQ(CpuLevelRuntime::create(t.level, dict(), {isa, 1}).ok(), isa_supported(isa)) << isa_name(isa);
-  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 2}).ok());
+  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 0}).ok());
+  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 257}).ok());
+  EXPECT_TRUE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 2}).ok());
 }
 
 }  // namespace

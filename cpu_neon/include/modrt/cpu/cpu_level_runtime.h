@@ -9,13 +9,28 @@
 // Buffers kept between calls (layouts of level_runtime.h unless stated):
 //   b: 3 kb per block, interleaved, and its planar copy (3 x kb per block, stride kb);
 //   r: 3 kr per slot, interleaved, and its planar copy (3 x kr per slot, stride kr);
-//   ld scratch: planar, 3 x (largest block sample count), reused block by block;
-//   feedback: rho (albedo clamped), 3 x samples, and the ld of the current bounce.
+//   ld scratch: planar, 3 x (largest block sample count) per thread, reused block by block;
+//   feedback: rho (albedo clamped), 3 x samples, and the ld of the current bounce;
+//   schedule: the records of each slot (in level order) and the slots of each block.
+//
+// Work order. evaluate() runs two phases, each a loop over blocks:
+//   1. per block i: b_i = Td_b ld_i (and its planar copy);
+//   2. per block i: r_s = sum of T b(source) over the records of each slot s entering i, in
+//      level order; then tile i of the lightmap = Ub b_i, += Ur r_s for those slots in order.
+// Every output has one writer and one summation order, the same for any thread count, so
+// results are bit-identical for every `threads` (and equal to the order of core's reference).
+// compute_probes() is one such loop (Ubvol b_i, then the probe response of each slot of i).
+//
+// Threads. threads > 1 starts a fixed pool of threads - 1 workers in create() (the caller of
+// evaluate() is the other one); blocks are handed out one at a time from an atomic counter.
+// The pool allocates nothing per call. A runtime must not be used from two threads at once.
 // Operators are not copied: they are read in place, row-major, from the Level and the
 // Dictionary, which the runtime borrows and which must outlive it and stay unchanged.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -27,9 +42,11 @@
 
 namespace modrt::cpu {
 
+class ThreadPool;  // src/thread_pool.h
+
 struct CpuRuntimeOptions {
   std::optional<Isa> isa;  // none: active_isa(); an unsupported ISA makes create() fail
-  int threads = 1;         // worker threads; only 1 is implemented, other values fail
+  int threads = 1;         // threads working on a frame, the caller included (1 to 256)
 };
 
 class CpuLevelRuntime {
@@ -40,12 +57,14 @@ class CpuLevelRuntime {
   static Result<CpuLevelRuntime> create(const Level& level, const Dictionary& dict,
                                         const CpuRuntimeOptions& options = {});
 
-  CpuLevelRuntime(CpuLevelRuntime&&) noexcept = default;
-  CpuLevelRuntime& operator=(CpuLevelRuntime&&) noexcept = default;
+  CpuLevelRuntime(CpuLevelRuntime&&) noexcept;
+  CpuLevelRuntime& operator=(CpuLevelRuntime&&) noexcept;
+  ~CpuLevelRuntime();  // stops the pool's workers
   CpuLevelRuntime(const CpuLevelRuntime&) = delete;
   CpuLevelRuntime& operator=(const CpuLevelRuntime&) = delete;
 
   Isa isa() const { return isa_; }
+  int threads() const { return threads_; }
   // Sizes of ld, lightmap, atlas and probes (and of the b, r this runtime holds).
   const LevelBufferSizes& sizes() const { return sizes_; }
 
@@ -79,14 +98,24 @@ class CpuLevelRuntime {
 
  private:
   CpuLevelRuntime() = default;
+  // Runs f(index, thread) for index in [0, count) on the pool (or inline with one thread).
+  template <class F>
+  void parallel_for(std::size_t count, F& f) const;
+  void compute_block_b(std::size_t i, std::span<const float> ld, int thread);
+  void compute_block_lightmap(std::size_t i, std::span<float> lightmap);
 
   const Level* level_ = nullptr;
   const Dictionary* dict_ = nullptr;
   Isa isa_ = Isa::scalar;
+  int threads_ = 1;
+  std::unique_ptr<ThreadPool> pool_;  // null with one thread
   LevelBufferSizes sizes_;
   std::size_t max_block_samples_ = 0;
   std::vector<float> b_, b_planar_, r_, r_planar_, ld_planar_;
   std::vector<float> rho_, ld_feedback_;
+  // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
+  // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
+  std::vector<std::uint32_t> slot_record_begin_, slot_records_, block_slot_begin_, block_slots_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;
 };
