@@ -5,7 +5,10 @@
 //     or F_level ld ray traced per frame for mazes, labelled so),
 //   - a truncated SVD of the dense F at the same rank as MRT (single-block scenes),
 //   - MRT (the scalar reference runtime) for several kb and two texel resolutions, one
-//     bounce and multi-bounce feedback.
+//     bounce and multi-bounce feedback,
+//   - the same MRT frames on the SIMD CPU runtime (modrt::cpu, its best ISA) and on the
+//     GLES backend (modrt::gles, on the context `auto` picks: llvmpipe here), timed the
+//     same way; their error is measured from their own output.
 // Per-frame cost is the median of many frames of the scalar code (steady_clock); error is
 // relative L2 over texels (all channels) and the 90th percentile of per-texel relative
 // error. Every ground truth states its noise floor (RMS standard error / RMS value).
@@ -35,10 +38,11 @@
 #include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 
+#include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/dictionary.h"
+#include "modrt/file_io.h"
 #include "modrt/level.h"
 #include "modrt/level_runtime.h"
-#include "modrt/reference_runtime.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
@@ -46,6 +50,11 @@
 #include "modrt/precompute/maze.h"
 #include "modrt/precompute/path_tracer.h"
 #include "modrt/precompute/transport.h"
+#include "modrt/reference_runtime.h"
+#ifdef MODRT_BENCH_HAS_GLES
+#include "modrt/gles/gles_level_runtime.h"
+#include "modrt/platform/gl_context.h"
+#endif
 
 namespace {
 
@@ -72,15 +81,17 @@ struct SuiteConfig {
   std::vector<SceneCase> scenes;
   std::vector<DictionarySettings> dictionaries;  // one per resolution
   std::vector<std::uint32_t> kbs;
-  int multi_bounces = 8;           // ground-truth path segments; MRT/dense get bounces - 1 feedback iterations
-  int gt_paths_one = 256;          // ground-truth paths per texel (one bounce), before the budget cap
-  int gt_paths_multi = 256;        // ... multi-bounce
-  double gt_path_budget = 4.0e6;   // cap: texels * paths <= budget (big levels get fewer paths)
+  int multi_bounces = 8;          // ground-truth path segments; MRT/dense get bounces - 1 feedback iterations
+  int gt_paths_one = 256;         // ground-truth paths per texel (one bounce), before the budget cap
+  int gt_paths_multi = 256;       // ... multi-bounce
+  double gt_path_budget = 4.0e6;  // cap: texels * paths <= budget (big levels get fewer paths)
   int gt_min_paths = 32;
-  int dense_rays = 4096;           // gather rays per texel for the dense F baseline (single-block scenes)
-  int raytraced_rays = 64;         // rays per texel for the ray-traced F_level ld baseline (mazes)
-  int frames = 50;                 // timed frames per method (median)
-  double time_budget_s = 1.0;      // ... but stop after this long once 5 frames are in
+  int dense_rays = 4096;       // gather rays per texel for the dense F baseline (single-block scenes)
+  int raytraced_rays = 64;     // rays per texel for the ray-traced F_level ld baseline (mazes)
+  int frames = 50;             // timed frames per method (median)
+  bool cpu_backend = true;     // also time MRT on modrt::cpu
+  bool gles_backend = true;    // ... and on modrt::gles (when built and a context exists)
+  double time_budget_s = 1.0;  // ... but stop after this long once 5 frames are in
 };
 
 LightDescription light_at(const glm::dvec3& p, double radius = 0.05) {
@@ -264,7 +275,6 @@ double median_ms(const std::function<void()>& f, int frames, double budget_s) {
   return t[t.size() / 2];
 }
 
-
 template <class M>
 Matrix to_matrix(const M& m) {
   Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
@@ -295,8 +305,9 @@ Result<Dictionary> truncate_dictionary(const Dictionary& d, std::uint32_t k) {
   t.settings.kb = k;
   for (ShapeOperators& s : t.shapes) {
     if (k > s.kb())
-      return Status::error(ErrorCode::invalid_argument,
-                           "kb " + std::to_string(k) + " exceeds the dictionary's kb " + std::to_string(s.kb()));
+      return Status::error(
+          ErrorCode::invalid_argument,
+          "kb " + std::to_string(k) + " exceeds the dictionary's kb " + std::to_string(s.kb()));
     s.Ub = first_cols(s.Ub, k);
     s.Ub_vec = first_cols(s.Ub_vec, k);
     s.Ubvol = first_cols(s.Ubvol, k);
@@ -304,7 +315,8 @@ Result<Dictionary> truncate_dictionary(const Dictionary& d, std::uint32_t k) {
     s.Td_b = first_rows(s.Td_b, k);
     for (Matrix& R : s.Rb_rlf) R = first_cols(R, k);
   }
-  if (Status v = validate_dictionary(t, "truncated dictionary (kb " + std::to_string(k) + ")"); !v.ok()) return v;
+  if (Status v = validate_dictionary(t, "truncated dictionary (kb " + std::to_string(k) + ")"); !v.ok())
+    return v;
   return t;
 }
 
@@ -314,8 +326,8 @@ using Apply = std::function<void(const float* in, float* out)>;
 
 // Multi-bounce with the runtime's feedback (clamps included): out = A ld_direct, then
 // `iterations` times ld = ld_direct + albedo * out, out = A ld.
-void feedback_solve(const Apply& apply, const FeedbackClamp& clamp, std::span<const float> ld_direct, int iterations,
-                    std::vector<float>& ld, std::vector<float>& out) {
+void feedback_solve(const Apply& apply, const FeedbackClamp& clamp, std::span<const float> ld_direct,
+                    int iterations, std::vector<float>& ld, std::vector<float>& out) {
   apply(ld_direct.data(), out.data());
   for (int it = 0; it < iterations; ++it) {
     apply_feedback(clamp, ld_direct, out, ld);
@@ -349,14 +361,18 @@ int gt_paths_for(std::size_t texels, int wanted, double budget, int min_paths) {
   return std::clamp(int(std::min<double>(wanted, cap)), std::min(min_paths, wanted), wanted);
 }
 
-Truth ground_truth(const precompute::LevelScene& scene, const LevelDescription& desc, int bounces, int paths) {
+Truth ground_truth(const precompute::LevelScene& scene, const LevelDescription& desc, int bounces,
+                   int paths) {
   const precompute::LevelSampleGeometry& g = scene.samples();
   precompute::PathTracerSettings pts;
   pts.paths = paths;
   pts.bounces = bounces;
-  const precompute::IndirectEstimate est =
-      precompute::trace_indirect(scene, g.position, g.normal, precompute::level_direct_radiance(scene, desc, 8),
-                                 precompute::level_surface_albedo(scene, desc), pts);
+  // Light vertices join every path vertex to the lit spots directly: without them a light
+  // close to a wall leaves the truth at a 0.4-0.6 noise floor (test_path_tracer.cpp).
+  pts.light_vertex_sources = precompute::level_light_centres(desc);
+  const precompute::IndirectEstimate est = precompute::trace_indirect(
+      scene, g.position, g.normal, precompute::level_direct_radiance(scene, desc, 8),
+      precompute::level_surface_albedo(scene, desc), pts);
   Truth t;
   t.value = est.value;
   t.paths = paths;
@@ -373,18 +389,31 @@ struct RankOps {
   Matrix A, B;  // F ~ A B: A = U_k S_k (n x k), B = V_k^T (k x n)
 };
 
+// The GL context the GLES rows run on (none: GLES rows are left out, with the reason
+// printed once).
+struct GlesTarget {
+#ifdef MODRT_BENCH_HAS_GLES
+  std::unique_ptr<platform::GlContext> context;
+#endif
+  std::string description;  // e.g. "gles egl-surfaceless llvmpipe (LLVM 15.0.6, 256 bits)"
+};
+
 // Runs every method on one scene at one resolution, for each of its light cases.
 Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& dict,
-                 const std::map<std::uint32_t, Dictionary>& truncated, Progress& progress, std::vector<Row>& rows) {
+                 const std::map<std::uint32_t, Dictionary>& truncated, GlesTarget& gles, Progress& progress,
+                 std::vector<Row>& rows) {
   const int res = int(dict.settings.res);
   const std::string tag = sc.name + " res " + std::to_string(res);
   progress.draw(tag + ": build");
   Result<Level> level_full = precompute::build_level(sc.desc, dict);
-  if (!level_full.ok()) return Status::error(level_full.status().code(), tag + ": " + level_full.status().to_string());
+  if (!level_full.ok())
+    return Status::error(level_full.status().code(), tag + ": " + level_full.status().to_string());
   std::map<std::uint32_t, Level> levels;
   for (const auto& [k, d] : truncated) {
     Result<Level> l = precompute::build_level(sc.desc, d);
-    if (!l.ok()) return Status::error(l.status().code(), tag + " kb " + std::to_string(k) + ": " + l.status().to_string());
+    if (!l.ok())
+      return Status::error(l.status().code(),
+                           tag + " kb " + std::to_string(k) + ": " + l.status().to_string());
     levels.emplace(k, std::move(l).value());
   }
   const Level& level = level_full.value();
@@ -402,7 +431,8 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
       const LevelBlock& blk = level.blocks.at(0);
       const FaceMask mask = dictionary_shape_mask(blk.shape);
       if (level.blocks.size() != 1 || blk.quarter_turns != 0 || mask != sc.desc.blocks[0].faces)
-        return Status::error(ErrorCode::internal_error, tag + ": single-block scene is not a canonical dictionary shape");
+        return Status::error(ErrorCode::internal_error,
+                             tag + ": single-block scene is not a canonical dictionary shape");
       const precompute::BlockScene bs(mask);
       const SampleLayout layout = SampleLayout::make(mask, res);
       precompute::RowMatrixXd Fd = precompute::gather_transport(bs, layout, cfg.dense_rays, 12345);
@@ -447,7 +477,8 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
         double mean[3] = {0, 0, 0};
         for (std::size_t s = 0; s < n; ++s)
           for (std::size_t c = 0; c < 3; ++c) mean[c] += t->value[3 * s + c];
-        const float m[3] = {float(mean[0] / double(n)), float(mean[1] / double(n)), float(mean[2] / double(n))};
+        const float m[3] = {float(mean[0] / double(n)), float(mean[1] / double(n)),
+                            float(mean[2] / double(n))};
         const double ms = median_ms(
             [&] {
               for (std::size_t s = 0; s < n; ++s)
@@ -461,8 +492,8 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
         const Apply dense = [&](const float* in, float* o) { reference_gemv_rgb(F, in, o, false); };
         double ms = median_ms([&] { dense(ld.data(), out.data()); }, cfg.frames, cfg.time_budget_s);
         add("dense_F", 1, 0, ms, out, std::to_string(cfg.dense_rays) + " rays/texel");
-        ms = median_ms([&] { feedback_solve(dense, clamp.value(), ld, iterations, ld_work, out); }, cfg.frames,
-                       cfg.time_budget_s);
+        ms = median_ms([&] { feedback_solve(dense, clamp.value(), ld, iterations, ld_work, out); },
+                       cfg.frames, cfg.time_budget_s);
         add("dense_F", cfg.multi_bounces, 0, ms, out, std::to_string(cfg.dense_rays) + " rays/texel");
         for (const auto& [k, ops] : svd_ops) {
           std::vector<float> t(3 * std::size_t(ops.B.rows));
@@ -472,17 +503,18 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
           };
           ms = median_ms([&] { low(ld.data(), out.data()); }, cfg.frames, cfg.time_budget_s);
           add("svd_F", 1, int(k), ms, out);
-          ms = median_ms([&] { feedback_solve(low, clamp.value(), ld, iterations, ld_work, out); }, cfg.frames,
-                         cfg.time_budget_s);
+          ms = median_ms([&] { feedback_solve(low, clamp.value(), ld, iterations, ld_work, out); },
+                         cfg.frames, cfg.time_budget_s);
           add("svd_F", cfg.multi_bounces, int(k), ms, out);
         }
       } else {
         progress.draw(ltag + ": ray-traced F ld");
         std::vector<float> one;
-        const double ms = median_ms(
-            [&] { one = precompute::level_one_bounce(scene, ld, cfg.raytraced_rays, 99); }, 1, 0.0);
+        const double ms =
+            median_ms([&] { one = precompute::level_one_bounce(scene, ld, cfg.raytraced_rays, 99); }, 1, 0.0);
         add("raytraced_F", 1, 0, ms, one,
-            "F_level ld ray traced per frame (" + std::to_string(cfg.raytraced_rays) + " rays/texel), 2 threads");
+            "F_level ld ray traced per frame (" + std::to_string(cfg.raytraced_rays) +
+                " rays/texel), 2 threads");
       }
 
       progress.draw(ltag + ": MRT");
@@ -491,18 +523,88 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
         const LevelBufferSizes sz = level_buffer_sizes(lvl, d);
         std::vector<float> b(sz.b), r(sz.r);
         Status st;
-        double ms = median_ms([&] { st = level_evaluate(lvl, d, ld, b, r, out); }, cfg.frames, cfg.time_budget_s);
-        if (!st.ok()) return Status::error(st.code(), ltag + " MRT kb " + std::to_string(k) + ": " + st.to_string());
+        double ms =
+            median_ms([&] { st = level_evaluate(lvl, d, ld, b, r, out); }, cfg.frames, cfg.time_budget_s);
+        if (!st.ok())
+          return Status::error(st.code(), ltag + " MRT kb " + std::to_string(k) + ": " + st.to_string());
         add("mrt", 1, int(k), ms, out);
         MultiBounceSettings mbs;
         mbs.max_iterations = iterations;
         Result<MultiBounceReport> rep = MultiBounceReport{};
         ms = median_ms([&] { rep = level_multi_bounce(lvl, d, ld, albedo, mbs, b, r, out); }, cfg.frames,
                        cfg.time_budget_s);
-        if (!rep.ok()) return Status::error(rep.status().code(), ltag + " MRT multi-bounce: " + rep.status().to_string());
+        if (!rep.ok())
+          return Status::error(rep.status().code(), ltag + " MRT multi-bounce: " + rep.status().to_string());
         add("mrt", cfg.multi_bounces, int(k), ms, out,
-            std::to_string(rep->iterations) + " feedback iterations" + (rep->value_clamped ? ", clamped" : ""));
+            std::to_string(rep->iterations) + " feedback iterations" +
+                (rep->value_clamped ? ", clamped" : ""));
       }
+      if (cfg.cpu_backend) {
+        progress.draw(ltag + ": MRT on modrt::cpu");
+        for (const auto& [k, lvl] : levels) {
+          const std::string ktag = ltag + " MRT cpu kb " + std::to_string(k);
+          Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(lvl, truncated.at(k));
+          if (!rt.ok()) return Status::error(rt.status().code(), ktag + ": " + rt.status().to_string());
+          const std::string isa = std::string("cpu ") + cpu::isa_name(rt->isa()) + ", 1 thread";
+          Status st;
+          double ms = median_ms([&] { st = rt->evaluate(ld, out); }, cfg.frames, cfg.time_budget_s);
+          if (!st.ok()) return Status::error(st.code(), ktag + ": " + st.to_string());
+          add("mrt_cpu", 1, int(k), ms, out, isa);
+          if (Status a = rt->set_albedo(albedo); !a.ok())
+            return Status::error(a.code(), ktag + ": " + a.to_string());
+          ms = median_ms(
+              [&] {
+                st = rt->evaluate(ld, out);
+                for (int it = 0; it < iterations && st.ok(); ++it) st = rt->multi_bounce_step(ld, out);
+              },
+              cfg.frames, cfg.time_budget_s);
+          if (!st.ok()) return Status::error(st.code(), ktag + " multi-bounce: " + st.to_string());
+          add("mrt_cpu", cfg.multi_bounces, int(k), ms, out,
+              isa + ", " + std::to_string(iterations) + " feedback steps");
+        }
+      }
+#ifdef MODRT_BENCH_HAS_GLES
+      if (gles.context) {
+        progress.draw(ltag + ": MRT on modrt::gles");
+        if (Status c = gles.context->make_current(); !c.ok())
+          return Status::error(c.code(), ltag + ": " + c.to_string());
+        for (const auto& [k, lvl] : levels) {
+          const std::string ktag = ltag + " MRT gles kb " + std::to_string(k);
+          gles::GlesRuntimeOptions options;
+          options.skip_unchanged = false;  // every timed frame does the whole update
+          options.probes = false;          // as the other rows: lightmaps only
+          Result<std::unique_ptr<gles::GlesLevelRuntime>> rt = gles::GlesLevelRuntime::create(
+              gles.context->gl(), gles.context->info().gles, lvl, truncated.at(k), options);
+          if (!rt.ok()) return Status::error(rt.status().code(), ktag + ": " + rt.status().to_string());
+          gles::GlesLevelRuntime& g = *rt.value();
+          // A frame: upload ld, every pass (b, r, atlas with padding), read the lightmap back
+          // (which waits for the GPU).
+          Status st;
+          double ms = median_ms(
+              [&] {
+                st = g.update(ld);
+                if (st.ok()) st = g.read_lightmap(out);
+              },
+              cfg.frames, cfg.time_budget_s);
+          if (!st.ok()) return Status::error(st.code(), ktag + ": " + st.to_string());
+          add("mrt_gles", 1, int(k), ms, out, gles.description + "; update + read_lightmap");
+          if (Status a = g.set_albedo(albedo); !a.ok())
+            return Status::error(a.code(), ktag + ": " + a.to_string());
+          ms = median_ms(
+              [&] {
+                st = g.update(ld);
+                for (int it = 0; it < iterations && st.ok(); ++it) st = g.multi_bounce_step(ld);
+                if (st.ok()) st = g.read_lightmap(out);
+              },
+              cfg.frames, cfg.time_budget_s);
+          if (!st.ok()) return Status::error(st.code(), ktag + " multi-bounce: " + st.to_string());
+          add("mrt_gles", cfg.multi_bounces, int(k), ms, out,
+              gles.description + "; " + std::to_string(iterations) + " feedback steps + read_lightmap");
+        }
+      }
+#else
+      (void)gles;
+#endif
       (void)sizes;
       progress.step(ltag);
     }
@@ -526,24 +628,29 @@ std::string method_label(const Row& r) {
 }
 
 void print_table(const std::vector<Row>& rows) {
-  std::printf("%-12s %-4s %-10s %-6s %-3s %-16s %10s %9s %9s %8s %6s\n", "scene", "res", "lights", "prior", "bnc",
-              "method", "ms/frame", "relL2", "p90", "noise", "paths");
+  std::printf("%-12s %-4s %-10s %-6s %-3s %-16s %10s %9s %9s %8s %6s\n", "scene", "res", "lights", "prior",
+              "bnc", "method", "ms/frame", "relL2", "p90", "noise", "paths");
   for (const Row& r : rows)
     std::printf("%-12s %-4d %-10s %-6s %-3d %-16s %10.4f %9.4f %9.4f %8.4f %6d\n", r.scene.c_str(), r.res,
-                r.lights.c_str(), r.in_prior ? "in" : "OUT", r.bounces, method_label(r).c_str(), r.time_ms, r.rel_l2,
-                r.p90, r.noise_floor, r.gt_paths);
+                r.lights.c_str(), r.in_prior ? "in" : "OUT", r.bounces, method_label(r).c_str(), r.time_ms,
+                r.rel_l2, r.p90, r.noise_floor, r.gt_paths);
+}
+
+// Output files are built in memory and written atomically (file_io.h): an interrupted run
+// never leaves a half-written report, CSV or JSON behind.
+Status write_text(const std::string& path, const std::string& text) {
+  return write_file_atomic(path, std::as_bytes(std::span(text.data(), text.size())));
 }
 
 Status write_csv(const std::string& path, const std::vector<Row>& rows) {
-  std::ofstream f(path);
-  if (!f) return Status::error(ErrorCode::io_error, "cannot write " + path);
+  std::ostringstream f;
   f << "scene,res,lights,in_prior,bounces,method,kb,time_ms,rel_l2,p90,noise_floor,gt_paths,note\n";
   for (const Row& r : rows)
     f << r.scene << ',' << r.res << ',' << r.lights << ',' << (r.in_prior ? 1 : 0) << ',' << r.bounces << ','
       << r.method << ',' << r.kb << ',' << fmt("%.6g", r.time_ms) << ',' << fmt("%.6g", r.rel_l2) << ','
-      << fmt("%.6g", r.p90) << ',' << fmt("%.6g", r.noise_floor) << ',' << r.gt_paths << ",\"" << r.note << "\"\n";
-  if (!f) return Status::error(ErrorCode::io_error, "error writing " + path);
-  return Status::success();
+      << fmt("%.6g", r.p90) << ',' << fmt("%.6g", r.noise_floor) << ',' << r.gt_paths << ",\"" << r.note
+      << "\"\n";
+  return write_text(path, f.str());
 }
 
 nlohmann::json settings_json(const SuiteConfig& cfg) {
@@ -558,9 +665,13 @@ nlohmann::json settings_json(const SuiteConfig& cfg) {
   j["frames"] = cfg.frames;
   j["kbs"] = cfg.kbs;
   for (const DictionarySettings& d : cfg.dictionaries)
-    j["dictionaries"].push_back({{"res", d.res}, {"kd", d.kd}, {"kb", d.kb}, {"rays", d.rays},
-                                 {"lightfield", {d.lightfield_spatial, d.lightfield_directional, d.lightfield_supersample}},
-                                 {"file", precompute::cache_file_name(d)}});
+    j["dictionaries"].push_back(
+        {{"res", d.res},
+         {"kd", d.kd},
+         {"kb", d.kb},
+         {"rays", d.rays},
+         {"lightfield", {d.lightfield_spatial, d.lightfield_directional, d.lightfield_supersample}},
+         {"file", precompute::cache_file_name(d)}});
   return j;
 }
 
@@ -568,20 +679,26 @@ Status write_json(const std::string& path, const SuiteConfig& cfg, const std::ve
   nlohmann::json j;
   j["settings"] = settings_json(cfg);
   for (const Row& r : rows)
-    j["rows"].push_back({{"scene", r.scene}, {"res", r.res}, {"lights", r.lights}, {"in_prior", r.in_prior},
-                         {"bounces", r.bounces}, {"method", r.method}, {"kb", r.kb}, {"time_ms", r.time_ms},
-                         {"rel_l2", r.rel_l2}, {"p90", r.p90}, {"noise_floor", r.noise_floor},
-                         {"gt_paths", r.gt_paths}, {"note", r.note}});
-  std::ofstream f(path);
-  if (!f) return Status::error(ErrorCode::io_error, "cannot write " + path);
-  f << j.dump(1) << "\n";
-  if (!f) return Status::error(ErrorCode::io_error, "error writing " + path);
-  return Status::success();
+    j["rows"].push_back({{"scene", r.scene},
+                         {"res", r.res},
+                         {"lights", r.lights},
+                         {"in_prior", r.in_prior},
+                         {"bounces", r.bounces},
+                         {"method", r.method},
+                         {"kb", r.kb},
+                         {"time_ms", r.time_ms},
+                         {"rel_l2", r.rel_l2},
+                         {"p90", r.p90},
+                         {"noise_floor", r.noise_floor},
+                         {"gt_paths", r.gt_paths},
+                         {"note", r.note}});
+  return write_text(path, j.dump(1) + "\n");
 }
 
 // Finds a python3 with matplotlib and runs the plot script; returns a message either way.
 std::string draw_chart(const std::string& script, const std::string& csv, const std::string& png) {
-  if (!std::filesystem::exists(script)) return "chart not drawn: " + script + " not found (run from the source dir)";
+  if (!std::filesystem::exists(script))
+    return "chart not drawn: " + script + " not found (run from the source dir)";
   for (const char* py : {"python3", "/usr/bin/python3"}) {
     const std::string probe = std::string(py) + " -c \"import matplotlib\" >/dev/null 2>&1";
     if (std::system(probe.c_str()) != 0) continue;
@@ -644,11 +761,63 @@ std::vector<std::string> mrt_vs_svd(const std::vector<Row>& rows, const SuiteCon
   return lines;
 }
 
+// MRT on the SIMD CPU runtime and on GLES against the scalar reference, same frames: time
+// ratios measured in one run and the largest error difference (they compute the same thing,
+// so only float rounding separates them).
+bool is_backend_row(const Row& r) { return r.method == "mrt_cpu" || r.method == "mrt_gles"; }
+
+std::string backends_section(const std::vector<Row>& rows, const SuiteConfig& cfg) {
+  const auto agg = aggregate_in_prior(rows);
+  const int kmax = int(*std::max_element(cfg.kbs.begin(), cfg.kbs.end()));
+  std::ostringstream f;
+  std::string cpu_note, gles_note;
+  for (const Row& r : rows) {
+    if (r.method == "mrt_cpu" && cpu_note.empty()) cpu_note = r.note;
+    if (r.method == "mrt_gles" && gles_note.empty()) gles_note = r.note.substr(0, r.note.find(';'));
+  }
+  if (cpu_note.empty() && gles_note.empty()) return {};
+  f << "## The backends: SIMD CPU and GLES against the scalar reference\n\n"
+    << "MRT at kb " << kmax
+    << ", in-prior lights, the same frames on the scalar reference (`mrt`), on `modrt::cpu` ("
+    << (cpu_note.empty() ? "not run" : cpu_note) << ") and on `modrt::gles` ("
+    << (gles_note.empty() ? "not run" : gles_note)
+    << "; a frame is upload + every pass + reading the lightmap back, so on a software rasteriser it "
+       "measures "
+       "llvmpipe, not a GPU: docs/gles.md has GPU timings). Speed-up = scalar time / backend time, measured "
+       "in "
+       "this run. |ΔrelL2| is the largest difference of relative L2 error from the scalar rows.\n\n"
+    << "| scene | res | bounces | scalar ms | cpu ms | cpu speed-up | gles ms | gles speed-up | max |ΔrelL2| "
+       "|\n"
+    << "|---|---|---|---|---|---|---|---|---|\n";
+  for (const SceneCase& sc : cfg.scenes)
+    for (const DictionarySettings& d : cfg.dictionaries)
+      for (int bounces : {1, cfg.multi_bounces}) {
+        auto ref = agg.find({sc.name, int(d.res), bounces, "mrt", kmax});
+        if (ref == agg.end()) continue;
+        auto c = agg.find({sc.name, int(d.res), bounces, "mrt_cpu", kmax});
+        auto g = agg.find({sc.name, int(d.res), bounces, "mrt_gles", kmax});
+        double diff = 0.0;
+        f << "| " << sc.name << " | " << d.res << " | " << bounces << " | "
+          << fmt("%.3g", ref->second.time_ms);
+        for (auto it : {c, g}) {
+          if (it == agg.end()) {
+            f << " | — | —";
+            continue;
+          }
+          f << " | " << fmt("%.3g", it->second.time_ms) << " | "
+            << fmt("%.3g×", ref->second.time_ms / std::max(it->second.time_ms, 1e-9));
+          diff = std::max(diff, std::abs(it->second.rel_l2 - ref->second.rel_l2));
+        }
+        f << " | " << fmt("%.1e", diff) << " |\n";
+      }
+  f << "\n";
+  return f.str();
+}
+
 Status write_report(const std::string& path, const std::string& chart_rel, const std::string& chart_msg,
                     const SuiteConfig& cfg, const std::vector<Row>& rows, const std::string& command,
                     double total_s) {
-  std::ofstream f(path);
-  if (!f) return Status::error(ErrorCode::io_error, "cannot write " + path);
+  std::ostringstream f;
   const std::time_t now = std::time(nullptr);
   char date[64];
   std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
@@ -658,13 +827,16 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
     << "Every method is compared with a path-traced ground truth at the level's lightmap texels "
        "(`trace_indirect`, same direct-light model). Error: relative L2 over texels and channels "
        "(‖x − ref‖₂ / ‖ref‖₂) and the 90th percentile of per-texel relative error (texels whose truth "
-       "is below 1e-3 of the maximum are skipped). Time: median per-frame wall time of the scalar "
-       "single-threaded code (`steady_clock`, up to "
+       "is below 1e-3 of the maximum are skipped). Time: median per-frame wall time (`steady_clock`, up to "
     << cfg.frames
-    << " frames), on this machine; the ray-traced F_level·ld baseline uses all cores and is timed once.\n\n";
+    << " frames), on this machine, of the scalar single-threaded code except the `mrt_cpu` / `mrt_gles` rows "
+       "(the backends, compared below); the ray-traced F_level·ld baseline uses all cores and is timed "
+       "once.\n\n";
   if (!chart_rel.empty()) f << "![run time versus error](" << chart_rel << ")\n\n";
-  f << "Chart status: " << chart_msg << ". Panels: rows = in-prior one bounce, in-prior multi-bounce, "
-       "out-of-prior one bounce; columns = scenes; hollow markers res 6, filled res 16; black step line = Pareto "
+  f << "Chart status: " << chart_msg
+    << ". Panels: rows = in-prior one bounce, in-prior multi-bounce, "
+       "out-of-prior one bounce; columns = scenes; hollow markers res 6, filled res 16; black step line = "
+       "Pareto "
        "front; dotted = the largest ground-truth noise floor in the panel.\n\n";
   f << "## Settings\n\n"
     << "- suite `" << cfg.name << "`; MRT kb ∈ {";
@@ -673,10 +845,11 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
   for (const DictionarySettings& d : cfg.dictionaries)
     f << "- dictionary res " << d.res << ": kd " << d.kd << ", kb " << d.kb << ", " << d.rays
       << " rays, lightfield " << d.lightfield_spatial << "/" << d.lightfield_directional << "/"
-      << d.lightfield_supersample << ", krlf " << d.krlf << ", kr " << d.kr << " (`" << precompute::cache_file_name(d)
-      << "`)\n";
-  f << "- multi-bounce: ground truth " << cfg.multi_bounces << " path segments; MRT `level_multi_bounce` with "
-    << cfg.multi_bounces - 1 << " feedback iterations (= " << cfg.multi_bounces
+      << d.lightfield_supersample << ", krlf " << d.krlf << ", kr " << d.kr << " (`"
+      << precompute::cache_file_name(d) << "`)\n";
+  f << "- multi-bounce: ground truth " << cfg.multi_bounces
+    << " path segments; MRT `level_multi_bounce` with " << cfg.multi_bounces - 1
+    << " feedback iterations (= " << cfg.multi_bounces
     << " bounces); dense/SVD baselines the same feedback with the same clamps.\n"
     << "- ground truth: up to " << cfg.gt_paths_one << " (one bounce) / " << cfg.gt_paths_multi
     << " (multi) paths per texel, capped so texels × paths ≤ " << fmt("%.3g", 4 * cfg.gt_path_budget) << " / "
@@ -689,7 +862,8 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
        "cost is a fill).\n\n";
 
   f << "## Does MRT beat a truncated SVD of F at equal rank (equal run time)?\n\n"
-    << "In-prior lights, averaged over the in-prior light placements; relative L2 (MRT vs SVD), time (MRT vs SVD):\n\n";
+    << "In-prior lights, averaged over the in-prior light placements; relative L2 (MRT vs SVD), time (MRT vs "
+       "SVD):\n\n";
   for (const std::string& l : mrt_vs_svd(rows, cfg)) f << "- " << l << "\n";
   f << "\n";
 
@@ -699,8 +873,8 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
   std::set<std::tuple<std::string, int, std::string, int>> seen;
   for (const Row& r : rows)
     if (seen.insert({r.scene, r.res, r.lights, r.bounces}).second)
-      f << "| " << r.scene << " | " << r.res << " | " << r.lights << " | " << (r.in_prior ? "in" : "**out**") << " | "
-        << r.bounces << " | " << r.gt_paths << " | " << fmt("%.4f", r.noise_floor) << " |\n";
+      f << "| " << r.scene << " | " << r.res << " | " << r.lights << " | " << (r.in_prior ? "in" : "**out**")
+        << " | " << r.bounces << " | " << r.gt_paths << " | " << fmt("%.4f", r.noise_floor) << " |\n";
   f << "\n";
 
   // In-prior pivot tables per scene.
@@ -714,9 +888,11 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
     std::vector<std::pair<std::string, int>> methods;
     std::set<std::pair<std::string, int>> mset;
     for (const Row& r : rows)
-      if (r.scene == sc.name && r.in_prior && mset.insert({r.method, r.kb}).second) methods.push_back({r.method, r.kb});
+      if (r.scene == sc.name && r.in_prior && !is_backend_row(r) && mset.insert({r.method, r.kb}).second)
+        methods.push_back({r.method, r.kb});
     f << "### " << sc.name << "\n\n| method |";
-    for (auto [res, b] : cols) f << " res " << res << ", " << (b == 1 ? "1 bounce" : std::to_string(b) + " bounces") << " |";
+    for (auto [res, b] : cols)
+      f << " res " << res << ", " << (b == 1 ? "1 bounce" : std::to_string(b) + " bounces") << " |";
     f << "\n|---|";
     for (std::size_t i = 0; i < cols.size(); ++i) f << "---|";
     f << "\n";
@@ -736,30 +912,38 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
   }
 
   f << "## Out-of-prior lights (reported separately, never averaged in)\n\n"
-       "| scene | res | lights | bounces | method | relL2 | p90 | ms | noise floor |\n|---|---|---|---|---|---|---|---|---|\n";
+       "| scene | res | lights | bounces | method | relL2 | p90 | ms | noise floor "
+       "|\n|---|---|---|---|---|---|---|---|---|\n";
   for (const Row& r : rows)
-    if (!r.in_prior && (r.method != "mrt" || r.kb == 4 || r.kb == 12 || r.kb == 32) &&
+    if (!r.in_prior && !is_backend_row(r) && (r.method != "mrt" || r.kb == 4 || r.kb == 12 || r.kb == 32) &&
         (r.method != "svd_F" || r.kb == 12 || r.kb == 32))
-      f << "| " << r.scene << " | " << r.res << " | " << r.lights << " | " << r.bounces << " | " << method_label(r)
-        << " | " << fmt("%.3f", r.rel_l2) << " | " << fmt("%.3f", r.p90) << " | " << fmt("%.3g", r.time_ms) << " | "
-        << fmt("%.4f", r.noise_floor) << " |\n";
+      f << "| " << r.scene << " | " << r.res << " | " << r.lights << " | " << r.bounces << " | "
+        << method_label(r) << " | " << fmt("%.3f", r.rel_l2) << " | " << fmt("%.3f", r.p90) << " | "
+        << fmt("%.3g", r.time_ms) << " | " << fmt("%.4f", r.noise_floor) << " |\n";
   f << "\n(Only kb 4, 12, 32 for MRT and 12, 32 for SVD here; every row is in the CSV/JSON output.)\n\n"
-    << "## Notes\n\n"
-    << "- MRT rows are the scalar reference runtime (`level_evaluate`, `level_multi_bounce`), not the SIMD "
-       "or GLES backends.\n"
+    << backends_section(rows, cfg);
+  double out_floor = 0.0;
+  for (const Row& r : rows)
+    if (!r.in_prior) out_floor = std::max(out_floor, r.noise_floor);
+  f << "## Notes\n\n"
+    << "- `mrt` rows are the scalar reference runtime (`level_evaluate`, `level_multi_bounce`); `mrt_cpu` "
+       "and "
+       "`mrt_gles` rows are the same frames on the SIMD CPU runtime and on the GLES backend (see above).\n"
     << "- The ray-traced F_level·ld row (mazes) is the exact one bounce on the proxy level; its time is a "
        "ray tracer's, not a real-time method's, and its error includes its own Monte Carlo noise.\n"
     << "- An error near a scene's noise floor cannot be resolved further by this ground truth. The floor is "
        "conservative (it treats the stratified first direction as independent paths): the dense F rows often "
        "land below it. All methods of one row group share the same ground truth, so differences between them "
        "are less noisy than the floor suggests.\n"
-    << "- The near-wall light placements (0.03 from a wall) make a small, very bright spot that the path "
-       "tracer's cosine-weighted gather rarely hits: their noise floors are 0.2–0.6, so those rows do not rank "
-       "the methods yet (every method, dense F included, sits near the floor). A ground truth with next-event "
-       "estimation toward the lit spot, or far more paths, is needed there. The Cornell box's outside light "
-       "(beyond the opening, out of the prior's neighbouring-cell lattice) has a usable floor (~0.06).\n";
-  if (!f) return Status::error(ErrorCode::io_error, "error writing " + path);
-  return Status::success();
+    << "- The ground truth joins every path vertex to light vertices (points first hit by rays from the "
+       "light "
+       "centres), combined with the cosine-weighted paths by the balance heuristic. Without them the "
+       "near-wall "
+       "placements (a small, very bright lit spot that cosine-weighted paths rarely hit) sat at noise floors "
+       "of "
+       "0.35–0.6; the largest out-of-prior floor in this run is "
+    << fmt("%.3f", out_floor) << ".\n";
+  return write_text(path, f.str());
 }
 
 // Thresholds: {"max_rel_l2": {"<scene>/b<bounces>": value}}, checked against the worst
@@ -796,7 +980,8 @@ Status check_thresholds(const std::string& path, const SuiteConfig& cfg, const s
     return Status::error(ErrorCode::invalid_argument, path + ": expected an object \"max_rel_l2\"");
   std::string failures;
   for (const auto& [key, value] : j["max_rel_l2"].items()) {
-    if (!value.is_number()) return Status::error(ErrorCode::invalid_argument, path + ": " + key + " is not a number");
+    if (!value.is_number())
+      return Status::error(ErrorCode::invalid_argument, path + ": " + key + " is not a number");
     auto it = worst.find(key);
     if (it == worst.end()) {
       failures += "\n  " + key + ": no MRT result measured";
@@ -804,11 +989,12 @@ Status check_thresholds(const std::string& path, const SuiteConfig& cfg, const s
     }
     const double limit = value.get<double>();
     const bool ok = it->second <= limit;
-    std::printf("threshold %-20s MRT kb %d relL2 %.4f (limit %.4f) %s\n", key.c_str(), kmax, it->second, limit,
-                ok ? "ok" : "FAILED");
+    std::printf("threshold %-20s MRT kb %d relL2 %.4f (limit %.4f) %s\n", key.c_str(), kmax, it->second,
+                limit, ok ? "ok" : "FAILED");
     if (!ok) failures += "\n  " + key + ": " + fmt("%.4f", it->second) + " > " + fmt("%.4f", limit);
   }
-  if (!failures.empty()) return Status::error(ErrorCode::internal_error, "accuracy thresholds exceeded:" + failures);
+  if (!failures.empty())
+    return Status::error(ErrorCode::internal_error, "accuracy thresholds exceeded:" + failures);
   return Status::success();
 }
 
@@ -817,7 +1003,8 @@ Status check_thresholds(const std::string& path, const SuiteConfig& cfg, const s
 int main(int argc, char** argv) {
   CLI::App app{"modrt-bench: run time versus error of MRT and baselines against a path-traced ground truth"};
   bool quick = false;
-  std::string json_path, csv_path, report_path, chart_path, thresholds_path, cache_dir = precompute::default_cache_dir();
+  std::string json_path, csv_path, report_path, chart_path, thresholds_path,
+      cache_dir = precompute::default_cache_dir();
   std::string plot_script = "scripts/plot_bench.py";
   double write_headroom = 0;
   int frames = 0;
@@ -825,16 +1012,25 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick, "tiny CI suite (res 6 small bakes, in-prior lights only)");
   app.add_option("--json", json_path, "write every row as JSON");
   app.add_option("--csv", csv_path, "write every row as CSV");
-  app.add_option("--chart", chart_path, "draw the time-vs-error chart (PNG) with --plot-script")->default_str("");
-  app.add_option("--plot-script", plot_script, "matplotlib script that draws the chart")->capture_default_str();
-  app.add_option("--report", report_path, "write a Markdown report (e.g. docs/accuracy.md); implies a chart, "
-                                          "by default next to it (<report>.png)");
-  app.add_option("--check-thresholds", thresholds_path, "fail (exit 3) when MRT's in-prior relative L2 exceeds these");
+  app.add_option("--chart", chart_path, "draw the time-vs-error chart (PNG) with --plot-script")
+      ->default_str("");
+  app.add_option("--plot-script", plot_script, "matplotlib script that draws the chart")
+      ->capture_default_str();
+  app.add_option("--report", report_path,
+                 "write a Markdown report (e.g. docs/accuracy.md); implies a chart, "
+                 "by default next to it (<report>.png)");
+  app.add_option("--check-thresholds", thresholds_path,
+                 "fail (exit 3) when MRT's in-prior relative L2 exceeds these");
   app.add_option("--write-thresholds", write_headroom,
                  "instead of checking, write --check-thresholds FILE from this run x HEADROOM (e.g. 1.3)");
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory")->capture_default_str();
   app.add_option("--frames", frames, "timed frames per method (median)")->check(CLI::Range(1, 100000));
   app.add_option("--scenes", only, "run only these scenes (closed_box, cornell_box, maze11, maze41)");
+  std::vector<std::string> backends = {"cpu", "gles"};
+  app.add_option("--backends", backends,
+                 "time MRT also on these backends (cpu, gles; none: only the scalar reference)")
+      ->check(CLI::IsMember({"cpu", "gles", "none"}))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (write_headroom > 0 && thresholds_path.empty()) {
     std::fprintf(stderr, "modrt-bench: --write-thresholds needs --check-thresholds FILE\n");
@@ -862,6 +1058,29 @@ int main(int argc, char** argv) {
   }
   if (!report_path.empty() && chart_path.empty())
     chart_path = (std::filesystem::path(report_path).replace_extension(".png")).string();
+  auto wanted = [&](const char* b) {
+    return std::find(backends.begin(), backends.end(), b) != backends.end();
+  };
+  cfg.cpu_backend = wanted("cpu");
+  cfg.gles_backend = wanted("gles");
+  GlesTarget gles;
+  if (cfg.gles_backend) {
+#ifdef MODRT_BENCH_HAS_GLES
+    Result<std::unique_ptr<platform::GlContext>> c =
+        platform::create_context(platform::ContextRequest::auto_select);
+    if (c.ok()) {
+      gles.context = std::move(c).value();
+      const platform::ContextInfo& info = gles.context->info();
+      gles.description = std::string("gles ") + platform::context_kind_name(info.kind) + ", " + info.renderer;
+      std::fprintf(stderr, "GLES rows on: %s\n", gles.description.c_str());
+    } else {
+      std::fprintf(stderr, "modrt-bench: no GL context, GLES rows left out: %s\n",
+                   c.status().to_string().c_str());
+    }
+#else
+    std::fprintf(stderr, "modrt-bench: built without MODRT_BUILD_GLES, GLES rows left out\n");
+#endif
+  }
 
   const auto start = Clock::now();
   std::vector<Row> rows;
@@ -873,8 +1092,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "dictionary res %u kb %u (%s): loading or baking in %s ...\n", ds.res, ds.kb,
                  precompute::cache_file_name(ds).c_str(), cache_dir.c_str());
     const auto tb = Clock::now();
-    Result<Dictionary> dict =
-        precompute::load_or_bake_dictionary(ds, cache_dir, {}, [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); });
+    Result<Dictionary> dict = precompute::load_or_bake_dictionary(
+        ds, cache_dir, {}, [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); });
     if (!dict.ok()) {
       std::fprintf(stderr, "modrt-bench: dictionary: %s\n", dict.status().to_string().c_str());
       return 1;
@@ -890,7 +1109,7 @@ int main(int argc, char** argv) {
       truncated.emplace(k, std::move(t).value());
     }
     for (const SceneCase& sc : cfg.scenes) {
-      if (Status s = run_scene(cfg, sc, dict.value(), truncated, progress, rows); !s.ok()) {
+      if (Status s = run_scene(cfg, sc, dict.value(), truncated, gles, progress, rows); !s.ok()) {
         progress.finish();
         std::fprintf(stderr, "modrt-bench: %s\n", s.to_string().c_str());
         return 1;
@@ -903,8 +1122,9 @@ int main(int argc, char** argv) {
   std::printf("suite %s: %zu rows in %.1f s\n", cfg.name.c_str(), rows.size(), total_s);
   for (const std::string& l : mrt_vs_svd(rows, cfg)) std::printf("%s\n", l.c_str());
 
-  for (const auto& [path, st] : {std::pair{json_path, json_path.empty() ? Status::success() : write_json(json_path, cfg, rows)},
-                                 std::pair{csv_path, csv_path.empty() ? Status::success() : write_csv(csv_path, rows)}}) {
+  for (const auto& [path, st] :
+       {std::pair{json_path, json_path.empty() ? Status::success() : write_json(json_path, cfg, rows)},
+        std::pair{csv_path, csv_path.empty() ? Status::success() : write_csv(csv_path, rows)}}) {
     if (!st.ok()) {
       std::fprintf(stderr, "modrt-bench: %s\n", st.to_string().c_str());
       return 1;
@@ -927,7 +1147,8 @@ int main(int argc, char** argv) {
   if (!report_path.empty()) {
     std::string chart_rel;
     if (!chart_path.empty() && std::filesystem::exists(chart_path))
-      chart_rel = std::filesystem::relative(chart_path, std::filesystem::absolute(report_path).parent_path()).string();
+      chart_rel = std::filesystem::relative(chart_path, std::filesystem::absolute(report_path).parent_path())
+                      .string();
     if (Status st = write_report(report_path, chart_rel, chart_msg, cfg, rows, command, total_s); !st.ok()) {
       std::fprintf(stderr, "modrt-bench: %s\n", st.to_string().c_str());
       return 1;

@@ -22,6 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 STYLE = {
     "mrt": ("o", "tab:blue"),
+    "mrt_cpu": ("P", "tab:green"),
+    "mrt_gles": ("*", "tab:cyan"),
     "svd_F": ("s", "tab:orange"),
     "dense_F": ("D", "tab:red"),
     "raytraced_F": ("^", "tab:purple"),
@@ -97,7 +99,7 @@ def main():
             ax.set_title(f"{scene}: {title}", fontsize=9)
             ax.grid(True, which="both", alpha=0.25)
             if ci == len(cases) - 1:
-                ax.set_xlabel("time per frame (ms, scalar CPU, log)")
+                ax.set_xlabel("time per frame (ms, log)")
             if si == 0:
                 ax.set_ylabel("relative L2 error vs ground truth")
     handles, labels = {}, []
