@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <limits>
 #include <new>
+#include <numeric>
 #include <random>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/level_runtime.h"
+#include "modrt/precompute/level_scene.h"
 #include "modrt/reference_runtime.h"
 
 // ---- counting replaceable global allocation functions (this test binary only) ----
@@ -73,6 +75,14 @@ namespace {
 
 using namespace cpu_test;
 
+CpuRuntimeOptions options(Isa isa, int threads, CpuSkipOptions skip = {}) {
+  CpuRuntimeOptions o;
+  o.isa = isa;
+  o.threads = threads;
+  o.skip = skip;
+  return o;
+}
+
 // ---- the level runtime against core's level_evaluate ----
 
 const Dictionary& dict() { return modrt::test::small_test_dictionary(); }
@@ -110,7 +120,7 @@ TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
     const Reference ref = level_reference(t.level, t.ld);
     const std::vector<double> b_scale = b_magnitudes(t.level, t.ld);
     for (Isa isa : supported_isas()) {
-      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, 1});
+      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(isa, 1));
       ASSERT_TRUE(rt.ok()) << rt.status().to_string();
       EXPECT_EQ(rt->isa(), isa);
       const LevelBufferSizes& s = rt->sizes();
@@ -138,7 +148,7 @@ TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
 TEST(CpuLevelRuntime, ScalarAtlasIsExact) {
   const TestLevel& t = test_level("maze11");
   const Reference ref = level_reference(t.level, t.ld);
-  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 1});
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 1));
   ASSERT_TRUE(rt.ok());
   std::vector<float> atlas(rt->sizes().atlas);
   ASSERT_TRUE(rt->fill_atlas(ref.lightmap, atlas).ok());
@@ -160,7 +170,7 @@ TEST(CpuLevelRuntime, MultiBounceStepsMatchLevelMultiBounce) {
     ASSERT_TRUE(rep.ok()) << rep.status().to_string();
     ASSERT_EQ(rep->iterations, kSteps);
     for (Isa isa : supported_isas()) {
-      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, 1});
+      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(isa, 1));
       ASSERT_TRUE(rt.ok());
       ASSERT_TRUE(rt->set_albedo(albedo, settings.max_albedo).ok());
       std::vector<float> lightmap(s.lightmap);
@@ -180,43 +190,56 @@ TEST(CpuLevelRuntime, MultiBounceStepsMatchLevelMultiBounce) {
   }
 }
 
-// No allocation per frame, with one thread and with the pool (threads = 2 and 3).
+// No allocation per frame, with one thread and with the pool (threads = 2 and 3), with
+// skipping off and on (ld alternating between two signals so that skipping has work to do).
 TEST(CpuLevelRuntime, NoAllocationPerFrame) {
   const TestLevel& t = test_level("maze41");
-  for (int threads : {1, 2, 3})
-    for (Isa isa : supported_isas()) {
-      const std::string what = std::string(isa_name(isa)) + " threads " + std::to_string(threads);
-      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, threads});
-      ASSERT_TRUE(rt.ok()) << rt.status().to_string();
-      EXPECT_EQ(rt->threads(), threads);
-      const LevelBufferSizes& s = rt->sizes();
-      std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
-      ASSERT_TRUE(rt->set_albedo(t.albedo).ok());
-      bool ok = true;
-      g_allocations = 0;
-      g_count_allocations = true;
-      for (int frame = 0; frame < 10; ++frame) ok &= rt->evaluate(t.ld, lightmap).ok();
-      const long evaluate_allocations = g_allocations.load();
-      for (int frame = 0; frame < 10; ++frame) {
-        ok &= rt->multi_bounce_step(t.ld, lightmap).ok();
-        ok &= rt->fill_atlas(lightmap, atlas).ok();
-        ok &= rt->compute_probes(probes).ok();
+  std::vector<float> ld2 = t.ld;
+  for (std::size_t i = 0; i < ld2.size(); ++i) ld2[i] *= i < ld2.size() / 2 ? 1.5f : 1.0f;
+  CpuSkipOptions skip;
+  skip.enabled = true;
+  skip.ld_epsilon = 0.01f;
+  skip.record_epsilon = 0.01f;
+  for (bool skipping : {false, true})
+    for (int threads : {1, 2, 3})
+      for (Isa isa : supported_isas()) {
+        const std::string what = std::string(isa_name(isa)) + " threads " + std::to_string(threads) +
+                                 (skipping ? " skipping" : "");
+        Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(
+            t.level, dict(), options(isa, threads, skipping ? skip : CpuSkipOptions{}));
+        ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+        EXPECT_EQ(rt->threads(), threads);
+        const LevelBufferSizes& s = rt->sizes();
+        std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
+        ASSERT_TRUE(rt->set_albedo(t.albedo).ok());
+        bool ok = true;
+        g_allocations = 0;
+        g_count_allocations = true;
+        for (int frame = 0; frame < 10; ++frame) ok &= rt->evaluate(frame % 2 ? ld2 : t.ld, lightmap).ok();
+        const long evaluate_allocations = g_allocations.load();
+        for (int frame = 0; frame < 10; ++frame) {
+          ok &= rt->multi_bounce_step(frame % 2 ? ld2 : t.ld, lightmap).ok();
+          ok &= rt->fill_atlas(lightmap, atlas).ok();
+          ok &= rt->compute_probes(probes).ok();
+        }
+        g_count_allocations = false;
+        const long other_allocations = g_allocations.load() - evaluate_allocations;
+        EXPECT_EQ(evaluate_allocations, 0) << what;
+        EXPECT_EQ(other_allocations, 0) << what;
+        EXPECT_TRUE(ok);
+        if (skipping) {
+          EXPECT_GT(rt->skip_stats().blocks_computed, 0u) << what;
+        }
+        // The counter works: a failing call builds its error message on the heap.
+        std::vector<float> bad = t.ld;
+        bad[0] = -1.0f;
+        g_count_allocations = true;
+        const bool failed = !rt->evaluate(bad, lightmap).ok();
+        g_count_allocations = false;
+        EXPECT_TRUE(failed);
+        EXPECT_GT(g_allocations.load(), 0);
+        g_allocations = 0;
       }
-      g_count_allocations = false;
-      const long other_allocations = g_allocations.load() - evaluate_allocations;
-      EXPECT_EQ(evaluate_allocations, 0) << what;
-      EXPECT_EQ(other_allocations, 0) << what;
-      EXPECT_TRUE(ok);
-      // The counter works: a failing call builds its error message on the heap.
-      std::vector<float> bad = t.ld;
-      bad[0] = -1.0f;
-      g_count_allocations = true;
-      const bool failed = !rt->evaluate(bad, lightmap).ok();
-      g_count_allocations = false;
-      EXPECT_TRUE(failed);
-      EXPECT_GT(g_allocations.load(), 0);
-      g_allocations = 0;
-    }
 }
 
 // The pool changes who computes a block, not how: b, r, lightmap, atlas, probes and
@@ -229,7 +252,7 @@ TEST(CpuLevelRuntime, ThreadsAreBitIdentical) {
         std::vector<float> b, r, lightmap, atlas, probes, bounced;
       };
       auto run = [&](int threads) {
-        Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), {isa, threads});
+        Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(isa, threads));
         EXPECT_TRUE(rt.ok()) << rt.status().to_string();
         if (!rt.ok()) return Out{};
         const LevelBufferSizes& s = rt->sizes();
@@ -260,6 +283,174 @@ TEST(CpuLevelRuntime, ThreadsAreBitIdentical) {
         EXPECT_EQ(many.bounced, one.bounced) << what;
       }
     }
+}
+
+// ---- skipping (CpuSkipOptions) over an animated light ----
+
+constexpr int kFrames = 300;
+
+// 300 frames of ld on maze41: light 0 circles inside its block (radius 0.25 cells, bobbing),
+// is switched off for frames 100-129 (its blocks go dark) and pauses for frames 200-229 (ld
+// repeats exactly); light 1 stays put. Direct light with shadows, as the fixtures make it.
+const std::vector<std::vector<float>>& moving_light_frames() {
+  static const std::vector<std::vector<float>> frames = [] {
+    const TestLevel& t = test_level("maze41");
+    const precompute::LevelScene scene(t.level, t.level.res);
+    const glm::dvec3 centre = t.description.lights.at(0).position;
+    const double cell = t.description.cell_size;
+    std::vector<std::vector<float>> out;
+    for (int f = 0; f < kFrames; ++f) {
+      std::vector<LightDescription> lights = t.description.lights;
+      const int g = f >= 200 && f < 230 ? 200 : f;
+      const double a = 2.0 * 3.14159265358979 * double(g) / double(kFrames);
+      lights[0].position =
+          centre + cell * glm::dvec3(0.25 * std::cos(a), 0.1 * std::sin(3.0 * a), 0.25 * std::sin(a));
+      if (f >= 100 && f < 130) lights[0].intensity = 0.0;
+      out.push_back(precompute::level_direct_light(scene, lights, t.albedo, 4));
+    }
+    return out;
+  }();
+  return frames;
+}
+
+double l2_distance(std::span<const float> a, std::span<const float> b) {
+  double acc = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) acc += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
+  return std::sqrt(acc);
+}
+
+struct SkipTotals {
+  CpuSkipStats sum;
+  double max_error = 0, max_bound = 0, max_ratio = 0;  // relative to ||lightmap||; error / bound
+  void add(const CpuSkipStats& s) {
+    sum.blocks_computed += s.blocks_computed, sum.blocks_kept += s.blocks_kept,
+        sum.blocks_dark += s.blocks_dark;
+    sum.records_computed += s.records_computed, sum.records_skipped += s.records_skipped;
+    sum.slots_kept += s.slots_kept, sum.tiles_written += s.tiles_written,
+        sum.tiles_skipped += s.tiles_skipped;
+  }
+  void print(const char* what) const {
+    std::printf(
+        "  %-10s blocks computed %zu kept %zu dark %zu | records computed %zu skipped %zu, slots kept %zu | "
+        "tiles written %zu skipped %zu | max rel error %.3g, max rel bound %.3g, max error/bound %.3g\n",
+        what, sum.blocks_computed, sum.blocks_kept, sum.blocks_dark, sum.records_computed,
+        sum.records_skipped, sum.slots_kept, sum.tiles_written, sum.tiles_skipped, max_error, max_bound,
+        max_ratio);
+  }
+};
+
+// Exact skipping (every epsilon 0, tiles kept) equals the full path bit for bit, frame after
+// frame, for every ISA and with the pool; and it does skip (dark blocks, the paused frames).
+TEST(CpuLevelRuntime, ExactSkippingIsBitIdenticalToFullPath) {
+  const TestLevel& t = test_level("maze41");
+  const auto& frames = moving_light_frames();
+  CpuSkipOptions exact;
+  exact.enabled = true;
+  for (int threads : {1, 2})
+    for (Isa isa : supported_isas()) {
+      const std::string what = std::string(isa_name(isa)) + " threads " + std::to_string(threads);
+      Result<CpuLevelRuntime> full = CpuLevelRuntime::create(t.level, dict(), options(isa, 1));
+      Result<CpuLevelRuntime> skip = CpuLevelRuntime::create(t.level, dict(), options(isa, threads, exact));
+      ASSERT_TRUE(full.ok() && skip.ok());
+      std::vector<float> lm_full(full->sizes().lightmap), lm_skip(lm_full.size());
+      std::vector<float> pr_full(full->sizes().probes), pr_skip(pr_full.size());
+      SkipTotals totals;
+      int mismatched = 0;
+      for (int f = 0; f < kFrames; ++f) {
+        ASSERT_TRUE(full->evaluate(frames[std::size_t(f)], lm_full).ok());
+        ASSERT_TRUE(skip->evaluate(frames[std::size_t(f)], lm_skip).ok());
+        totals.add(skip->skip_stats());
+        EXPECT_EQ(skip->skip_stats().lightmap_error_bound, 0.0) << what << " frame " << f;
+        const bool same = lm_skip == lm_full && std::ranges::equal(skip->b(), full->b()) &&
+                          std::ranges::equal(skip->r(), full->r());
+        mismatched += !same;
+      }
+      EXPECT_EQ(mismatched, 0) << what;
+      ASSERT_TRUE(full->compute_probes(pr_full).ok());
+      ASSERT_TRUE(skip->compute_probes(pr_skip).ok());
+      EXPECT_EQ(pr_skip, pr_full) << what;
+      EXPECT_GT(totals.sum.blocks_dark, 0u) << what;
+      EXPECT_GT(totals.sum.blocks_kept, 0u) << what;
+      EXPECT_GT(totals.sum.records_skipped, 0u) << what;
+      EXPECT_GT(totals.sum.slots_kept, 0u) << what;
+      EXPECT_GT(totals.sum.tiles_skipped, 0u) << what;
+      EXPECT_GT(totals.sum.blocks_computed, 0u) << what;
+      if (threads == 1 && isa == best_isa()) totals.print("exact");
+    }
+}
+
+// Approximate skipping over the 300 frames: every frame's lightmap is within the runtime's
+// stated bound (CpuSkipOptions; skip_stats().lightmap_error_bound) of the full path, plus a
+// float-rounding allowance of 1e-5 ||lightmap||; each skip alone and all of them together.
+TEST(CpuLevelRuntime, SkippingStaysWithinStatedBound) {
+  const TestLevel& t = test_level("maze41");
+  const auto& frames = moving_light_frames();
+  float ld_max = 0.0f;
+  for (const auto& ld : frames) ld_max = std::max(ld_max, *std::max_element(ld.begin(), ld.end()));
+  struct Case {
+    const char* name;
+    CpuSkipOptions skip;
+  };
+  std::vector<Case> cases(4);
+  for (Case& c : cases) c.skip.enabled = true;
+  cases[0].name = "(a) ld", cases[0].skip.ld_epsilon = 0.05f;
+  cases[1].name = "(b) dark", cases[1].skip.dark_ld = 1e-3f * ld_max;
+  cases[2].name = "(c) record", cases[2].skip.record_epsilon = 0.05f;
+  cases[3].name = "all", cases[3].skip = {true, 0.05f, 1e-3f * ld_max, 0.05f, true};
+  const Isa isa = best_isa();
+  Result<CpuLevelRuntime> full = CpuLevelRuntime::create(t.level, dict(), options(isa, 1));
+  ASSERT_TRUE(full.ok());
+  std::vector<std::vector<float>> lm_full(frames.size(), std::vector<float>(full->sizes().lightmap));
+  for (std::size_t f = 0; f < frames.size(); ++f) ASSERT_TRUE(full->evaluate(frames[f], lm_full[f]).ok());
+  for (const Case& c : cases) {
+    Result<CpuLevelRuntime> skip = CpuLevelRuntime::create(t.level, dict(), options(isa, 2, c.skip));
+    ASSERT_TRUE(skip.ok());
+    std::vector<float> lm(full->sizes().lightmap);
+    SkipTotals totals;
+    int outside = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      ASSERT_TRUE(skip->evaluate(frames[f], lm).ok());
+      const CpuSkipStats& st = skip->skip_stats();
+      totals.add(st);
+      const double norm =
+          std::sqrt(std::inner_product(lm_full[f].begin(), lm_full[f].end(), lm_full[f].begin(), 0.0));
+      const double err = l2_distance(lm, lm_full[f]);
+      outside += err > st.lightmap_error_bound + 1e-5 * norm;
+      totals.max_error = std::max(totals.max_error, err / norm);
+      totals.max_bound = std::max(totals.max_bound, st.lightmap_error_bound / norm);
+      if (st.lightmap_error_bound > 0)
+        totals.max_ratio = std::max(totals.max_ratio, err / st.lightmap_error_bound);
+    }
+    EXPECT_EQ(outside, 0) << c.name;
+    totals.print(c.name);
+    if (c.skip.ld_epsilon > 0) {
+      EXPECT_GT(totals.sum.blocks_kept, 0u) << c.name;
+    }
+    if (c.skip.dark_ld > 0) {
+      EXPECT_GT(totals.sum.blocks_dark, 0u) << c.name;
+    }
+    if (c.skip.record_epsilon > 0) {
+      EXPECT_GT(totals.sum.records_skipped, 0u) << c.name;
+    }
+    EXPECT_GT(totals.sum.tiles_skipped, 0u) << c.name;
+  }
+}
+
+TEST(CpuLevelRuntime, RejectsBadSkipOptions) {
+  const TestLevel& t = test_level("maze11");
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
+  ASSERT_TRUE(rt.ok());
+  for (float bad : {-1.0f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    EXPECT_FALSE(rt->set_skip_options({true, bad, 0.0f, 0.0f, true}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, bad, 0.0f, true}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, bad, true}).ok());
+  }
+  EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, 1.5f, true}).ok());
+  EXPECT_FALSE(
+      CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 1, {true, -1.0f, 0.0f, 0.0f, true}))
+          .ok());
+  EXPECT_TRUE(rt->set_skip_options({true, 0.1f, 0.0f, 0.1f, true}).ok());
+  EXPECT_TRUE(rt->skip_options().enabled);
 }
 
 TEST(CpuLevelRuntime, RejectsBadLightSignal) {
@@ -314,10 +505,11 @@ TEST(CpuLevelRuntime, RejectsMismatchedDictionaryAndOptions) {
     EXPECT_FALSE(CpuLevelRuntime::create(t.level, other).ok());
   }
   for (Isa isa : {Isa::scalar, Isa::sse41, Isa::avx2, Isa::neon})
-    EXPECT_EQ(CpuLevelRuntime::create(t.level, dict(), {isa, 1}).ok(), isa_supported(isa)) << isa_name(isa);
-  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 0}).ok());
-  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 257}).ok());
-  EXPECT_TRUE(CpuLevelRuntime::create(t.level, dict(), {Isa::scalar, 2}).ok());
+    EXPECT_EQ(CpuLevelRuntime::create(t.level, dict(), options(isa, 1)).ok(), isa_supported(isa))
+        << isa_name(isa);
+  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 0)).ok());
+  EXPECT_FALSE(CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 257)).ok());
+  EXPECT_TRUE(CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 2)).ok());
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include "modrt/cpu/cpu_level_runtime.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <string>
 #include <system_error>
 
@@ -15,6 +17,87 @@ Status wrong_size(const char* what, std::size_t got, std::size_t expected) {
   return Status::error(ErrorCode::invalid_argument, std::string(what) + ": has " + std::to_string(got) +
                                                         " floats, expected " + std::to_string(expected));
 }
+
+double frobenius(const Matrix& m, const double* col_scale = nullptr) {
+  double acc = 0.0;
+  for (std::uint32_t r = 0; r < m.rows; ++r)
+    for (std::uint32_t c = 0; c < m.cols; ++c) {
+      const double v = double(m(r, c)) / (col_scale ? col_scale[c] : 1.0);
+      acc += v * v;
+    }
+  return std::sqrt(acc);
+}
+
+// Row-major k x k products in double.
+std::vector<double> matmul(const std::vector<double>& a, const std::vector<double>& b, std::size_t k) {
+  std::vector<double> c(k * k, 0.0);
+  for (std::size_t i = 0; i < k; ++i)
+    for (std::size_t l = 0; l < k; ++l)
+      for (std::size_t j = 0; j < k; ++j) c[i * k + j] += a[i * k + l] * b[l * k + j];
+  return c;
+}
+
+// A^T diag(w)^2 A for the m x k matrix A (columns scaled by 1 / d when d is given):
+// the k x k Gram matrix of A D^-1.
+std::vector<double> gram(const Matrix& a, const double* d = nullptr) {
+  const std::size_t k = a.cols;
+  std::vector<double> g(k * k, 0.0);
+  for (std::uint32_t r = 0; r < a.rows; ++r)
+    for (std::size_t i = 0; i < k; ++i) {
+      const double ai = a(r, std::uint32_t(i)) / (d ? d[i] : 1.0);
+      for (std::size_t j = 0; j < k; ++j) g[i * k + j] += ai * a(r, std::uint32_t(j)) / (d ? d[j] : 1.0);
+    }
+  return g;
+}
+
+// A diag(d)^2 A^T... for the k x n matrix A with rows scaled by d: (D A)(D A)^T, k x k.
+std::vector<double> gram_rows(const Matrix& a, const double* d) {
+  const std::size_t k = a.rows;
+  std::vector<double> g(k * k, 0.0);
+  for (std::size_t i = 0; i < k; ++i)
+    for (std::size_t j = 0; j < k; ++j) {
+      double acc = 0.0;
+      for (std::uint32_t c = 0; c < a.cols; ++c)
+        acc += double(a(std::uint32_t(i), c)) * a(std::uint32_t(j), c);
+      g[i * k + j] = acc * (d ? d[i] * d[j] : 1.0);
+    }
+  return g;
+}
+
+// An upper bound on the spectral radius of the k x k matrix x: rho(x) <= ||x^p||_inf^(1/p)
+// for any p (every induced norm bounds it); p = 32 by repeated squaring, rescaled as it goes.
+// Within a factor k^(1/32) of rho; a 1e-9 relative margin covers the double rounding.
+double spectral_radius_bound(std::vector<double> x, std::size_t k) {
+  auto inf_norm = [&] {
+    double m = 0.0;
+    for (std::size_t i = 0; i < k; ++i) {
+      double row = 0.0;
+      for (std::size_t j = 0; j < k; ++j) row += std::abs(x[i * k + j]);
+      m = std::max(m, row);
+    }
+    return m;
+  };
+  double log_scale = 0.0;  // x = (original)^p / exp(log_scale)
+  double p = 1.0;
+  for (int it = 0; it < 5; ++it) {
+    const double n = inf_norm();
+    if (n == 0.0) return 0.0;
+    for (double& v : x) v /= n;
+    log_scale = 2.0 * (log_scale + std::log(n));
+    x = matmul(x, x, k);
+    p *= 2.0;
+  }
+  const double n = inf_norm();
+  if (n == 0.0) return 0.0;
+  return std::exp((std::log(n) + log_scale) / p) * (1.0 + 1e-9);
+}
+
+bool same_bits(const float* a, const float* b, std::size_t n) {
+  return std::memcmp(a, b, n * sizeof(float)) == 0;
+}
+
+// What phase 1 did with a block's b (CpuSkipStats).
+enum BlockAction : std::uint8_t { kComputed, kKept, kDark };
 
 // CSR of `count` groups: begin has count + 1 entries, items lists each group's members in
 // increasing order. group_of(m) names the group of member m < members.
@@ -79,6 +162,50 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
       level.blocks.size(), level.slots.size(),
       [&](std::size_t m) { return std::size_t(level.slots[m].block); }, rt.block_slot_begin_,
       rt.block_slots_);
+  // Skipping: operator norms for the bounds, and the per-block / per-slot / per-thread state.
+  const std::size_t threads = std::size_t(options.threads), blocks = level.blocks.size(),
+                    slots = level.slots.size();
+  // D = diag(column norms of Ub) (about the singular values): b's large, cancelling high
+  // modes are small in D b, and ||X Td_b|| <= ||X D^-1|| ||D Td_b|| for any operator X.
+  const std::size_t kb = level.kb;
+  for (const ShapeOperators& op : dict.shapes) {
+    std::vector<double> d(kb, 0.0);
+    for (std::uint32_t r = 0; r < op.Ub.rows; ++r)
+      for (std::size_t k = 0; k < kb; ++k)
+        d[k] += double(op.Ub(r, std::uint32_t(k))) * op.Ub(r, std::uint32_t(k));
+    for (double& v : d) v = std::max(std::sqrt(v), 1e-30);
+    const std::vector<double> td_gram = gram_rows(op.Td_b, nullptr);
+    // ||Ub Td_b||_2^2 = rho((Ub^T Ub)(Td_b Td_b^T)); ||D Td_b||_2^2 = rho(D Td_b Td_b^T D).
+    rt.shape_ub_td_norm_.push_back(std::sqrt(spectral_radius_bound(matmul(gram(op.Ub), td_gram, kb), kb)));
+    rt.shape_d_td_norm_.push_back(std::sqrt(spectral_radius_bound(gram_rows(op.Td_b, d.data()), kb)));
+    rt.shape_d_.insert(rt.shape_d_.end(), d.begin(), d.end());
+  }
+  rt.ur_norm_ = std::sqrt(spectral_radius_bound(gram(dict.interfaces.Ur), level.kr));
+  rt.record_norm_.reserve(level.records.size());
+  rt.record_d_norm_.reserve(level.records.size());
+  for (const ResponseRecord& rec : level.records) {
+    const std::size_t shape = std::size_t(level.blocks[rec.source_block].shape);
+    rt.record_norm_.push_back(frobenius(rec.T));
+    rt.record_d_norm_.push_back(frobenius(rec.T, rt.shape_d_.data() + kb * shape));
+  }
+  rt.block_action_.assign(blocks, kComputed);
+  rt.b_changed_.assign(blocks, 1);
+  rt.tile_written_.assign(blocks, 1);
+  rt.r_changed_.assign(slots, 1);
+  rt.slot_kept_.assign(slots, 0);
+  rt.ld_delta_.assign(blocks, 0.0);
+  rt.b_norm_.assign(blocks, 0.0);
+  rt.b_d_norm_.assign(blocks, 0.0);
+  rt.tile_bound_.assign(blocks, 0.0);
+  rt.slot_rho_.assign(slots, 0.0);
+  rt.slot_records_computed_.assign(slots, 0);
+  rt.slot_records_skipped_.assign(slots, 0);
+  rt.ld_ref_.assign(rt.sizes_.ld, 0.0f);
+  rt.ld_ref_max_.assign(blocks, 0.0f);
+  rt.b_scratch_.assign(3 * std::size_t(level.kb) * threads, 0.0f);
+  rt.r_scratch_.assign(3 * std::size_t(level.kr) * threads, 0.0f);
+  if (Status s = rt.set_skip_options(options.skip); !s.ok()) return s;
+
   if (options.threads > 1) {
     try {
       rt.pool_ = std::make_unique<ThreadPool>(options.threads);
@@ -95,11 +222,197 @@ Status CpuLevelRuntime::evaluate(std::span<const float> ld, std::span<float> lig
   if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
   if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
 
+  if (skip_.enabled) {
+    auto b_phase = [&](std::size_t i, int thread) { skip_block_b(i, ld, thread); };
+    parallel_for(level.blocks.size(), b_phase);
+    auto lightmap_phase = [&](std::size_t i, int thread) { skip_block_lightmap(i, lightmap, thread); };
+    parallel_for(level.blocks.size(), lightmap_phase);
+    finish_skip_stats();
+    skip_state_valid_ = true;
+    last_lightmap_ = lightmap.data();
+    return Status::success();
+  }
   auto b_phase = [&](std::size_t i, int thread) { compute_block_b(i, ld, thread); };
   parallel_for(level.blocks.size(), b_phase);
   auto lightmap_phase = [&](std::size_t i, int) { compute_block_lightmap(i, lightmap); };
   parallel_for(level.blocks.size(), lightmap_phase);
   return Status::success();
+}
+
+Status CpuLevelRuntime::set_skip_options(const CpuSkipOptions& skip) {
+  auto bad = [](float v) { return !(v >= 0.0f) || !std::isfinite(v); };
+  if (bad(skip.ld_epsilon) || bad(skip.dark_ld) || bad(skip.record_epsilon) || skip.record_epsilon > 1.0f)
+    return Status::error(ErrorCode::invalid_argument,
+                         "cpu runtime: skip options: ld_epsilon and dark_ld must be finite and >= 0, "
+                         "record_epsilon in [0, 1]");
+  skip_ = skip;
+  stats_ = CpuSkipStats{};
+  skip_state_valid_ = false;
+  last_lightmap_ = nullptr;
+  return Status::success();
+}
+
+// Phase 1 with skipping (CpuSkipOptions (a), (b)) for block i.
+void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int thread) {
+  const LevelBlock& blk = level_->blocks[i];
+  const std::size_t n = blk.sample_count, kb = level_->kb;
+  const float* l = ld.data() + 3 * std::size_t(blk.sample_offset);
+  float* ref = ld_ref_.data() + 3 * std::size_t(blk.sample_offset);
+  float* b = b_.data() + 3 * kb * i;
+  float* bp = b_planar_.data() + 3 * kb * i;
+  const bool force = !skip_state_valid_;
+  // Per channel: max ld, max |ld - ld_ref|; and the squared L2 norms of ld and of ld - ld_ref.
+  float m[3] = {0.0f, 0.0f, 0.0f}, d[3] = {0.0f, 0.0f, 0.0f};
+  double m2 = 0.0, d2 = 0.0;
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const float v = l[3 * k + c];
+      const double e = double(v) - ref[3 * k + c];
+      m[c] = std::max(m[c], v);
+      d[c] = std::max(d[c], std::abs(v - ref[3 * k + c]));
+      m2 += double(v) * v;
+      d2 += e * e;
+    }
+  const float m_all = std::max({m[0], m[1], m[2]}), d_all = std::max({d[0], d[1], d[2]});
+  if (m_all <= skip_.dark_ld) {  // (b) dark: b = 0, which is Td_b times an ld_ref of 0
+    block_action_[i] = kDark;
+    const bool was_zero = std::all_of(b, b + 3 * kb, [](float v) { return v == 0.0f; });
+    if (!was_zero || force) {
+      std::fill(b, b + 3 * kb, 0.0f);
+      std::fill(bp, bp + 3 * kb, 0.0f);
+    }
+    if (ld_ref_max_[i] != 0.0f || force) std::fill(ref, ref + 3 * n, 0.0f);
+    ld_ref_max_[i] = 0.0f;
+    b_changed_[i] = !was_zero || force;
+    b_norm_[i] = b_d_norm_[i] = 0.0;
+    ld_delta_[i] = std::sqrt(m2);
+    return;
+  }
+  if (!force && d_all <= skip_.ld_epsilon * ld_ref_max_[i]) {  // (a) keep b
+    block_action_[i] = kKept;
+    b_changed_[i] = 0;
+    ld_delta_[i] = std::sqrt(d2);
+    return;
+  }
+  block_action_[i] = kComputed;
+  std::copy(l, l + 3 * n, ref);
+  ld_ref_max_[i] = m_all;
+  const Matrix& Td_b = dict_->shapes[std::size_t(blk.shape)].Td_b;
+  float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
+  float* b_new = b_scratch_.data() + 3 * kb * std::size_t(thread);
+  deinterleave_rgb(l, n, scratch, n);
+  gemv_rgb(isa_, Td_b.data.data(), kb, n, n, scratch, n, b_new, false);
+  const bool changed = force || !same_bits(b_new, b, 3 * kb);
+  if (changed) {
+    std::copy(b_new, b_new + 3 * kb, b);
+    deinterleave_rgb(b, kb, bp, kb);
+    const double* dk = shape_d_.data() + kb * std::size_t(blk.shape);
+    double n2 = 0.0, dn2 = 0.0;
+    for (std::size_t k = 0; k < kb; ++k)
+      for (std::size_t c = 0; c < 3; ++c) {
+        const double v = b[3 * k + c];
+        n2 += v * v;
+        dn2 += v * v * dk[k] * dk[k];
+      }
+    b_norm_[i] = std::sqrt(n2);
+    b_d_norm_[i] = std::sqrt(dn2);
+  }
+  b_changed_[i] = changed;
+  ld_delta_[i] = 0.0;
+}
+
+// (c): w_q >= ||T_q b_source||_F, the smaller of two bounds.
+double CpuLevelRuntime::record_weight(std::size_t rec, std::size_t src) const {
+  return std::min(record_norm_[rec] * b_norm_[src], record_d_norm_[rec] * b_d_norm_[src]);
+}
+
+// Phase 2 with skipping (CpuSkipOptions (c), (d)) for block i: the r of its slots whose
+// sources changed (records below the bound left out), then its tile if any input changed.
+void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightmap, int thread) {
+  const Level& level = *level_;
+  const std::size_t kb = level.kb, kr = level.kr;
+  const bool force = !skip_state_valid_;
+  bool inputs_changed = force || !skip_.keep_tiles || lightmap.data() != last_lightmap_ || b_changed_[i];
+  double r_bound = 0.0;  // sum over the slots of ||r_s - r_s^full||_F bounds
+  for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+    const std::size_t s = block_slots_[j];
+    bool sources_changed = force;
+    double beta_sum = 0.0, total = 0.0;
+    for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
+      const std::size_t rec = slot_records_[q], src = level.records[rec].source_block;
+      sources_changed |= b_changed_[src] != 0;
+      beta_sum +=
+          record_d_norm_[rec] * shape_d_td_norm_[std::size_t(level.blocks[src].shape)] * ld_delta_[src];
+      total += record_weight(rec, src);
+    }
+    slot_kept_[s] = !sources_changed;
+    r_changed_[s] = 0;
+    if (sources_changed) {
+      const double budget = double(skip_.record_epsilon) * total;
+      double left_out = 0.0;
+      std::uint32_t computed = 0, skipped = 0;
+      float* r_new = r_scratch_.data() + 3 * kr * std::size_t(thread);
+      std::fill(r_new, r_new + 3 * kr, 0.0f);
+      for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
+        const std::size_t rec = slot_records_[q], src = level.records[rec].source_block;
+        const double w = record_weight(rec, src);
+        if (w == 0.0 || left_out + w <= budget) {
+          left_out += w;
+          ++skipped;
+          continue;
+        }
+        gemv_rgb(isa_, level.records[rec].T.data.data(), kr, kb, kb, b_planar_.data() + 3 * kb * src, kb,
+                 r_new, true);
+        ++computed;
+      }
+      slot_rho_[s] = left_out;
+      slot_records_computed_[s] = computed;
+      slot_records_skipped_[s] = skipped;
+      float* r = r_.data() + 3 * kr * s;
+      if (force || !same_bits(r_new, r, 3 * kr)) {
+        std::copy(r_new, r_new + 3 * kr, r);
+        deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
+        r_changed_[s] = 1;
+        inputs_changed = true;
+      }
+    } else {
+      slot_records_computed_[s] = 0;
+      slot_records_skipped_[s] = 0;
+    }
+    r_bound += beta_sum + slot_rho_[s];
+  }
+  tile_bound_[i] = shape_ub_td_norm_[std::size_t(level.blocks[i].shape)] * ld_delta_[i] + ur_norm_ * r_bound;
+  tile_written_[i] = inputs_changed;
+  if (!inputs_changed) return;  // (d) the tile holds exactly what this frame would write
+  float* tile = lightmap.data() + 3 * std::size_t(level.blocks[i].sample_offset);
+  const Matrix& Ub = dict_->shapes[std::size_t(level.blocks[i].shape)].Ub;
+  gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, tile, false);
+  const Matrix& Ur = dict_->interfaces.Ur;
+  for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+    const std::size_t s = block_slots_[j];
+    gemv_rgb_scatter(isa_, Ur.data.data(), Ur.rows, kr, kr, level.slots[s].ur_row_to_sample.data(),
+                     r_planar_.data() + 3 * kr * s, kr, tile);
+  }
+}
+
+void CpuLevelRuntime::finish_skip_stats() {
+  CpuSkipStats st;
+  double bound2 = 0.0;
+  for (std::size_t i = 0; i < block_action_.size(); ++i) {
+    st.blocks_computed += block_action_[i] == kComputed;
+    st.blocks_kept += block_action_[i] == kKept;
+    st.blocks_dark += block_action_[i] == kDark;
+    st.tiles_written += tile_written_[i] != 0;
+    st.tiles_skipped += tile_written_[i] == 0;
+    bound2 += tile_bound_[i] * tile_bound_[i];
+  }
+  for (std::size_t s = 0; s < slot_kept_.size(); ++s) {
+    st.records_computed += slot_records_computed_[s];
+    st.records_skipped += slot_records_skipped_[s];
+    st.slots_kept += slot_kept_[s] != 0;
+  }
+  st.lightmap_error_bound = std::sqrt(bound2);
+  stats_ = st;
 }
 
 // Step 2 for block i: b_i = Td_b ld_i through thread's planar ld scratch; b_i kept planar too.

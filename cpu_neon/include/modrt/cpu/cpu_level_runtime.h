@@ -44,9 +44,69 @@ namespace modrt::cpu {
 
 class ThreadPool;  // src/thread_pool.h
 
+// Skipping work a frame does not need (SPEC §5). Off by default: every evaluate() then
+// computes everything. ||x||_F is the L2 norm over all three channels of a signal (ld_i:
+// 3 x samples of block i, b_i: 3 kb, r_s: 3 kr, a tile: 3 x samples); ||X||_2 the spectral norm
+// of an operator. create() computes, in double, upper bounds on (rho(G) <= ||G^32||_inf^(1/32)
+// for the Gram matrices, tight within kb^(1/64)):
+//   per shape  ||Ub Td_b||_2  (the one-bounce operator of the block: ~1, where ||Td_b|| is not)
+//              ||D Td_b||_2   with D = diag(column norms of Ub) ~ the singular values, so that
+//                             b's large, cancelling high modes are weighted by their small sigma;
+//   per record ||T||_F and ||T D^-1||_F (D of the source block's shape);   ||Ur||_2.
+// Each skip, and what it changes against the full path for the same ld (exact arithmetic):
+//  (a) Unchanged light. Block i keeps its b when, for every sample and channel,
+//        |ld_i - ld_i^ref| <= ld_epsilon x max(ld_i^ref),
+//      ld_i^ref being the ld that produced the kept b (a fixed reference: no drift). With
+//      e_i = ||ld_i - ld_i^ref||_F <= ld_epsilon sqrt(3 n_i) max(ld_i^ref):
+//        ||Ub (b_i - b_i^full)||_F <= ||Ub Td_b||_2 e_i,   ||D (b_i - b_i^full)||_F <= ||D Td_b||_2 e_i.
+//      ld_epsilon = 0 keeps b only for an unchanged ld_i: exact.
+//  (b) Dark blocks. When every value of ld_i is <= dark_ld, b_i = 0 with no GEMV: the same
+//      bounds with e_i = ||ld_i||_F <= sqrt(3 n_i) dark_ld. dark_ld = 0 zeroes only all-zero
+//      blocks, whose b is 0 anyway: exact.
+//  (c) Small records. Record q (source block j) adds at most
+//        w_q = min(||T_q||_F ||b_j||_F, ||T_q D^-1||_F ||D b_j||_F) >= ||T_q b_j||_F
+//      to its slot. The records of slot s are taken in level order and q is left out when w_q,
+//      plus the w of those already left out of s, stays <= record_epsilon x W_s, W_s = sum of
+//      w_q over the slot (>= ||r_s||_F). So ||r_s - r_s(b used)||_F <= rho_s <= record_epsilon W_s,
+//      rho_s the sum of the left-out w. Records with w = 0 (a dark source) are always left
+//      out: exact.
+//  (d) Unchanged tiles (keep_tiles). r_s is not recomputed when no source block's b changed,
+//      and the lightmap tile of block i is not rewritten when b_i and every r_s entering i are
+//      bitwise those that wrote it. Exact, but it relies on the caller passing back the
+//      lightmap that the previous evaluate() wrote, unchanged (another buffer address
+//      rewrites every tile; so does set_skip_options()).
+// All together, per frame (skip_stats().lightmap_error_bound):
+//   ||r_s - r_s^full||_F       <= sum over records q of s of ||T_q D^-1||_F ||D Td_b||_2 e_j + rho_s
+//   ||tile_i - tile_i^full||_F <= ||Ub Td_b||_2 e_i + ||Ur||_2 sum over slots s entering i of the above
+//   ||lightmap - lightmap^full||_2 <= sqrt(sum over blocks of the tile bounds^2).
+// Float rounding is not part of the bound: where b was kept, the two paths round different
+// sums (relative ~1e-7, kernels.h). tests/test_cpu_backend.cpp checks the bound on a
+// 300-frame moving-light sequence (observed error <= 0.25 x bound; docs/cpu.md).
+struct CpuSkipOptions {
+  bool enabled = false;
+  float ld_epsilon = 0.0f;      // (a), relative, >= 0
+  float dark_ld = 0.0f;         // (b), in units of ld, >= 0
+  float record_epsilon = 0.0f;  // (c), relative, in [0, 1]
+  bool keep_tiles = true;       // (d)
+};
+
+// What the last evaluate() (or multi_bounce_step()) skipped. All zero with skipping off.
+struct CpuSkipStats {
+  std::size_t blocks_computed = 0;   // b_i = Td_b ld_i evaluated
+  std::size_t blocks_kept = 0;       // (a) b_i kept
+  std::size_t blocks_dark = 0;       // (b) b_i = 0, no GEMV
+  std::size_t records_computed = 0;  // T b GEMVs evaluated
+  std::size_t records_skipped = 0;   // (c) left out (bound or dark source)
+  std::size_t slots_kept = 0;        // (d) r_s reused: no source changed (its records not evaluated)
+  std::size_t tiles_written = 0;
+  std::size_t tiles_skipped = 0;    // (d)
+  double lightmap_error_bound = 0;  // bound on ||lightmap - full path||_2 (all channels), see above
+};
+
 struct CpuRuntimeOptions {
   std::optional<Isa> isa;  // none: active_isa(); an unsupported ISA makes create() fail
   int threads = 1;         // threads working on a frame, the caller included (1 to 256)
+  CpuSkipOptions skip;     // off by default
 };
 
 class CpuLevelRuntime {
@@ -92,6 +152,12 @@ class CpuLevelRuntime {
   // evaluate(): Ubvol b per block plus the probe response of every slot's r.
   Status compute_probes(std::span<float> probes) const;
 
+  // Skipping (CpuSkipOptions). set_skip_options() fails on invalid values (negative, NaN,
+  // record_epsilon > 1) and otherwise makes the next evaluate() compute everything.
+  Status set_skip_options(const CpuSkipOptions& skip);
+  const CpuSkipOptions& skip_options() const { return skip_; }
+  const CpuSkipStats& skip_stats() const { return stats_; }
+
   // b and r of the last evaluate() (interleaved, level_runtime.h layouts).
   std::span<const float> b() const { return b_; }
   std::span<const float> r() const { return r_; }
@@ -103,6 +169,10 @@ class CpuLevelRuntime {
   void parallel_for(std::size_t count, F& f) const;
   void compute_block_b(std::size_t i, std::span<const float> ld, int thread);
   void compute_block_lightmap(std::size_t i, std::span<float> lightmap);
+  void skip_block_b(std::size_t i, std::span<const float> ld, int thread);
+  void skip_block_lightmap(std::size_t i, std::span<float> lightmap, int thread);
+  void finish_skip_stats();
+  double record_weight(std::size_t rec, std::size_t src) const;
 
   const Level* level_ = nullptr;
   const Dictionary* dict_ = nullptr;
@@ -116,6 +186,23 @@ class CpuLevelRuntime {
   // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
   std::vector<std::uint32_t> slot_record_begin_, slot_records_, block_slot_begin_, block_slots_;
+
+  // Skipping state (all sized by create()). Per block: what phase 1 did (BlockAction), whether
+  // b changed, beta_i, ||b_i||_F, the tile's bound and whether it was written, the ld that
+  // produced b (ld_ref_, 3 x samples) and its max. Per slot: whether r changed, rho_s, records
+  // computed and skipped, whether r was reused. Per thread: b and r scratch.
+  CpuSkipOptions skip_;
+  CpuSkipStats stats_;
+  bool skip_state_valid_ = false;  // false: the next evaluate() computes everything
+  const float* last_lightmap_ = nullptr;
+  // Norms for the bounds (CpuSkipOptions): per shape ||Ub Td_b||_2, ||D Td_b||_2 and D (kb);
+  // per record ||T||_F and ||T D^-1||_F (D of the source's shape); ||Ur||_2.
+  std::vector<double> shape_ub_td_norm_, shape_d_td_norm_, shape_d_, record_norm_, record_d_norm_;
+  double ur_norm_ = 0.0;
+  std::vector<std::uint8_t> block_action_, b_changed_, tile_written_, r_changed_, slot_kept_;
+  std::vector<double> ld_delta_, b_norm_, b_d_norm_, tile_bound_, slot_rho_;
+  std::vector<std::uint32_t> slot_records_computed_, slot_records_skipped_;
+  std::vector<float> ld_ref_, ld_ref_max_, b_scratch_, r_scratch_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;
 };
