@@ -87,6 +87,7 @@ Dictionary make_dictionary(bool interfaces = true) {
     d.interfaces.Trlf_r = random_matrix(rng, kr, krlf);
     d.interfaces.Ur = random_matrix(rng, std::uint32_t(face_count(dictionary_shape_mask(1))) * 4, kr);
     d.interfaces.Urvol = random_matrix(rng, 9 * g * g * g, kr);
+    d.interfaces.Ur_vec = random_matrix(rng, 4 * std::uint32_t(face_count(dictionary_shape_mask(1))) * 4, kr);
   }
   return d;
 }
@@ -102,7 +103,8 @@ std::vector<std::pair<std::string, const Matrix*>> all_matrices(const Dictionary
     out.push_back({p + "Limp", &op.Limp});
     out.push_back({p + "Ub_vec", &op.Ub_vec});
     out.push_back({p + "Ubvol", &op.Ubvol});
-    for (int f = 0; f < kFaceCount; ++f) out.push_back({p + "Rb_rlf " + face_name(f), &op.Rb_rlf[std::size_t(f)]});
+    for (int f = 0; f < kFaceCount; ++f)
+      out.push_back({p + "Rb_rlf " + face_name(f), &op.Rb_rlf[std::size_t(f)]});
   }
   out.push_back({"R_straight", &d.interfaces.R_straight});
   out.push_back({"R_left", &d.interfaces.R_left});
@@ -110,6 +112,7 @@ std::vector<std::pair<std::string, const Matrix*>> all_matrices(const Dictionary
   out.push_back({"Trlf_r", &d.interfaces.Trlf_r});
   out.push_back({"Ur", &d.interfaces.Ur});
   out.push_back({"Urvol", &d.interfaces.Urvol});
+  out.push_back({"Ur_vec", &d.interfaces.Ur_vec});
   return out;
 }
 
@@ -124,14 +127,16 @@ void expect_bit_exact(const Dictionary& a, const Dictionary& b) {
     EXPECT_EQ(x.rows, y.rows) << ma[i].first;
     EXPECT_EQ(x.cols, y.cols) << ma[i].first;
     ASSERT_EQ(x.data.size(), y.data.size()) << ma[i].first;
-    EXPECT_TRUE(x.data.empty() || std::memcmp(x.data.data(), y.data.data(), x.data.size() * sizeof(float)) == 0)
+    EXPECT_TRUE(x.data.empty() ||
+                std::memcmp(x.data.data(), y.data.data(), x.data.size() * sizeof(float)) == 0)
         << ma[i].first;
   }
   for (std::size_t s = 0; s < a.shapes.size(); ++s) {
     EXPECT_EQ(a.shapes[s].face_mask, b.shapes[s].face_mask);
     ASSERT_EQ(a.shapes[s].sigma_M.size(), b.shapes[s].sigma_M.size());
     for (std::size_t i = 0; i < a.shapes[s].sigma_M.size(); ++i)
-      EXPECT_EQ(std::bit_cast<std::uint32_t>(a.shapes[s].sigma_M[i]), std::bit_cast<std::uint32_t>(b.shapes[s].sigma_M[i]));
+      EXPECT_EQ(std::bit_cast<std::uint32_t>(a.shapes[s].sigma_M[i]),
+                std::bit_cast<std::uint32_t>(b.shapes[s].sigma_M[i]));
   }
 }
 
@@ -170,10 +175,13 @@ void reseal(std::vector<std::byte>& b) {
   for (std::size_t i = 0; i < count && entry_at(i + 1) <= b.size(); ++i) {
     const std::uint64_t off = rd64(b, entry_at(i) + 24), size = rd64(b, entry_at(i) + 32);
     if (off <= b.size() && size <= b.size() - off)
-      wr32(b, entry_at(i) + 40, crc32(std::span<const std::byte>(b).subspan(std::size_t(off), std::size_t(size))));
+      wr32(b, entry_at(i) + 40,
+           crc32(std::span<const std::byte>(b).subspan(std::size_t(off), std::size_t(size))));
   }
   if (entry_at(count) <= b.size())
-    wr32(b, kTableCrcAt, crc32(std::span<const std::byte>(b).subspan(kDictionaryHeaderBytes, count * kDictionarySectionEntryBytes)));
+    wr32(b, kTableCrcAt,
+         crc32(std::span<const std::byte>(b).subspan(kDictionaryHeaderBytes,
+                                                     count * kDictionarySectionEntryBytes)));
   wr32(b, kHeaderCrcAt, crc32(std::span<const std::byte>(b).first(kHeaderCrcAt)));
 }
 
@@ -278,7 +286,8 @@ TEST(DictionaryIo, TruncationAtEveryOffsetFails) {
   ASSERT_GT(bytes.size(), kDictionaryHeaderBytes);
   // Every byte of header and table, then a dense set of payload offsets and the tail.
   const std::size_t table_end = entry_at(rd32(bytes, kSectionCountAt));
-  for (std::size_t size = 0; size < bytes.size(); size += (size < table_end + 64 || size + 64 > bytes.size()) ? 1 : 5) {
+  for (std::size_t size = 0; size < bytes.size();
+       size += (size < table_end + 64 || size + 64 > bytes.size()) ? 1 : 5) {
     Result<Dictionary> r = parse_dictionary(std::span<const std::byte>(bytes).first(size), "cut");
     ASSERT_FALSE(r.ok()) << "loaded a file truncated to " << size << " bytes";
     ASSERT_TRUE(r.status().code() == ErrorCode::format_error) << size << ": " << r.status().to_string();
@@ -313,7 +322,8 @@ TEST(DictionaryIo, PayloadFlipIsAChecksumMismatchNamingTheSection) {
   Result<Dictionary> r = parse_dictionary(bytes, "d.modrt");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::checksum_mismatch);
-  EXPECT_TRUE(contains(r.status().message(), "d.modrt: section " + std::to_string(i) + " (Ub_vec, shape 4 (t_junction))"))
+  EXPECT_TRUE(contains(r.status().message(),
+                       "d.modrt: section " + std::to_string(i) + " (Ub_vec, shape 4 (t_junction))"))
       << r.status().message();
 }
 
@@ -324,8 +334,9 @@ TEST(DictionaryIo, BadMagic) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::format_error);
   EXPECT_EQ(r.status().message(), "x.bin: not a modrt dictionary (bad magic)");
-  const std::string text = "hello, this is not a dictionary at all, but it is long enough to hold a header......"
-                           "..............................................................................";
+  const std::string text =
+      "hello, this is not a dictionary at all, but it is long enough to hold a header......"
+      "..............................................................................";
   r = parse_dictionary(std::as_bytes(std::span<const char>(text.data(), text.size())), "t.txt");
   ASSERT_FALSE(r.ok());
   EXPECT_TRUE(contains(r.status().message(), "bad magic"));
@@ -339,7 +350,7 @@ TEST(DictionaryIo, WrongVersionAsksForARebake) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::version_mismatch);
   EXPECT_TRUE(contains(r.status().message(), "re-bake")) << r.status().message();
-  EXPECT_TRUE(contains(r.status().message(), "written by format version 2, this build reads version 1"))
+  EXPECT_TRUE(contains(r.status().message(), "written by format version 3, this build reads version 2"))
       << r.status().message();
   TempDir dir;
   ASSERT_TRUE(write_file_atomic(dir.file("old.modrt"), bytes).ok());
@@ -356,7 +367,8 @@ TEST(DictionaryIo, OversizedSectionSize) {
   Result<Dictionary> r = parse_dictionary(bytes, "big.modrt");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::format_error);
-  EXPECT_TRUE(contains(r.status().message(), "big.modrt: section " + std::to_string(i) + " (Td_b, shape 1 (dead_end))"))
+  EXPECT_TRUE(contains(r.status().message(),
+                       "big.modrt: section " + std::to_string(i) + " (Td_b, shape 1 (dead_end))"))
       << r.status().message();
   EXPECT_TRUE(contains(r.status().message(), "byte size")) << r.status().message();
 }
@@ -390,7 +402,8 @@ TEST(DictionaryIo, RowsTimesColsOverflowing32Bits) {
   Result<Dictionary> r = parse_dictionary(bytes, "dims.modrt");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::format_error);
-  EXPECT_TRUE(contains(r.status().message(), "section " + std::to_string(i) + " (Ub, shape 0 (closed)): is 65536x65537, expected 24x3"))
+  EXPECT_TRUE(contains(r.status().message(), "section " + std::to_string(i) +
+                                                 " (Ub, shape 0 (closed)): is 65536x65537, expected 24x3"))
       << r.status().message();
   // Byte size consistent with 32-bit wrapped rows*cols: still refused.
   wr32(bytes, entry_at(i) + 8, 0x10000u);
@@ -402,14 +415,15 @@ TEST(DictionaryIo, RowsTimesColsOverflowing32Bits) {
 
 TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   const std::vector<std::byte> good = serialized(make_dictionary());
-  for (std::uint32_t kind : {7u, 23u, 99u, 0u}) {
+  for (std::uint32_t kind : {7u, 24u, 99u, 0u}) {
     std::vector<std::byte> bytes = good;
     wr32(bytes, entry_at(3), kind);
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "k.modrt");
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.status().code(), ErrorCode::format_error);
-    EXPECT_TRUE(contains(r.status().message(), "unknown section kind " + std::to_string(kind))) << r.status().message();
+    EXPECT_TRUE(contains(r.status().message(), "unknown section kind " + std::to_string(kind)))
+        << r.status().message();
   }
   {  // Limp relabelled as a second Ub (same dimensions).
     std::vector<std::byte> bytes = good;
@@ -421,7 +435,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
     EXPECT_TRUE(contains(r.status().message(), "duplicate")) << r.status().message();
     EXPECT_TRUE(contains(r.status().message(), "Ub, shape 2 (corridor)")) << r.status().message();
   }
-  {  // Table shortened by one entry: the last section (Ur) is missing.
+  {  // Table shortened by one entry: the last section (Ur_vec) is missing.
     std::vector<std::byte> bytes = good;
     wr32(bytes, kSectionCountAt, rd32(bytes, kSectionCountAt) - 1);
     reseal(bytes);
@@ -440,7 +454,8 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   }
   {  // Sections are found through the table, not by order: swapping two entries is fine.
     std::vector<std::byte> bytes = good;
-    std::vector<std::byte> tmp(bytes.begin() + std::ptrdiff_t(entry_at(0)), bytes.begin() + std::ptrdiff_t(entry_at(1)));
+    std::vector<std::byte> tmp(bytes.begin() + std::ptrdiff_t(entry_at(0)),
+                               bytes.begin() + std::ptrdiff_t(entry_at(1)));
     std::copy(bytes.begin() + std::ptrdiff_t(entry_at(5)), bytes.begin() + std::ptrdiff_t(entry_at(6)),
               bytes.begin() + std::ptrdiff_t(entry_at(0)));
     std::copy(tmp.begin(), tmp.end(), bytes.begin() + std::ptrdiff_t(entry_at(5)));
@@ -577,7 +592,8 @@ TEST(FileIo, UnwritablePathIsAnIoError) {
   EXPECT_EQ(s.code(), ErrorCode::io_error);
   EXPECT_TRUE(contains(s.message(), "/proc/forbidden")) << s.message();
   const std::byte one{1};
-  EXPECT_EQ(write_file_atomic("/proc/forbidden/y", std::span<const std::byte>(&one, 1)).code(), ErrorCode::io_error);
+  EXPECT_EQ(write_file_atomic("/proc/forbidden/y", std::span<const std::byte>(&one, 1)).code(),
+            ErrorCode::io_error);
 }
 
 TEST(FileIo, ReadFileEnforcesTheLimit) {
@@ -602,7 +618,8 @@ TEST(FileIo, ReadFileEnforcesTheLimit) {
 // --- DictionarySettingsValidation ---
 
 TEST(DictionarySettingsValidation, DefaultsAreValid) {
-  EXPECT_TRUE(validate_settings(DictionarySettings{}).ok()) << validate_settings(DictionarySettings{}).to_string();
+  EXPECT_TRUE(validate_settings(DictionarySettings{}).ok())
+      << validate_settings(DictionarySettings{}).to_string();
   EXPECT_TRUE(validate_settings(small_settings()).ok());
 }
 

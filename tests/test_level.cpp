@@ -15,13 +15,13 @@
 #include <glm/vec2.hpp>
 
 #include "modrt/level_runtime.h"
-#include "test_support.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
+#include "test_support.h"
 
 namespace modrt::precompute {
 namespace {
@@ -52,7 +52,8 @@ Level build(const LevelDescription& d, int dmax = 8) {
   return std::move(level).value();
 }
 
-double block_norm(const Level& level, std::size_t bi, const std::vector<float>& x, const std::vector<float>* minus) {
+double block_norm(const Level& level, std::size_t bi, const std::vector<float>& x,
+                  const std::vector<float>* minus) {
   const LevelBlock& b = level.blocks[bi];
   double sum = 0.0;
   for (std::size_t i = 3 * b.sample_offset; i < 3 * (b.sample_offset + b.sample_count); ++i) {
@@ -84,13 +85,15 @@ TEST(LevelAccuracy, InterfaceTransportMatchesOneBounceReference) {
     const std::vector<float> albedo = level_albedo(level, nl.description);
     const std::vector<float> lit = level_direct_light(scene, nl.description.lights, albedo, 8);
     std::vector<float> source_only = lit;
-    std::fill(source_only.begin() + 3 * std::ptrdiff_t(level.blocks[0].sample_count), source_only.end(), 0.0f);
+    std::fill(source_only.begin() + 3 * std::ptrdiff_t(level.blocks[0].sample_count), source_only.end(),
+              0.0f);
     for (const bool only_block0 : {false, true}) {
       const std::vector<float>& ld = only_block0 ? source_only : lit;
       const std::vector<float> ref = level_one_bounce(scene, ld, 2048, 99);
       const Frame f = evaluate(level, ld);
       double largest = 0.0;
-      for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) largest = std::max(largest, block_norm(level, bi, ref, nullptr));
+      for (std::size_t bi = 0; bi < level.blocks.size(); ++bi)
+        largest = std::max(largest, block_norm(level, bi, ref, nullptr));
       std::vector<double> interface_only;
       std::printf("%s (%zu blocks), %s:\n", nl.name, level.blocks.size(),
                   only_block0 ? "light kept in block 0 only" : "all direct light");
@@ -99,13 +102,15 @@ TEST(LevelAccuracy, InterfaceTransportMatchesOneBounceReference) {
         const double err_norm = block_norm(level, bi, f.lightmap, &ref);
         const bool direct = block_norm(level, bi, ld, nullptr) > 0.0;
         if (ref_norm > 1e-3 * largest) {
-          std::printf("  block %2zu (%-10s, %s): relative L2 %5.1f%%\n", bi, dictionary_shape_name(level.blocks[bi].shape),
+          std::printf("  block %2zu (%-10s, %s): relative L2 %5.1f%%\n", bi,
+                      dictionary_shape_name(level.blocks[bi].shape),
                       direct ? "direct light   " : "interfaces only", 100 * err_norm / ref_norm);
           if (!direct) interface_only.push_back(err_norm / ref_norm);
         } else {
           // No one-bounce path from the light: report what the reduced operators leak.
           std::printf("  block %2zu (%-10s, no path): |MRT| %.2e of the brightest block\n", bi,
-                      dictionary_shape_name(level.blocks[bi].shape), block_norm(level, bi, f.lightmap, nullptr) / largest);
+                      dictionary_shape_name(level.blocks[bi].shape),
+                      block_norm(level, bi, f.lightmap, nullptr) / largest);
         }
       }
       if (interface_only.empty()) continue;
@@ -144,7 +149,9 @@ TEST(LevelAccuracy, ResponseIsZeroWithoutAPathAndNonZeroWithOne) {
 // the same canonical operators are used, only the bookkeeping changes.
 LevelDescription rotate_level(const LevelDescription& in, bool mirror) {
   LevelDescription out = in;
-  auto map_point = [&](glm::dvec3 p) { return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x); };
+  auto map_point = [&](glm::dvec3 p) {
+    return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x);
+  };
   auto map_face = [&](int f) {
     if (mirror) return (f == kFaceNegX || f == kFacePosX) ? (f ^ 1) : f;
     return rotate_face(f, 1);
@@ -168,7 +175,9 @@ LevelDescription rotate_level(const LevelDescription& in, bool mirror) {
 // normal (back-to-back walls of neighbouring blocks share positions, not normals).
 std::vector<std::size_t> sample_permutation(const Level& a, const Level& b, bool mirror) {
   const LevelSampleGeometry ga = level_sample_geometry(a), gb = level_sample_geometry(b);
-  auto transform = [&](glm::dvec3 p) { return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x); };
+  auto transform = [&](glm::dvec3 p) {
+    return mirror ? glm::dvec3(-p.x, p.y, p.z) : glm::dvec3(p.z, p.y, -p.x);
+  };
   using Key = std::array<long, 6>;
   auto key = [](glm::dvec3 p, glm::dvec3 n) {
     return Key{std::lround(p.x * 1e4), std::lround(p.y * 1e4), std::lround(p.z * 1e4),
@@ -202,11 +211,13 @@ void expect_symmetric(const LevelDescription& maze, bool mirror, double toleranc
       diff += d * d;
       norm += double(fa.lightmap[3 * i + std::size_t(c)]) * fa.lightmap[3 * i + std::size_t(c)];
     }
-  std::printf("%s: relative L2 difference %.2e\n", mirror ? "mirror" : "quarter turn", std::sqrt(diff / norm));
+  std::printf("%s: relative L2 difference %.2e\n", mirror ? "mirror" : "quarter turn",
+              std::sqrt(diff / norm));
   if (std::sqrt(diff / norm) > tolerance)
     for (std::size_t bi = 0; bi < a.blocks.size(); ++bi) {
       double d2 = 0.0, n2 = 0.0;
-      for (std::size_t i = a.blocks[bi].sample_offset; i < a.blocks[bi].sample_offset + a.blocks[bi].sample_count; ++i)
+      for (std::size_t i = a.blocks[bi].sample_offset;
+           i < a.blocks[bi].sample_offset + a.blocks[bi].sample_count; ++i)
         for (int c = 0; c < 3; ++c) {
           const double d = fa.lightmap[3 * i + std::size_t(c)] - fb.lightmap[3 * perm[i] + std::size_t(c)];
           d2 += d * d;
@@ -254,7 +265,8 @@ TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
     for (int b = 0; b < 2; ++b)
       for (int a = 0; a < 2; ++a)
         sum += (a ? ax : 1 - ax) * (b ? ay : 1 - ay) *
-               texels[3 * (std::size_t(y0 + b) * std::size_t(atlas.width) + std::size_t(x0 + a)) + std::size_t(c)];
+               texels[3 * (std::size_t(y0 + b) * std::size_t(atlas.width) + std::size_t(x0 + a)) +
+                      std::size_t(c)];
     return sum;
   };
   auto uv_on = [](int face, const glm::dvec3& p) {
@@ -272,7 +284,10 @@ TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
       for (int side = 0; side < 4; ++side)
         for (int k = 0; k < res; ++k) {
           const double t = (k + 0.5) / res;
-          const glm::dvec2 uv = side == 0 ? glm::dvec2(0, t) : side == 1 ? glm::dvec2(1, t) : side == 2 ? glm::dvec2(t, 0) : glm::dvec2(t, 1);
+          const glm::dvec2 uv = side == 0   ? glm::dvec2(0, t)
+                                : side == 1 ? glm::dvec2(1, t)
+                                : side == 2 ? glm::dvec2(t, 0)
+                                            : glm::dvec2(t, 1);
           const glm::dvec3 p = face_point(f0, uv.x, uv.y);
           // The other surface at this edge: a present face of this block, or the same
           // world face of the connected block.
@@ -283,7 +298,9 @@ TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
             if (g == f0) continue;
             const glm::dvec2 q = uv_on(g, p);
             const glm::dvec3 back = face_point(g, q.x, q.y);
-            if (glm::length(back - p) > 1e-9 || q.x < -1e-9 || q.x > 1 + 1e-9 || q.y < -1e-9 || q.y > 1 + 1e-9) continue;
+            if (glm::length(back - p) > 1e-9 || q.x < -1e-9 || q.x > 1 + 1e-9 || q.y < -1e-9 ||
+                q.y > 1 + 1e-9)
+              continue;
             if (face_present(mask, g)) {
               other_face = g;
               other_uv = q;
@@ -309,7 +326,8 @@ TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
         }
     }
   }
-  std::printf("%d edge points checked, worst difference %.2e (relative to max %.3g)\n", edges, worst / scale, scale);
+  std::printf("%d edge points checked, worst difference %.2e (relative to max %.3g)\n", edges, worst / scale,
+              scale);
   EXPECT_GT(edges, 0);
   EXPECT_LE(worst, 1e-4 * scale);
 }
@@ -353,7 +371,8 @@ TEST(LevelMultiBounce, FortyOneBlockMazeStaysBoundedOverThousandIterations) {
     MultiBounceSettings settings;
     settings.max_iterations = 1000;
     settings.tolerance = 0.0f;  // run all 1000 iterations
-    Result<MultiBounceReport> report = level_multi_bounce(level, test_dictionary(), ld, albedo, settings, b, r, lightmap);
+    Result<MultiBounceReport> report =
+        level_multi_bounce(level, test_dictionary(), ld, albedo, settings, b, r, lightmap);
     ASSERT_TRUE(report.ok()) << report.status().to_string();
     EXPECT_EQ(report->iterations, 1000);
     for (float v : lightmap) {
@@ -361,7 +380,8 @@ TEST(LevelMultiBounce, FortyOneBlockMazeStaysBoundedOverThousandIterations) {
       ASSERT_LE(v, 1.1f * report->energy_bound);
     }
     std::printf("albedo %.2f: 1000 iterations, energy bound %.3g, value clamp %s, albedo clamp %s\n", rho,
-                report->energy_bound, report->value_clamped ? "hit" : "not hit", report->albedo_clamped ? "yes" : "no");
+                report->energy_bound, report->value_clamped ? "hit" : "not hit",
+                report->albedo_clamped ? "yes" : "no");
   }
 }
 
@@ -398,7 +418,8 @@ TEST(LevelProbes, ProbesAroundACornerMatchBruteForceGather) {
       const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
       double L = 0.0;
       for (int k = 0; k < 4; ++k)
-        L += taps.w[k] * ld[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k])))];
+        L += taps.w[k] *
+             ld[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k])))];
       double y[9];
       sh9_eval(rotate_direction(d, -blk.quarter_turns), y);  // probes live in the block's canonical frame
       for (int j = 0; j < 9; ++j) ref[j] += 4.0 * std::numbers::pi / rays * L * y[j];
@@ -409,9 +430,97 @@ TEST(LevelProbes, ProbesAroundACornerMatchBruteForceGather) {
       norm += ref[j] * ref[j];
     }
   }
-  std::printf("probes of the block around the corner: relative L2 (bands 0-1) %.1f%%\n", 100 * std::sqrt(diff / norm));
+  std::printf("probes of the block around the corner: relative L2 (bands 0-1) %.1f%%\n",
+              100 * std::sqrt(diff / norm));
   EXPECT_GT(norm, 0.0);
   EXPECT_LE(std::sqrt(diff / norm), 0.30);  // measured 15% at the test dictionary's settings
+}
+
+// Vector irradiance through interfaces (Ur_vec turned onto each entry face) against a
+// brute-force OHLSH of the one-bounce radiance gathered on the real geometry, in every
+// maze11 block lit through interfaces only (b = 0 there, so all of it is the r part). The
+// gradient coefficients (a1, a3) are compared also after turning them by 90, 180 and 270
+// degrees in the face plane: the frames the level build chose must fit best, which a wrong
+// entry-face rotation would not.
+TEST(LevelVectorIrradiance, InterfaceResponseMatchesBruteForceOhlsh) {
+  const LevelDescription maze = maze_level(11).value();
+  const Level level = build(maze);
+  const LevelScene scene(level, level.res);
+  std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 8);
+  std::fill(ld.begin() + 3 * std::ptrdiff_t(level.blocks[0].sample_count), ld.end(), 0.0f);
+  const Frame f = evaluate(level, ld);
+  const LevelBufferSizes sizes = level_buffer_sizes(level, test_dictionary());
+  std::vector<float> vec(sizes.vector_lightmap);
+  const Status st = level_compute_vector_irradiance(level, test_dictionary(), f.b, f.r, vec);
+  ASSERT_TRUE(st.ok()) << st.to_string();
+  const LevelSampleGeometry& g = scene.samples();
+  double flat_diff = 0, flat_norm = 0, normal_diff = 0, normal_norm = 0;
+  std::array<double, 4> grad_diff{}, grad_norm{};
+  std::vector<glm::dvec2> strata;
+  for (std::size_t bi = 1; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& blk = level.blocks[bi];
+    for (std::uint32_t s = blk.sample_offset; s < blk.sample_offset + blk.sample_count; ++s) {
+      // The sample's face frame in world space (canonical frame turned with the block).
+      const FaceFrame& cf = face_frame(g.face[s]);
+      const glm::dvec3 n = g.normal[s];
+      glm::dvec3 u = rotate_direction(cf.u_axis, blk.quarter_turns);
+      u = glm::normalize(u - glm::dot(u, n) * n);
+      glm::dvec3 v = rotate_direction(cf.v_axis, blk.quarter_turns);
+      v = glm::normalize(v - glm::dot(v, n) * n - glm::dot(v, u) * u);
+      double L9[9] = {};
+      const int rays = 1024;
+      Rng rng(31, s);
+      stratified_square(rays, rng, strata);
+      for (const glm::dvec2& q : strata) {
+        const glm::dvec3 local = uniform_hemisphere(q);
+        const LevelHit hit = scene.intersect(g.position[s], to_world(local, u, v, n));
+        if (hit.block < 0) continue;
+        const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
+        const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
+        const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
+        double L = 0.0;
+        for (int k = 0; k < 4; ++k)
+          L += taps.w[k] *
+               ld[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k])))];
+        double y[9];
+        sh9_eval(local, y);
+        for (int j = 0; j < 9; ++j) L9[j] += 2.0 * std::numbers::pi / rays * L * y[j];
+      }
+      double E9[9], ref[4];
+      irradiance_from_radiance_sh9(L9, E9);
+      ohlsh_from_sh9(E9, ref);
+      const float* a = vec.data() + 12 * std::size_t(s);  // channel 0: a[3 i]
+      const double mrt[4] = {a[0], a[3], a[6], a[9]};
+      for (int i : {0, 2}) {
+        flat_diff += (mrt[i] - ref[i]) * (mrt[i] - ref[i]);
+        flat_norm += ref[i] * ref[i];
+      }
+      // E/pi at the face normal from the OHLSH vs the scalar lightmap (same transport).
+      const double at_normal = ohlsh_eval(mrt, glm::dvec3(0, 0, 1));
+      normal_diff += (at_normal - f.lightmap[3 * s]) * (at_normal - f.lightmap[3 * s]);
+      normal_norm += double(f.lightmap[3 * s]) * f.lightmap[3 * s];
+      // Gradient (a3, a1) = (x, y) components, turned by t quarter turns in the face plane.
+      for (int t = 0; t < 4; ++t) {
+        const double c = t == 0 ? 1 : t == 2 ? -1 : 0, sn = t == 1 ? 1 : t == 3 ? -1 : 0;
+        const double gx = c * mrt[3] - sn * mrt[1], gy = sn * mrt[3] + c * mrt[1];
+        grad_diff[std::size_t(t)] += (gx - ref[3]) * (gx - ref[3]) + (gy - ref[1]) * (gy - ref[1]);
+        grad_norm[std::size_t(t)] += ref[3] * ref[3] + ref[1] * ref[1];
+      }
+    }
+  }
+  const double flat = std::sqrt(flat_diff / flat_norm), at_normal = std::sqrt(normal_diff / normal_norm);
+  std::printf(
+      "interface-lit maze11 blocks, OHLSH vs brute force: a0, a2 relative L2 %.1f%%; gradient (a1, a3) "
+      "%.1f%% (turned 90: %.1f%%, 180: %.1f%%, 270: %.1f%%); E/pi at the normal vs scalar lightmap %.2f%%\n",
+      100 * flat, 100 * std::sqrt(grad_diff[0] / grad_norm[0]), 100 * std::sqrt(grad_diff[1] / grad_norm[1]),
+      100 * std::sqrt(grad_diff[2] / grad_norm[2]), 100 * std::sqrt(grad_diff[3] / grad_norm[3]),
+      100 * at_normal);
+  EXPECT_GT(flat_norm, 0.0);
+  EXPECT_LE(flat, 0.30);
+  EXPECT_LE(std::sqrt(grad_diff[0] / grad_norm[0]), 0.5);
+  for (int t = 1; t < 4; ++t)
+    EXPECT_LT(grad_diff[0], 0.5 * grad_diff[std::size_t(t)]) << t << " quarter turns";
+  EXPECT_LE(at_normal, 0.15);
 }
 
 TEST(LevelBuild, DictionaryWithoutInterfacesIsAClearError) {

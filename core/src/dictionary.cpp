@@ -29,7 +29,9 @@ std::string float_text(float v) {
   return buf;
 }
 
-std::string dims(std::uint32_t rows, std::uint32_t cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
+std::string dims(std::uint32_t rows, std::uint32_t cols) {
+  return std::to_string(rows) + "x" + std::to_string(cols);
+}
 
 // "<what>: shape 2 (corridor): "
 std::string shape_prefix(const std::string& what, std::size_t shape) {
@@ -43,8 +45,9 @@ Status check_matrix(const std::string& prefix, const char* name, const Matrix& m
                                                           ", expected " + std::to_string(rows) + "x" +
                                                           std::to_string(cols));
   if (m.data.size() != std::uint64_t(m.rows) * m.cols)
-    return Status::error(ErrorCode::invalid_argument, prefix + name + " (" + dims(m.rows, m.cols) + ") holds " +
-                                                          std::to_string(m.data.size()) + " values, expected " +
+    return Status::error(ErrorCode::invalid_argument, prefix + name + " (" + dims(m.rows, m.cols) +
+                                                          ") holds " + std::to_string(m.data.size()) +
+                                                          " values, expected " +
                                                           std::to_string(std::uint64_t(m.rows) * m.cols));
   for (std::size_t i = 0; i < m.data.size(); ++i) {
     const float v = m.data[i];
@@ -56,14 +59,17 @@ Status check_matrix(const std::string& prefix, const char* name, const Matrix& m
   return Status::success();
 }
 
-Status check_vector(const std::string& prefix, const char* name, const std::vector<float>& v, std::uint64_t max_len) {
+Status check_vector(const std::string& prefix, const char* name, const std::vector<float>& v,
+                    std::uint64_t max_len) {
   if (v.size() > max_len)
     return Status::error(ErrorCode::invalid_argument, prefix + name + " has " + std::to_string(v.size()) +
-                                                          " values, at most " + std::to_string(max_len) + " expected");
+                                                          " values, at most " + std::to_string(max_len) +
+                                                          " expected");
   for (std::size_t i = 0; i < v.size(); ++i)
     if (!std::isfinite(v[i]))
-      return Status::error(ErrorCode::non_finite, prefix + name + "[" + std::to_string(i) + "] is " +
-                                                      (std::isnan(v[i]) ? "NaN" : (v[i] > 0 ? "+Inf" : "-Inf")));
+      return Status::error(ErrorCode::non_finite,
+                           prefix + name + "[" + std::to_string(i) + "] is " +
+                               (std::isnan(v[i]) ? "NaN" : (v[i] > 0 ? "+Inf" : "-Inf")));
   return Status::success();
 }
 
@@ -86,11 +92,14 @@ Status validate_settings(const DictionarySettings& s) {
   // Interface settings matter only when interface operators are baked.
   if (s.lightfield_spatial > 0) {
     if (Status st = check_range("lightfield_spatial", s.lightfield_spatial, 1, 64); !st.ok()) return st;
-    if (Status st = check_range("lightfield_directional", s.lightfield_directional, 1, 128); !st.ok()) return st;
-    if (Status st = check_range("lightfield_supersample", s.lightfield_supersample, 1, 16); !st.ok()) return st;
+    if (Status st = check_range("lightfield_directional", s.lightfield_directional, 1, 128); !st.ok())
+      return st;
+    if (Status st = check_range("lightfield_supersample", s.lightfield_supersample, 1, 16); !st.ok())
+      return st;
     if (Status st = check_range("krlf", s.krlf, 1, 4096); !st.ok()) return st;
     if (Status st = check_range("kr", s.kr, 1, 4096); !st.ok()) return st;
-    if (Status st = check_range("interface_enrichment_iterations", s.interface_enrichment_iterations, 0, 16); !st.ok())
+    if (Status st = check_range("interface_enrichment_iterations", s.interface_enrichment_iterations, 0, 16);
+        !st.ok())
       return st;
     if (Status st = check_min("response_rays", s.response_rays, 1); !st.ok()) return st;
   }
@@ -98,7 +107,8 @@ Status validate_settings(const DictionarySettings& s) {
 }
 
 Status validate_dictionary(const Dictionary& dict, const std::string& what) {
-  if (Status s = validate_settings(dict.settings); !s.ok()) return Status::error(s.code(), what + ": " + s.message());
+  if (Status s = validate_settings(dict.settings); !s.ok())
+    return Status::error(s.code(), what + ": " + s.message());
   const DictionarySettings& st = dict.settings;
   if (dict.shapes.size() != std::size_t(kDictionaryShapeCount))
     return Status::error(ErrorCode::invalid_argument, what + ": " + std::to_string(dict.shapes.size()) +
@@ -112,9 +122,9 @@ Status validate_dictionary(const Dictionary& dict, const std::string& what) {
     const std::string prefix = shape_prefix(what, i);
     const FaceMask mask = dictionary_shape_mask(int(i));
     if (op.face_mask != mask)
-      return Status::error(ErrorCode::invalid_argument, prefix + "face mask " + std::to_string(unsigned(op.face_mask)) +
-                                                            " differs from the shape's mask " +
-                                                            std::to_string(unsigned(mask)));
+      return Status::error(ErrorCode::invalid_argument,
+                           prefix + "face mask " + std::to_string(unsigned(op.face_mask)) +
+                               " differs from the shape's mask " + std::to_string(unsigned(mask)));
     const std::uint64_t n = std::uint64_t(face_count(mask)) * st.res * st.res;
     if (Status s = check_matrix(prefix, "Ub", op.Ub, n, kb); !s.ok()) return s;
     if (Status s = check_matrix(prefix, "Td_b", op.Td_b, kb, n); !s.ok()) return s;
@@ -129,9 +139,10 @@ Status validate_dictionary(const Dictionary& dict, const std::string& what) {
       const bool wanted = with_interfaces && side && !face_present(mask, f);
       if (!wanted) {
         if (!R.empty() || R.rows != 0 || R.cols != 0)
-          return Status::error(ErrorCode::invalid_argument,
-                               prefix + name + " is " + dims(R.rows, R.cols) + ", expected empty (" +
-                                   (with_interfaces ? "the face is present" : "settings.lightfield_spatial = 0") + ")");
+          return Status::error(
+              ErrorCode::invalid_argument,
+              prefix + name + " is " + dims(R.rows, R.cols) + ", expected empty (" +
+                  (with_interfaces ? "the face is present" : "settings.lightfield_spatial = 0") + ")");
         continue;
       }
       if (Status s = check_matrix(prefix, name.c_str(), R, st.krlf, kb); !s.ok()) return s;
@@ -151,12 +162,14 @@ Status validate_dictionary(const Dictionary& dict, const std::string& what) {
       {"Trlf_r", &io.Trlf_r, st.kr, st.krlf},
       {"Ur", &io.Ur, std::uint64_t(face_count(dictionary_shape_mask(1))) * st.res * st.res, st.kr},
       {"Urvol", &io.Urvol, 9ull * st.probe_grid * st.probe_grid * st.probe_grid, st.kr},
+      {"Ur_vec", &io.Ur_vec, 4ull * face_count(dictionary_shape_mask(1)) * st.res * st.res, st.kr},
   };
   for (const auto& e : interface_matrices) {
     if (!with_interfaces) {
       if (e.m->rows != 0 || e.m->cols != 0 || !e.m->empty())
-        return Status::error(ErrorCode::invalid_argument, prefix + e.name + " is " + dims(e.m->rows, e.m->cols) +
-                                                              ", expected empty (settings.lightfield_spatial = 0)");
+        return Status::error(ErrorCode::invalid_argument,
+                             prefix + e.name + " is " + dims(e.m->rows, e.m->cols) +
+                                 ", expected empty (settings.lightfield_spatial = 0)");
       continue;
     }
     if (Status s = check_matrix(prefix, e.name, *e.m, e.rows, e.cols); !s.ok()) return s;

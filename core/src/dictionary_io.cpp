@@ -47,7 +47,9 @@ bool is_missing_side_face(int shape, int face) {
   return face != kFaceNegY && face != kFacePosY && !face_present(dictionary_shape_mask(shape), face);
 }
 
-std::string dims(std::uint64_t rows, std::uint64_t cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
+std::string dims(std::uint64_t rows, std::uint64_t cols) {
+  return std::to_string(rows) + "x" + std::to_string(cols);
+}
 
 std::string shape_label(std::uint32_t shape) {
   return "shape " + std::to_string(shape) + " (" + dictionary_shape_name(int(shape)) + ")";
@@ -89,6 +91,7 @@ Dims expected_dims(const DictionarySettings& s, std::uint32_t kind, std::uint32_
     case DictionarySectionKind::Trlf_r: return {s.kr, s.krlf};
     case DictionarySectionKind::Ur: return {shape_samples(s, 1), s.kr};
     case DictionarySectionKind::Urvol: return {9 * g * g * g, s.kr};
+    case DictionarySectionKind::Ur_vec: return {4 * shape_samples(s, 1), s.kr};
   }
   return {0, 0};
 }
@@ -97,7 +100,7 @@ Dims expected_dims(const DictionarySettings& s, std::uint32_t kind, std::uint32_
 
 struct PlannedSection {
   std::uint32_t kind, shape, sub;
-  const Matrix* matrix = nullptr;          // or
+  const Matrix* matrix = nullptr;              // or
   const std::vector<float>* vector = nullptr;  // sigma_M
   bool float16 = false;
 };
@@ -117,7 +120,8 @@ std::vector<PlannedSection> plan_sections(const Dictionary& dict, bool float16) 
     plan.push_back({std::uint32_t(DictionarySectionKind::sigma_M), s, 0, nullptr, &op.sigma_M, false});
     if (dict.settings.lightfield_spatial > 0)
       for (int f = 0; f < kFaceCount; ++f)
-        if (is_missing_side_face(int(s), f)) add(DictionarySectionKind::Rb_rlf, s, std::uint32_t(f), op.Rb_rlf[std::size_t(f)]);
+        if (is_missing_side_face(int(s), f))
+          add(DictionarySectionKind::Rb_rlf, s, std::uint32_t(f), op.Rb_rlf[std::size_t(f)]);
   }
   if (dict.settings.lightfield_spatial > 0) {
     const InterfaceOperators& io = dict.interfaces;
@@ -127,6 +131,7 @@ std::vector<PlannedSection> plan_sections(const Dictionary& dict, bool float16) 
     add(DictionarySectionKind::Trlf_r, kNoShape, 0, io.Trlf_r);
     add(DictionarySectionKind::Ur, kNoShape, 0, io.Ur);
     add(DictionarySectionKind::Urvol, kNoShape, 0, io.Urvol);
+    add(DictionarySectionKind::Ur_vec, kNoShape, 0, io.Ur_vec);
   }
   return plan;
 }
@@ -191,7 +196,8 @@ Status put_payload(std::vector<std::byte>& out, const PlannedSection& p, const s
       const std::uint32_t cols = p.matrix->cols;
       const std::string where = is_interface_kind(p.kind) ? "interfaces" : shape_label(p.shape);
       std::string name = dictionary_section_name(p.kind);
-      if (p.kind == std::uint32_t(DictionarySectionKind::Rb_rlf)) name += std::string("(") + face_name(int(p.sub)) + ")";
+      if (p.kind == std::uint32_t(DictionarySectionKind::Rb_rlf))
+        name += std::string("(") + face_name(int(p.sub)) + ")";
       return Status::error(ErrorCode::invalid_argument,
                            what + ": " + where + ": " + name + "[" + std::to_string(i / cols) + "," +
                                std::to_string(i % cols) + "] = " + value +
@@ -218,7 +224,8 @@ Result<std::vector<std::byte>> serialize_impl(const Dictionary& dict, const Dict
     total += sizes.back();
   }
   if (total > kMaxDictionaryFileBytes)
-    return Status::error(ErrorCode::resource_limit, what + ": the dictionary file would be " + std::to_string(total) +
+    return Status::error(ErrorCode::resource_limit, what + ": the dictionary file would be " +
+                                                        std::to_string(total) +
                                                         " bytes, more than the limit of " +
                                                         std::to_string(kMaxDictionaryFileBytes) + " bytes");
 
@@ -240,7 +247,8 @@ Result<std::vector<std::byte>> serialize_impl(const Dictionary& dict, const Dict
     put_u32(table, p.shape);
     put_u32(table, p.matrix ? p.matrix->rows : 1u);
     put_u32(table, p.matrix ? p.matrix->cols : std::uint32_t(p.vector->size()));
-    put_u32(table, std::uint32_t(p.float16 ? DictionaryElementType::float16 : DictionaryElementType::float32));
+    put_u32(table,
+            std::uint32_t(p.float16 ? DictionaryElementType::float16 : DictionaryElementType::float32));
     put_u32(table, p.sub);
     put_u64(table, offset);
     put_u64(table, sizes[i]);
@@ -282,7 +290,8 @@ struct Header {
 Result<Header> parse_header(std::span<const std::byte> b, const std::string& what) {
   if (b.size() < 16)
     return format_error(what, "file is " + std::to_string(b.size()) + " bytes, shorter than the " +
-                                  std::to_string(kDictionaryHeaderBytes) + "-byte dictionary header (truncated?)");
+                                  std::to_string(kDictionaryHeaderBytes) +
+                                  "-byte dictionary header (truncated?)");
   if (std::memcmp(b.data(), kDictionaryMagic, sizeof kDictionaryMagic) != 0)
     return format_error(what, "not a modrt dictionary (bad magic)");
   const std::uint32_t version = get_u32(b, 8);
@@ -298,13 +307,14 @@ Result<Header> parse_header(std::span<const std::byte> b, const std::string& wha
                                   std::to_string(version));
   if (b.size() < kDictionaryHeaderBytes)
     return format_error(what, "file is " + std::to_string(b.size()) + " bytes, shorter than the " +
-                                  std::to_string(kDictionaryHeaderBytes) + "-byte dictionary header (truncated?)");
+                                  std::to_string(kDictionaryHeaderBytes) +
+                                  "-byte dictionary header (truncated?)");
   const std::uint32_t stored_crc = get_u32(b, kHeaderCrcOffset);
   const std::uint32_t actual_crc = crc32(b.first(kHeaderCrcOffset));
   if (stored_crc != actual_crc)
-    return Status::error(ErrorCode::checksum_mismatch, what + ": header checksum mismatch (stored " +
-                                                           std::to_string(stored_crc) + ", computed " +
-                                                           std::to_string(actual_crc) + "): the file is corrupt");
+    return Status::error(ErrorCode::checksum_mismatch,
+                         what + ": header checksum mismatch (stored " + std::to_string(stored_crc) +
+                             ", computed " + std::to_string(actual_crc) + "): the file is corrupt");
   if (get_u32(b, 104) != 0) return format_error(what, "header: reserved field is not 0");
   Header h;
   h.settings = get_settings(b);
@@ -345,35 +355,41 @@ Entry get_entry(std::span<const std::byte> b, std::size_t at) {
 // Checks one table entry against the settings and the file; nothing is allocated.
 Status check_entry(const Entry& e, std::size_t index, const Header& h, std::span<const std::byte> bytes,
                    std::uint64_t payload_start, const std::string& what) {
-  const std::string where = what + ": section " + std::to_string(index) + " (" + section_label(e.kind, e.shape, e.sub) + "): ";
+  const std::string where =
+      what + ": section " + std::to_string(index) + " (" + section_label(e.kind, e.shape, e.sub) + "): ";
   if (!dictionary_section_name(e.kind))
     return Status::error(ErrorCode::format_error, where + "unknown section kind " + std::to_string(e.kind));
   if (is_shape_kind(e.kind) && e.shape >= std::uint32_t(kDictionaryShapeCount))
-    return Status::error(ErrorCode::format_error, where + "shape index " + std::to_string(e.shape) + " is not in [0, " +
+    return Status::error(ErrorCode::format_error, where + "shape index " + std::to_string(e.shape) +
+                                                      " is not in [0, " +
                                                       std::to_string(kDictionaryShapeCount - 1) + "]");
   if (is_interface_kind(e.kind) && e.shape != kNoShape)
-    return Status::error(ErrorCode::format_error,
-                         where + "shape index " + std::to_string(e.shape) + ", expected 0xFFFFFFFF (dictionary-wide)");
+    return Status::error(ErrorCode::format_error, where + "shape index " + std::to_string(e.shape) +
+                                                      ", expected 0xFFFFFFFF (dictionary-wide)");
   if (e.kind == std::uint32_t(DictionarySectionKind::Rb_rlf)) {
     if (e.sub >= std::uint32_t(kFaceCount) || !is_missing_side_face(int(e.shape), int(e.sub)))
-      return Status::error(ErrorCode::format_error, where + "face " + std::to_string(e.sub) +
-                                                        " is not a missing side face of " + shape_label(e.shape));
+      return Status::error(
+          ErrorCode::format_error,
+          where + "face " + std::to_string(e.sub) + " is not a missing side face of " + shape_label(e.shape));
   } else if (e.sub != 0) {
-    return Status::error(ErrorCode::format_error, where + "sub-index " + std::to_string(e.sub) + ", expected 0");
+    return Status::error(ErrorCode::format_error,
+                         where + "sub-index " + std::to_string(e.sub) + ", expected 0");
   }
   if ((e.kind == std::uint32_t(DictionarySectionKind::Rb_rlf) || is_interface_kind(e.kind)) &&
       h.settings.lightfield_spatial == 0)
     return Status::error(ErrorCode::format_error,
                          where + "interface operator in a dictionary with settings.lightfield_spatial = 0");
-  if (e.type != std::uint32_t(DictionaryElementType::float32) && e.type != std::uint32_t(DictionaryElementType::float16))
+  if (e.type != std::uint32_t(DictionaryElementType::float32) &&
+      e.type != std::uint32_t(DictionaryElementType::float16))
     return Status::error(ErrorCode::format_error, where + "unknown element type " + std::to_string(e.type));
   if (e.pad != 0) return Status::error(ErrorCode::format_error, where + "pad field is not 0");
 
   const Dims want = expected_dims(h.settings, e.kind, e.shape);
   if (e.kind == std::uint32_t(DictionarySectionKind::sigma_M)) {
     if (e.rows != 1 || e.cols > want.cols)
-      return Status::error(ErrorCode::format_error, where + "is " + dims(e.rows, e.cols) + ", expected 1x(at most " +
-                                                        std::to_string(want.cols) + ")");
+      return Status::error(
+          ErrorCode::format_error,
+          where + "is " + dims(e.rows, e.cols) + ", expected 1x(at most " + std::to_string(want.cols) + ")");
   } else if (e.rows != want.rows || e.cols != want.cols) {
     return Status::error(ErrorCode::format_error,
                          where + "is " + dims(e.rows, e.cols) + ", expected " + dims(want.rows, want.cols));
@@ -382,13 +398,14 @@ Status check_entry(const Entry& e, std::size_t index, const Header& h, std::span
   const std::uint64_t count = std::uint64_t(e.rows) * e.cols;
   const std::uint64_t elem = e.type == std::uint32_t(DictionaryElementType::float16) ? 2 : 4;
   if (count > (UINT64_MAX / 4) || count * elem != e.size)
-    return Status::error(ErrorCode::format_error, where + "byte size " + std::to_string(e.size) + ", expected " +
-                                                      dims(e.rows, e.cols) + " x " + std::to_string(elem) + " bytes");
+    return Status::error(ErrorCode::format_error, where + "byte size " + std::to_string(e.size) +
+                                                      ", expected " + dims(e.rows, e.cols) + " x " +
+                                                      std::to_string(elem) + " bytes");
   if (e.offset < payload_start || e.offset > bytes.size() || e.size > bytes.size() - e.offset)
-    return Status::error(ErrorCode::format_error, where + "payload [" + std::to_string(e.offset) + ", +" +
-                                                      std::to_string(e.size) + ") is outside the file's payload area [" +
-                                                      std::to_string(payload_start) + ", " +
-                                                      std::to_string(bytes.size()) + ") (truncated?)");
+    return Status::error(ErrorCode::format_error,
+                         where + "payload [" + std::to_string(e.offset) + ", +" + std::to_string(e.size) +
+                             ") is outside the file's payload area [" + std::to_string(payload_start) + ", " +
+                             std::to_string(bytes.size()) + ") (truncated?)");
   const std::uint32_t actual = crc32(bytes.subspan(std::size_t(e.offset), std::size_t(e.size)));
   if (actual != e.crc)
     return Status::error(ErrorCode::checksum_mismatch, where + "payload checksum mismatch (stored " +
@@ -402,13 +419,15 @@ void decode(std::span<const std::byte> bytes, const Entry& e, float* out) {
   const std::byte* p = bytes.data() + e.offset;
   if (e.type == std::uint32_t(DictionaryElementType::float16)) {
     for (std::size_t i = 0; i < count; ++i) {
-      const auto h = glm::uint16(std::to_integer<unsigned>(p[2 * i]) | (std::to_integer<unsigned>(p[2 * i + 1]) << 8));
+      const auto h =
+          glm::uint16(std::to_integer<unsigned>(p[2 * i]) | (std::to_integer<unsigned>(p[2 * i + 1]) << 8));
       out[i] = glm::unpackHalf1x16(h);
     }
   } else if constexpr (std::endian::native == std::endian::little) {
     if (count > 0) std::memcpy(out, p, count * sizeof(float));
   } else {
-    for (std::size_t i = 0; i < count; ++i) out[i] = std::bit_cast<float>(get_u32(bytes, std::size_t(e.offset) + 4 * i));
+    for (std::size_t i = 0; i < count; ++i)
+      out[i] = std::bit_cast<float>(get_u32(bytes, std::size_t(e.offset) + 4 * i));
   }
 }
 
@@ -435,15 +454,18 @@ const char* dictionary_section_name(std::uint32_t kind) {
     case 20: return "Trlf_r";
     case 21: return "Ur";
     case 22: return "Urvol";
+    case 23: return "Ur_vec";
     default: return nullptr;
   }
 }
 
-Result<std::vector<std::byte>> serialize_dictionary(const Dictionary& dict, const DictionaryWriteOptions& options) {
+Result<std::vector<std::byte>> serialize_dictionary(const Dictionary& dict,
+                                                    const DictionaryWriteOptions& options) {
   return serialize_impl(dict, options, "dictionary");
 }
 
-Status save_dictionary(const std::string& path, const Dictionary& dict, const DictionaryWriteOptions& options) {
+Status save_dictionary(const std::string& path, const Dictionary& dict,
+                       const DictionaryWriteOptions& options) {
   Result<std::vector<std::byte>> bytes = serialize_impl(dict, options, path);
   if (!bytes.ok()) return bytes.status();
   return write_file_atomic(path, bytes.value());
@@ -457,9 +479,10 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
   const std::uint64_t table_bytes = std::uint64_t(h.section_count) * kDictionarySectionEntryBytes;
   const std::uint64_t payload_start = kDictionaryHeaderBytes + table_bytes;
   if (payload_start > bytes.size())
-    return format_error(what, "section table of " + std::to_string(h.section_count) + " entries ends at byte " +
-                                  std::to_string(payload_start) + ", past the end of the " +
-                                  std::to_string(bytes.size()) + "-byte file (truncated?)");
+    return format_error(what, "section table of " + std::to_string(h.section_count) +
+                                  " entries ends at byte " + std::to_string(payload_start) +
+                                  ", past the end of the " + std::to_string(bytes.size()) +
+                                  "-byte file (truncated?)");
   const std::span<const std::byte> table = bytes.subspan(kDictionaryHeaderBytes, std::size_t(table_bytes));
   if (const std::uint32_t actual = crc32(table); actual != h.table_crc)
     return Status::error(ErrorCode::checksum_mismatch, what + ": section table checksum mismatch (stored " +
@@ -472,8 +495,8 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
     const Entry e = get_entry(bytes, kDictionaryHeaderBytes + i * kDictionarySectionEntryBytes);
     if (Status s = check_entry(e, i, h, bytes, payload_start, what); !s.ok()) return s;
     if (!found.emplace(std::make_tuple(e.kind, e.shape, e.sub), e).second)
-      return format_error(what, "section " + std::to_string(i) + " (" + section_label(e.kind, e.shape, e.sub) +
-                                    "): duplicate section");
+      return format_error(what, "section " + std::to_string(i) + " (" +
+                                    section_label(e.kind, e.shape, e.sub) + "): duplicate section");
   }
 
   auto require = [&](DictionarySectionKind kind, std::uint32_t shape, std::uint32_t sub) -> Result<Entry> {
@@ -492,8 +515,8 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
       ShapeOperators& op = dict.shapes[s];
       op.face_mask = dictionary_shape_mask(int(s));
       const std::pair<DictionarySectionKind, Matrix*> matrices[] = {
-          {DictionarySectionKind::Ub, &op.Ub},         {DictionarySectionKind::Td_b, &op.Td_b},
-          {DictionarySectionKind::Limp, &op.Limp},     {DictionarySectionKind::Ub_vec, &op.Ub_vec},
+          {DictionarySectionKind::Ub, &op.Ub},       {DictionarySectionKind::Td_b, &op.Td_b},
+          {DictionarySectionKind::Limp, &op.Limp},   {DictionarySectionKind::Ub_vec, &op.Ub_vec},
           {DictionarySectionKind::Ubvol, &op.Ubvol},
       };
       for (const auto& [kind, target] : matrices) {
@@ -516,9 +539,13 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
     if (with_interfaces) {
       InterfaceOperators& io = dict.interfaces;
       const std::pair<DictionarySectionKind, Matrix*> matrices[] = {
-          {DictionarySectionKind::R_straight, &io.R_straight}, {DictionarySectionKind::R_left, &io.R_left},
-          {DictionarySectionKind::R_right, &io.R_right},       {DictionarySectionKind::Trlf_r, &io.Trlf_r},
-          {DictionarySectionKind::Ur, &io.Ur},                 {DictionarySectionKind::Urvol, &io.Urvol},
+          {DictionarySectionKind::R_straight, &io.R_straight},
+          {DictionarySectionKind::R_left, &io.R_left},
+          {DictionarySectionKind::R_right, &io.R_right},
+          {DictionarySectionKind::Trlf_r, &io.Trlf_r},
+          {DictionarySectionKind::Ur, &io.Ur},
+          {DictionarySectionKind::Urvol, &io.Urvol},
+          {DictionarySectionKind::Ur_vec, &io.Ur_vec},
       };
       for (const auto& [kind, target] : matrices) {
         Result<Entry> e = require(kind, kNoShape, 0);

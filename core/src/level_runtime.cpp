@@ -26,6 +26,7 @@ LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict) 
   s.atlas = 3 * std::size_t(level.atlas.width) * std::size_t(level.atlas.height);
   const std::size_t probes_per_block = dict.shapes.empty() ? 0 : dict.shapes[0].Ubvol.rows;
   s.probes = 3 * probes_per_block * level.blocks.size();
+  s.vector_lightmap = 12 * std::size_t(level.sample_count);
   return s;
 }
 
@@ -33,21 +34,24 @@ Status check_level_matches(const Level& level, const Dictionary& dict) {
   if (std::uint32_t(level.res) != dict.settings.res || level.kb != dict.settings.kb ||
       level.kr != dict.interfaces.Ur.cols)
     return Status::error(ErrorCode::invalid_argument,
-                         "level was built for res " + std::to_string(level.res) + ", kb " + std::to_string(level.kb) +
-                             ", kr " + std::to_string(level.kr) + " but the dictionary has res " +
-                             std::to_string(dict.settings.res) + ", kb " + std::to_string(dict.settings.kb) +
-                             ", kr " + std::to_string(dict.interfaces.Ur.cols) + ": rebuild the level");
+                         "level was built for res " + std::to_string(level.res) + ", kb " +
+                             std::to_string(level.kb) + ", kr " + std::to_string(level.kr) +
+                             " but the dictionary has res " + std::to_string(dict.settings.res) + ", kb " +
+                             std::to_string(dict.settings.kb) + ", kr " +
+                             std::to_string(dict.interfaces.Ur.cols) + ": rebuild the level");
   return Status::success();
 }
 
-Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b) {
+Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                       std::span<float> b) {
   if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
   if (b.size() != 3 * std::size_t(level.kb) * level.blocks.size())
     return Status::error(ErrorCode::invalid_argument, "b: wrong size");
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Td_b, ld.data() + 3 * std::size_t(blk.sample_offset),
-             b.data() + 3 * std::size_t(level.kb) * i, false);
+    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Td_b,
+                       ld.data() + 3 * std::size_t(blk.sample_offset),
+                       b.data() + 3 * std::size_t(level.kb) * i, false);
   }
   return Status::success();
 }
@@ -56,7 +60,7 @@ void level_compute_r(const Level& level, std::span<const float> b, std::span<flo
   std::fill(r.begin(), r.end(), 0.0f);
   for (const ResponseRecord& rec : level.records)
     reference_gemv_rgb(rec.T, b.data() + 3 * std::size_t(level.kb) * rec.source_block,
-             r.data() + 3 * std::size_t(level.kr) * rec.slot, true);
+                       r.data() + 3 * std::size_t(level.kr) * rec.slot, true);
 }
 
 void level_compute_lightmap(const Level& level, const Dictionary& dict, std::span<const float> b,
@@ -64,7 +68,7 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
     reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub, b.data() + 3 * std::size_t(level.kb) * i,
-             lightmap.data() + 3 * std::size_t(blk.sample_offset), false);
+                       lightmap.data() + 3 * std::size_t(blk.sample_offset), false);
   }
   const Matrix& Ur = dict.interfaces.Ur;
   for (std::size_t s = 0; s < level.slots.size(); ++s) {
@@ -83,8 +87,8 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
   }
 }
 
-Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b,
-                      std::span<float> r, std::span<float> lightmap) {
+Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                      std::span<float> b, std::span<float> r, std::span<float> lightmap) {
   if (Status s = level_compute_b(level, dict, ld, b); !s.ok()) return s;
   level_compute_r(level, b, r);
   level_compute_lightmap(level, dict, b, r, lightmap);
@@ -127,13 +131,53 @@ void level_compute_probes(const Level& level, const Dictionary& dict, std::span<
                           std::span<const float> r, std::span<float> probes) {
   const std::size_t per_block = 3 * std::size_t(dict.shapes[0].Ubvol.rows);
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    reference_gemv_rgb(dict.shapes[std::size_t(level.blocks[i].shape)].Ubvol, b.data() + 3 * std::size_t(level.kb) * i,
-             probes.data() + per_block * i, false);
+    reference_gemv_rgb(dict.shapes[std::size_t(level.blocks[i].shape)].Ubvol,
+                       b.data() + 3 * std::size_t(level.kb) * i, probes.data() + per_block * i, false);
   for (std::size_t s = 0; s < level.slots.size(); ++s) {
     const ResponseSlot& slot = level.slots[s];
-    reference_gemv_rgb(level.probe_response[std::size_t(slot.entry_face)], r.data() + 3 * std::size_t(level.kr) * s,
-             probes.data() + per_block * slot.block, true);
+    reference_gemv_rgb(level.probe_response[std::size_t(slot.entry_face)],
+                       r.data() + 3 * std::size_t(level.kr) * s, probes.data() + per_block * slot.block,
+                       true);
   }
+}
+
+Status level_compute_vector_irradiance(const Level& level, const Dictionary& dict, std::span<const float> b,
+                                       std::span<const float> r, std::span<float> vector_lightmap) {
+  const LevelBufferSizes sizes = level_buffer_sizes(level, dict);
+  if (b.size() != sizes.b || r.size() != sizes.r || vector_lightmap.size() != sizes.vector_lightmap)
+    return Status::error(ErrorCode::invalid_argument,
+                         "vector irradiance: b, r or vector lightmap has the wrong size");
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const LevelBlock& blk = level.blocks[i];
+    const Matrix& Ub_vec = dict.shapes[std::size_t(blk.shape)].Ub_vec;
+    if (!has_size(Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
+      return Status::error(ErrorCode::invalid_argument, "vector irradiance: block " + std::to_string(i) +
+                                                            ": the dictionary has no Ub_vec of 4n x kb");
+    reference_gemv_rgb(Ub_vec, b.data() + 3 * std::size_t(level.kb) * i,
+                       vector_lightmap.data() + 12 * std::size_t(blk.sample_offset), false);
+  }
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    const Matrix& U = level.vector_response[std::size_t(slot.entry_face)];
+    if (!has_size(U, 4 * slot.ur_row_to_sample.size(), level.kr))
+      return Status::error(ErrorCode::invalid_argument, "vector irradiance: slot " + std::to_string(s) +
+                                                            ": the level has no vector response of 4n x kr "
+                                                            "(dictionary without Ur_vec?)");
+    const float* rs = r.data() + 3 * std::size_t(level.kr) * s;
+    float* dst = vector_lightmap.data() + 12 * std::size_t(level.blocks[slot.block].sample_offset);
+    for (std::size_t row = 0; row < slot.ur_row_to_sample.size(); ++row) {
+      const std::int32_t sample = slot.ur_row_to_sample[row];
+      if (sample < 0) continue;
+      for (std::size_t i = 0; i < 4; ++i) {
+        const float* u = U.data.data() + (4 * row + i) * U.cols;
+        double acc[3] = {0, 0, 0};
+        for (std::uint32_t k = 0; k < U.cols; ++k)
+          for (int c = 0; c < 3; ++c) acc[c] += double(u[k]) * rs[3 * k + c];
+        for (int c = 0; c < 3; ++c) dst[3 * (4 * std::size_t(sample) + i) + std::size_t(c)] += float(acc[c]);
+      }
+    }
+  }
+  return Status::success();
 }
 
 Status check_level_operators(const Level& level, const Dictionary& dict) {
@@ -149,9 +193,10 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
                       std::to_string(dict.shapes.size()));
     const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
     const std::size_t n = blk.sample_count;
-    if (!has_size(op.Td_b, kb, n) || !has_size(op.Ub, n, kb) || (probes > 0 && !has_size(op.Ubvol, probes, kb)))
-      return mismatch(name + ": shape " + std::to_string(blk.shape) + " operators are not " + std::to_string(kb) +
-                      " x " + std::to_string(n) + " samples");
+    if (!has_size(op.Td_b, kb, n) || !has_size(op.Ub, n, kb) ||
+        (probes > 0 && !has_size(op.Ubvol, probes, kb)))
+      return mismatch(name + ": shape " + std::to_string(blk.shape) + " operators are not " +
+                      std::to_string(kb) + " x " + std::to_string(n) + " samples");
     if (blk.sample_offset != offset) return mismatch(name + ": sample offsets are not contiguous");
     offset += n;
   }
@@ -169,14 +214,16 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
       if (m >= std::int32_t(n)) return mismatch(name + ": Ur row maps past the block's samples");
     if (slot.entry_face < 0 || slot.entry_face >= kFaceCount) return mismatch(name + ": bad entry face");
     if (probes > 0 && !has_size(level.probe_response[std::size_t(slot.entry_face)], probes, kr))
-      return mismatch(name + ": probe response is not " + std::to_string(probes) + " x " + std::to_string(kr));
+      return mismatch(name + ": probe response is not " + std::to_string(probes) + " x " +
+                      std::to_string(kr));
   }
   for (std::size_t i = 0; i < level.records.size(); ++i) {
     const ResponseRecord& rec = level.records[i];
     if (rec.source_block >= level.blocks.size() || rec.slot >= level.slots.size() || !has_size(rec.T, kr, kb))
       return mismatch("record " + std::to_string(i) + " is out of range or not kr x kb");
   }
-  const std::size_t texels = std::size_t(std::max(level.atlas.width, 0)) * std::size_t(std::max(level.atlas.height, 0));
+  const std::size_t texels =
+      std::size_t(std::max(level.atlas.width, 0)) * std::size_t(std::max(level.atlas.height, 0));
   if (!level.atlas.sample_texel.empty() && level.atlas.sample_texel.size() != level.sample_count)
     return mismatch("atlas sample_texel does not cover the level's samples");
   for (std::uint32_t t : level.atlas.sample_texel)

@@ -20,7 +20,8 @@ class StageTimer {
   StageTimer(const BakeProgress& progress, int shape) : progress_(progress), shape_(shape) {}
   void done(const char* stage) {
     const auto now = std::chrono::steady_clock::now();
-    if (progress_.on_stage) progress_.on_stage(stage, shape_, std::chrono::duration<double>(now - start_).count());
+    if (progress_.on_stage)
+      progress_.on_stage(stage, shape_, std::chrono::duration<double>(now - start_).count());
     start_ = now;
   }
 
@@ -102,7 +103,8 @@ ShapeOperators to_operators(const ShapeBake& bake) {
   op.Ub_vec = to_float(bake.Ub_vec);
   op.Ubvol = to_float(bake.Ubvol);
   op.sigma_M.resize(std::size_t(bake.transfer.sigma_M.size()));
-  for (Eigen::Index i = 0; i < bake.transfer.sigma_M.size(); ++i) op.sigma_M[std::size_t(i)] = float(bake.transfer.sigma_M(i));
+  for (Eigen::Index i = 0; i < bake.transfer.sigma_M.size(); ++i)
+    op.sigma_M[std::size_t(i)] = float(bake.transfer.sigma_M(i));
   return op;
 }
 
@@ -119,21 +121,25 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
     }
     if (settings.lightfield_spatial > 0) {
       ShapeLimps limps{};
-      for (int s = 0; s < kDictionaryShapeCount; ++s) limps[std::size_t(s)] = &bakes[std::size_t(s)].transfer.Limp;
+      for (int s = 0; s < kDictionaryShapeCount; ++s)
+        limps[std::size_t(s)] = &bakes[std::size_t(s)].transfer.Limp;
       const InterfaceBake ib = bake_interfaces(limps, int(settings.res), interface_settings(settings),
                                                [&](const std::string& stage, double seconds) {
-                                                 if (progress.on_stage) progress.on_stage("interfaces: " + stage, -1, seconds);
+                                                 if (progress.on_stage)
+                                                   progress.on_stage("interfaces: " + stage, -1, seconds);
                                                });
       for (int s = 0; s < kDictionaryShapeCount; ++s)
         for (int f = 0; f < kFaceCount; ++f)
           if (ib.Rb_rlf[std::size_t(s)][std::size_t(f)].size() > 0)
-            dict.shapes[std::size_t(s)].Rb_rlf[std::size_t(f)] = to_float(ib.Rb_rlf[std::size_t(s)][std::size_t(f)]);
+            dict.shapes[std::size_t(s)].Rb_rlf[std::size_t(f)] =
+                to_float(ib.Rb_rlf[std::size_t(s)][std::size_t(f)]);
       dict.interfaces.R_straight = to_float(ib.R[0]);
       dict.interfaces.R_left = to_float(ib.R[1]);
       dict.interfaces.R_right = to_float(ib.R[2]);
       dict.interfaces.Trlf_r = to_float(ib.Trlf_r);
       dict.interfaces.Ur = to_float(ib.Ur);
       dict.interfaces.Urvol = to_float(ib.Urvol);
+      dict.interfaces.Ur_vec = to_float(ib.Ur_vec);
     }
     if (Status v = validate_dictionary(dict, "baked dictionary"); !v.ok()) return v;
     return dict;

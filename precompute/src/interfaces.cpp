@@ -6,20 +6,20 @@
 #include <numbers>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <Eigen/SparseCore>
 #include <glm/geometric.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-#include <tbb/parallel_for.h>
 
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/reduction.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/precompute/sh_operators.h"
-#include "modrt/sh.h"
 #include "modrt/precompute/symmetry.h"
+#include "modrt/sh.h"
 
 namespace modrt::precompute {
 namespace {
@@ -69,7 +69,9 @@ glm::dvec3 travel_direction(const LightfieldFrame& f, double a, double b) {
   return d.x * f.u_axis + d.y * f.v_axis + z * f.out;
 }
 
-glm::dvec3 frame_point(const LightfieldFrame& f, double u, double v) { return f.origin + u * f.u_axis + v * f.v_axis; }
+glm::dvec3 frame_point(const LightfieldFrame& f, double u, double v) {
+  return f.origin + u * f.u_axis + v * f.v_axis;
+}
 
 // A^T B for tall A, B (same rows), summed over row chunks in parallel: Eigen's own
 // products are single-threaded without OpenMP, and these are the bake's largest products.
@@ -91,9 +93,10 @@ MatrixXd parallel_at_b(const MatrixXd& A, const MatrixXd& B) {
 // A B for tall A, row chunks in parallel.
 MatrixXd parallel_a_b(const MatrixXd& A, const MatrixXd& B) {
   MatrixXd out(A.rows(), B.cols());
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, A.rows(), 2048), [&](const tbb::blocked_range<Eigen::Index>& r) {
-    out.middleRows(r.begin(), r.size()).noalias() = A.middleRows(r.begin(), r.size()) * B;
-  });
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, A.rows(), 2048),
+                    [&](const tbb::blocked_range<Eigen::Index>& r) {
+                      out.middleRows(r.begin(), r.size()).noalias() = A.middleRows(r.begin(), r.size()) * B;
+                    });
   return out;
 }
 
@@ -176,7 +179,8 @@ bool classify_propagation(int entry, int exit, Propagation& out) {
   return false;
 }
 
-MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res, const InterfaceSettings& s) {
+MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res,
+                         const InterfaceSettings& s) {
   const Grid g(s);
   const SampleLayout layout = SampleLayout::make(shape_mask, res);
   const BlockScene scene(shape_mask);
@@ -193,12 +197,14 @@ MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, in
           acc.setZero();
           for (int sy = 0; sy < g.ss; ++sy)
             for (int sx = 0; sx < g.ss; ++sx) {
-              const glm::dvec3 T = travel_direction(frame, (dx + (sx + 0.5) / g.ss) / g.D, (dy + (sy + 0.5) / g.ss) / g.D);
+              const glm::dvec3 T =
+                  travel_direction(frame, (dx + (sx + 0.5) / g.ss) / g.D, (dy + (sy + 0.5) / g.ss) / g.D);
               // The radiance travelling along T through p left a surface inside the block.
               const FaceHit hit = scene.intersect(p, -T);
               if (hit.face < 0) continue;
               const BilinearTaps taps = bilinear_taps(hit.u, hit.v, res);
-              for (int t = 0; t < 4; ++t) acc += taps.w[t] * Limp.row(layout.index(hit.face, taps.i[t], taps.j[t]));
+              for (int t = 0; t < 4; ++t)
+                acc += taps.w[t] * Limp.row(layout.index(hit.face, taps.i[t], taps.j[t]));
             }
           out.row(g.index(px, py, dx, dy)) = w * acc;
         }
@@ -239,14 +245,16 @@ SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s
               const double u = glm::dot(rel, entry_face.u_axis), v = glm::dot(rel, entry_face.v_axis);
               if (u < 0.0 || u > 1.0 || v < 0.0 || v > 1.0) continue;  // came from another face
               const Taps taps = lookup(g, in_frame, q, T);
-              for (int t = 0; t < taps.count; ++t) taps_of_row.emplace_back(taps.index[t], w * taps.weight[t]);
+              for (int t = 0; t < taps.count; ++t)
+                taps_of_row.emplace_back(taps.index[t], w * taps.weight[t]);
             }
           std::sort(taps_of_row.begin(), taps_of_row.end());
           const int row = g.index(px, py, dx, dy);
           for (std::size_t i = 0; i < taps_of_row.size();) {
             double sum = 0.0;
             std::size_t j = i;
-            for (; j < taps_of_row.size() && taps_of_row[j].first == taps_of_row[i].first; ++j) sum += taps_of_row[j].second;
+            for (; j < taps_of_row.size() && taps_of_row[j].first == taps_of_row[i].first; ++j)
+              sum += taps_of_row[j].second;
             triplets.emplace_back(row, taps_of_row[i].first, sum);
             i = j;
           }
@@ -293,6 +301,53 @@ MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSett
         for (int t = 0; t < taps.count; ++t) acc += taps.weight[t] * in.row(taps.index[t]);
       }
       out.row(smp) = w * acc;
+    }
+  });
+  return out;
+}
+
+MatrixXd vector_response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s) {
+  const Grid g(s);
+  const FaceMask receiver = dictionary_shape_mask(1);  // dead end: only -Z missing
+  const SampleLayout layout = SampleLayout::make(receiver, res);
+  const BlockScene scene(receiver);
+  const LightfieldFrame in_frame = entry_frame(kCanonicalEntryFace);
+  const FaceFrame& entry_face = face_frame(kCanonicalEntryFace);
+  const int n = layout.sample_count();
+  MatrixXd out = MatrixXd::Zero(4 * Eigen::Index(n), in.cols());
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 4), [&](const tbb::blocked_range<int>& range) {
+    std::vector<glm::dvec2> strata;
+    Eigen::Matrix<double, 9, Eigen::Dynamic> acc(9, in.cols());
+    Eigen::RowVectorXd radiance(in.cols());
+    for (int smp = range.begin(); smp != range.end(); ++smp) {
+      Rng rng(s.seed ^ 0x7ec7ull, std::uint64_t(smp));
+      stratified_square(s.response_rays, rng, strata);
+      const FaceFrame& frame = face_frame(layout.face_of(smp));
+      const glm::dvec3 x = layout.position(smp);
+      acc.setZero();
+      for (const glm::dvec2& u : strata) {
+        // Uniform over the hemisphere (the SH projection needs radiance, not E).
+        const glm::dvec3 local = uniform_hemisphere(u);
+        const glm::dvec3 d = to_world(local, frame.u_axis, frame.v_axis, frame.normal);
+        if (scene.intersect(x, d).face >= 0) continue;
+        const double along = -glm::dot(d, entry_face.normal);
+        if (along <= 1e-12) continue;
+        const glm::dvec3 q = x + (glm::dot(x - entry_face.origin, entry_face.normal) / along) * d;
+        const Taps taps = lookup(g, in_frame, q, -d);
+        radiance.setZero();
+        for (int t = 0; t < taps.count; ++t) radiance += taps.weight[t] * in.row(taps.index[t]);
+        double y[9];
+        sh9_eval(local, y);
+        acc.noalias() += Eigen::Map<const Eigen::Matrix<double, 9, 1>>(y) * radiance;
+      }
+      acc *= 2.0 * std::numbers::pi / s.response_rays;  // pdf 1 / (2 pi)
+      for (Eigen::Index k = 0; k < in.cols(); ++k) {
+        double L[kSh9Count], E[kSh9Count], a[kOhlshCount];
+        for (int j = 0; j < kSh9Count; ++j) L[j] = acc(j, k);
+        irradiance_from_radiance_sh9(L, E);
+        ohlsh_from_sh9(E, a);
+        for (int i = 0; i < kOhlshCount; ++i) out(4 * Eigen::Index(smp) + i, k) = a[i];
+      }
     }
   });
   return out;
@@ -366,8 +421,8 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
 
   // Hrlf and its enrichment with propagated outputs (appendix A).
   const std::array<SparseRowMatrix, 3> P = {propagation_operator(Propagation::straight, settings),
-                                           propagation_operator(Propagation::left, settings),
-                                           propagation_operator(Propagation::right, settings)};
+                                            propagation_operator(Propagation::left, settings),
+                                            propagation_operator(Propagation::right, settings)};
   stage("propagation operators");
   // The raw lightfields and their mirror images: the reduced basis must be closed under
   // mirroring for a level and its mirror image to light identically.
@@ -381,8 +436,7 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
     all.leftCols(bake.Hrlf.cols()) = unit_frobenius(bake.Hrlf);
     MatrixXd propagated(Hlf.rows(), 3 * bake.Hrlf.cols());
     for (int d = 0; d < 3; ++d)
-      propagated.middleCols(d * bake.Hrlf.cols(), bake.Hrlf.cols()) =
-          P[std::size_t(d)] * bake.Hrlf;
+      propagated.middleCols(d * bake.Hrlf.cols(), bake.Hrlf.cols()) = P[std::size_t(d)] * bake.Hrlf;
     all.rightCols(3 * bake.Hrlf.cols()) = unit_frobenius(propagated);
     bake.Hrlf = tall_scaled_basis(all, settings.krlf);
   }
@@ -394,11 +448,14 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
     const double n2 = bake.Hrlf.col(i).squaredNorm();
     inv_norm2(i) = n2 > 0.0 ? 1.0 / n2 : 0.0;
   }
-  auto project = [&](const MatrixXd& x) -> MatrixXd { return inv_norm2.asDiagonal() * parallel_at_b(bake.Hrlf, x); };
+  auto project = [&](const MatrixXd& x) -> MatrixXd {
+    return inv_norm2.asDiagonal() * parallel_at_b(bake.Hrlf, x);
+  };
   for (int d = 0; d < 3; ++d) bake.R[std::size_t(d)] = project(P[std::size_t(d)] * bake.Hrlf);
   const MatrixXd coefficients = project(Hlf);
   for (const Block& b : blocks)
-    bake.Rb_rlf[std::size_t(b.shape)][std::size_t(b.face)] = coefficients.middleRows(0, coefficients.rows()).middleCols(b.first_col, b.cols);
+    bake.Rb_rlf[std::size_t(b.shape)][std::size_t(b.face)] =
+        coefficients.middleRows(0, coefficients.rows()).middleCols(b.first_col, b.cols);
   stage("R operators");
 
   {
@@ -409,7 +466,8 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
     const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), res);
     const std::vector<int> perm = sample_permutation(dead_end, BlockSymmetry{true, 0});
     bake.G.resize(G.rows(), G.cols());
-    for (Eigen::Index r = 0; r < G.rows(); ++r) bake.G.row(r) = 0.5 * (G.row(r) + G_mirrored.row(perm[std::size_t(r)]));
+    for (Eigen::Index r = 0; r < G.rows(); ++r)
+      bake.G.row(r) = 0.5 * (G.row(r) + G_mirrored.row(perm[std::size_t(r)]));
   }
   Eigen::BDCSVD<MatrixXd> svd(bake.G, Eigen::ComputeThinU | Eigen::ComputeThinV);
   bake.sigma_G = svd.singularValues();
@@ -425,7 +483,13 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
   for (Eigen::Index i = 0; i < kr; ++i)
     if (bake.sigma_G(i) > 1e-12 * bake.sigma_G(0))
       bake.Urvol.col(i) = Gvol * svd.matrixV().col(i) / bake.sigma_G(i);
-  stage("response G, Ur, Trlf_r");
+  // Vector irradiance (MRT §6.4) of the same response, restricted to span(Vg~) like Urvol.
+  const MatrixXd Gvec = vector_response_to_lightfield(bake.Hrlf, res, settings);
+  bake.Ur_vec = MatrixXd::Zero(Gvec.rows(), settings.kr);
+  for (Eigen::Index i = 0; i < kr; ++i)
+    if (bake.sigma_G(i) > 1e-12 * bake.sigma_G(0))
+      bake.Ur_vec.col(i) = Gvec * svd.matrixV().col(i) / bake.sigma_G(i);
+  stage("response G, Ur, Trlf_r, Urvol, Ur_vec");
   return bake;
 }
 

@@ -96,7 +96,8 @@ void build_atlas(Level& level) {
           if (out_u != out_v) {
             const double u = (pi + 0.5) / res, v = (pj + 0.5) / res;
             const glm::dvec3 edge = face_point(f, std::clamp(u, 0.0, 1.0), std::clamp(v, 0.0, 1.0));
-            const glm::dvec3 out_dir = out_u ? (pi < 0 ? -fr.u_axis : fr.u_axis) : (pj < 0 ? -fr.v_axis : fr.v_axis);
+            const glm::dvec3 out_dir =
+                out_u ? (pi < 0 ? -fr.u_axis : fr.u_axis) : (pj < 0 ? -fr.v_axis : fr.v_axis);
             const int g = face_with_normal(-out_dir);
             if (face_present(layout.mask, g)) {
               src_sample = texel_sample(layout, g, edge + d * fr.normal);  // fold across the crease
@@ -112,7 +113,8 @@ void build_atlas(Level& level) {
               }
             }
           }
-          const std::uint32_t src = atlas.sample_texel[level.blocks[src_block].sample_offset + std::uint32_t(src_sample)];
+          const std::uint32_t src =
+              atlas.sample_texel[level.blocks[src_block].sample_offset + std::uint32_t(src_sample)];
           atlas.padding.push_back({dst, src});
         }
     }
@@ -157,6 +159,30 @@ Matrix turned_probe_response(const Matrix& Urvol, int grid, int face) {
   return to_float(out);
 }
 
+// Ur_vec (canonical entry -Z) turned so light enters through side face `face`. Rows keep
+// the dead end's sample order (a slot's ur_row_to_sample places them); the OHLSH linear
+// coefficients of each dead-end face are re-expressed in the frame of the face it lands on:
+// the gradient g = a3 u' + a1 v' (sh.h: y3 ~ x = u, y1 ~ y = v) turns with the block.
+Matrix turned_vector_response(const Matrix& Ur_vec, int res, int face) {
+  const int turns = turns_to_face(face);
+  const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), res);
+  Matrix out = Ur_vec;
+  for (int s = 0; s < dead_end.sample_count(); ++s) {
+    const int f = dead_end.face_of(s);
+    const FaceFrame& from = face_frame(f);
+    const FaceFrame& to = face_frame(rotate_face(f, turns));
+    const glm::dvec3 u = rotate_direction(from.u_axis, turns), v = rotate_direction(from.v_axis, turns);
+    const double uu = glm::dot(u, to.u_axis), vu = glm::dot(v, to.u_axis);
+    const double uv = glm::dot(u, to.v_axis), vv = glm::dot(v, to.v_axis);
+    for (std::uint32_t k = 0; k < Ur_vec.cols; ++k) {
+      const double a1 = Ur_vec(4 * std::uint32_t(s) + 1, k), a3 = Ur_vec(4 * std::uint32_t(s) + 3, k);
+      out(4 * std::uint32_t(s) + 3, k) = float(uu * a3 + vu * a1);
+      out(4 * std::uint32_t(s) + 1, k) = float(uv * a3 + vv * a1);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
@@ -187,7 +213,8 @@ LevelSampleGeometry level_sample_geometry(const Level& level) {
       g.position[k] = block_to_world(b, p);
       const int f = layout.face_of(s);
       const int t = s % layout.texels_per_face();
-      g.normal[k] = block_face_normal(b, f, (t % level.res + 0.5) / level.res, (t / level.res + 0.5) / level.res);
+      g.normal[k] =
+          block_face_normal(b, f, (t % level.res + 0.5) / level.res, (t / level.res + 0.5) / level.res);
       g.block[k] = int(bi);
       g.face[k] = f;
     }
@@ -200,8 +227,9 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
   Result<LevelConnectivity> connectivity = validate_level(description);
   if (!connectivity.ok()) return connectivity.status();
   if (dict.interfaces.empty())
-    return Status::error(ErrorCode::invalid_argument,
-                         "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
   if (settings.dmax < 0) return Status::error(ErrorCode::invalid_argument, "build_level: dmax must be >= 0");
 
   Level level;
@@ -214,7 +242,8 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
   for (std::size_t i = 0; i < count; ++i) {
     const BlockDescription& d = description.blocks[i];
     Result<ShapeOrientation> o = canonicalise_face_mask(d.faces);
-    if (!o.ok()) return Status::error(o.status().code(), "block " + std::to_string(i) + ": " + o.status().message());
+    if (!o.ok())
+      return Status::error(o.status().code(), "block " + std::to_string(i) + ": " + o.status().message());
     LevelBlock& b = level.blocks[i];
     b.shape = o->shape;
     b.quarter_turns = o->quarter_turns;
@@ -222,8 +251,9 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     b.corners = block_corners(description, d);
     for (int f = 0; f < kFaceCount; ++f) {
       const int world = rotate_face(f, b.quarter_turns);
-      b.neighbour[std::size_t(f)] =
-          connectivity->connected[i][std::size_t(world)] ? connectivity->neighbour[i][std::size_t(world)] : -1;
+      b.neighbour[std::size_t(f)] = connectivity->connected[i][std::size_t(world)]
+                                        ? connectivity->neighbour[i][std::size_t(world)]
+                                        : -1;
     }
     b.sample_offset = offset;
     b.sample_count = std::uint32_t(face_count(dictionary_shape_mask(b.shape)) * level.res * level.res);
@@ -266,7 +296,7 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
                                      to_eigen(dict.interfaces.R_right)};
   for (std::size_t src = 0; src < count; ++src) {
     const LevelBlock& sb = level.blocks[src];
-    std::map<int, MatrixXd> accumulated;  // slot -> krlf x kb lightfield sum
+    std::map<int, MatrixXd> accumulated;                     // slot -> krlf x kb lightfield sum
     std::map<std::pair<int, int>, MatrixXd> frontier, next;  // (block, canonical entry) -> krlf x kb
     auto add = [](std::map<std::pair<int, int>, MatrixXd>& m, std::pair<int, int> key, MatrixXd A) {
       auto [it, inserted] = m.try_emplace(key, std::move(A));
@@ -307,6 +337,9 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     for (int f : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ})
       level.probe_response[std::size_t(f)] =
           turned_probe_response(dict.interfaces.Urvol, int(dict.settings.probe_grid), f);
+  if (!dict.interfaces.Ur_vec.empty())
+    for (int f : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ})
+      level.vector_response[std::size_t(f)] = turned_vector_response(dict.interfaces.Ur_vec, level.res, f);
   std::stable_sort(level.records.begin(), level.records.end(),
                    [](const ResponseRecord& a, const ResponseRecord& b) { return a.slot < b.slot; });
   return level;

@@ -45,13 +45,13 @@ struct DictionarySettings {
   std::uint32_t probe_grid = 4;             // g: volume probes per block axis (g^3 probes)
   std::uint64_t seed = 0x6d6f647274ull;     // all sampling is deterministic given the seed
   // Interfaces (MRT §5, §7.1). lightfield_spatial = 0 bakes no interface operators.
-  std::uint32_t lightfield_spatial = 12;     // S: positions per interface edge (S^2)
-  std::uint32_t lightfield_directional = 24; // D: direction bins per edge of the concentric square (D^2)
-  std::uint32_t lightfield_supersample = 5;  // directional super-sampling per bin edge
-  std::uint32_t krlf = 128;                  // reduced lightfield modes
-  std::uint32_t kr = 32;                     // response modes
+  std::uint32_t lightfield_spatial = 12;      // S: positions per interface edge (S^2)
+  std::uint32_t lightfield_directional = 24;  // D: direction bins per edge of the concentric square (D^2)
+  std::uint32_t lightfield_supersample = 5;   // directional super-sampling per bin edge
+  std::uint32_t krlf = 128;                   // reduced lightfield modes
+  std::uint32_t kr = 32;                      // response modes
   std::uint32_t interface_enrichment_iterations = 3;
-  std::uint32_t response_rays = 4096;        // gather rays per sample for G = Frlf Hrlf
+  std::uint32_t response_rays = 4096;  // gather rays per sample for G = Frlf Hrlf
 
   bool operator==(const DictionarySettings&) const = default;
 };
@@ -63,11 +63,12 @@ Status validate_settings(const DictionarySettings& s);
 // SampleLayout for their order); kb = columns of Ub.
 struct ShapeOperators {
   FaceMask face_mask = kAllFaces;
-  Matrix Ub;      // n x kb: indirect light basis, Ub = Um~ Sm~ (MRT §4.1, eq. 3)
-  Matrix Td_b;    // kb x n: direct light -> b, Sm~^-1 Um~^T F P P^T (MRT §4.1, stable form)
-  Matrix Limp;    // n x kb: implicit lighting environment, Ub = F Limp (MRT §4.1)
-  Matrix Ub_vec;  // 4n x kb: OHLSH vector irradiance, row 4*s + i = coefficient i of sample s (MRT §6.4, App. B)
-  Matrix Ubvol;   // 9 g^3 x kb: radiance SH9 of the volume probes, row 9*p + j (MRT §6.5)
+  Matrix Ub;    // n x kb: indirect light basis, Ub = Um~ Sm~ (MRT §4.1, eq. 3)
+  Matrix Td_b;  // kb x n: direct light -> b, Sm~^-1 Um~^T F P P^T (MRT §4.1, stable form)
+  Matrix Limp;  // n x kb: implicit lighting environment, Ub = F Limp (MRT §4.1)
+  Matrix
+      Ub_vec;  // 4n x kb: OHLSH vector irradiance, row 4*s + i = coefficient i of sample s (MRT §6.4, App. B)
+  Matrix Ubvol;                // 9 g^3 x kb: radiance SH9 of the volume probes, row 9*p + j (MRT §6.5)
   std::vector<float> sigma_M;  // singular values of M = F P S (all of them, for reports)
   // Rb_rlf[f]: krlf x kb, b -> reduced lightfield leaving through missing side face f
   // (canonical frame); empty for present faces (MRT §5.1).
@@ -86,6 +87,7 @@ struct InterfaceOperators {
   Matrix Trlf_r;      // kr x krlf: reduced lightfield -> response coefficients r
   Matrix Ur;          // n(dead end) x kr: E_ind/pi on the dead-end shape's samples per r mode
   Matrix Urvol;       // 9 g^3 x kr: radiance SH9 at the dead end's volume probes per r mode
+  Matrix Ur_vec;      // 4n(dead end) x kr: OHLSH vector irradiance per r mode, Ub_vec's row layout
 
   bool empty() const { return Ur.empty(); }
 };

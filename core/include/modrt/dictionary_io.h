@@ -2,7 +2,7 @@
 // settings and every operator of a Dictionary (dictionary.h). It is written by modrt-bake
 // and by the dictionary cache, and read by every runtime. This comment is the contract.
 //
-// ## Layout (format version 1)
+// ## Layout (format version 2)
 //
 // All integers are little-endian, floats are IEEE-754 binary32 stored by their bit
 // pattern as a u32. Offsets are from the start of the file.
@@ -11,7 +11,7 @@
 //   off  type     field
 //     0  u8[8]    magic "MODRTDIC" (no terminator)
 //     8  u32      format version (kDictionaryFormatVersion)
-//    12  u32      header byte size (112 for version 1; the section table starts here)
+//    12  u32      header byte size (112 for versions 1 and 2; the section table starts here)
 //    16  u32      settings.res
 //    20  u32      settings.kd
 //    24  u32      settings.kb
@@ -56,16 +56,18 @@
 // sigma_M is stored as one row (rows = 1, cols = its length, possibly 0). The writer
 // places the payloads contiguously after the table in table order (shape 0..5: Ub, Td_b,
 // Limp, Ub_vec, Ubvol, sigma_M, Rb_rlf per missing side face in ascending face order; then
-// R_straight, R_left, R_right, Trlf_r, Ur, Urvol); readers must locate sections only through the
+// R_straight, R_left, R_right, Trlf_r, Ur, Urvol, Ur_vec); readers must locate sections only through the
 // table. Payloads lie after the table, inside the file.
 //
 // Required sections: every per-shape kind 1..6 for each of the 6 shapes; when
 // settings.lightfield_spatial > 0 also Rb_rlf for every missing side face of every shape
-// and the six interface operators (kinds 17..22); when it is 0, no interface sections.
+// and the seven interface operators (kinds 17..23); when it is 0, no interface sections.
 // Matrix sizes are implied by the settings (dictionary.h, validate_dictionary), with
 // n = face_count(shape mask) * res^2: Ub n x kb, Td_b kb x n, Limp n x kb, Ub_vec 4n x kb,
 // Ubvol 9 g^3 x kb (g = probe_grid), sigma_M 1 x (<= n), Rb_rlf krlf x kb,
-// R_* krlf x krlf, Trlf_r kr x krlf, Ur n(dead end) x kr, Urvol 9 g^3 x kr.
+// R_* krlf x krlf, Trlf_r kr x krlf, Ur n(dead end) x kr, Urvol 9 g^3 x kr, Ur_vec 4n(dead end) x kr.
+//
+// Version history: version 1 had no Ur_vec; its files are refused (version_mismatch: re-bake).
 //
 // Float16 (DictionaryWriteOptions::float16) stores every matrix as binary16 except
 // sigma_M, which is always float32. A value outside the float16 range is a save error,
@@ -95,7 +97,7 @@
 
 namespace modrt {
 
-inline constexpr std::uint32_t kDictionaryFormatVersion = 1;
+inline constexpr std::uint32_t kDictionaryFormatVersion = 2;
 inline constexpr char kDictionaryMagic[8] = {'M', 'O', 'D', 'R', 'T', 'D', 'I', 'C'};
 inline constexpr std::size_t kDictionaryHeaderBytes = 112;
 inline constexpr std::size_t kDictionarySectionEntryBytes = 48;
@@ -104,7 +106,7 @@ inline constexpr std::uint32_t kNoShape = 0xFFFFFFFFu;
 inline constexpr std::uint64_t kMaxDictionaryFileBytes = std::uint64_t(2) << 30;  // 2 GiB
 
 // Section kinds. 1..15 are per-shape operators (7..15 reserved); 16..31 interface
-// operators (MRT §5; 23..31 reserved, e.g. Hrlf). A kind this build does not know is
+// operators (MRT §5; 24..31 reserved, e.g. Hrlf). A kind this build does not know is
 // an error ("unknown section kind K"): new kinds come with a new format version.
 enum class DictionarySectionKind : std::uint32_t {
   Ub = 1,
@@ -119,7 +121,8 @@ enum class DictionarySectionKind : std::uint32_t {
   R_right = 19,
   Trlf_r = 20,
   Ur = 21,
-  Urvol = 22,       // probe response, 9 g^3 x kr
+  Urvol = 22,   // probe response, 9 g^3 x kr
+  Ur_vec = 23,  // OHLSH vector irradiance response, 4n(dead end) x kr (since version 2)
 };
 // "Ub", "Rb_rlf", ...; nullptr for an unknown kind.
 const char* dictionary_section_name(std::uint32_t kind);
@@ -131,10 +134,12 @@ struct DictionaryWriteOptions {
 };
 
 // The whole file in memory. Validates the dictionary first (validate_dictionary).
-Result<std::vector<std::byte>> serialize_dictionary(const Dictionary& dict, const DictionaryWriteOptions& options = {});
+Result<std::vector<std::byte>> serialize_dictionary(const Dictionary& dict,
+                                                    const DictionaryWriteOptions& options = {});
 
 // Validates, serializes and writes atomically (write_file_atomic). Messages start with path.
-Status save_dictionary(const std::string& path, const Dictionary& dict, const DictionaryWriteOptions& options = {});
+Status save_dictionary(const std::string& path, const Dictionary& dict,
+                       const DictionaryWriteOptions& options = {});
 
 // Parses and fully validates a dictionary file image; `what` (e.g. the path) starts
 // every message. Never trusts a size before checking it against the file and settings.

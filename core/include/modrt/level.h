@@ -17,10 +17,10 @@
 namespace modrt {
 
 struct LevelBlock {
-  int shape = 0;                          // dictionary shape index
-  int quarter_turns = 0;                  // world = rotate(canonical, quarter_turns)
+  int shape = 0;          // dictionary shape index
+  int quarter_turns = 0;  // world = rotate(canonical, quarter_turns)
   glm::ivec3 cell{0};
-  std::array<glm::dvec3, 8> corners{};    // world corners (x + 2y + 4z), see level_description.h
+  std::array<glm::dvec3, 8> corners{};      // world corners (x + 2y + 4z), see level_description.h
   std::array<int, kFaceCount> neighbour{};  // per canonical face: connected block, or -1
   std::uint32_t sample_offset = 0;
   std::uint32_t sample_count = 0;
@@ -50,7 +50,7 @@ struct PaddingRecord {
 
 struct LightmapAtlas {
   int width = 0, height = 0;
-  int tile = 0;                            // res + 2 (1-texel padding on each side)
+  int tile = 0;  // res + 2 (1-texel padding on each side)
   // Atlas texel of each level sample (the unpadded interior of its face's tile).
   std::vector<std::uint32_t> sample_texel;
   // Tile origin (top-left padded texel) per block and canonical face; -1 when missing.
@@ -68,6 +68,10 @@ struct Level {
   // Urvol turned so that light enters through canonical side face e (probe positions
   // permuted, SH9 rotated): 9 g^3 x kr per side face, empty for floor and ceiling.
   std::array<Matrix, kFaceCount> probe_response;
+  // Ur_vec turned so that light enters through canonical side face e: 4n(dead end) x kr per
+  // side face, rows in the dead end's sample order (placed by ur_row_to_sample), OHLSH
+  // coefficients in the frame of the face each row lands on; empty for floor and ceiling.
+  std::array<Matrix, kFaceCount> vector_response;
   LightmapAtlas atlas;
 };
 

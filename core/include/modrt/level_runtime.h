@@ -16,6 +16,7 @@ namespace modrt {
 // Sizes of the per-frame buffers a caller allocates once.
 struct LevelBufferSizes {
   std::size_t ld = 0, b = 0, r = 0, lightmap = 0, atlas = 0, probes = 0;
+  std::size_t vector_lightmap = 0;  // 12 per sample: 4 OHLSH coefficients x RGB
 };
 LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict);
 
@@ -27,15 +28,16 @@ Status check_level_matches(const Level& level, const Dictionary& dict);
 Status check_level_operators(const Level& level, const Dictionary& dict);
 
 // Step 2: b = Td_b ld per block. Validates ld.
-Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b);
+Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                       std::span<float> b);
 // Step 4: r = Tb->r b (records summed per slot).
 void level_compute_r(const Level& level, std::span<const float> b, std::span<float> r);
 // Steps 3 and 5: lightmap = Ub b + Ur r (rotated onto each slot's entry face).
 void level_compute_lightmap(const Level& level, const Dictionary& dict, std::span<const float> b,
                             std::span<const float> r, std::span<float> lightmap);
 // Steps 2–5 in one call.
-Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld, std::span<float> b,
-                      std::span<float> r, std::span<float> lightmap);
+Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                      std::span<float> b, std::span<float> r, std::span<float> lightmap);
 
 // Multi-bounce feedback for a level, as multi_bounce() for one block (same clamps). This is
 // the oracle: it iterates to convergence and allocates its scratch per call. Per-frame code
@@ -53,5 +55,15 @@ void level_fill_atlas(const Level& level, std::span<const float> lightmap, std::
 // for light from the block itself plus the probe response to every slot's r.
 void level_compute_probes(const Level& level, const Dictionary& dict, std::span<const float> b,
                           std::span<const float> r, std::span<float> probes);
+
+// Step 9, vector irradiance (MRT §6.4): OHLSH E/pi per sample in its face frame (sh.h),
+// from the b and r of level_evaluate: Ub_vec b per block plus every slot's turned
+// Ur_vec r (Level::vector_response). Layout: vector_lightmap[3 (4 s + i) + c] = coefficient
+// i of sample s, channel c (sizes().vector_lightmap floats). ohlsh_eval of a sample's four
+// coefficients at its face normal (0, 0, 1) approximates the scalar lightmap there; a
+// normal map's normal gives the bumped irradiance. Fails (invalid_argument) when the
+// dictionary or level has no vector operators of the expected sizes, or on wrong sizes.
+Status level_compute_vector_irradiance(const Level& level, const Dictionary& dict, std::span<const float> b,
+                                       std::span<const float> r, std::span<float> vector_lightmap);
 
 }  // namespace modrt

@@ -26,11 +26,11 @@
 namespace modrt::precompute {
 
 struct InterfaceSettings {
-  int spatial = 12;          // S: positions per interface edge (12^2)
-  int directional = 24;      // D: direction bins per square edge (24^2)
-  int supersample = 5;       // directional super-sampling per bin edge (5^2)
-  int krlf = 128;            // reduced lightfield modes (columns of Hrlf)
-  int kr = 32;               // response modes (columns of Ur)
+  int spatial = 12;      // S: positions per interface edge (12^2)
+  int directional = 24;  // D: direction bins per square edge (24^2)
+  int supersample = 5;   // directional super-sampling per bin edge (5^2)
+  int krlf = 128;        // reduced lightfield modes (columns of Hrlf)
+  int kr = 32;           // response modes (columns of Ur)
   int enrichment_iterations = 3;
   int response_rays = 4096;  // gather rays per sample for G = Frlf Hrlf
   int probe_grid = 4;        // g: volume probes per axis of the receiving cell
@@ -59,15 +59,16 @@ int turns_to_face(int face);
 // Operators in double, before conversion to the dictionary's floats.
 struct InterfaceBake {
   InterfaceSettings settings;
-  MatrixXd Hrlf;                                 // s x krlf (enriched)
-  std::array<MatrixXd, 3> R;                     // krlf x krlf, indexed by Propagation
+  MatrixXd Hrlf;              // s x krlf (enriched)
+  std::array<MatrixXd, 3> R;  // krlf x krlf, indexed by Propagation
   // Rb_rlf[shape][face]: krlf x kb for each missing side face of each dictionary shape.
   std::array<std::array<MatrixXd, kFaceCount>, kDictionaryShapeCount> Rb_rlf;
-  MatrixXd G;                                    // n(dead end) x krlf response to Hrlf
-  MatrixXd Ur;                                   // n(dead end) x kr
-  MatrixXd Trlf_r;                               // kr x krlf
-  MatrixXd Urvol;                                // 9 g^3 x kr probe response (SH9 radiance)
-  VectorXd sigma_lf;                             // singular values of the raw Hlf
+  MatrixXd G;         // n(dead end) x krlf response to Hrlf
+  MatrixXd Ur;        // n(dead end) x kr
+  MatrixXd Trlf_r;    // kr x krlf
+  MatrixXd Urvol;     // 9 g^3 x kr probe response (SH9 radiance)
+  MatrixXd Ur_vec;    // 4n(dead end) x kr OHLSH vector irradiance response
+  VectorXd sigma_lf;  // singular values of the raw Hlf
   VectorXd sigma_G;
 };
 
@@ -79,12 +80,16 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
 
 // --- pieces, exposed for tests ---
 // Lightfield leaving `shape_mask`'s missing face `face` for each column of Limp.
-MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res, const InterfaceSettings& s);
+MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res,
+                         const InterfaceSettings& s);
 // P_dir: resamples a lightfield entering through -Z to the given exit face (free space).
 SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s);
 MatrixXd propagate_lightfield(const MatrixXd& in, Propagation dir, const InterfaceSettings& s);
 // Frlf * in: E/pi at the samples of the dead-end shape lit by lightfields entering through -Z.
 MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);
+// The same response as OHLSH vector irradiance E/pi in each sample's face frame (sh.h):
+// 4n x in.cols(), row 4 s + i = coefficient i of sample s.
+MatrixXd vector_response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);
 // Radiance SH9 at the dead end's g^3 volume probes (sh_operators.h layout) lit by
 // lightfields entering through -Z: 9 g^3 x in.cols().
 MatrixXd probe_response_to_lightfield(const MatrixXd& in, const InterfaceSettings& s);
