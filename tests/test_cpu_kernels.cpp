@@ -158,6 +158,64 @@ TEST(CpuKernels, FeedbackIsBitIdenticalToReference) {
   }
 }
 
+// signal_change: the maxima equal the scalar twin's exactly; the sums are upper bounds on the
+// exact sums (long double), within 2e-5 of them.
+TEST(CpuKernels, SignalChangeBoundsTheExactSums) {
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(11);
+    for (std::size_t n : {0u, 1u, 3u, 4u, 7u, 8u, 9u, 63u, 64u, 65u, 100u, 1537u, 4099u}) {
+      const std::vector<float> ld = random_vector(rng, n, 0.0f, 2.0f);
+      std::vector<float> ref = random_vector(rng, n, 0.0f, 2.0f);
+      for (std::size_t i = 0; i < n; i += 3) ref[i] = ld[i];  // some unchanged values
+      long double sum_sq = 0, sum_sq_diff = 0;
+      float max = 0.0f, max_diff = 0.0f;
+      for (std::size_t i = 0; i < n; ++i) {
+        sum_sq += (long double)ld[i] * ld[i];
+        sum_sq_diff += ((long double)ld[i] - ref[i]) * ((long double)ld[i] - ref[i]);
+        max = std::max(max, ld[i]);
+        max_diff = std::max(max_diff, std::abs(ld[i] - ref[i]));
+      }
+      const SignalChange c = signal_change(isa, ld.data(), ref.data(), n);
+      const std::string what = std::string(isa_name(isa)) + " n " + std::to_string(n);
+      EXPECT_EQ(c.max, max) << what;
+      EXPECT_EQ(c.max_diff, max_diff) << what;
+      EXPECT_GE((long double)c.sum_sq, sum_sq) << what;
+      EXPECT_LE((long double)c.sum_sq, sum_sq * (1 + 2e-5L)) << what;
+      EXPECT_GE((long double)c.sum_sq_diff, sum_sq_diff) << what;
+      EXPECT_LE((long double)c.sum_sq_diff, sum_sq_diff * (1 + 2e-5L)) << what;
+    }
+    // Unchanged signal: no difference at all.
+    const std::vector<float> same = random_vector(rng, 77, 0.0f, 1.0f);
+    const SignalChange c = signal_change(isa, same.data(), same.data(), same.size());
+    EXPECT_EQ(c.max_diff, 0.0f) << isa_name(isa);
+    EXPECT_EQ(c.sum_sq_diff, 0.0) << isa_name(isa);
+  }
+}
+
+// finite_nonnegative: one bad value anywhere (vector body or tail) is found; -0 is fine.
+TEST(CpuKernels, FiniteNonnegativeFindsEveryBadValue) {
+  const float bad[] = {-1.0f, -1e-30f, std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()};
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(3);
+    for (std::size_t n : {0u, 1u, 5u, 8u, 13u, 64u, 67u}) {
+      std::vector<float> v = random_vector(rng, n, 0.0f, 1.0f);
+      EXPECT_TRUE(finite_nonnegative(isa, v.data(), n)) << isa_name(isa) << " " << n;
+      if (n == 0) continue;
+      v[n / 2] = -0.0f;
+      v[0] = std::numeric_limits<float>::max();
+      EXPECT_TRUE(finite_nonnegative(isa, v.data(), n)) << isa_name(isa) << " " << n;
+      for (std::size_t at : {std::size_t(0), n / 2, n - 1})
+        for (float b : bad) {
+          std::vector<float> w = v;
+          w[at] = b;
+          EXPECT_FALSE(finite_nonnegative(isa, w.data(), n))
+              << isa_name(isa) << " n " << n << " at " << at << " " << b;
+        }
+    }
+  }
+}
+
 TEST(CpuKernels, PaddingCopiesInRecordOrder) {
   // 4 texels; record 2 reads texel 1, written by record 1: order matters.
   std::vector<float> atlas = {1, 2, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0};

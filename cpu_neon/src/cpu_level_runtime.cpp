@@ -219,7 +219,9 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
 
 Status CpuLevelRuntime::evaluate(std::span<const float> ld, std::span<float> lightmap) {
   const Level& level = *level_;
-  if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
+  // SIMD check first; core's validation (which names the bad value) only when it fails.
+  if (ld.size() != sizes_.ld || !finite_nonnegative(isa_, ld.data(), ld.size()))
+    if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
   if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
 
   if (skip_.enabled) {
@@ -261,19 +263,9 @@ void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int
   float* b = b_.data() + 3 * kb * i;
   float* bp = b_planar_.data() + 3 * kb * i;
   const bool force = !skip_state_valid_;
-  // Per channel: max ld, max |ld - ld_ref|; and the squared L2 norms of ld and of ld - ld_ref.
-  float m[3] = {0.0f, 0.0f, 0.0f}, d[3] = {0.0f, 0.0f, 0.0f};
-  double m2 = 0.0, d2 = 0.0;
-  for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t c = 0; c < 3; ++c) {
-      const float v = l[3 * k + c];
-      const double e = double(v) - ref[3 * k + c];
-      m[c] = std::max(m[c], v);
-      d[c] = std::max(d[c], std::abs(v - ref[3 * k + c]));
-      m2 += double(v) * v;
-      d2 += e * e;
-    }
-  const float m_all = std::max({m[0], m[1], m[2]}), d_all = std::max({d[0], d[1], d[2]});
+  const SignalChange change = signal_change(isa_, l, ref, 3 * n);
+  const float m_all = change.max, d_all = change.max_diff;
+  const double m2 = change.sum_sq, d2 = change.sum_sq_diff;
   if (m_all <= skip_.dark_ld) {  // (b) dark: b = 0, which is Td_b times an ld_ref of 0
     block_action_[i] = kDark;
     const bool was_zero = std::all_of(b, b + 3 * kb, [](float v) { return v == 0.0f; });

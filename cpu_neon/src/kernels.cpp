@@ -3,6 +3,8 @@
 #include "modrt/cpu/kernels.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "simd_config.h"
 
@@ -86,6 +88,27 @@ bool feedback_scalar(const float* ld_direct, const float* rho, const float* ligh
   return clamped;
 }
 
+// Margin that turns the rounded sums of squares into upper bounds (kernels.h).
+constexpr double kSumMargin = 1.0 + 1e-5;
+
+SignalChange signal_change_scalar(const float* ld, const float* ref, std::size_t count, SignalChange acc) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const float v = ld[i];
+    const double e = double(v) - ref[i];
+    acc.max = std::max(acc.max, v);
+    acc.max_diff = std::max(acc.max_diff, std::abs(v - ref[i]));
+    acc.sum_sq += double(v) * v;
+    acc.sum_sq_diff += e * e;
+  }
+  return acc;
+}
+
+bool finite_nonnegative_scalar(const float* v, std::size_t count) {
+  bool ok = true;
+  for (std::size_t i = 0; i < count; ++i) ok &= v[i] >= 0.0f && v[i] <= std::numeric_limits<float>::max();
+  return ok;
+}
+
 #if MODRT_CPU_X86
 
 // ---- AVX2 + FMA: 8 columns per step, 4 rows x 3 channels = 12 accumulators ----
@@ -95,8 +118,9 @@ MODRT_TARGET_AVX2 inline __m128 hsum4_avx(__m256 a, __m256 b, __m256 c, __m256 d
   return _mm_add_ps(_mm256_castps256_ps128(t), _mm256_extractf128_ps(t, 1));
 }
 
-MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
-                std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
+MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                                 const float* x, std::size_t stride, float* out, const std::int32_t* map,
+                                 bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
   const float* xb = x + 2 * stride;
@@ -113,13 +137,17 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
       for (std::size_t k = k0; k < k1; k += 8) {
         const __m256 vr = _mm256_loadu_ps(xr + k), vg = _mm256_loadu_ps(xg + k), vb = _mm256_loadu_ps(xb + k);
         __m256 v = _mm256_loadu_ps(a[0] + k);
-        c0r = _mm256_fmadd_ps(v, vr, c0r), c0g = _mm256_fmadd_ps(v, vg, c0g), c0b = _mm256_fmadd_ps(v, vb, c0b);
+        c0r = _mm256_fmadd_ps(v, vr, c0r), c0g = _mm256_fmadd_ps(v, vg, c0g),
+        c0b = _mm256_fmadd_ps(v, vb, c0b);
         v = _mm256_loadu_ps(a[1] + k);
-        c1r = _mm256_fmadd_ps(v, vr, c1r), c1g = _mm256_fmadd_ps(v, vg, c1g), c1b = _mm256_fmadd_ps(v, vb, c1b);
+        c1r = _mm256_fmadd_ps(v, vr, c1r), c1g = _mm256_fmadd_ps(v, vg, c1g),
+        c1b = _mm256_fmadd_ps(v, vb, c1b);
         v = _mm256_loadu_ps(a[2] + k);
-        c2r = _mm256_fmadd_ps(v, vr, c2r), c2g = _mm256_fmadd_ps(v, vg, c2g), c2b = _mm256_fmadd_ps(v, vb, c2b);
+        c2r = _mm256_fmadd_ps(v, vr, c2r), c2g = _mm256_fmadd_ps(v, vg, c2g),
+        c2b = _mm256_fmadd_ps(v, vb, c2b);
         v = _mm256_loadu_ps(a[3] + k);
-        c3r = _mm256_fmadd_ps(v, vr, c3r), c3g = _mm256_fmadd_ps(v, vg, c3g), c3b = _mm256_fmadd_ps(v, vb, c3b);
+        c3r = _mm256_fmadd_ps(v, vr, c3r), c3g = _mm256_fmadd_ps(v, vg, c3g),
+        c3b = _mm256_fmadd_ps(v, vb, c3b);
       }
       alignas(16) float fr[4], fg[4], fb[4];
       _mm_store_ps(fr, hsum4_avx(c0r, c1r, c2r, c3r));
@@ -160,8 +188,8 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
   }
 }
 
-MODRT_TARGET_AVX2 bool feedback_avx2(const float* ld_direct, const float* rho, const float* lightmap, float bound,
-                                     float* ld, std::size_t count) {
+MODRT_TARGET_AVX2 bool feedback_avx2(const float* ld_direct, const float* rho, const float* lightmap,
+                                     float bound, float* ld, std::size_t count) {
   const __m256 zero = _mm256_setzero_ps(), vbound = _mm256_set1_ps(bound);
   __m256 hit = zero;
   std::size_t i = 0;
@@ -182,10 +210,13 @@ MODRT_TARGET_SSE41 inline __m128 hsum4_sse(__m128 a, __m128 b, __m128 c, __m128 
   return _mm_hadd_ps(_mm_hadd_ps(a, b), _mm_hadd_ps(c, d));
 }
 
-MODRT_TARGET_SSE41 inline __m128 madd_sse(__m128 a, __m128 b, __m128 c) { return _mm_add_ps(_mm_mul_ps(a, b), c); }
+MODRT_TARGET_SSE41 inline __m128 madd_sse(__m128 a, __m128 b, __m128 c) {
+  return _mm_add_ps(_mm_mul_ps(a, b), c);
+}
 
-MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
-                std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
+MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                                   const float* x, std::size_t stride, float* out, const std::int32_t* map,
+                                   bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
   const float* xb = x + 2 * stride;
@@ -249,8 +280,8 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
   }
 }
 
-MODRT_TARGET_SSE41 bool feedback_sse41(const float* ld_direct, const float* rho, const float* lightmap, float bound,
-                                       float* ld, std::size_t count) {
+MODRT_TARGET_SSE41 bool feedback_sse41(const float* ld_direct, const float* rho, const float* lightmap,
+                                       float bound, float* ld, std::size_t count) {
   const __m128 zero = _mm_setzero_ps(), vbound = _mm_set1_ps(bound);
   __m128 hit = zero;
   std::size_t i = 0;
@@ -262,6 +293,97 @@ MODRT_TARGET_SSE41 bool feedback_sse41(const float* ld_direct, const float* rho,
   }
   const bool clamped = _mm_movemask_ps(hit) != 0;
   return feedback_scalar(ld_direct + i, rho + i, lightmap + i, bound, ld + i, count - i) || clamped;
+}
+
+MODRT_TARGET_AVX2 inline float hsum8_avx(__m256 a) {
+  __m128 s = _mm_add_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+  s = _mm_hadd_ps(s, s);
+  return _mm_cvtss_f32(_mm_hadd_ps(s, s));
+}
+
+MODRT_TARGET_AVX2 inline float hmax8_avx(__m256 a) {
+  __m128 m = _mm_max_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+  m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+  return _mm_cvtss_f32(_mm_max_ss(m, _mm_shuffle_ps(m, m, 1)));
+}
+
+MODRT_TARGET_AVX2 SignalChange signal_change_avx2(const float* ld, const float* ref, std::size_t count) {
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  __m256 mx = _mm256_setzero_ps(), md = mx;
+  SignalChange out;
+  const std::size_t kv = count & ~std::size_t(8 - 1);
+  for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
+    const std::size_t k1 = std::min(k0 + kBlock, kv);
+    __m256 sm = _mm256_setzero_ps(), sd = sm;
+    for (std::size_t k = k0; k < k1; k += 8) {
+      const __m256 v = _mm256_loadu_ps(ld + k), e = _mm256_sub_ps(v, _mm256_loadu_ps(ref + k));
+      mx = _mm256_max_ps(mx, v);
+      md = _mm256_max_ps(md, _mm256_andnot_ps(sign, e));
+      sm = _mm256_fmadd_ps(v, v, sm);
+      sd = _mm256_fmadd_ps(e, e, sd);
+    }
+    out.sum_sq += hsum8_avx(sm);
+    out.sum_sq_diff += hsum8_avx(sd);
+  }
+  out.max = hmax8_avx(mx);
+  out.max_diff = hmax8_avx(md);
+  return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
+}
+
+MODRT_TARGET_AVX2 bool finite_nonnegative_avx2(const float* v, std::size_t count) {
+  const __m256 zero = _mm256_setzero_ps(), big = _mm256_set1_ps(std::numeric_limits<float>::max());
+  __m256 ok = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+  std::size_t i = 0;
+  for (; i + 8 <= count; i += 8) {
+    const __m256 x = _mm256_loadu_ps(v + i);  // ordered compares: NaN fails both
+    ok = _mm256_and_ps(ok,
+                       _mm256_and_ps(_mm256_cmp_ps(x, zero, _CMP_GE_OQ), _mm256_cmp_ps(x, big, _CMP_LE_OQ)));
+  }
+  return _mm256_movemask_ps(ok) == 0xff && finite_nonnegative_scalar(v + i, count - i);
+}
+
+MODRT_TARGET_SSE41 inline float hsum4_one_sse(__m128 a) {
+  a = _mm_hadd_ps(a, a);
+  return _mm_cvtss_f32(_mm_hadd_ps(a, a));
+}
+
+MODRT_TARGET_SSE41 inline float hmax4_sse(__m128 m) {
+  m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+  return _mm_cvtss_f32(_mm_max_ss(m, _mm_shuffle_ps(m, m, 1)));
+}
+
+MODRT_TARGET_SSE41 SignalChange signal_change_sse41(const float* ld, const float* ref, std::size_t count) {
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  __m128 mx = _mm_setzero_ps(), md = mx;
+  SignalChange out;
+  const std::size_t kv = count & ~std::size_t(4 - 1);
+  for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
+    const std::size_t k1 = std::min(k0 + kBlock, kv);
+    __m128 sm = _mm_setzero_ps(), sd = sm;
+    for (std::size_t k = k0; k < k1; k += 4) {
+      const __m128 v = _mm_loadu_ps(ld + k), e = _mm_sub_ps(v, _mm_loadu_ps(ref + k));
+      mx = _mm_max_ps(mx, v);
+      md = _mm_max_ps(md, _mm_andnot_ps(sign, e));
+      sm = madd_sse(v, v, sm);
+      sd = madd_sse(e, e, sd);
+    }
+    out.sum_sq += hsum4_one_sse(sm);
+    out.sum_sq_diff += hsum4_one_sse(sd);
+  }
+  out.max = hmax4_sse(mx);
+  out.max_diff = hmax4_sse(md);
+  return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
+}
+
+MODRT_TARGET_SSE41 bool finite_nonnegative_sse41(const float* v, std::size_t count) {
+  const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(std::numeric_limits<float>::max());
+  __m128 ok = _mm_castsi128_ps(_mm_set1_epi32(-1));
+  std::size_t i = 0;
+  for (; i + 4 <= count; i += 4) {
+    const __m128 x = _mm_loadu_ps(v + i);
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(x, zero), _mm_cmple_ps(x, big)));
+  }
+  return _mm_movemask_ps(ok) == 0xf && finite_nonnegative_scalar(v + i, count - i);
 }
 
 #endif  // MODRT_CPU_X86
@@ -277,7 +399,7 @@ inline float32x4_t hsum4_neon(float32x4_t a, float32x4_t b, float32x4_t c, float
 inline float32x4_t fma_neon(float32x4_t a, float32x4_t b, float32x4_t acc) { return vfmaq_f32(acc, a, b); }
 
 void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
-                std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
+               std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
   const float* xb = x + 2 * stride;
@@ -350,16 +472,50 @@ bool feedback_neon(const float* ld_direct, const float* rho, const float* lightm
     const float32x4_t l = vmaxq_f32(vld1q_f32(lightmap + i), zero);
     hit = vorrq_u32(hit, vcgtq_f32(l, vbound));
     // vmulq + vaddq, not vfmaq: bit-identical to the reference.
-    vst1q_f32(ld + i, vaddq_f32(vld1q_f32(ld_direct + i), vmulq_f32(vld1q_f32(rho + i), vminq_f32(l, vbound))));
+    vst1q_f32(ld + i,
+              vaddq_f32(vld1q_f32(ld_direct + i), vmulq_f32(vld1q_f32(rho + i), vminq_f32(l, vbound))));
   }
   const bool clamped = vmaxvq_u32(hit) != 0;
   return feedback_scalar(ld_direct + i, rho + i, lightmap + i, bound, ld + i, count - i) || clamped;
 }
 
+SignalChange signal_change_neon(const float* ld, const float* ref, std::size_t count) {
+  float32x4_t mx = vdupq_n_f32(0.0f), md = mx;
+  SignalChange out;
+  const std::size_t kv = count & ~std::size_t(4 - 1);
+  for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
+    const std::size_t k1 = std::min(k0 + kBlock, kv);
+    float32x4_t sm = vdupq_n_f32(0.0f), sd = sm;
+    for (std::size_t k = k0; k < k1; k += 4) {
+      const float32x4_t v = vld1q_f32(ld + k), e = vsubq_f32(v, vld1q_f32(ref + k));
+      mx = vmaxq_f32(mx, v);
+      md = vmaxq_f32(md, vabsq_f32(e));
+      sm = fma_neon(v, v, sm);
+      sd = fma_neon(e, e, sd);
+    }
+    out.sum_sq += vaddvq_f32(sm);
+    out.sum_sq_diff += vaddvq_f32(sd);
+  }
+  out.max = vmaxvq_f32(mx);
+  out.max_diff = vmaxvq_f32(md);
+  return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
+}
+
+bool finite_nonnegative_neon(const float* v, std::size_t count) {
+  const float32x4_t zero = vdupq_n_f32(0.0f), big = vdupq_n_f32(std::numeric_limits<float>::max());
+  uint32x4_t ok = vdupq_n_u32(0xffffffffu);
+  std::size_t i = 0;
+  for (; i + 4 <= count; i += 4) {
+    const float32x4_t x = vld1q_f32(v + i);  // ordered compares: NaN fails both
+    ok = vandq_u32(ok, vandq_u32(vcgeq_f32(x, zero), vcleq_f32(x, big)));
+  }
+  return vminvq_u32(ok) == 0xffffffffu && finite_nonnegative_scalar(v + i, count - i);
+}
+
 #endif  // MODRT_CPU_NEON
 
-void gemv_dispatch(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
-                   std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
+void gemv_dispatch(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                   const float* x, std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   if (rows == 0) return;
   switch (isa_supported(isa) ? isa : Isa::scalar) {
 #if MODRT_CPU_X86
@@ -383,8 +539,8 @@ void deinterleave_rgb(const float* rgb, std::size_t n, float* planar, std::size_
   }
 }
 
-void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* planar,
-              std::size_t stride, float* out, bool accumulate) {
+void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+              const float* planar, std::size_t stride, float* out, bool accumulate) {
   gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, nullptr, accumulate);
 }
 
@@ -395,12 +551,13 @@ void gemv_rgb_interleaved(Isa isa, const Matrix& A, const float* in, float* out,
 }
 
 void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
-                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out) {
+                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride,
+                      float* out) {
   gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, true);
 }
 
-bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound, float* ld,
-                  std::size_t count) {
+bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound,
+                  float* ld, std::size_t count) {
   switch (isa_supported(isa) ? isa : Isa::scalar) {
 #if MODRT_CPU_X86
     case Isa::avx2: return feedback_avx2(ld_direct, rho, lightmap, bound, ld, count);
@@ -410,6 +567,36 @@ bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float
     case Isa::neon: return feedback_neon(ld_direct, rho, lightmap, bound, ld, count);
 #endif
     default: return feedback_scalar(ld_direct, rho, lightmap, bound, ld, count);
+  }
+}
+
+SignalChange signal_change(Isa isa, const float* ld, const float* ref, std::size_t count) {
+  SignalChange c;
+  switch (isa_supported(isa) ? isa : Isa::scalar) {
+#if MODRT_CPU_X86
+    case Isa::avx2: c = signal_change_avx2(ld, ref, count); break;
+    case Isa::sse41: c = signal_change_sse41(ld, ref, count); break;
+#endif
+#if MODRT_CPU_NEON
+    case Isa::neon: c = signal_change_neon(ld, ref, count); break;
+#endif
+    default: c = signal_change_scalar(ld, ref, count, SignalChange{}); break;
+  }
+  c.sum_sq *= kSumMargin;
+  c.sum_sq_diff *= kSumMargin;
+  return c;
+}
+
+bool finite_nonnegative(Isa isa, const float* v, std::size_t count) {
+  switch (isa_supported(isa) ? isa : Isa::scalar) {
+#if MODRT_CPU_X86
+    case Isa::avx2: return finite_nonnegative_avx2(v, count);
+    case Isa::sse41: return finite_nonnegative_sse41(v, count);
+#endif
+#if MODRT_CPU_NEON
+    case Isa::neon: return finite_nonnegative_neon(v, count);
+#endif
+    default: return finite_nonnegative_scalar(v, count);
   }
 }
 

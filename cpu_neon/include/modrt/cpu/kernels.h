@@ -36,8 +36,8 @@ constexpr std::size_t gemv_scratch_bound(std::size_t cols) { return 3 * cols; }
 
 // out[3 r + c] (+)= sum_k A[r * lda + k] * planar[c * stride + k], r < rows, k < cols.
 // A is row-major with leading dimension lda >= cols. accumulate: add to out, else overwrite.
-void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* planar,
-              std::size_t stride, float* out, bool accumulate);
+void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+              const float* planar, std::size_t stride, float* out, bool accumulate);
 
 // The same with an interleaved input in[3 k + c]; `scratch` holds gemv_scratch_bound(A.cols)
 // floats (the planar copy of `in`).
@@ -53,8 +53,23 @@ void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t col
 // Multi-bounce feedback over `count` floats (3 x samples, interleaved):
 // ld[i] = ld_direct[i] + rho[i] * min(max(lightmap[i], 0), bound). Returns true when the bound
 // clamped some value. Bit-identical to core's apply_feedback on every ISA (no FMA contraction).
-bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound, float* ld,
-                  std::size_t count);
+bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound,
+                  float* ld, std::size_t count);
+
+// How far a signal moved from a reference (the skip tests of CpuLevelRuntime), over `count`
+// floats with ld >= 0: max ld, max |ld - ref|, and upper bounds on sum ld^2 and on
+// sum (ld - ref)^2 (the SIMD variants sum in float within 64-element blocks and into double
+// across them; every variant scales the sums by 1 + 1e-5, far above that rounding, so they
+// never fall below the exact sums).
+struct SignalChange {
+  float max = 0.0f, max_diff = 0.0f;
+  double sum_sq = 0.0, sum_sq_diff = 0.0;
+};
+SignalChange signal_change(Isa isa, const float* ld, const float* ref, std::size_t count);
+
+// True when all `count` floats are finite and >= 0 (-0 included): the fast path of light
+// signal validation; a false answer is then explained by core's validate_light_signal.
+bool finite_nonnegative(Isa isa, const float* v, std::size_t count);
 
 // Atlas padding (SPEC §5 step 6): atlas[3 dst + c] = atlas[3 src + c], records applied in
 // order (corner records read texels written by earlier edge records). Scalar on every ISA:
