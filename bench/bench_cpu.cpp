@@ -11,7 +11,7 @@
 //                                              (120 precomputed frames of shadowed direct light,
 //                                              cycled): mode 0 full path, 1 exact skipping,
 //                                              2 approximate skipping (ld_epsilon 0.05, dark_ld
-//                                              1e-3 max ld, record_epsilon 0.05)
+//                                              1e-3 max ld, record_epsilon 0.05, r_epsilon 0.02)
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -287,7 +287,7 @@ void BM_CpuMovingLight(benchmark::State& state) {
   cpu::CpuRuntimeOptions o;
   o.threads = threads;
   if (mode > 0) o.skip.enabled = true;
-  if (mode == 2) o.skip = {true, 0.05f, 1e-3f * seq->ld_max, 0.05f, true};
+  if (mode == 2) o.skip = {true, 0.05f, 1e-3f * seq->ld_max, 0.05f, true, 0.02f};
   Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
   if (!rt.ok()) return state.SkipWithError(rt.status().message().c_str());
   std::vector<float> lightmap(rt->sizes().lightmap);

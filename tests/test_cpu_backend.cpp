@@ -323,19 +323,24 @@ struct SkipTotals {
   CpuSkipStats sum;
   double max_error = 0, max_bound = 0, max_ratio = 0;  // relative to ||lightmap||; error / bound
   void add(const CpuSkipStats& s) {
-    sum.blocks_computed += s.blocks_computed, sum.blocks_kept += s.blocks_kept,
-        sum.blocks_dark += s.blocks_dark;
-    sum.records_computed += s.records_computed, sum.records_skipped += s.records_skipped;
-    sum.slots_kept += s.slots_kept, sum.tiles_written += s.tiles_written,
-        sum.tiles_skipped += s.tiles_skipped;
+    sum.blocks_computed += s.blocks_computed;
+    sum.blocks_kept += s.blocks_kept;
+    sum.blocks_dark += s.blocks_dark;
+    sum.records_computed += s.records_computed;
+    sum.records_skipped += s.records_skipped;
+    sum.slots_kept += s.slots_kept;
+    sum.slots_close += s.slots_close;
+    sum.tiles_written += s.tiles_written;
+    sum.tiles_skipped += s.tiles_skipped;
   }
   void print(const char* what) const {
     std::printf(
-        "  %-10s blocks computed %zu kept %zu dark %zu | records computed %zu skipped %zu, slots kept %zu | "
-        "tiles written %zu skipped %zu | max rel error %.3g, max rel bound %.3g, max error/bound %.3g\n",
+        "  %-10s blocks computed %zu kept %zu dark %zu | records computed %zu skipped %zu | slots kept %zu "
+        "close %zu | tiles written %zu skipped %zu | max rel error %.3g, max rel bound %.3g, "
+        "max error/bound %.3g\n",
         what, sum.blocks_computed, sum.blocks_kept, sum.blocks_dark, sum.records_computed,
-        sum.records_skipped, sum.slots_kept, sum.tiles_written, sum.tiles_skipped, max_error, max_bound,
-        max_ratio);
+        sum.records_skipped, sum.slots_kept, sum.slots_close, sum.tiles_written, sum.tiles_skipped, max_error,
+        max_bound, max_ratio);
   }
 };
 
@@ -391,12 +396,13 @@ TEST(CpuLevelRuntime, SkippingStaysWithinStatedBound) {
     const char* name;
     CpuSkipOptions skip;
   };
-  std::vector<Case> cases(4);
+  std::vector<Case> cases(5);
   for (Case& c : cases) c.skip.enabled = true;
   cases[0].name = "(a) ld", cases[0].skip.ld_epsilon = 0.05f;
   cases[1].name = "(b) dark", cases[1].skip.dark_ld = 1e-3f * ld_max;
   cases[2].name = "(c) record", cases[2].skip.record_epsilon = 0.05f;
-  cases[3].name = "all", cases[3].skip = {true, 0.05f, 1e-3f * ld_max, 0.05f, true};
+  cases[3].name = "(e) r", cases[3].skip.r_epsilon = 0.02f;
+  cases[4].name = "all", cases[4].skip = {true, 0.05f, 1e-3f * ld_max, 0.05f, true, 0.02f};
   const Isa isa = best_isa();
   Result<CpuLevelRuntime> full = CpuLevelRuntime::create(t.level, dict(), options(isa, 1));
   ASSERT_TRUE(full.ok());
@@ -429,6 +435,9 @@ TEST(CpuLevelRuntime, SkippingStaysWithinStatedBound) {
     if (c.skip.dark_ld > 0) {
       EXPECT_GT(totals.sum.blocks_dark, 0u) << c.name;
     }
+    if (c.skip.r_epsilon > 0) {
+      EXPECT_GT(totals.sum.slots_close, 0u) << c.name;
+    }
     if (c.skip.record_epsilon > 0) {
       EXPECT_GT(totals.sum.records_skipped, 0u) << c.name;
     }
@@ -441,15 +450,16 @@ TEST(CpuLevelRuntime, RejectsBadSkipOptions) {
   Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
   ASSERT_TRUE(rt.ok());
   for (float bad : {-1.0f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
-    EXPECT_FALSE(rt->set_skip_options({true, bad, 0.0f, 0.0f, true}).ok());
-    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, bad, 0.0f, true}).ok());
-    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, bad, true}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, bad, 0.0f, 0.0f, true, 0.0f}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, bad, 0.0f, true, 0.0f}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, bad, true, 0.0f}).ok());
+    EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, 0.0f, true, bad}).ok());
   }
-  EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, 1.5f, true}).ok());
+  EXPECT_FALSE(rt->set_skip_options({true, 0.0f, 0.0f, 1.5f, true, 0.0f}).ok());
   EXPECT_FALSE(
-      CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 1, {true, -1.0f, 0.0f, 0.0f, true}))
+      CpuLevelRuntime::create(t.level, dict(), options(Isa::scalar, 1, {true, -1.0f, 0.0f, 0.0f, true, 0.0f}))
           .ok());
-  EXPECT_TRUE(rt->set_skip_options({true, 0.1f, 0.0f, 0.1f, true}).ok());
+  EXPECT_TRUE(rt->set_skip_options({true, 0.1f, 0.0f, 0.1f, true, 0.0f}).ok());
   EXPECT_TRUE(rt->skip_options().enabled);
 }
 

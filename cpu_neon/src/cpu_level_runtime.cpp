@@ -198,6 +198,8 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.b_d_norm_.assign(blocks, 0.0);
   rt.tile_bound_.assign(blocks, 0.0);
   rt.slot_rho_.assign(slots, 0.0);
+  rt.slot_drift_.assign(slots, 0.0);
+  rt.slot_close_.assign(slots, 0);
   rt.slot_records_computed_.assign(slots, 0);
   rt.slot_records_skipped_.assign(slots, 0);
   rt.ld_ref_.assign(rt.sizes_.ld, 0.0f);
@@ -243,10 +245,13 @@ Status CpuLevelRuntime::evaluate(std::span<const float> ld, std::span<float> lig
 
 Status CpuLevelRuntime::set_skip_options(const CpuSkipOptions& skip) {
   auto bad = [](float v) { return !(v >= 0.0f) || !std::isfinite(v); };
-  if (bad(skip.ld_epsilon) || bad(skip.dark_ld) || bad(skip.record_epsilon) || skip.record_epsilon > 1.0f)
-    return Status::error(ErrorCode::invalid_argument,
-                         "cpu runtime: skip options: ld_epsilon and dark_ld must be finite and >= 0, "
-                         "record_epsilon in [0, 1]");
+  if (bad(skip.ld_epsilon) || bad(skip.dark_ld) || bad(skip.record_epsilon) || skip.record_epsilon > 1.0f ||
+      bad(skip.r_epsilon))
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "cpu runtime: skip options: ld_epsilon, dark_ld and r_epsilon must be finite and >= 0, "
+        "record_epsilon in [0, 1]");
+  if (skip.enabled && self_lightmap_.size() != sizes_.lightmap) self_lightmap_.assign(sizes_.lightmap, 0.0f);
   skip_ = skip;
   stats_ = CpuSkipStats{};
   skip_state_valid_ = false;
@@ -361,7 +366,24 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
       slot_records_computed_[s] = computed;
       slot_records_skipped_[s] = skipped;
       float* r = r_.data() + 3 * kr * s;
-      if (force || !same_bits(r_new, r, 3 * kr)) {
+      slot_close_[s] = 0;
+      slot_drift_[s] = 0.0;
+      bool replace = force || !same_bits(r_new, r, 3 * kr);
+      if (replace && !force && skip_.r_epsilon > 0.0f) {  // (e) keep r_s when r_new is close to it
+        double diff2 = 0.0, ref2 = 0.0;
+        for (std::size_t k = 0; k < 3 * kr; ++k) {
+          const double e = double(r_new[k]) - r[k];
+          diff2 += e * e;
+          ref2 += double(r[k]) * r[k];
+        }
+        const double diff = std::sqrt(diff2) * (1.0 + 1e-9);
+        if (diff <= double(skip_.r_epsilon) * std::sqrt(ref2)) {
+          replace = false;
+          slot_close_[s] = 1;
+          slot_drift_[s] = diff;
+        }
+      }
+      if (replace) {
         std::copy(r_new, r_new + 3 * kr, r);
         deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
         r_changed_[s] = 1;
@@ -371,14 +393,22 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
       slot_records_computed_[s] = 0;
       slot_records_skipped_[s] = 0;
     }
-    r_bound += beta_sum + slot_rho_[s];
+    r_bound += beta_sum + slot_rho_[s] + slot_drift_[s];
   }
   tile_bound_[i] = shape_ub_td_norm_[std::size_t(level.blocks[i].shape)] * ld_delta_[i] + ur_norm_ * r_bound;
   tile_written_[i] = inputs_changed;
   if (!inputs_changed) return;  // (d) the tile holds exactly what this frame would write
-  float* tile = lightmap.data() + 3 * std::size_t(level.blocks[i].sample_offset);
-  const Matrix& Ub = dict_->shapes[std::size_t(level.blocks[i].shape)].Ub;
-  gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, tile, false);
+  // Ub b_i is kept in self_lightmap_: when only r changed, the tile restarts from a copy of
+  // it (the same bits the GEMV would write) instead of the GEMV.
+  const std::size_t offset = 3 * std::size_t(level.blocks[i].sample_offset);
+  float* tile = lightmap.data() + offset;
+  float* self = self_lightmap_.data() + offset;
+  const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
+  if (force || b_changed_[i]) {
+    const Matrix& Ub = dict_->shapes[std::size_t(level.blocks[i].shape)].Ub;
+    gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, self, false);
+  }
+  std::copy(self, self + count, tile);
   const Matrix& Ur = dict_->interfaces.Ur;
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
@@ -402,6 +432,7 @@ void CpuLevelRuntime::finish_skip_stats() {
     st.records_computed += slot_records_computed_[s];
     st.records_skipped += slot_records_skipped_[s];
     st.slots_kept += slot_kept_[s] != 0;
+    st.slots_close += slot_close_[s] != 0;
   }
   st.lightmap_error_bound = std::sqrt(bound2);
   stats_ = st;

@@ -75,8 +75,13 @@ class ThreadPool;  // src/thread_pool.h
 //      bitwise those that wrote it. Exact, but it relies on the caller passing back the
 //      lightmap that the previous evaluate() wrote, unchanged (another buffer address
 //      rewrites every tile; so does set_skip_options()).
+//  (e) Nearly unchanged r (r_epsilon). When r_s is recomputed and ||r_new - r_s||_F <=
+//      r_epsilon ||r_s||_F, r_s (the one that wrote the tile) is kept and counts as unchanged
+//      for (d); the measured distance delta_s = ||r_new - r_s||_F joins the bound. Against
+//      the kept r_s, not the last computed one: no drift. r_epsilon = 0: off.
 // All together, per frame (skip_stats().lightmap_error_bound):
-//   ||r_s - r_s^full||_F       <= sum over records q of s of ||T_q D^-1||_F ||D Td_b||_2 e_j + rho_s
+//   ||r_s - r_s^full||_F       <= sum over records q of s of ||T_q D^-1||_F ||D Td_b||_2 e_j + rho_s +
+//   delta_s
 //   ||tile_i - tile_i^full||_F <= ||Ub Td_b||_2 e_i + ||Ur||_2 sum over slots s entering i of the above
 //   ||lightmap - lightmap^full||_2 <= sqrt(sum over blocks of the tile bounds^2).
 // Float rounding is not part of the bound: where b was kept, the two paths round different
@@ -88,6 +93,7 @@ struct CpuSkipOptions {
   float dark_ld = 0.0f;         // (b), in units of ld, >= 0
   float record_epsilon = 0.0f;  // (c), relative, in [0, 1]
   bool keep_tiles = true;       // (d)
+  float r_epsilon = 0.0f;       // (e), relative, >= 0
 };
 
 // What the last evaluate() (or multi_bounce_step()) skipped. All zero with skipping off.
@@ -98,6 +104,7 @@ struct CpuSkipStats {
   std::size_t records_computed = 0;  // T b GEMVs evaluated
   std::size_t records_skipped = 0;   // (c) left out (bound or dark source)
   std::size_t slots_kept = 0;        // (d) r_s reused: no source changed (its records not evaluated)
+  std::size_t slots_close = 0;       // (e) r_s recomputed, but kept: within r_epsilon
   std::size_t tiles_written = 0;
   std::size_t tiles_skipped = 0;    // (d)
   double lightmap_error_bound = 0;  // bound on ||lightmap - full path||_2 (all channels), see above
@@ -203,6 +210,9 @@ class CpuLevelRuntime {
   std::vector<double> ld_delta_, b_norm_, b_d_norm_, tile_bound_, slot_rho_;
   std::vector<std::uint32_t> slot_records_computed_, slot_records_skipped_;
   std::vector<float> ld_ref_, ld_ref_max_, b_scratch_, r_scratch_;
+  std::vector<float> self_lightmap_;  // Ub b per block (lightmap layout), sized when skipping is on
+  std::vector<double> slot_drift_;    // (e) ||r_s kept - r_s computed||_F
+  std::vector<std::uint8_t> slot_close_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;
 };
