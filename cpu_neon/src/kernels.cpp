@@ -155,8 +155,25 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
       _mm_store_ps(fb, hsum4_avx(c0b, c1b, c2b, c3b));
       for (int i = 0; i < 4; ++i) sr[i] += fr[i], sg[i] += fg[i], sb[i] += fb[i];
     }
+    // A column tail of 4..7: one 4-wide step (short rows such as kb = 12 would otherwise
+    // spend a third of their columns in the scalar tail).
+    std::size_t kt = kv;
+    if (cols - kv >= 4) {
+      const __m128 vr = _mm_loadu_ps(xr + kv), vg = _mm_loadu_ps(xg + kv), vb = _mm_loadu_ps(xb + kv);
+      __m128 pr[4], pg[4], pb[4];
+      for (int i = 0; i < 4; ++i) {
+        const __m128 v = _mm_loadu_ps(a[i] + kv);
+        pr[i] = _mm_mul_ps(v, vr), pg[i] = _mm_mul_ps(v, vg), pb[i] = _mm_mul_ps(v, vb);
+      }
+      alignas(16) float fr[4], fg[4], fb[4];
+      _mm_store_ps(fr, _mm_hadd_ps(_mm_hadd_ps(pr[0], pr[1]), _mm_hadd_ps(pr[2], pr[3])));
+      _mm_store_ps(fg, _mm_hadd_ps(_mm_hadd_ps(pg[0], pg[1]), _mm_hadd_ps(pg[2], pg[3])));
+      _mm_store_ps(fb, _mm_hadd_ps(_mm_hadd_ps(pb[0], pb[1]), _mm_hadd_ps(pb[2], pb[3])));
+      for (int i = 0; i < 4; ++i) sr[i] += fr[i], sg[i] += fg[i], sb[i] += fb[i];
+      kt = kv + 4;
+    }
     for (int i = 0; i < 4; ++i) {
-      for (std::size_t k = kv; k < cols; ++k) {
+      for (std::size_t k = kt; k < cols; ++k) {
         const double v = a[i][k];
         sr[i] += v * xr[k], sg[i] += v * xg[k], sb[i] += v * xb[k];
       }
