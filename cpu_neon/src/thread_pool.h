@@ -7,6 +7,11 @@
 // depend on the thread count). run() allocates nothing: the task is a plain function pointer
 // and a context pointer, and the workers sleep on a condition variable between calls (after
 // spinning briefly, so that the back-to-back phases of one frame do not pay a wake-up each).
+//
+// Oversubscription: a worker joins a run only while it is open. When the caller has taken
+// the last index it closes the run and waits only for the workers that joined (and so may
+// still be running an index), never for one that has not been scheduled yet: on a machine
+// whose other cores are busy, run() then costs about what one thread costs.
 #pragma once
 
 #include <atomic>
@@ -41,14 +46,18 @@ class ThreadPool {
   void worker(int thread);
   void drain(int thread);
 
+  // state_: generation (high 32 bits) | closed (bit 31) | workers in the run (low 31 bits).
+  static constexpr std::uint64_t kClosed = std::uint64_t(1) << 31;
+  static constexpr std::uint64_t kActiveMask = kClosed - 1;
+  static std::uint32_t generation(std::uint64_t s) { return std::uint32_t(s >> 32); }
+
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  Task task_ = nullptr;
+  Task task_ = nullptr;  // the run's task, written under mutex_ before state_ opens it
   void* ctx_ = nullptr;
   std::size_t count_ = 0;
   std::atomic<std::size_t> next_{0};
-  std::atomic<std::uint64_t> generation_{0};  // written under mutex_, read by spinning workers
-  std::atomic<int> busy_{0};                  // workers still in the current run() (changed under mutex_)
+  std::atomic<std::uint64_t> state_{kClosed};
   bool stop_ = false;
   std::vector<std::thread> workers_;
 };
