@@ -132,6 +132,40 @@ TEST(CpuKernels, ScatterMatchesReferenceForEveryIsaAndSize) {
   }
 }
 
+// gemv_rgb_masked + add_scattered write the same bits as gemv_rgb_scatter; the masked kernel
+// leaves unmapped rows alone.
+TEST(CpuKernels, MaskedThenAddedEqualsScatter) {
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(19);
+    for (std::uint32_t rows : kRowSizes)
+      for (std::uint32_t cols : {0u, 3u, 8u, 12u, 13u, 32u, 37u}) {
+        const Matrix A = random_matrix(rng, rows, cols);
+        const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
+        std::vector<float> planar(3 * std::size_t(cols));
+        deinterleave_rgb(in.data(), cols, planar.data(), cols);
+        const std::size_t samples = std::size_t(rows) + 2;
+        std::vector<std::int32_t> map(rows);
+        for (std::uint32_t r = 0; r < rows; ++r)
+          map[r] = rng() % 3 == 0 ? -1 : std::int32_t((r + 1) % samples);
+        if (rows >= 8) std::fill(map.begin(), map.begin() + 4, -1);
+        const std::vector<float> base = random_vector(rng, 3 * samples, 0.0f, 1.0f);
+        std::vector<float> scattered = base, added = base;
+        gemv_rgb_scatter(isa, A.data.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                         scattered.data());
+        const float sentinel = -7.0f;
+        std::vector<float> values(3 * std::size_t(rows), sentinel);
+        gemv_rgb_masked(isa, A.data.data(), rows, cols, cols, map.data(), planar.data(), cols, values.data());
+        for (std::uint32_t r = 0; r < rows; ++r)
+          if (map[r] < 0) {
+            EXPECT_EQ(values[3 * r], sentinel);
+            EXPECT_EQ(values[3 * r + 2], sentinel);
+          }
+        add_scattered(rows, map.data(), values.data(), added.data());
+        EXPECT_EQ(added, scattered) << isa_name(isa) << " " << rows << "x" << cols;
+      }
+  }
+}
+
 TEST(CpuKernels, FeedbackIsBitIdenticalToReference) {
   for (Isa isa : supported_isas()) {
     std::mt19937 rng(5);

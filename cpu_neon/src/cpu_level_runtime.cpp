@@ -251,7 +251,10 @@ Status CpuLevelRuntime::set_skip_options(const CpuSkipOptions& skip) {
         ErrorCode::invalid_argument,
         "cpu runtime: skip options: ld_epsilon, dark_ld and r_epsilon must be finite and >= 0, "
         "record_epsilon in [0, 1]");
-  if (skip.enabled && self_lightmap_.size() != sizes_.lightmap) self_lightmap_.assign(sizes_.lightmap, 0.0f);
+  if (skip.enabled && self_lightmap_.size() != sizes_.lightmap) {
+    self_lightmap_.assign(sizes_.lightmap, 0.0f);
+    slot_contribution_.assign(3 * std::size_t(dict_->interfaces.Ur.rows) * level_->slots.size(), 0.0f);
+  }
   skip_ = skip;
   stats_ = CpuSkipStats{};
   skip_state_valid_ = false;
@@ -409,11 +412,17 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
     gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, self, false);
   }
   std::copy(self, self + count, tile);
+  // Each slot's Ur r contribution is kept too (the values the scatter adds): recomputed only
+  // when its r changed, then added in slot order, which gives the scatter's bits.
   const Matrix& Ur = dict_->interfaces.Ur;
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
-    gemv_rgb_scatter(isa_, Ur.data.data(), Ur.rows, kr, kr, level.slots[s].ur_row_to_sample.data(),
-                     r_planar_.data() + 3 * kr * s, kr, tile);
+    const std::int32_t* map = level.slots[s].ur_row_to_sample.data();
+    float* contribution = slot_contribution_.data() + 3 * std::size_t(Ur.rows) * s;
+    if (force || r_changed_[s])
+      gemv_rgb_masked(isa_, Ur.data.data(), Ur.rows, kr, kr, map, r_planar_.data() + 3 * kr * s, kr,
+                      contribution);
+    add_scattered(Ur.rows, map, contribution, tile);
   }
 }
 

@@ -24,6 +24,13 @@ inline void emit(float* out, const std::int32_t* map, bool accumulate, std::size
                  double b) {
   if (map) {
     if (map[row] < 0) return;
+    if (!accumulate) {  // masked: the value the scatter would add, stored at the row's own place
+      float* o = out + 3 * row;
+      o[0] = float(r);
+      o[1] = float(g);
+      o[2] = float(b);
+      return;
+    }
     float* o = out + 3 * std::size_t(map[row]);
     o[0] += float(r);
     o[1] += float(g);
@@ -571,6 +578,20 @@ void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t col
                       const std::int32_t* row_to_sample, const float* planar, std::size_t stride,
                       float* out) {
   gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, true);
+}
+
+void gemv_rgb_masked(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                     const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out) {
+  gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, false);
+}
+
+void add_scattered(std::size_t rows, const std::int32_t* row_to_sample, const float* values, float* out) {
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (row_to_sample[r] < 0) continue;
+    float* o = out + 3 * std::size_t(row_to_sample[r]);
+    const float* v = values + 3 * r;
+    o[0] += v[0], o[1] += v[1], o[2] += v[2];
+  }
 }
 
 bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound,

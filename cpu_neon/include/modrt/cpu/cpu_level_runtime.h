@@ -74,7 +74,9 @@ class ThreadPool;  // src/thread_pool.h
 //      and the lightmap tile of block i is not rewritten when b_i and every r_s entering i are
 //      bitwise those that wrote it. Exact, but it relies on the caller passing back the
 //      lightmap that the previous evaluate() wrote, unchanged (another buffer address
-//      rewrites every tile; so does set_skip_options()).
+//      rewrites every tile; so does set_skip_options()). A tile that is rewritten starts from
+//      a kept copy of Ub b_i and adds a kept copy of each slot's Ur r_s, recomputing only
+//      those whose input changed: the same bits as the GEMVs.
 //  (e) Nearly unchanged r (r_epsilon). When r_s is recomputed and ||r_new - r_s||_F <=
 //      r_epsilon ||r_s||_F, r_s (the one that wrote the tile) is kept and counts as unchanged
 //      for (d); the measured distance delta_s = ||r_new - r_s||_F joins the bound. Against
@@ -210,8 +212,9 @@ class CpuLevelRuntime {
   std::vector<double> ld_delta_, b_norm_, b_d_norm_, tile_bound_, slot_rho_;
   std::vector<std::uint32_t> slot_records_computed_, slot_records_skipped_;
   std::vector<float> ld_ref_, ld_ref_max_, b_scratch_, r_scratch_;
-  std::vector<float> self_lightmap_;  // Ub b per block (lightmap layout), sized when skipping is on
-  std::vector<double> slot_drift_;    // (e) ||r_s kept - r_s computed||_F
+  std::vector<float> self_lightmap_;      // Ub b per block (lightmap layout), sized when skipping is on
+  std::vector<float> slot_contribution_;  // Ur r per slot (3 x Ur rows, unmapped rows unused), likewise
+  std::vector<double> slot_drift_;        // (e) ||r_s kept - r_s computed||_F
   std::vector<std::uint8_t> slot_close_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;

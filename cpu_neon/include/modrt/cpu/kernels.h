@@ -50,6 +50,15 @@ void gemv_rgb_interleaved(Isa isa, const Matrix& A, const float* in, float* out,
 void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
                       const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out);
 
+// gemv_rgb_scatter split in two, for a caller that keeps each slot's contribution:
+// gemv_rgb_masked stores, for every row r with row_to_sample[r] >= 0, the values the scatter
+// would add at out[3 r + c] (other rows untouched); add_scattered then adds them:
+// out[3 row_to_sample[r] + c] += values[3 r + c], rows in order. The two in sequence write the
+// same bits as gemv_rgb_scatter.
+void gemv_rgb_masked(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                     const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out);
+void add_scattered(std::size_t rows, const std::int32_t* row_to_sample, const float* values, float* out);
+
 // Multi-bounce feedback over `count` floats (3 x samples, interleaved):
 // ld[i] = ld_direct[i] + rho[i] * min(max(lightmap[i], 0), bound). Returns true when the bound
 // clamped some value. Bit-identical to core's apply_feedback on every ISA (no FMA contraction).
