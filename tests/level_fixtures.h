@@ -60,21 +60,27 @@ inline const TestLevel& test_level(const std::string& name) {
 }
 
 struct LevelReference {
-  std::vector<float> b, r, lightmap, atlas, probes;
+  std::vector<float> b, r, lightmap, atlas, probes, vector_lightmap;
 };
 
-// level_evaluate, level_fill_atlas and level_compute_probes for `ld`.
+// level_evaluate, level_fill_atlas, level_compute_probes and level_compute_vector_irradiance
+// for `ld`.
 inline LevelReference level_reference(const Level& level, std::span<const float> ld) {
   const Dictionary& dict = small_test_dictionary();
   const LevelBufferSizes s = level_buffer_sizes(level, dict);
-  LevelReference ref{std::vector<float>(s.b), std::vector<float>(s.r), std::vector<float>(s.lightmap),
-                     std::vector<float>(s.atlas), std::vector<float>(s.probes)};
+  LevelReference ref{std::vector<float>(s.b),        std::vector<float>(s.r),
+                     std::vector<float>(s.lightmap), std::vector<float>(s.atlas),
+                     std::vector<float>(s.probes),   std::vector<float>(s.vector_lightmap)};
   if (Status st = level_evaluate(level, dict, ld, ref.b, ref.r, ref.lightmap); !st.ok()) {
     std::fprintf(stderr, "level_evaluate: %s\n", st.to_string().c_str());
     std::abort();
   }
   level_fill_atlas(level, ref.lightmap, ref.atlas);
   level_compute_probes(level, dict, ref.b, ref.r, ref.probes);
+  if (Status st = level_compute_vector_irradiance(level, dict, ref.b, ref.r, ref.vector_lightmap); !st.ok()) {
+    std::fprintf(stderr, "level_compute_vector_irradiance: %s\n", st.to_string().c_str());
+    std::abort();
+  }
   return ref;
 }
 

@@ -124,23 +124,27 @@ TEST(CpuLevelRuntime, EvaluateMatchesLevelEvaluateForEveryIsa) {
       ASSERT_TRUE(rt.ok()) << rt.status().to_string();
       EXPECT_EQ(rt->isa(), isa);
       const LevelBufferSizes& s = rt->sizes();
-      std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
+      std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes), vec(s.vector_lightmap);
       for (int frame = 0; frame < 2; ++frame) {  // the second frame reuses every buffer
         const Status st = rt->evaluate(t.ld, lightmap);
         ASSERT_TRUE(st.ok()) << st.to_string();
       }
       ASSERT_TRUE(rt->fill_atlas(lightmap, atlas).ok());
       ASSERT_TRUE(rt->compute_probes(probes).ok());
+      ASSERT_TRUE(rt->has_vector_irradiance());
+      const Status vs = rt->compute_vector_irradiance(vec);
+      ASSERT_TRUE(vs.ok()) << vs.to_string();
       const std::string what = std::string(t.name) + " " + isa_name(isa);
-      Worst wb, wr, wl, wa, wp;
+      Worst wb, wr, wl, wa, wp, wv;
       expect_close(rt->b(), ref.b, what + " b", &wb, b_scale);
       expect_close(rt->r(), ref.r, what + " r", &wr);
       expect_close(lightmap, ref.lightmap, what + " lightmap", &wl);
       expect_close(atlas, ref.atlas, what + " atlas", &wa);
       expect_close(probes, ref.probes, what + " probes", &wp);
+      expect_close(vec, ref.vector_lightmap, what + " vector irradiance", &wv);
       std::printf("  %s\n", t.name.c_str());
       wb.print("b", isa), wr.print("r", isa), wl.print("lightmap", isa), wa.print("atlas", isa),
-          wp.print("probes", isa);
+          wp.print("probes", isa), wv.print("vector irradiance", isa);
     }
   }
 }
@@ -210,7 +214,7 @@ TEST(CpuLevelRuntime, NoAllocationPerFrame) {
         ASSERT_TRUE(rt.ok()) << rt.status().to_string();
         EXPECT_EQ(rt->threads(), threads);
         const LevelBufferSizes& s = rt->sizes();
-        std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
+        std::vector<float> lightmap(s.lightmap), atlas(s.atlas), probes(s.probes), vec(s.vector_lightmap);
         ASSERT_TRUE(rt->set_albedo(t.albedo).ok());
         bool ok = true;
         g_allocations = 0;
@@ -221,6 +225,7 @@ TEST(CpuLevelRuntime, NoAllocationPerFrame) {
           ok &= rt->multi_bounce_step(frame % 2 ? ld2 : t.ld, lightmap).ok();
           ok &= rt->fill_atlas(lightmap, atlas).ok();
           ok &= rt->compute_probes(probes).ok();
+          ok &= rt->compute_vector_irradiance(vec).ok();
         }
         g_count_allocations = false;
         const long other_allocations = g_allocations.load() - evaluate_allocations;
@@ -249,19 +254,24 @@ TEST(CpuLevelRuntime, ThreadsAreBitIdentical) {
   for (const TestLevel& t : test_levels())
     for (Isa isa : supported_isas()) {
       struct Out {
-        std::vector<float> b, r, lightmap, atlas, probes, bounced;
+        std::vector<float> b, r, lightmap, atlas, probes, bounced, vec;
       };
       auto run = [&](int threads) {
         Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(isa, threads));
         EXPECT_TRUE(rt.ok()) << rt.status().to_string();
         if (!rt.ok()) return Out{};
         const LevelBufferSizes& s = rt->sizes();
-        Out o{
-            {}, {}, std::vector<float>(s.lightmap), std::vector<float>(s.atlas), std::vector<float>(s.probes),
-            {}};
+        Out o{{},
+              {},
+              std::vector<float>(s.lightmap),
+              std::vector<float>(s.atlas),
+              std::vector<float>(s.probes),
+              {},
+              std::vector<float>(s.vector_lightmap)};
         EXPECT_TRUE(rt->evaluate(t.ld, o.lightmap).ok());
         EXPECT_TRUE(rt->fill_atlas(o.lightmap, o.atlas).ok());
         EXPECT_TRUE(rt->compute_probes(o.probes).ok());
+        EXPECT_TRUE(rt->compute_vector_irradiance(o.vec).ok());
         o.b.assign(rt->b().begin(), rt->b().end());
         o.r.assign(rt->r().begin(), rt->r().end());
         o.bounced = o.lightmap;
@@ -280,6 +290,7 @@ TEST(CpuLevelRuntime, ThreadsAreBitIdentical) {
         EXPECT_EQ(many.lightmap, one.lightmap) << what;
         EXPECT_EQ(many.atlas, one.atlas) << what;
         EXPECT_EQ(many.probes, one.probes) << what;
+        EXPECT_EQ(many.vec, one.vec) << what;
         EXPECT_EQ(many.bounced, one.bounced) << what;
       }
     }
@@ -374,6 +385,10 @@ TEST(CpuLevelRuntime, ExactSkippingIsBitIdenticalToFullPath) {
       ASSERT_TRUE(full->compute_probes(pr_full).ok());
       ASSERT_TRUE(skip->compute_probes(pr_skip).ok());
       EXPECT_EQ(pr_skip, pr_full) << what;
+      std::vector<float> v_full(full->sizes().vector_lightmap), v_skip(v_full.size());
+      ASSERT_TRUE(full->compute_vector_irradiance(v_full).ok());
+      ASSERT_TRUE(skip->compute_vector_irradiance(v_skip).ok());
+      EXPECT_EQ(v_skip, v_full) << what;
       EXPECT_GT(totals.sum.blocks_dark, 0u) << what;
       EXPECT_GT(totals.sum.blocks_kept, 0u) << what;
       EXPECT_GT(totals.sum.records_skipped, 0u) << what;

@@ -1,6 +1,6 @@
-// GLES backend conformance (gles/): the lightmaps, atlas, b, r and probes read back from the
-// fragment-shader passes equal core's scalar reference, for a single block, a corridor and
-// the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts this
+// GLES backend conformance (gles/): the lightmaps, atlas, b, r, probes and vector irradiance
+// read back from the fragment-shader passes equal core's scalar reference, for a single
+// block, a corridor and the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts this
 // machine offers (EGL surfaceless GLES 3.2 and OSMesa GL 4.5 core running the ES 3.0
 // shaders), and through EGL device (a GPU where there is one, else Mesa's software device).
 // Tolerances (relative L2 over all values): 1e-4 for float32 and bits32 targets,
@@ -129,10 +129,12 @@ TEST_P(GlesBackend, UpdateMatchesScalarReference) {
   for (const TestLevel& t : test_levels()) {
     const Reference ref = level_reference(t.level, t.ld);
     for (const FormatCase& f : kFormats) {
-      std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {f.target, f.operators, true, true});
+      std::unique_ptr<GlesLevelRuntime> rt =
+          make(t.level, {.target = f.target, .operators = f.operators, .vector_irradiance = true});
       ASSERT_TRUE(rt);
       const LevelBufferSizes& s = rt->sizes();
-      std::vector<float> b(s.b), r(s.r), lightmap(s.lightmap), atlas(s.atlas), probes(s.probes);
+      std::vector<float> b(s.b), r(s.r), lightmap(s.lightmap), atlas(s.atlas), probes(s.probes),
+          vec(s.vector_lightmap);
       for (int frame = 0; frame < 2; ++frame) {
         const Status st = rt->update(t.ld);
         ASSERT_TRUE(st.ok()) << st.to_string();
@@ -142,8 +144,10 @@ TEST_P(GlesBackend, UpdateMatchesScalarReference) {
       ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
       ASSERT_TRUE(rt->read_atlas(atlas).ok());
       ASSERT_TRUE(rt->read_probes(probes).ok());
+      ASSERT_TRUE(rt->read_vector_lightmap(vec).ok());
       const double eb = rel_l2(b, ref.b), er = rel_l2(r, ref.r), el = rel_l2(lightmap, ref.lightmap),
-                   ea = rel_l2(atlas, ref.atlas), ep = rel_l2(probes, ref.probes);
+                   ea = rel_l2(atlas, ref.atlas), ep = rel_l2(probes, ref.probes),
+                   ev = rel_l2(vec, ref.vector_lightmap);
       const std::string what = t.name + " " + rt->description();
       // b's high modes cancel heavily (Td_b has large mixed-sign rows, see
       // test_cpu_backend.cpp), so b gets 10x the tolerance; every output is held to it.
@@ -154,8 +158,9 @@ TEST_P(GlesBackend, UpdateMatchesScalarReference) {
       EXPECT_LE(el, f.tolerance) << what << " lightmap";
       EXPECT_LE(ea, f.tolerance) << what << " atlas";
       EXPECT_LE(ep, f.tolerance) << what << " probes";
-      std::printf("  %-8s %-40s rel L2: b %.2e r %.2e lightmap %.2e atlas %.2e probes %.2e\n", t.name.c_str(),
-                  rt->description(), eb, er, el, ea, ep);
+      EXPECT_LE(ev, f.tolerance) << what << " vector irradiance";
+      std::printf("  %-8s %-58s rel L2: b %.2e r %.2e lightmap %.2e atlas %.2e probes %.2e vector %.2e\n",
+                  t.name.c_str(), rt->description(), eb, er, el, ea, ep, ev);
     }
   }
 }
@@ -163,12 +168,12 @@ TEST_P(GlesBackend, UpdateMatchesScalarReference) {
 // The GLES and CPU backends through the one Backend interface: same inputs, same outputs.
 TEST_P(GlesBackend, AgreesWithCpuBackendThroughBackendInterface) {
   const TestLevel& t = test_level("maze11");
-  std::unique_ptr<GlesLevelRuntime> g = make(t.level);
+  std::unique_ptr<GlesLevelRuntime> g = make(t.level, {.target = std::nullopt, .vector_irradiance = true});
   ASSERT_TRUE(g);
   Result<std::unique_ptr<Backend>> c = cpu::create_cpu_backend(t.level, dict());
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   std::vector<Backend*> backends = {g.get(), c->get()};
-  std::vector<std::vector<float>> atlases, probes;
+  std::vector<std::vector<float>> atlases, probes, vectors;
   for (Backend* be : backends) {
     ASSERT_TRUE(be->update(t.ld).ok()) << be->description();
     ASSERT_TRUE(be->set_albedo(t.albedo).ok());
@@ -177,13 +182,17 @@ TEST_P(GlesBackend, AgreesWithCpuBackendThroughBackendInterface) {
     probes.emplace_back(be->sizes().probes);
     ASSERT_TRUE(be->read_atlas(atlases.back()).ok());
     ASSERT_TRUE(be->read_probes(probes.back()).ok());
+    vectors.emplace_back(be->sizes().vector_lightmap);
+    ASSERT_TRUE(be->read_vector_lightmap(vectors.back()).ok()) << be->description();
   }
   EXPECT_EQ(g->kind(), BackendKind::gles);
   EXPECT_EQ(c.value()->kind(), BackendKind::cpu);
   EXPECT_LE(rel_l2(atlases[0], atlases[1]), kFloat32Tolerance);
   EXPECT_LE(rel_l2(probes[0], probes[1]), kFloat32Tolerance);
-  std::printf("  %s vs %s: atlas %.2e probes %.2e\n", g->description(), c.value()->description(),
-              rel_l2(atlases[0], atlases[1]), rel_l2(probes[0], probes[1]));
+  EXPECT_LE(rel_l2(vectors[0], vectors[1]), kFloat32Tolerance);
+  std::printf("  %s vs %s: atlas %.2e probes %.2e vector irradiance %.2e\n", g->description(),
+              c.value()->description(), rel_l2(atlases[0], atlases[1]), rel_l2(probes[0], probes[1]),
+              rel_l2(vectors[0], vectors[1]));
 }
 
 TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
@@ -199,8 +208,11 @@ TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
     const Result<MultiBounceReport> rep =
         level_multi_bounce(t.level, dict(), t.ld, albedo, settings, b, r, ref);
     ASSERT_TRUE(rep.ok()) << rep.status().to_string();
+    std::vector<float> vec_ref(s.vector_lightmap), vec(s.vector_lightmap);
+    ASSERT_TRUE(level_compute_vector_irradiance(t.level, dict(), b, r, vec_ref).ok());
     for (const FormatCase& f : {kFormats[0], kFormats[1], kFormats[2]}) {
-      std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {f.target, f.operators, true, true});
+      std::unique_ptr<GlesLevelRuntime> rt =
+          make(t.level, {.target = f.target, .operators = f.operators, .vector_irradiance = true});
       ASSERT_TRUE(rt);
       EXPECT_EQ(rt->multi_bounce_step(t.ld).code(), ErrorCode::invalid_argument);  // no albedo yet
       ASSERT_TRUE(rt->set_albedo(albedo, settings.max_albedo).ok());
@@ -211,10 +223,12 @@ TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
       }
       std::vector<float> lightmap(s.lightmap);
       ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
-      const double e = rel_l2(lightmap, ref);
+      ASSERT_TRUE(rt->read_vector_lightmap(vec).ok());
+      const double e = rel_l2(lightmap, ref), ev = rel_l2(vec, vec_ref);
       EXPECT_LE(e, f.tolerance) << t.name << " " << rt->description();
-      std::printf("  %-8s %-40s multi-bounce x%d rel L2 %.2e\n", t.name.c_str(), rt->description(), kSteps,
-                  e);
+      EXPECT_LE(ev, f.tolerance) << t.name << " " << rt->description() << " vector irradiance";
+      std::printf("  %-8s %-58s multi-bounce x%d rel L2 %.2e, vector irradiance %.2e\n", t.name.c_str(),
+                  rt->description(), kSteps, e, ev);
     }
   }
 }
@@ -244,15 +258,33 @@ TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {
   EXPECT_EQ(rt->set_albedo(t.albedo, 1.0f).code(), ErrorCode::invalid_argument);
 }
 
-TEST_P(GlesBackend, ProbesOffCostNothingAndSayWhy) {
+TEST_P(GlesBackend, ProbesAndVectorIrradianceOffCostNothingAndSayWhy) {
   const TestLevel& t = test_level("corridor");
-  std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {std::nullopt, OperatorFormat::float32, false, true});
+  std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {.target = std::nullopt, .probes = false});
   ASSERT_TRUE(rt);
   ASSERT_TRUE(rt->update(t.ld).ok());
-  std::vector<float> probes(rt->sizes().probes);
-  const Status s = rt->read_probes(probes);
+  std::vector<float> probes(rt->sizes().probes), vec(rt->sizes().vector_lightmap);
+  Status s = rt->read_probes(probes);
   EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
   EXPECT_NE(s.message().find("no probes"), std::string::npos) << s.message();
+  s = rt->read_vector_lightmap(vec);
+  EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(s.message().find("vector_irradiance is off"), std::string::npos) << s.message();
+  EXPECT_EQ(rt->vector_texture(0), 0u);
+}
+
+// Vector irradiance asked of a dictionary without Ub_vec (format version 1): create() fails
+// and names what is missing; without the option the same dictionary works.
+TEST_P(GlesBackend, VectorIrradianceNeedsVectorOperators) {
+  const TestLevel& t = test_level("maze11");
+  Dictionary old = dict();
+  for (ShapeOperators& op : old.shapes) op.Ub_vec = Matrix();
+  Result<std::unique_ptr<GlesLevelRuntime>> rt = GlesLevelRuntime::create(
+      gl(), gles(), t.level, old, {.target = std::nullopt, .vector_irradiance = true});
+  ASSERT_FALSE(rt.ok());
+  EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
+  EXPECT_NE(rt.status().message().find("no Ub_vec"), std::string::npos) << rt.status().message();
+  EXPECT_TRUE(GlesLevelRuntime::create(gl(), gles(), t.level, old).ok());
 }
 
 TEST_P(GlesBackend, RejectsMismatchedDictionary) {
@@ -281,6 +313,7 @@ TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
   const TestLevel& t = test_level("maze41");
   GlesRuntimeOptions options;
   options.skip_unchanged = false;  // the same ld every frame: time the full path
+  options.vector_irradiance = true;
   std::unique_ptr<GlesLevelRuntime> rt = make(t.level, options);
   ASSERT_TRUE(rt);
   rt->set_timing(true);
@@ -292,6 +325,7 @@ TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
   EXPECT_GT(times.r, 0u);
   EXPECT_GT(times.atlas, 0u);
   EXPECT_GT(times.probes, 0u);
+  EXPECT_GT(times.vector, 0u);
   EXPECT_EQ(times.feedback, 0u);
 }
 
@@ -312,11 +346,13 @@ void GlesBackend::check_skipping(float fraction) {
   const TestLevel& t = test_level("maze41");
   GlesRuntimeOptions full_options, options;
   full_options.skip_unchanged = false;
+  full_options.vector_irradiance = options.vector_irradiance = true;
   options.partial_fraction = fraction;
   std::unique_ptr<GlesLevelRuntime> incremental = make(t.level, options), full = make(t.level, full_options);
   ASSERT_TRUE(incremental && full);
   const LevelBufferSizes& s = full->sizes();
-  std::vector<float> a_inc(s.atlas), a_full(s.atlas), p_inc(s.probes), p_full(s.probes);
+  std::vector<float> a_inc(s.atlas), a_full(s.atlas), p_inc(s.probes), p_full(s.probes),
+      v_inc(s.vector_lightmap), v_full(s.vector_lightmap);
   const std::size_t blocks = t.level.blocks.size();
   std::vector<float> ld = t.ld;
   constexpr int kFrames = 24;
@@ -348,6 +384,8 @@ void GlesBackend::check_skipping(float fraction) {
     ASSERT_TRUE(incremental->read_probes(p_inc).ok() && full->read_probes(p_full).ok());
     ASSERT_EQ(a_inc, a_full) << "frame " << frame;
     ASSERT_EQ(p_inc, p_full) << "frame " << frame;
+    ASSERT_TRUE(incremental->read_vector_lightmap(v_inc).ok() && full->read_vector_lightmap(v_full).ok());
+    ASSERT_EQ(v_inc, v_full) << "frame " << frame;
   }
   const Reference ref = level_reference(t.level, ld);
   EXPECT_LE(rel_l2(a_inc, ref.atlas), kFloat32Tolerance);

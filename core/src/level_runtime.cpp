@@ -141,28 +141,42 @@ void level_compute_probes(const Level& level, const Dictionary& dict, std::span<
   }
 }
 
+Status check_level_vector_operators(const Level& level, const Dictionary& dict) {
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const LevelBlock& blk = level.blocks[i];
+    if (blk.shape < 0 || std::size_t(blk.shape) >= dict.shapes.size())
+      return Status::error(ErrorCode::invalid_argument,
+                           "vector irradiance: block " + std::to_string(i) + " has no dictionary shape");
+    if (!has_size(dict.shapes[std::size_t(blk.shape)].Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
+      return Status::error(ErrorCode::invalid_argument, "vector irradiance: block " + std::to_string(i) +
+                                                            ": the dictionary has no Ub_vec of 4n x kb");
+  }
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    if (!has_size(level.vector_response[std::size_t(slot.entry_face)], 4 * slot.ur_row_to_sample.size(),
+                  level.kr))
+      return Status::error(ErrorCode::invalid_argument, "vector irradiance: slot " + std::to_string(s) +
+                                                            ": the level has no vector response of 4n x kr "
+                                                            "(dictionary without Ur_vec?)");
+  }
+  return Status::success();
+}
+
 Status level_compute_vector_irradiance(const Level& level, const Dictionary& dict, std::span<const float> b,
                                        std::span<const float> r, std::span<float> vector_lightmap) {
   const LevelBufferSizes sizes = level_buffer_sizes(level, dict);
   if (b.size() != sizes.b || r.size() != sizes.r || vector_lightmap.size() != sizes.vector_lightmap)
     return Status::error(ErrorCode::invalid_argument,
                          "vector irradiance: b, r or vector lightmap has the wrong size");
+  if (Status s = check_level_vector_operators(level, dict); !s.ok()) return s;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    const Matrix& Ub_vec = dict.shapes[std::size_t(blk.shape)].Ub_vec;
-    if (!has_size(Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
-      return Status::error(ErrorCode::invalid_argument, "vector irradiance: block " + std::to_string(i) +
-                                                            ": the dictionary has no Ub_vec of 4n x kb");
-    reference_gemv_rgb(Ub_vec, b.data() + 3 * std::size_t(level.kb) * i,
+    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub_vec, b.data() + 3 * std::size_t(level.kb) * i,
                        vector_lightmap.data() + 12 * std::size_t(blk.sample_offset), false);
   }
   for (std::size_t s = 0; s < level.slots.size(); ++s) {
     const ResponseSlot& slot = level.slots[s];
     const Matrix& U = level.vector_response[std::size_t(slot.entry_face)];
-    if (!has_size(U, 4 * slot.ur_row_to_sample.size(), level.kr))
-      return Status::error(ErrorCode::invalid_argument, "vector irradiance: slot " + std::to_string(s) +
-                                                            ": the level has no vector response of 4n x kr "
-                                                            "(dictionary without Ur_vec?)");
     const float* rs = r.data() + 3 * std::size_t(level.kr) * s;
     float* dst = vector_lightmap.data() + 12 * std::size_t(level.blocks[slot.block].sample_offset);
     for (std::size_t row = 0; row < slot.ur_row_to_sample.size(); ++row) {

@@ -40,6 +40,11 @@ class CpuBackend final : public Backend {
       return Status::error(ErrorCode::invalid_argument, "cpu: the dictionary has no probes");
     return copy("probes", probes_, out);
   }
+  // Computed on request from the kept b and r, so frames that never read it pay nothing.
+  Status read_vector_lightmap(std::span<float> out) override {
+    if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
+    return rt_.compute_vector_irradiance(out);
+  }
 
  private:
   Status finish() {

@@ -207,6 +207,18 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.b_scratch_.assign(3 * std::size_t(level.kb) * threads, 0.0f);
   rt.r_scratch_.assign(3 * std::size_t(level.kr) * threads, 0.0f);
   if (Status s = rt.set_skip_options(options.skip); !s.ok()) return s;
+  if (check_level_vector_operators(level, dict).ok()) {
+    rt.vector_ready_ = true;
+    rt.vector_rows_ = 4 * std::size_t(dict.interfaces.Ur.rows);
+    rt.vector_row_map_.assign(rt.vector_rows_ * slots, -1);
+    for (std::size_t s = 0; s < slots; ++s)
+      for (std::size_t t = 0; t < level.slots[s].ur_row_to_sample.size(); ++t) {
+        const std::int32_t sample = level.slots[s].ur_row_to_sample[t];
+        if (sample >= 0)
+          for (std::size_t i = 0; i < 4; ++i)
+            rt.vector_row_map_[rt.vector_rows_ * s + 4 * t + i] = 4 * sample + std::int32_t(i);
+      }
+  }
 
   if (options.threads > 1) {
     try {
@@ -538,6 +550,31 @@ Status CpuLevelRuntime::compute_probes(std::span<float> probes) const {
     }
   };
   parallel_for(level.blocks.size(), probe_phase);
+  return Status::success();
+}
+
+Status CpuLevelRuntime::compute_vector_irradiance(std::span<float> vector_lightmap) const {
+  if (!vector_ready_)
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "cpu runtime: no vector irradiance: " + check_level_vector_operators(*level_, *dict_).message());
+  if (vector_lightmap.size() != sizes_.vector_lightmap)
+    return wrong_size("vector lightmap", vector_lightmap.size(), sizes_.vector_lightmap);
+  const Level& level = *level_;
+  const std::size_t kb = level.kb, kr = level.kr;
+  auto vector_phase = [&](std::size_t i, int) {
+    const LevelBlock& blk = level.blocks[i];
+    float* out = vector_lightmap.data() + 12 * std::size_t(blk.sample_offset);
+    const Matrix& Ub_vec = dict_->shapes[std::size_t(blk.shape)].Ub_vec;
+    gemv_rgb(isa_, Ub_vec.data.data(), Ub_vec.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, out, false);
+    for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+      const std::size_t s = block_slots_[j];
+      const Matrix& U = level.vector_response[std::size_t(level.slots[s].entry_face)];
+      gemv_rgb_scatter(isa_, U.data.data(), U.rows, kr, kr, vector_row_map_.data() + vector_rows_ * s,
+                       r_planar_.data() + 3 * kr * s, kr, out);
+    }
+  };
+  parallel_for(level.blocks.size(), vector_phase);
   return Status::success();
 }
 

@@ -20,24 +20,13 @@ void main() {
   if (s >= 0) {
     ivec4 info = load_int(u_sample_info, s);
     int shape = load_int(u_block_info, info.x).x;
-    int ub = (shape * N_MAX + info.y) * GROUPS;
-    int bb = info.x * GROUPS;
-    for (int g = 0; g < GROUPS; ++g) {
-      vec4 u = load(u_ub, ub + g);
-      acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
-                  dot(u, load_signal(u_b_blue, bb + g)));
-    }
+    acc = dot_rgb(u_ub, (shape * N_MAX + info.y) * GROUPS, u_b_red, u_b_green, u_b_blue, info.x * GROUPS,
+                  GROUPS);
     ivec4 slots = load_int(u_sample_slots, s);
     ivec4 rows = load_int(u_sample_rows, s);
     for (int k = 0; k < 4; ++k) {
       if (slots[k] < 0) break;
-      int ur = rows[k] * R_GROUPS;
-      int rb = slots[k] * R_GROUPS;
-      for (int g = 0; g < R_GROUPS; ++g) {
-        vec4 u = load(u_ur, ur + g);
-        acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
-                    dot(u, load_signal(u_r_blue, rb + g)));
-      }
+      acc += dot_rgb(u_ur, rows[k] * R_GROUPS, u_r_red, u_r_green, u_r_blue, slots[k] * R_GROUPS, R_GROUPS);
     }
   }
   o_color = store_output(vec4(acc, 1.0));

@@ -3,6 +3,7 @@
 //   GROUPS, R_GROUPS  ceil(kb / 4), ceil(kr / 4): mode groups of four
 //   N_MAX             the largest shape's sample count
 //   PROBE_ROWS        9 g^3, rows of Ubvol (0 without probes)
+//   VECTOR_ROWS       4 x (dead-end samples), rows of each turned Ur_vec (0 without vector irradiance)
 //   B_CHUNK, B_CHUNKS samples per partial sum of b, and partial sums per block (b.frag)
 // Sizes are compile-time constants, not uniforms, so that loops have constant trip counts the
 // compiler can unroll and software-pipeline (the passes are texture-latency bound).
@@ -42,3 +43,16 @@ OUTPUT_TYPE store_output(vec4 v) { return v; }
 
 vec4 load(sampler2D t, int i) { return texelFetch(t, lin(i), 0); }
 ivec4 load_int(isampler2D t, int i) { return texelFetch(t, lin(i), 0); }
+
+// One packed operator row times a three-plane signal, per channel: the sum over `groups`
+// texels of dot(op[u + g], signal[s + g]). Called with GROUPS or R_GROUPS, constants that the
+// compiler unrolls once it has inlined the call.
+vec3 dot_rgb(sampler2D op, int u, usampler2D red, usampler2D green, usampler2D blue, int s, int groups) {
+  vec3 acc = vec3(0.0);
+  for (int g = 0; g < groups; ++g) {
+    vec4 w = load(op, u + g);
+    acc += vec3(dot(w, load_signal(red, s + g)), dot(w, load_signal(green, s + g)),
+                dot(w, load_signal(blue, s + g)));
+  }
+  return acc;
+}

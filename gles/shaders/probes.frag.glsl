@@ -21,24 +21,14 @@ void main() {
     int block = i / PROBE_ROWS;
     int row = i - block * PROBE_ROWS;
     int shape = load_int(u_block_info, block).x;
-    int op = (shape * PROBE_ROWS + row) * GROUPS;
-    int bb = block * GROUPS;
-    for (int g = 0; g < GROUPS; ++g) {
-      vec4 u = load(u_ubvol, op + g);
-      acc += vec3(dot(u, load_signal(u_b_red, bb + g)), dot(u, load_signal(u_b_green, bb + g)),
-                  dot(u, load_signal(u_b_blue, bb + g)));
-    }
+    acc = dot_rgb(u_ubvol, (shape * PROBE_ROWS + row) * GROUPS, u_b_red, u_b_green, u_b_blue, block * GROUPS,
+                  GROUPS);
     ivec4 slots = load_int(u_block_slots, block);
     for (int k = 0; k < 4; ++k) {
       if (slots[k] < 0) break;
       int face = load_int(u_slot_info, slots[k]).w;
-      int pr = (face * PROBE_ROWS + row) * R_GROUPS;
-      int rb = slots[k] * R_GROUPS;
-      for (int g = 0; g < R_GROUPS; ++g) {
-        vec4 u = load(u_probe_response, pr + g);
-        acc += vec3(dot(u, load_signal(u_r_red, rb + g)), dot(u, load_signal(u_r_green, rb + g)),
-                    dot(u, load_signal(u_r_blue, rb + g)));
-      }
+      acc += dot_rgb(u_probe_response, (face * PROBE_ROWS + row) * R_GROUPS, u_r_red, u_r_green, u_r_blue,
+                     slots[k] * R_GROUPS, R_GROUPS);
     }
   }
   o_sh = store_output(vec4(acc, 1.0));

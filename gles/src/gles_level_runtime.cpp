@@ -20,6 +20,7 @@ extern const char* const kRFrag;
 extern const char* const kAtlasFrag;
 extern const char* const kFeedbackFrag;
 extern const char* const kProbesFrag;
+extern const char* const kVectorFrag;
 
 const char* target_format_name(TargetFormat f) {
   switch (f) {
@@ -41,7 +42,7 @@ namespace {
 constexpr int kBChunk = 64;
 
 // Timer scopes, one per pass.
-enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kScopeCount };
+enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kVector, kScopeCount };
 
 int groups_of(std::size_t modes) { return int((modes + 3) / 4); }
 
@@ -121,6 +122,14 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   probe_rows_ = dict.shapes.empty() ? 0 : int(dict.shapes[0].Ubvol.rows);
   b_chunks_ = std::max(1, (n_max_ + kBChunk - 1) / kBChunk);
   has_probes_ = options.probes && probe_rows_ > 0;
+  if (options.vector_irradiance) {
+    if (Status s = check_level_vector_operators(level, dict); !s.ok())
+      return Status::error(ErrorCode::invalid_argument,
+                           "gles: vector_irradiance is on, but " + s.message() +
+                               " (bake the dictionary with format version 2 or turn vector_irradiance off)");
+    has_vector_ = true;
+    vector_rows_ = int(4 * dict.interfaces.Ur.rows);
+  }
   gl_.glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture_size_);
 
   // ---- target format: requested, or the best the context renders to ----
@@ -140,7 +149,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   const GLenum output_format = output_internal_format(target_);
   const GLenum op_format = options.operators == OperatorFormat::float16 ? GL_RGBA16F : GL_RGBA32F;
   description_ = std::string("gles ") + target_format_name(target_) + " targets, " +
-                 operator_format_name(options.operators) + " operators";
+                 operator_format_name(options.operators) + " operators" +
+                 (has_vector_ ? ", vector irradiance" : "");
 
   // ---- integer tables ----
   const std::size_t blocks = level.blocks.size(), slots = level.slots.size(), samples = level.sample_count;
@@ -251,6 +261,19 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
         pack_rows(level.probe_response[f], f * rows, r_groups_, probe_response);
   }
 
+  std::vector<float> ub_vec, vector_response;
+  if (has_vector_) {
+    const std::size_t rows = std::size_t(vector_rows_);
+    ub_vec.assign(4 * shapes * std::size_t(n_max_) * 4 * std::size_t(groups_), 0.0f);
+    for (std::size_t sh = 0; sh < shapes; ++sh)
+      if (!dict.shapes[sh].Ub_vec.empty())
+        pack_rows(dict.shapes[sh].Ub_vec, sh * std::size_t(n_max_) * 4, groups_, ub_vec);
+    vector_response.assign(4 * std::max<std::size_t>(kFaceCount * rows * std::size_t(r_groups_), 1), 0.0f);
+    for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f)
+      if (level.vector_response[f].rows == rows)
+        pack_rows(level.vector_response[f], f * rows, r_groups_, vector_response);
+  }
+
   // ---- textures ----
   Status limit;
   auto linear_texture = [&](const char* name, GLenum format, std::size_t texels) -> GLuint {
@@ -285,6 +308,10 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   if (has_probes_) {
     ubvol_ = float_table("Ubvol", op_format, ubvol);
     probe_response_ = float_table("probe response", op_format, probe_response);
+  }
+  if (has_vector_) {
+    ub_vec_ = float_table("Ub_vec", op_format, ub_vec);
+    vector_response_ = float_table("vector response", op_format, vector_response);
   }
   block_info_ = int_table("block table", block_info);
   block_slots_ = int_table("block slot table", block_slots);
@@ -363,6 +390,21 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
         !s.ok())
       return s;
   }
+  if (has_vector_) {
+    vector_.width = atlas_w;
+    vector_.height = atlas_h;
+    for (GLuint& tex : vector_.textures) {
+      tex = create_texture(gl_, output_format, atlas_w, atlas_h);
+      textures_.push_back(tex);
+    }
+    Result<GLuint> fb = create_framebuffer(
+        gl_, "vector irradiance",
+        {vector_.textures[0], vector_.textures[1], vector_.textures[2], vector_.textures[3]},
+        target_ == TargetFormat::bits32 ? "RGBA32UI" : fmt);
+    if (!fb.ok()) return fb.status();
+    vector_.framebuffer = fb.value();
+    framebuffers_.push_back(fb.value());
+  }
   std::size_t largest = std::size_t(atlas_w) * std::size_t(atlas_h);
   for (const Target* tg : {&ld_feedback_, &probes_})
     largest = std::max(largest, std::size_t(tg->width) * std::size_t(tg->height));
@@ -375,8 +417,9 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       "#version 300 es\n#define LINEAR_SHIFT " + std::to_string(kLinearShift) + "\n#define OUTPUT_BITS " +
       (target_ == TargetFormat::bits32 ? "1" : "0") + "\n#define GROUPS " + std::to_string(groups_) +
       "\n#define R_GROUPS " + std::to_string(r_groups_) + "\n#define N_MAX " + std::to_string(n_max_) +
-      "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) +
-      "\n#define B_CHUNKS " + std::to_string(b_chunks_) + "\n";
+      "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define VECTOR_ROWS " +
+      std::to_string(vector_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) + "\n#define B_CHUNKS " +
+      std::to_string(b_chunks_) + "\n";
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
   auto program = [&](const char* name, const std::string& head, const char* fragment,
@@ -422,6 +465,13 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                          {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
                           "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
     set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
+  }
+  if (has_vector_) {
+    if (Status s = program("vector.frag", defines, kVectorFrag, prog_vector_); !s.ok()) return s;
+    assign_sampler_units(gl_, prog_vector_.id,
+                         {"u_ub_vec", "u_vector_response", "u_texel_sample", "u_sample_info",
+                          "u_sample_slots", "u_sample_rows", "u_block_info", "u_slot_info", "u_b_red",
+                          "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
   }
   gl_.glUseProgram(0);
   ld_prev_.assign(3 * samples, 0.0f);
@@ -577,6 +627,17 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   end_pass(kAtlas);
   if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
 
+  if (has_vector_) {  // the same tiles as the atlas (rects_ still holds them)
+    begin_pass(kVector);
+    draw(prog_vector_, vector_.framebuffer, vector_.width, vector_.height,
+         {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
+          slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
+          r_.textures[2]},
+         partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+    end_pass(kVector);
+    if (Status s = check("vector irradiance pass (Ub_vec b + Ur_vec r)"); !s.ok()) return s;
+  }
+
   if (has_probes_ && blocks > 0) {
     begin_pass(kProbes);
     draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
@@ -597,6 +658,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     times_.r = timer_->elapsed_ns(kR);
     times_.atlas = timer_->elapsed_ns(kAtlas);
     times_.probes = has_probes_ ? timer_->elapsed_ns(kProbes) : 0;
+    times_.vector = has_vector_ ? timer_->elapsed_ns(kVector) : 0;
     timer_->reset();
   }
   return Status::success();
@@ -782,6 +844,26 @@ Status GlesLevelRuntime::read_probes(std::span<float> probes) {
     return s;
   for (std::size_t i = 0; i < probes.size() / 3; ++i)
     for (std::size_t c = 0; c < 3; ++c) probes[3 * i + c] = readback_[4 * i + c];
+  return Status::success();
+}
+
+Status GlesLevelRuntime::read_vector_lightmap(std::span<float> vector_lightmap) {
+  if (!has_vector_)
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles: no vector irradiance (GlesRuntimeOptions::vector_irradiance is off)");
+  if (vector_lightmap.size() != sizes_.vector_lightmap)
+    return wrong_size("vector lightmap", vector_lightmap.size(), sizes_.vector_lightmap);
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  const std::vector<std::uint32_t>& texel = level_->atlas.sample_texel;
+  for (int i = 0; i < 4; ++i) {
+    if (Status s = read_target(vector_.framebuffer, i, vector_.width, vector_.height,
+                               target_ == TargetFormat::bits32);
+        !s.ok())
+      return s;
+    for (std::size_t s = 0; s < texel.size(); ++s)
+      for (std::size_t c = 0; c < 3; ++c)
+        vector_lightmap[3 * (4 * s + std::size_t(i)) + c] = readback_[4 * std::size_t(texel[s]) + c];
+  }
   return Status::success();
 }
 

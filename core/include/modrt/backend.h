@@ -2,8 +2,8 @@
 // (modrt::gles) backends both implement, so a caller swaps them by a flag.
 //
 // A backend evaluates one built level every frame: ld (or ld_direct plus multi-bounce
-// feedback) -> b -> r -> lightmap -> padded atlas (-> volume probes). Results stay inside the
-// backend (CPU memory or GL textures); the read_* calls copy them out in core's layouts
+// feedback) -> b -> r -> lightmap -> padded atlas (-> volume probes, vector irradiance). Results stay inside
+// the backend (CPU memory or GL textures); the read_* calls copy them out in core's layouts
 // (level_runtime.h), which is what conformance tests and CPU-side consumers use. A GPU
 // backend's read_* wait for the GPU, so a renderer samples its textures instead.
 //
@@ -49,6 +49,10 @@ class Backend {
   virtual Status read_lightmap(std::span<float> lightmap) = 0;
   virtual Status read_atlas(std::span<float> atlas) = 0;
   virtual Status read_probes(std::span<float> probes) = 0;
+  // Vector irradiance (MRT §6.4, level_compute_vector_irradiance's layout, sizes().vector_lightmap
+  // floats): four OHLSH coefficients x RGB per sample, for normal-mapped surfaces. Fails when
+  // the dictionary has no vector operators or the backend was created without them.
+  virtual Status read_vector_lightmap(std::span<float> vector_lightmap) = 0;
 
  protected:
   Backend() = default;

@@ -65,5 +65,9 @@ void level_compute_probes(const Level& level, const Dictionary& dict, std::span<
 // dictionary or level has no vector operators of the expected sizes, or on wrong sizes.
 Status level_compute_vector_irradiance(const Level& level, const Dictionary& dict, std::span<const float> b,
                                        std::span<const float> r, std::span<float> vector_lightmap);
+// Whether the level and dictionary carry the vector operators level_compute_vector_irradiance
+// needs (Ub_vec per shape, the turned Ur_vec per used entry face); the error names the block
+// or slot without them. Backends ask once at creation.
+Status check_level_vector_operators(const Level& level, const Dictionary& dict);
 
 }  // namespace modrt

@@ -161,6 +161,14 @@ class CpuLevelRuntime {
   // evaluate(): Ubvol b per block plus the probe response of every slot's r.
   Status compute_probes(std::span<float> probes) const;
 
+  // Step 9, vector irradiance (MRT §6.4; level_compute_vector_irradiance's layout,
+  // sizes().vector_lightmap floats) from the b and r of the last evaluate(): Ub_vec b per
+  // block, then each slot's turned Ur_vec r scattered through its four-row map (row 4 t + i
+  // of the response -> coefficient i of the sample that dead-end row t lands on). Fails when
+  // has_vector_irradiance() is false.
+  Status compute_vector_irradiance(std::span<float> vector_lightmap) const;
+  bool has_vector_irradiance() const { return vector_ready_; }
+
   // Skipping (CpuSkipOptions). set_skip_options() fails on invalid values (negative, NaN,
   // record_epsilon > 1) and otherwise makes the next evaluate() compute everything.
   Status set_skip_options(const CpuSkipOptions& skip);
@@ -218,6 +226,11 @@ class CpuLevelRuntime {
   std::vector<std::uint8_t> slot_close_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;
+  // Vector irradiance: per slot, 4 x (Ur rows) entries mapping response row 4 t + i to
+  // vector-lightmap row 4 sample + i of the slot's block (-1: face missing); stride vector_rows_.
+  std::vector<std::int32_t> vector_row_map_;
+  std::size_t vector_rows_ = 0;
+  bool vector_ready_ = false;  // check_level_vector_operators passed (also with no slots)
 };
 
 }  // namespace modrt::cpu

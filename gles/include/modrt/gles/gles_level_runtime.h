@@ -9,6 +9,8 @@
 //               slot); reduce.frag adds the parts
 //   atlas.frag  Ub b + Ur r into the padded atlas; padding texels evaluate their source
 //   probes.frag Ubvol b + turned Urvol r (when the dictionary has probes and they are on)
+//   vector.frag Ub_vec b + turned Ur_vec r into four atlas-sized targets, one OHLSH
+//               coefficient each (GlesRuntimeOptions::vector_irradiance)
 //   feedback.frag ld = ld_direct + rho min(max(atlas, 0), bound) (multi_bounce_step only)
 // Shaders are strictly "#version 300 es" with no extension required.
 //
@@ -50,7 +52,11 @@ const char* operator_format_name(OperatorFormat f);  // "float32", "float16"
 struct GlesRuntimeOptions {
   std::optional<TargetFormat> target;                  // none: best renderable (see above); else required
   OperatorFormat operators = OperatorFormat::float32;  // float16 halves operator memory
-  bool probes = true;        // evaluate volume probes in update() when the dictionary has them
+  bool probes = true;  // evaluate volume probes in update() when the dictionary has them
+  // Evaluate vector irradiance (MRT §6.4: four OHLSH coefficient atlases, for normal maps) in
+  // update(). Off by default: it costs about four atlas passes. When on, create() fails if
+  // the dictionary or level lacks the vector operators (check_level_vector_operators).
+  bool vector_irradiance = false;
   bool check_errors = true;  // glGetError after every pass (a failed check names the pass)
   // update() recomputes only what an ld change reaches (see GlesSkipStats); exact, so off
   // only to measure the full path.
@@ -78,7 +84,7 @@ struct GlesSkipStats {
 
 // Per-pass time of the last update()/multi_bounce_step(), nanoseconds, when timing is on.
 struct GlesPassTimes {
-  std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0;
+  std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0, vector = 0;
 };
 
 class GlesLevelRuntime final : public Backend {
@@ -104,11 +110,17 @@ class GlesLevelRuntime final : public Backend {
   Status read_lightmap(std::span<float> lightmap) override;
   Status read_atlas(std::span<float> atlas) override;
   Status read_probes(std::span<float> probes) override;
+  Status read_vector_lightmap(std::span<float> vector_lightmap) override;
 
   TargetFormat target_format() const { return target_; }
   // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
   // texelFetch for bits32; float32 needs OES_texture_float_linear to filter.
   GLuint atlas_texture() const { return atlas_.texture; }
+  // Vector irradiance atlas of OHLSH coefficient i (0..3; same layout and format as the
+  // atlas, RGB in .rgb, coefficient frames: sh.h). 0 without vector_irradiance.
+  GLuint vector_texture(int i) const {
+    return has_vector_ && i >= 0 && i < 4 ? vector_.textures[std::size_t(i)] : 0;
+  }
   // The b and r of the last update (level_runtime.h layouts), for tests and tools.
   Status read_b(std::span<float> b);
   Status read_r(std::span<float> r);
@@ -127,6 +139,11 @@ class GlesLevelRuntime final : public Backend {
   };
   struct Signal3 {  // R, G, B planes of b or r (RGBA32UI), four modes per texel, one MRT framebuffer
     std::array<GLuint, 3> textures{};
+    GLuint framebuffer = 0;
+    int width = 0, height = 0;
+  };
+  struct VectorTarget {  // four OHLSH coefficient atlases, one MRT framebuffer
+    std::array<GLuint, 4> textures{};
     GLuint framebuffer = 0;
     int width = 0, height = 0;
   };
@@ -163,11 +180,12 @@ class GlesLevelRuntime final : public Backend {
   TargetFormat target_ = TargetFormat::float32;
   GlesRuntimeOptions options_;
   std::string description_;
-  int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0, b_chunks_ = 1;
-  bool has_probes_ = false, has_albedo_ = false, updated_ = false;
+  int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0, b_chunks_ = 1, vector_rows_ = 0;
+  bool has_probes_ = false, has_vector_ = false, has_albedo_ = false, updated_ = false;
 
   // Operator and table textures (uploaded once).
-  GLuint td_b_ = 0, ub_ = 0, ur_ = 0, t_ = 0, ubvol_ = 0, probe_response_ = 0;
+  GLuint td_b_ = 0, ub_ = 0, ur_ = 0, t_ = 0, ubvol_ = 0, probe_response_ = 0, ub_vec_ = 0,
+         vector_response_ = 0;
   GLuint block_info_ = 0, block_slots_ = 0, slot_info_ = 0, record_block_ = 0;
   GLuint texel_sample_ = 0, sample_info_ = 0, sample_slots_ = 0, sample_rows_ = 0;
   // Per-frame inputs (CPU uploads) and signals.
@@ -178,10 +196,11 @@ class GlesLevelRuntime final : public Backend {
   std::vector<GLuint> programs_;
   Signal3 b_partial_, b_, r_partial_, r_;
   Target atlas_, probes_, ld_feedback_;
+  VectorTarget vector_;
   float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
-      prog_probes_;
+      prog_probes_, prog_vector_;
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
   // creation; rects_ has capacity for every item so that no frame allocates.
