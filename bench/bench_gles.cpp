@@ -2,15 +2,17 @@
 // with the CPU backend's AVX2/NEON/best-ISA frame on the same level in the same run for a
 // ratio. Speed is measured only here.
 //
-//   BM_GlesLevelFrame/<blocks>/<context>/<moving>   update(ld) + glFinish, wall clock;
+//   BM_GlesLevelFrame/<blocks>/<context>/<moving>/<vector>   update(ld) + glFinish, wall clock;
 //     moving 0: the full path (skipping off); 1: one block's ld changes per frame, skipping on
+//     vector 1: the vector irradiance pass runs too (GlesRuntimeOptions::vector_irradiance)
 //     counters:
 //        gpu_us  sum of the passes' GPU timer-query times (0 when the context has none)
-//        b_us, r_us, atlas_us, probes_us, upload_us  per pass
+//        b_us, r_us, atlas_us, probes_us, vector_us, upload_us  per pass
 //     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
 //   BM_TbrOnCpu/<blocks>/<context>         Tb->r done on the CPU instead: read b back, SIMD
 //                                          records, upload r (compare with r_us above)
-//   BM_CpuBackendFrame/<blocks>            the CPU backend's update (best ISA), for the ratio
+//   BM_CpuBackendFrame/<blocks>/<vector>   the CPU backend's update (best ISA), for the ratio;
+//                                          vector 1: + read_vector_lightmap (computed on read)
 //
 // Levels: maze11 and maze41 against the default full dictionary (bench_levels.h;
 // MODRT_BENCH_DICTIONARY=FILE loads a dictionary file instead of the cache).
@@ -78,6 +80,7 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   const bool moving_light = state.range(2) != 0;
   gles::GlesRuntimeOptions options;
   options.skip_unchanged = moving_light;  // the full path recomputes everything every frame
+  options.vector_irradiance = state.range(3) != 0;
   Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
       gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
   if (!rt.ok()) {
@@ -111,7 +114,8 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   for (int i = 0; i < kTimedFrames; ++i) {
     (void)runtime.update(next_ld());
     const gles::GlesPassTimes& t = runtime.pass_times();
-    sum.upload += t.upload, sum.b += t.b, sum.r += t.r, sum.atlas += t.atlas, sum.probes += t.probes;
+    sum.upload += t.upload, sum.b += t.b, sum.r += t.r, sum.atlas += t.atlas, sum.probes += t.probes,
+        sum.vector += t.vector;
   }
   auto us = [](std::uint64_t ns) { return double(ns) / kTimedFrames / 1000.0; };
   state.counters["upload_us"] = us(sum.upload);
@@ -119,7 +123,8 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   state.counters["r_us"] = us(sum.r);
   state.counters["atlas_us"] = us(sum.atlas);
   state.counters["probes_us"] = us(sum.probes);
-  state.counters["gpu_us"] = us(sum.b + sum.r + sum.atlas + sum.probes);
+  state.counters["vector_us"] = us(sum.vector);
+  state.counters["gpu_us"] = us(sum.b + sum.r + sum.atlas + sum.probes + sum.vector);
   state.counters["blocks"] = double(bl->level.blocks.size());
   state.counters["records"] = double(bl->level.records.size());
   const gles::GlesSkipStats& skip = runtime.skip_stats();
@@ -128,7 +133,8 @@ void BM_GlesLevelFrame(benchmark::State& state) {
   state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " " + runtime.description());
 }
 BENCHMARK(BM_GlesLevelFrame)
-    ->ArgsProduct({{11, 41}, {0, 1, 2, 3}, {0, 1}})
+    ->ArgsProduct({{11, 41}, {0, 1, 2, 3}, {0, 1}, {0}})
+    ->ArgsProduct({{11, 41}, {0, 3}, {0}, {1}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 
@@ -199,11 +205,16 @@ void BM_CpuBackendFrame(benchmark::State& state) {
     state.SkipWithError(be.status().to_string().c_str());
     return;
   }
-  for (auto _ : state)
+  const bool vector = state.range(1) != 0;
+  std::vector<float> vector_lightmap(vector ? be.value()->sizes().vector_lightmap : 0);
+  for (auto _ : state) {
     if (!be.value()->update(bl->ld).ok()) state.SkipWithError("update failed");
-  state.SetLabel(be.value()->description());
+    if (vector && !be.value()->read_vector_lightmap(vector_lightmap).ok())
+      state.SkipWithError("read_vector_lightmap failed");
+  }
+  state.SetLabel(std::string(be.value()->description()) + (vector ? " + vector irradiance" : ""));
 }
-BENCHMARK(BM_CpuBackendFrame)->Arg(11)->Arg(41)->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_CpuBackendFrame)->ArgsProduct({{11, 41}, {0, 1}})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 }  // namespace
 
