@@ -264,5 +264,208 @@ TEST(CpuKernels, PaddingCopiesInRecordOrder) {
   EXPECT_EQ(a2, (std::vector<float>{0, 0, 0, 4, 5, 6, 0, 0, 0, 1, 2, 3}));
 }
 
+// ---- float16 operator storage ----
+
+// The float value of binary16 bits, from the format's definition.
+double half_value(std::uint16_t h) {
+  const int exp = (h >> 10) & 0x1f, mant = h & 0x3ff;
+  const double mag = exp == 0 ? std::ldexp(double(mant), -24) : std::ldexp(double(1024 + mant), exp - 25);
+  return (h & 0x8000) ? -mag : mag;
+}
+
+// Every one of the 65536 bit patterns converts exactly and round-trips.
+TEST(CpuKernels, HalfToFloatIsExactForEveryHalf) {
+  for (std::uint32_t bits = 0; bits < 0x10000; ++bits) {
+    const std::uint16_t h = std::uint16_t(bits);
+    const float f = half_to_float(h);
+    if (((h >> 10) & 0x1f) == 0x1f) {  // Inf (mantissa 0) or NaN
+      EXPECT_EQ(std::isnan(f), (h & 0x3ff) != 0) << bits;
+      if ((h & 0x3ff) == 0) {
+        EXPECT_EQ(f, (h & 0x8000) ? -INFINITY : INFINITY) << bits;
+      }
+      std::uint16_t out = 0x1234;
+      EXPECT_FALSE(float_to_half(f, &out)) << bits;
+      EXPECT_EQ(out, 0x1234) << bits;
+      continue;
+    }
+    ASSERT_EQ(double(f), half_value(h)) << bits;
+    EXPECT_EQ(std::signbit(f), (h & 0x8000) != 0) << bits;  // -0 too
+    std::uint16_t back = 0;
+    ASSERT_TRUE(float_to_half(f, &back)) << bits;
+    EXPECT_EQ(back, h) << bits;
+  }
+}
+
+// Between two neighbouring halves: the midpoint goes to the one with the even bit pattern,
+// anything off it to the nearer one; the same mirrored for negative values.
+TEST(CpuKernels, FloatToHalfRoundsToNearestEven) {
+  auto to_half = [](float v) {
+    std::uint16_t h = 0;
+    EXPECT_TRUE(float_to_half(v, &h)) << v;
+    return h;
+  };
+  for (std::uint32_t bits = 0; bits < 0x7bff; ++bits) {
+    const std::uint16_t lo = std::uint16_t(bits), hi = std::uint16_t(bits + 1);
+    const float a = half_to_float(lo), b = half_to_float(hi);
+    const float mid = a + (b - a) * 0.5f;  // exact: a float has 13 more mantissa bits
+    ASSERT_EQ(double(mid), (half_value(lo) + half_value(hi)) / 2) << bits;
+    const std::uint16_t even = (lo & 1) ? hi : lo;
+    EXPECT_EQ(to_half(mid), even) << bits;
+    EXPECT_EQ(to_half(-mid), even | 0x8000) << bits;
+    EXPECT_EQ(to_half(std::nextafter(mid, 0.0f)), lo) << bits;
+    EXPECT_EQ(to_half(std::nextafter(mid, 1e9f)), hi) << bits;
+    EXPECT_EQ(to_half(-std::nextafter(mid, 1e9f)), hi | 0x8000) << bits;
+  }
+  // Below the smallest subnormal half (2^-24): 2^-25 is a tie that goes to 0; float subnormals
+  // and tiny values vanish (keeping their sign).
+  EXPECT_EQ(to_half(0x1p-25f), 0);
+  EXPECT_EQ(to_half(std::nextafter(0x1p-25f, 1.0f)), 1);
+  EXPECT_EQ(to_half(0x1.8p-24f), 2);  // 1.5 x 2^-24: tie between 1 and 2, even is 2
+  EXPECT_EQ(to_half(1e-30f), 0);
+  EXPECT_EQ(to_half(-1e-40f), 0x8000);
+  EXPECT_EQ(to_half(std::numeric_limits<float>::denorm_min()), 0);
+  EXPECT_EQ(to_half(1.0f + 0x1p-11f), 0x3c00);    // tie between 1 and 1 + 2^-10: to 1
+  EXPECT_EQ(to_half(1.0f + 0x1.8p-10f), 0x3c02);  // tie between 1 + 2^-10 (odd) and 1 + 2^-9
+}
+
+TEST(CpuKernels, FloatToHalfRefusesValuesBeyondTheHalfRange) {
+  std::uint16_t h = 0;
+  EXPECT_TRUE(float_to_half(kHalfMax, &h));
+  EXPECT_EQ(h, 0x7bff);
+  EXPECT_TRUE(float_to_half(-kHalfMax, &h));
+  EXPECT_EQ(h, 0xfbff);
+  for (float v : {std::nextafter(kHalfMax, 1e9f), 65519.0f, 65520.0f, 1e6f, std::numeric_limits<float>::max(),
+                  std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()}) {
+    h = 0x1234;
+    EXPECT_FALSE(float_to_half(v, &h)) << v;
+    EXPECT_FALSE(float_to_half(-v, &h)) << -v;
+    EXPECT_EQ(h, 0x1234) << v;  // nothing stored
+  }
+  // The array form names the first value refused.
+  const std::vector<float> in = {1.0f, -2.5f, 0.0f, 7e4f, 3.0f, 1e9f};
+  std::vector<std::uint16_t> out(in.size(), 0);
+  EXPECT_EQ(float_to_half(in.data(), in.size(), out.data()), 3u);
+  EXPECT_EQ(out[0], 0x3c00);
+  EXPECT_EQ(out[1], 0xc100);
+  EXPECT_EQ(float_to_half(in.data(), 3, out.data()), 3u);
+  EXPECT_EQ(float_to_half(in.data(), 0, out.data()), 0u);
+}
+
+// A random matrix rounded to halves, row-major with leading dimension lda (padding: NaN
+// halves, so a read past a row shows), and the same values as floats.
+struct HalfMatrix {
+  std::vector<std::uint16_t> half;
+  std::vector<float> value;
+  std::size_t lda = 0;
+};
+
+HalfMatrix random_half_matrix(std::mt19937& rng, std::size_t rows, std::size_t cols, std::size_t lda) {
+  HalfMatrix m{std::vector<std::uint16_t>(rows * lda, 0x7e00),
+               std::vector<float>(rows * lda, std::numeric_limits<float>::quiet_NaN()), lda};
+  std::uniform_real_distribution<float> d(-1.0f, 1.0f);
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t k = 0; k < cols; ++k) {
+      std::uint16_t h = 0;
+      EXPECT_TRUE(float_to_half(d(rng), &h));
+      m.half[r * lda + k] = h;
+      m.value[r * lda + k] = half_to_float(h);
+    }
+  return m;
+}
+
+// The float kernel an _f16 kernel equals bit for bit: the same ISA, except AVX2 without F16C
+// (then the SSE4.1 variant runs).
+Isa float_twin(Isa isa) { return isa == Isa::avx2 && !f16c_supported() ? Isa::sse41 : isa; }
+
+// Every ISA's f16 GEMV equals the scalar f16 twin within 1e-5 relative, and the float kernel
+// on the same (half-rounded) values bit for bit; the scalar twin equals core's reference on
+// those values bit for bit.
+TEST(CpuKernels, GemvF16MatchesScalarTwinForEveryIsaAndSize) {
+  std::printf("  F16C: %s\n", f16c_supported() ? "yes" : "no");
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(4321);
+    Worst worst;
+    for (std::uint32_t rows : kRowSizes)
+      for (std::uint32_t cols : kColSizes)
+        for (bool accumulate : {false, true}) {
+          const std::size_t lda = cols + (rows % 2 ? 3 : 0), stride = cols + (cols % 3);
+          const HalfMatrix A = random_half_matrix(rng, rows, cols, lda);
+          const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
+          std::vector<float> planar(3 * stride, std::numeric_limits<float>::quiet_NaN());
+          deinterleave_rgb(in.data(), cols, planar.data(), stride);
+          const std::vector<float> start = random_vector(rng, 3 * std::size_t(rows), 0.0f, 1.0f);
+          std::vector<float> twin = start, got = start, as_float = start;
+          gemv_rgb_f16(Isa::scalar, A.half.data(), rows, cols, lda, planar.data(), stride, twin.data(),
+                       accumulate);
+          gemv_rgb_f16(isa, A.half.data(), rows, cols, lda, planar.data(), stride, got.data(), accumulate);
+          gemv_rgb(float_twin(isa), A.value.data(), rows, cols, lda, planar.data(), stride, as_float.data(),
+                   accumulate);
+          const std::string what = std::string(isa_name(isa)) + " f16 " + std::to_string(rows) + "x" +
+                                   std::to_string(cols) + (accumulate ? " accumulate" : "");
+          expect_close(got, twin, what, &worst);
+          EXPECT_EQ(got, as_float) << what;
+          if (isa == Isa::scalar) {
+            Matrix dense(rows, cols);
+            for (std::size_t r = 0; r < rows; ++r)
+              std::copy_n(&A.value[r * lda], cols, &dense.data[r * std::size_t(cols)]);
+            std::vector<float> ref = start;
+            reference_gemv_rgb(dense, in.data(), ref.data(), accumulate);
+            EXPECT_EQ(twin, ref) << what;
+          }
+        }
+    worst.print("gemv_rgb_f16", isa);
+  }
+}
+
+// The scatter and masked f16 kernels: within 1e-5 of the scalar f16 twin, bit for bit the float
+// kernels on the same values, and masked + add_scattered writes the scatter's bits.
+TEST(CpuKernels, ScatterAndMaskedF16MatchScalarTwin) {
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(555);
+    Worst worst;
+    for (std::uint32_t rows : kRowSizes)
+      for (std::uint32_t cols : kColSizes) {
+        if (cols > 100) continue;
+        const HalfMatrix A = random_half_matrix(rng, rows, cols, cols);
+        const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
+        std::vector<float> planar(3 * std::size_t(cols));
+        deinterleave_rgb(in.data(), cols, planar.data(), cols);
+        const std::size_t samples = 2 * std::size_t(rows) + 1;
+        std::vector<std::int32_t> perm(samples);
+        for (std::size_t i = 0; i < samples; ++i) perm[i] = std::int32_t(i);
+        std::shuffle(perm.begin(), perm.end(), rng);
+        std::vector<std::int32_t> map(rows);
+        for (std::uint32_t r = 0; r < rows; ++r) map[r] = rng() % 3 == 0 ? -1 : perm[r];
+        if (rows >= 8) std::fill(map.begin(), map.begin() + 4, -1);
+        const std::vector<float> base = random_vector(rng, 3 * samples, 0.0f, 1.0f);
+        std::vector<float> twin = base, got = base, as_float = base, added = base;
+        gemv_rgb_scatter_f16(Isa::scalar, A.half.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                             twin.data());
+        gemv_rgb_scatter_f16(isa, A.half.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                             got.data());
+        gemv_rgb_scatter(float_twin(isa), A.value.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                         as_float.data());
+        const std::string what =
+            std::string(isa_name(isa)) + " f16 scatter " + std::to_string(rows) + "x" + std::to_string(cols);
+        expect_close(got, twin, what, &worst);
+        EXPECT_EQ(got, as_float) << what;
+        const float sentinel = -7.0f;
+        std::vector<float> values(3 * std::size_t(rows), sentinel), values_float = values;
+        gemv_rgb_masked_f16(isa, A.half.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                            values.data());
+        gemv_rgb_masked(float_twin(isa), A.value.data(), rows, cols, cols, map.data(), planar.data(), cols,
+                        values_float.data());
+        EXPECT_EQ(values, values_float) << what;
+        for (std::uint32_t r = 0; r < rows; ++r)
+          if (map[r] < 0) {
+            EXPECT_EQ(values[3 * r], sentinel) << what;
+          }
+        add_scattered(rows, map.data(), values.data(), added.data());
+        EXPECT_EQ(added, got) << what;
+      }
+    worst.print("gemv_rgb_scatter_f16", isa);
+  }
+}
+
 }  // namespace
 }  // namespace modrt::cpu

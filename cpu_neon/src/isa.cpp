@@ -25,6 +25,15 @@ const std::vector<Isa>& isas() {
   return list;
 }
 
+bool detect_f16c() {
+#if MODRT_CPU_X86
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("f16c");
+#else
+  return false;
+#endif
+}
+
 Isa& active() {
   static Isa isa = isas().back();
   return isa;
@@ -53,6 +62,11 @@ bool isa_supported(Isa isa) {
 Isa best_isa() { return isas().back(); }
 
 Isa active_isa() { return active(); }
+
+bool f16c_supported() {
+  static const bool has = detect_f16c();
+  return has;
+}
 
 bool set_isa(Isa isa) {
   if (!isa_supported(isa)) return false;

@@ -3,8 +3,10 @@
 #include "modrt/cpu/kernels.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "simd_config.h"
 
@@ -16,6 +18,45 @@
 #endif
 
 namespace modrt::cpu {
+
+// Exact whatever the rounding mode and flush-to-zero setting: bit manipulation, and for a
+// subnormal half an exact product whose result is a normal float.
+float half_to_float(std::uint16_t h) {
+  const std::uint32_t sign = std::uint32_t(h & 0x8000u) << 16, exp = (h >> 10) & 0x1fu, mant = h & 0x3ffu;
+  if (exp == 0x1f) return std::bit_cast<float>(sign | 0x7f800000u | (mant << 13));  // Inf, NaN
+  if (exp != 0) return std::bit_cast<float>(sign | ((exp + 112) << 23) | (mant << 13));
+  const float v = float(mant) * 0x1p-24f;  // subnormal (or zero): mant x 2^-24, exact
+  return sign ? -v : v;
+}
+
+bool float_to_half(float v, std::uint16_t* out) {
+  const std::uint32_t x = std::bit_cast<std::uint32_t>(v);
+  const std::uint32_t sign = (x >> 16) & 0x8000u, ax = x & 0x7fffffffu;
+  if (ax > std::bit_cast<std::uint32_t>(kHalfMax)) return false;  // also Inf and NaN
+  std::uint32_t h;
+  if (ax >= 0x38800000u) {  // >= 2^-14: a normal half. Rebias, then round off 13 bits to even.
+    h = (ax - (112u << 23) + 0xfffu + ((ax >> 13) & 1u)) >> 13;
+  } else {  // a subnormal half: m = round(|v| 2^24), ties to even; m = 1024 is 2^-14, also right
+    const std::uint32_t e = ax >> 23;
+    if (e < 102) {  // |v| < 2^-25: rounds to zero
+      h = 0;
+    } else {
+      const std::uint32_t mant = (ax & 0x7fffffu) | 0x800000u, shift = 126 - e;  // 14..24
+      const std::uint32_t rem = mant & ((1u << shift) - 1u), halfway = 1u << (shift - 1);
+      h = mant >> shift;
+      h += rem > halfway || (rem == halfway && (h & 1u));
+    }
+  }
+  *out = std::uint16_t(sign | h);
+  return true;
+}
+
+std::size_t float_to_half(const float* in, std::size_t count, std::uint16_t* out) {
+  for (std::size_t i = 0; i < count; ++i)
+    if (!float_to_half(in[i], out + i)) return i;
+  return count;
+}
+
 namespace {
 
 // Writes one row's three sums, rounding as core's reference does: overwrite float(s);
@@ -61,18 +102,23 @@ inline bool all_skipped(const std::int32_t* map, std::size_t r, std::size_t coun
   return true;
 }
 
+// A matrix element as float: float operators read in place, binary16 ones converted exactly.
+inline float elem(const float* p) { return *p; }
+inline float elem(const std::uint16_t* p) { return half_to_float(*p); }
+
 // ---- scalar twin: double accumulation, like core's reference_gemv_rgb ----
-void gemv_scalar(const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
+template <class T>
+void gemv_scalar(const T* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
                  std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
   const float* xb = x + 2 * stride;
   for (std::size_t r = 0; r < rows; ++r) {
     if (all_skipped(map, r, 1)) continue;
-    const float* a = A + r * lda;
+    const T* a = A + r * lda;
     double s0 = 0.0, s1 = 0.0, s2 = 0.0;
     for (std::size_t k = 0; k < cols; ++k) {
-      const double v = a[k];
+      const double v = elem(a + k);
       s0 += v * xr[k];
       s1 += v * xg[k];
       s2 += v * xb[k];
@@ -125,9 +171,24 @@ MODRT_TARGET_AVX2 inline __m128 hsum4_avx(__m256 a, __m256 b, __m256 c, __m256 d
   return _mm_add_ps(_mm256_castps256_ps128(t), _mm256_extractf128_ps(t, 1));
 }
 
-MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
-                                 const float* x, std::size_t stride, float* out, const std::int32_t* map,
-                                 bool accumulate) {
+// Matrix loads: floats in place; binary16 through F16C (the T = uint16_t instantiation is
+// dispatched only when f16c_supported()).
+MODRT_TARGET_AVX2 inline __m256 load8_avx(const float* p) { return _mm256_loadu_ps(p); }
+MODRT_TARGET_AVX2_F16C inline __m256 load8_avx(const std::uint16_t* p) {
+  return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+MODRT_TARGET_AVX2 inline __m128 load4_avx(const float* p) { return _mm_loadu_ps(p); }
+MODRT_TARGET_AVX2_F16C inline __m128 load4_avx(const std::uint16_t* p) {
+  return _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)));
+}
+
+// One template for both element types, so it carries F16C in its target: the float
+// instantiation contains no F16C instruction (none is emitted without a half conversion;
+// checked with objdump) and runs on AVX2+FMA CPUs without F16C.
+template <class T>
+MODRT_TARGET_AVX2_F16C void gemv_avx2(const T* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                                      const float* x, std::size_t stride, float* out, const std::int32_t* map,
+                                      bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
   const float* xb = x + 2 * stride;
@@ -135,7 +196,7 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
   std::size_t r = 0;
   for (; r + 4 <= rows; r += 4) {
     if (all_skipped(map, r, 4)) continue;
-    const float* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
+    const T* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
     double sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
@@ -143,16 +204,16 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
       __m256 c2r = c0r, c2g = c0r, c2b = c0r, c3r = c0r, c3g = c0r, c3b = c0r;
       for (std::size_t k = k0; k < k1; k += 8) {
         const __m256 vr = _mm256_loadu_ps(xr + k), vg = _mm256_loadu_ps(xg + k), vb = _mm256_loadu_ps(xb + k);
-        __m256 v = _mm256_loadu_ps(a[0] + k);
+        __m256 v = load8_avx(a[0] + k);
         c0r = _mm256_fmadd_ps(v, vr, c0r), c0g = _mm256_fmadd_ps(v, vg, c0g),
         c0b = _mm256_fmadd_ps(v, vb, c0b);
-        v = _mm256_loadu_ps(a[1] + k);
+        v = load8_avx(a[1] + k);
         c1r = _mm256_fmadd_ps(v, vr, c1r), c1g = _mm256_fmadd_ps(v, vg, c1g),
         c1b = _mm256_fmadd_ps(v, vb, c1b);
-        v = _mm256_loadu_ps(a[2] + k);
+        v = load8_avx(a[2] + k);
         c2r = _mm256_fmadd_ps(v, vr, c2r), c2g = _mm256_fmadd_ps(v, vg, c2g),
         c2b = _mm256_fmadd_ps(v, vb, c2b);
-        v = _mm256_loadu_ps(a[3] + k);
+        v = load8_avx(a[3] + k);
         c3r = _mm256_fmadd_ps(v, vr, c3r), c3g = _mm256_fmadd_ps(v, vg, c3g),
         c3b = _mm256_fmadd_ps(v, vb, c3b);
       }
@@ -169,7 +230,7 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
       const __m128 vr = _mm_loadu_ps(xr + kv), vg = _mm_loadu_ps(xg + kv), vb = _mm_loadu_ps(xb + kv);
       __m128 pr[4], pg[4], pb[4];
       for (int i = 0; i < 4; ++i) {
-        const __m128 v = _mm_loadu_ps(a[i] + kv);
+        const __m128 v = load4_avx(a[i] + kv);
         pr[i] = _mm_mul_ps(v, vr), pg[i] = _mm_mul_ps(v, vg), pb[i] = _mm_mul_ps(v, vb);
       }
       alignas(16) float fr[4], fg[4], fb[4];
@@ -181,7 +242,7 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
     }
     for (int i = 0; i < 4; ++i) {
       for (std::size_t k = kt; k < cols; ++k) {
-        const double v = a[i][k];
+        const double v = elem(a[i] + k);
         sr[i] += v * xr[k], sg[i] += v * xg[k], sb[i] += v * xb[k];
       }
       emit(out, map, accumulate, r + std::size_t(i), sr[i], sg[i], sb[i]);
@@ -189,13 +250,13 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
   }
   for (; r < rows; ++r) {
     if (all_skipped(map, r, 1)) continue;
-    const float* a0 = A + r * lda;
+    const T* a0 = A + r * lda;
     double s[3] = {0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
       __m256 cr = _mm256_setzero_ps(), cg = cr, cb = cr;
       for (std::size_t k = k0; k < k1; k += 8) {
-        const __m256 v = _mm256_loadu_ps(a0 + k);
+        const __m256 v = load8_avx(a0 + k);
         cr = _mm256_fmadd_ps(v, _mm256_loadu_ps(xr + k), cr);
         cg = _mm256_fmadd_ps(v, _mm256_loadu_ps(xg + k), cg);
         cb = _mm256_fmadd_ps(v, _mm256_loadu_ps(xb + k), cb);
@@ -205,7 +266,7 @@ MODRT_TARGET_AVX2 void gemv_avx2(const float* A, std::size_t rows, std::size_t c
       s[0] += f[0], s[1] += f[1], s[2] += f[2];
     }
     for (std::size_t k = kv; k < cols; ++k) {
-      const double v = a0[k];
+      const double v = elem(a0 + k);
       s[0] += v * xr[k], s[1] += v * xg[k], s[2] += v * xb[k];
     }
     emit(out, map, accumulate, r, s[0], s[1], s[2]);
@@ -238,7 +299,15 @@ MODRT_TARGET_SSE41 inline __m128 madd_sse(__m128 a, __m128 b, __m128 c) {
   return _mm_add_ps(_mm_mul_ps(a, b), c);
 }
 
-MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
+// Binary16 matrix loads convert in software: SSE4.1 has no half conversion (F16C CPUs take
+// the AVX2 path).
+MODRT_TARGET_SSE41 inline __m128 load4_sse(const float* p) { return _mm_loadu_ps(p); }
+MODRT_TARGET_SSE41 inline __m128 load4_sse(const std::uint16_t* p) {
+  return _mm_setr_ps(half_to_float(p[0]), half_to_float(p[1]), half_to_float(p[2]), half_to_float(p[3]));
+}
+
+template <class T>
+MODRT_TARGET_SSE41 void gemv_sse41(const T* A, std::size_t rows, std::size_t cols, std::size_t lda,
                                    const float* x, std::size_t stride, float* out, const std::int32_t* map,
                                    bool accumulate) {
   const float* xr = x;
@@ -248,7 +317,7 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
   std::size_t r = 0;
   for (; r + 4 <= rows; r += 4) {
     if (all_skipped(map, r, 4)) continue;
-    const float* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
+    const T* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
     double sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
@@ -256,13 +325,13 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
       __m128 c2r = c0r, c2g = c0r, c2b = c0r, c3r = c0r, c3g = c0r, c3b = c0r;
       for (std::size_t k = k0; k < k1; k += 4) {
         const __m128 vr = _mm_loadu_ps(xr + k), vg = _mm_loadu_ps(xg + k), vb = _mm_loadu_ps(xb + k);
-        __m128 v = _mm_loadu_ps(a[0] + k);
+        __m128 v = load4_sse(a[0] + k);
         c0r = madd_sse(v, vr, c0r), c0g = madd_sse(v, vg, c0g), c0b = madd_sse(v, vb, c0b);
-        v = _mm_loadu_ps(a[1] + k);
+        v = load4_sse(a[1] + k);
         c1r = madd_sse(v, vr, c1r), c1g = madd_sse(v, vg, c1g), c1b = madd_sse(v, vb, c1b);
-        v = _mm_loadu_ps(a[2] + k);
+        v = load4_sse(a[2] + k);
         c2r = madd_sse(v, vr, c2r), c2g = madd_sse(v, vg, c2g), c2b = madd_sse(v, vb, c2b);
-        v = _mm_loadu_ps(a[3] + k);
+        v = load4_sse(a[3] + k);
         c3r = madd_sse(v, vr, c3r), c3g = madd_sse(v, vg, c3g), c3b = madd_sse(v, vb, c3b);
       }
       alignas(16) float fr[4], fg[4], fb[4];
@@ -273,7 +342,7 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
     }
     for (int i = 0; i < 4; ++i) {
       for (std::size_t k = kv; k < cols; ++k) {
-        const double v = a[i][k];
+        const double v = elem(a[i] + k);
         sr[i] += v * xr[k], sg[i] += v * xg[k], sb[i] += v * xb[k];
       }
       emit(out, map, accumulate, r + std::size_t(i), sr[i], sg[i], sb[i]);
@@ -281,13 +350,13 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
   }
   for (; r < rows; ++r) {
     if (all_skipped(map, r, 1)) continue;
-    const float* a0 = A + r * lda;
+    const T* a0 = A + r * lda;
     double s[3] = {0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
       __m128 cr = _mm_setzero_ps(), cg = cr, cb = cr;
       for (std::size_t k = k0; k < k1; k += 4) {
-        const __m128 v = _mm_loadu_ps(a0 + k);
+        const __m128 v = load4_sse(a0 + k);
         cr = madd_sse(v, _mm_loadu_ps(xr + k), cr);
         cg = madd_sse(v, _mm_loadu_ps(xg + k), cg);
         cb = madd_sse(v, _mm_loadu_ps(xb + k), cb);
@@ -297,7 +366,7 @@ MODRT_TARGET_SSE41 void gemv_sse41(const float* A, std::size_t rows, std::size_t
       s[0] += f[0], s[1] += f[1], s[2] += f[2];
     }
     for (std::size_t k = kv; k < cols; ++k) {
-      const double v = a0[k];
+      const double v = elem(a0 + k);
       s[0] += v * xr[k], s[1] += v * xg[k], s[2] += v * xb[k];
     }
     emit(out, map, accumulate, r, s[0], s[1], s[2]);
@@ -422,7 +491,13 @@ inline float32x4_t hsum4_neon(float32x4_t a, float32x4_t b, float32x4_t c, float
 // vfmaq_f32(acc, a, b) = acc + a * b, argument order as the x86 helpers.
 inline float32x4_t fma_neon(float32x4_t a, float32x4_t b, float32x4_t acc) { return vfmaq_f32(acc, a, b); }
 
-void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
+inline float32x4_t load4_neon(const float* p) { return vld1q_f32(p); }
+inline float32x4_t load4_neon(const std::uint16_t* p) {
+  return vcvt_f32_f16(vreinterpret_f16_u16(vld1_u16(p)));
+}
+
+template <class T>
+void gemv_neon(const T* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
                std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   const float* xr = x;
   const float* xg = x + stride;
@@ -431,7 +506,7 @@ void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t l
   std::size_t r = 0;
   for (; r + 4 <= rows; r += 4) {
     if (all_skipped(map, r, 4)) continue;
-    const float* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
+    const T* a[4] = {A + r * lda, A + (r + 1) * lda, A + (r + 2) * lda, A + (r + 3) * lda};
     double sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
@@ -439,13 +514,13 @@ void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t l
       float32x4_t c2r = c0r, c2g = c0r, c2b = c0r, c3r = c0r, c3g = c0r, c3b = c0r;
       for (std::size_t k = k0; k < k1; k += 4) {
         const float32x4_t vr = vld1q_f32(xr + k), vg = vld1q_f32(xg + k), vb = vld1q_f32(xb + k);
-        float32x4_t v = vld1q_f32(a[0] + k);
+        float32x4_t v = load4_neon(a[0] + k);
         c0r = fma_neon(v, vr, c0r), c0g = fma_neon(v, vg, c0g), c0b = fma_neon(v, vb, c0b);
-        v = vld1q_f32(a[1] + k);
+        v = load4_neon(a[1] + k);
         c1r = fma_neon(v, vr, c1r), c1g = fma_neon(v, vg, c1g), c1b = fma_neon(v, vb, c1b);
-        v = vld1q_f32(a[2] + k);
+        v = load4_neon(a[2] + k);
         c2r = fma_neon(v, vr, c2r), c2g = fma_neon(v, vg, c2g), c2b = fma_neon(v, vb, c2b);
-        v = vld1q_f32(a[3] + k);
+        v = load4_neon(a[3] + k);
         c3r = fma_neon(v, vr, c3r), c3g = fma_neon(v, vg, c3g), c3b = fma_neon(v, vb, c3b);
       }
       float fr[4], fg[4], fb[4];
@@ -456,7 +531,7 @@ void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t l
     }
     for (int i = 0; i < 4; ++i) {
       for (std::size_t k = kv; k < cols; ++k) {
-        const double v = a[i][k];
+        const double v = elem(a[i] + k);
         sr[i] += v * xr[k], sg[i] += v * xg[k], sb[i] += v * xb[k];
       }
       emit(out, map, accumulate, r + std::size_t(i), sr[i], sg[i], sb[i]);
@@ -464,13 +539,13 @@ void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t l
   }
   for (; r < rows; ++r) {
     if (all_skipped(map, r, 1)) continue;
-    const float* a0 = A + r * lda;
+    const T* a0 = A + r * lda;
     double s[3] = {0, 0, 0};
     for (std::size_t k0 = 0; k0 < kv; k0 += kBlock) {
       const std::size_t k1 = std::min(k0 + kBlock, kv);
       float32x4_t cr = vdupq_n_f32(0.0f), cg = cr, cb = cr;
       for (std::size_t k = k0; k < k1; k += 4) {
-        const float32x4_t v = vld1q_f32(a0 + k);
+        const float32x4_t v = load4_neon(a0 + k);
         cr = fma_neon(v, vld1q_f32(xr + k), cr);
         cg = fma_neon(v, vld1q_f32(xg + k), cg);
         cb = fma_neon(v, vld1q_f32(xb + k), cb);
@@ -480,7 +555,7 @@ void gemv_neon(const float* A, std::size_t rows, std::size_t cols, std::size_t l
       s[0] += f[0], s[1] += f[1], s[2] += f[2];
     }
     for (std::size_t k = kv; k < cols; ++k) {
-      const double v = a0[k];
+      const double v = elem(a0 + k);
       s[0] += v * xr[k], s[1] += v * xg[k], s[2] += v * xb[k];
     }
     emit(out, map, accumulate, r, s[0], s[1], s[2]);
@@ -538,10 +613,14 @@ bool finite_nonnegative_neon(const float* v, std::size_t count) {
 
 #endif  // MODRT_CPU_NEON
 
-void gemv_dispatch(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
-                   const float* x, std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
+template <class T>
+void gemv_dispatch(Isa isa, const T* A, std::size_t rows, std::size_t cols, std::size_t lda, const float* x,
+                   std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   if (rows == 0) return;
-  switch (isa_supported(isa) ? isa : Isa::scalar) {
+  Isa use = isa_supported(isa) ? isa : Isa::scalar;
+  if (std::is_same_v<T, std::uint16_t> && use == Isa::avx2 && !f16c_supported())
+    use = isa_supported(Isa::sse41) ? Isa::sse41 : Isa::scalar;
+  switch (use) {
 #if MODRT_CPU_X86
     case Isa::avx2: return gemv_avx2(A, rows, cols, lda, x, stride, out, map, accumulate);
     case Isa::sse41: return gemv_sse41(A, rows, cols, lda, x, stride, out, map, accumulate);
@@ -582,6 +661,23 @@ void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t col
 
 void gemv_rgb_masked(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out) {
+  gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, false);
+}
+
+void gemv_rgb_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                  const float* planar, std::size_t stride, float* out, bool accumulate) {
+  gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, nullptr, accumulate);
+}
+
+void gemv_rgb_scatter_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols,
+                          std::size_t lda, const std::int32_t* row_to_sample, const float* planar,
+                          std::size_t stride, float* out) {
+  gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, true);
+}
+
+void gemv_rgb_masked_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                         const std::int32_t* row_to_sample, const float* planar, std::size_t stride,
+                         float* out) {
   gemv_dispatch(isa, A, rows, cols, lda, planar, stride, out, row_to_sample, false);
 }
 

@@ -6,6 +6,8 @@
 #define MODRT_CPU_X86 1
 // Per-function ISA: the file itself is compiled for the x86-64 baseline.
 #define MODRT_TARGET_AVX2 __attribute__((target("avx2,fma")))
+// The AVX2 GEMV reading binary16 matrices (run only when F16C is detected too).
+#define MODRT_TARGET_AVX2_F16C __attribute__((target("avx2,fma,f16c")))
 #define MODRT_TARGET_SSE41 __attribute__((target("sse4.1")))
 #else
 #define MODRT_CPU_X86 0

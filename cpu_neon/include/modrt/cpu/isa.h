@@ -34,6 +34,11 @@ Isa best_isa();
 // best_isa(). Not synchronised: set it before starting threads that use the backend.
 Isa active_isa();
 
+// x86-64: whether this CPU (and build) has F16C, the half <-> float conversions that the AVX2
+// float16 GEMV kernels use; detected once. Isa::avx2 does not imply it: without it those
+// kernels run their SSE4.1 variant. False on other architectures and with MODRT_NO_SIMD.
+bool f16c_supported();
+
 // Forces the default ISA. Returns false (and changes nothing) when `isa` is not supported.
 bool set_isa(Isa isa);
 

@@ -59,6 +59,40 @@ void gemv_rgb_masked(Isa isa, const float* A, std::size_t rows, std::size_t cols
                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out);
 void add_scattered(std::size_t rows, const std::int32_t* row_to_sample, const float* values, float* out);
 
+// ---- float16 operator storage (CpuRuntimeOptions::operators) ----
+// A matrix may be stored as IEEE binary16 bits (std::uint16_t, same row-major layout, lda in
+// elements). The _f16 kernels convert each element to float on load (exactly) and are
+// otherwise the float kernels: same row/column blocking and tails, same float accumulation in
+// 64-column blocks summed in double, same rounding of the outputs. So an _f16 kernel on A
+// writes the bits its float twin of the same ISA writes for the float matrix half_to_float(A)
+// (tests/test_cpu_kernels.cpp; AVX2 without F16C: the SSE4.1 twin's); the scalar twin thus equals core's
+// reference on those values. Conversion per ISA: AVX2 with F16C (_mm256_cvtph_ps; a CPU with AVX2 + FMA but
+// no F16C runs the SSE4.1 variant instead), SSE4.1 in software (half_to_float), NEON vcvt_f32_f16, scalar
+// half_to_float.
+void gemv_rgb_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                  const float* planar, std::size_t stride, float* out, bool accumulate);
+void gemv_rgb_scatter_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols,
+                          std::size_t lda, const std::int32_t* row_to_sample, const float* planar,
+                          std::size_t stride, float* out);
+void gemv_rgb_masked_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols, std::size_t lda,
+                         const std::int32_t* row_to_sample, const float* planar, std::size_t stride,
+                         float* out);
+
+// The largest finite binary16 value.
+inline constexpr float kHalfMax = 65504.0f;
+
+// The float value of binary16 bits `h` (every half is a float: exact; Inf and NaN kept).
+float half_to_float(std::uint16_t h);
+
+// Rounds v to the nearest binary16, ties to even (subnormal halves included) and stores the
+// bits. Returns false, storing nothing, when |v| > kHalfMax or v is NaN: operators must fit
+// the finite range (values in (65504, 65520) that round down to 65504 are refused as well).
+bool float_to_half(float v, std::uint16_t* out);
+
+// The same over `count` values. Returns the index of the first value refused (out[0..index)
+// written), or count when all fit.
+std::size_t float_to_half(const float* in, std::size_t count, std::uint16_t* out);
+
 // Multi-bounce feedback over `count` floats (3 x samples, interleaved):
 // ld[i] = ld_direct[i] + rho[i] * min(max(lightmap[i], 0), bound). Returns true when the bound
 // clamped some value. Bit-identical to core's apply_feedback on every ISA (no FMA contraction).
