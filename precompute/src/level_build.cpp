@@ -185,43 +185,6 @@ Matrix turned_vector_response(const Matrix& Ur_vec, int res, int face) {
 
 }  // namespace
 
-glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
-  return trilinear(b.corners, rotate_point(p, b.quarter_turns));
-}
-
-glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v) {
-  const FaceFrame& fr = face_frame(face);
-  const glm::dvec3 p = face_point(face, u, v);
-  const double h = 1e-4;
-  const glm::dvec3 du = block_to_world(b, p + h * fr.u_axis) - block_to_world(b, p - h * fr.u_axis);
-  const glm::dvec3 dv = block_to_world(b, p + h * fr.v_axis) - block_to_world(b, p - h * fr.v_axis);
-  return glm::normalize(glm::cross(du, dv));
-}
-
-LevelSampleGeometry level_sample_geometry(const Level& level) {
-  LevelSampleGeometry g;
-  g.position.resize(level.sample_count);
-  g.normal.resize(level.sample_count);
-  g.block.resize(level.sample_count);
-  g.face.resize(level.sample_count);
-  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
-    const LevelBlock& b = level.blocks[bi];
-    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
-    for (int s = 0; s < layout.sample_count(); ++s) {
-      const std::size_t k = b.sample_offset + std::size_t(s);
-      const glm::dvec3 p = layout.position(s);
-      g.position[k] = block_to_world(b, p);
-      const int f = layout.face_of(s);
-      const int t = s % layout.texels_per_face();
-      g.normal[k] =
-          block_face_normal(b, f, (t % level.res + 0.5) / level.res, (t / level.res + 0.5) / level.res);
-      g.block[k] = int(bi);
-      g.face[k] = f;
-    }
-  }
-  return g;
-}
-
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
                           const LevelBuildSettings& settings) {
   Result<LevelConnectivity> connectivity = validate_level(description);

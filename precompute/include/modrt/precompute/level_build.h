@@ -8,6 +8,7 @@
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
 #include "modrt/level_description.h"
+#include "modrt/level_geometry.h"
 
 namespace modrt::precompute {
 
@@ -19,20 +20,11 @@ struct LevelBuildSettings {
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
                           const LevelBuildSettings& settings = {});
 
-// World position and (inward) normal of every level sample: the canonical texel centre,
-// rotated onto the grid and mapped through the block's trilinear warp.
-struct LevelSampleGeometry {
-  std::vector<glm::dvec3> position;
-  std::vector<glm::dvec3> normal;
-  std::vector<int> block;  // owning block per sample
-  std::vector<int> face;   // canonical face per sample
-};
-LevelSampleGeometry level_sample_geometry(const Level& level);
-
-// World-space point of canonical block coordinates p in block `b`.
-glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p);
-// Unit inward normal of canonical face `face` of block `b` at face coordinates (u, v),
-// through the block's trilinear warp.
-glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v);
+// Sample and wall geometry moved to core (modrt/level_geometry.h) so the run-time CPU
+// direct-light evaluator shares it; these names keep precompute's callers unchanged.
+using modrt::block_face_normal;
+using modrt::block_to_world;
+using modrt::level_sample_geometry;
+using modrt::LevelSampleGeometry;
 
 }  // namespace modrt::precompute

@@ -1,0 +1,33 @@
+// modrt — where a built level's samples and walls are in the world (SPEC §4, MRT §6.2):
+// the canonical block (cube.h) turned by its quarter turns and mapped through the trilinear
+// warp of its 8 corners (level_description.h). Used at run time by the CPU direct-light
+// evaluator and by precompute (Embree scene, references, path tracer).
+#pragma once
+
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "modrt/level.h"
+
+namespace modrt {
+
+// World-space point of canonical block coordinates p in [0,1]^3 of block `b`.
+glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p);
+
+// Unit inward normal of canonical face `face` of block `b` at face coordinates (u, v),
+// through the block's trilinear warp (central differences of the map; exact for the
+// unwarped grid, where each face is planar).
+glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v);
+
+// World position and unit inward normal of every level sample (the canonical texel centre
+// of SampleLayout, mapped as above), in level sample order.
+struct LevelSampleGeometry {
+  std::vector<glm::dvec3> position;
+  std::vector<glm::dvec3> normal;
+  std::vector<int> block;  // owning block per sample
+  std::vector<int> face;   // canonical face per sample
+};
+LevelSampleGeometry level_sample_geometry(const Level& level);
+
+}  // namespace modrt

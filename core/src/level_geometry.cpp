@@ -1,0 +1,51 @@
+// modrt — world geometry of a built level (level_geometry.h).
+#include "modrt/level_geometry.h"
+
+#include <cstddef>
+
+#include <glm/geometric.hpp>
+
+#include "modrt/cube.h"
+#include "modrt/level_description.h"
+
+namespace modrt {
+
+glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
+  return trilinear(b.corners, rotate_point(p, b.quarter_turns));
+}
+
+glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v) {
+  const FaceFrame& fr = face_frame(face);
+  const glm::dvec3 p = face_point(face, u, v);
+  // The map is linear along each canonical axis, so a central difference along u_axis or
+  // v_axis (both canonical axes) is exact up to rounding; h only sets that rounding.
+  const double h = 1e-4;
+  const glm::dvec3 du = block_to_world(b, p + h * fr.u_axis) - block_to_world(b, p - h * fr.u_axis);
+  const glm::dvec3 dv = block_to_world(b, p + h * fr.v_axis) - block_to_world(b, p - h * fr.v_axis);
+  return glm::normalize(glm::cross(du, dv));
+}
+
+LevelSampleGeometry level_sample_geometry(const Level& level) {
+  LevelSampleGeometry g;
+  g.position.resize(level.sample_count);
+  g.normal.resize(level.sample_count);
+  g.block.resize(level.sample_count);
+  g.face.resize(level.sample_count);
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int s = 0; s < layout.sample_count(); ++s) {
+      const std::size_t k = b.sample_offset + std::size_t(s);
+      g.position[k] = block_to_world(b, layout.position(s));
+      const int f = layout.face_of(s);
+      const int t = s % layout.texels_per_face();
+      g.normal[k] =
+          block_face_normal(b, f, (t % level.res + 0.5) / level.res, (t / level.res + 0.5) / level.res);
+      g.block[k] = int(bi);
+      g.face[k] = f;
+    }
+  }
+  return g;
+}
+
+}  // namespace modrt
