@@ -337,33 +337,78 @@ TEST(CpuDirectLight, DirectionalLightIsShadowedByTheCeiling) {
 
 // ---- influence bounds ----
 
-// influence_epsilon = 0 culls only (light, block) pairs the light gives exactly 0: the same bits
-// as no culling, with and without shadows; the spot's cone does cull.
+// Extra levels for the culling tests: a warped maze (bent walls and portals) and an open
+// corridor (block 0's -Z end missing onto empty space: no portal walk).
+struct ExtraLevel {
+  std::string name;
+  LevelDescription description;
+  Level level;
+  std::vector<float> albedo;
+};
+const std::vector<ExtraLevel>& extra_levels() {
+  static const std::vector<ExtraLevel> levels = [] {
+    std::vector<ExtraLevel> out;
+    precompute::MazeSettings ms;
+    ms.blocks = 11;
+    ms.seed = 3;
+    ms.loop_fraction = 0.3;
+    ms.warp = 0.2;
+    LevelDescription open = precompute::corridor_level();
+    open.blocks[0].faces &= FaceMask(~(1u << kFaceNegZ));
+    for (auto& [name, desc] :
+         {std::pair<std::string, LevelDescription>{"warped11", precompute::generate_maze(ms).value()},
+          std::pair<std::string, LevelDescription>{"open corridor", open}}) {
+      Result<Level> level = precompute::build_level(desc, dict());
+      EXPECT_TRUE(level.ok()) << name << ": " << level.status().to_string();
+      if (!level.ok()) continue;
+      std::vector<float> albedo = precompute::level_albedo(level.value(), desc);
+      out.push_back({name, desc, std::move(level).value(), std::move(albedo)});
+    }
+    return out;
+  }();
+  return levels;
+}
+
+// influence_epsilon = 0 culls only (light, block) pairs the light gives exactly 0 (behind every
+// face, outside the cone, or, with shadows, beyond every portal chain): the same bits as no
+// culling, with and without shadows, on every fixture level, a warped maze and an open level.
+// The narrow spot's cone culls; with shadows the portal walk culls most of maze41 for the point
+// lights too.
 TEST(CpuDirectLight, ZeroEpsilonCullingIsBitIdentical) {
-  for (const TestLevel& t : test_levels()) {
-    std::vector<CpuLight> lights = mixed_lights(t, true);
-    lights.push_back(spot_light(t.description.lights.at(0).position, {0.0f, 0.0f, 1.0f}, 0.1f, 0.25f));
+  std::vector<const ExtraLevel*> levels;
+  std::vector<ExtraLevel> fixtures;
+  for (const TestLevel& t : test_levels()) fixtures.push_back({t.name, t.description, t.level, t.albedo});
+  for (const ExtraLevel& e : fixtures) levels.push_back(&e);
+  for (const ExtraLevel& e : extra_levels()) levels.push_back(&e);
+  for (const ExtraLevel* t : levels) {
+    const TestLevel as_test{t->name, t->description, t->level, {}, t->albedo};
+    std::vector<CpuLight> lights = mixed_lights(as_test, true);
+    lights.push_back(spot_light(t->description.lights.at(0).position, {0.0f, 0.0f, 1.0f}, 0.1f, 0.25f));
     for (bool shadows : {false, true})
       for (Isa isa : supported_isas()) {
         CpuDirectLightStats culled_stats;
         const std::vector<float> culled =
-            evaluate_once(t.level, t.albedo, lights, dl_options(isa, shadows, true, 0.0f), &culled_stats);
+            evaluate_once(t->level, t->albedo, lights, dl_options(isa, shadows, true, 0.0f), &culled_stats);
         const std::vector<float> all =
-            evaluate_once(t.level, t.albedo, lights, dl_options(isa, shadows, false));
-        EXPECT_EQ(culled, all) << t.name << " " << isa_name(isa) << " shadows " << shadows;
+            evaluate_once(t->level, t->albedo, lights, dl_options(isa, shadows, false));
+        EXPECT_EQ(culled, all) << t->name << " " << isa_name(isa) << " shadows " << shadows;
         EXPECT_EQ(culled_stats.ld_error_max, 0.0);
         EXPECT_EQ(culled_stats.ld_error_l2, 0.0);
       }
-    if (t.level.blocks.size() >= 11) {
-      Result<CpuDirectLight> dl = CpuDirectLight::create(t.level, t.albedo, dl_options(best_isa(), true));
-      ASSERT_TRUE(dl.ok());
-      std::vector<float> ld(3 * std::size_t(t.level.sample_count));
-      ASSERT_TRUE(dl->evaluate(lights, ld).ok());
-      const auto culled = dl->blocks_culled();
-      EXPECT_GT(culled[lights.size() - 1], 0u) << t.name;  // the narrow spot
-      std::printf("  %s blocks culled per light at epsilon 0:", t.name.c_str());
-      for (std::uint32_t c : culled) std::printf(" %u", c);
-      std::printf(" (of %zu)\n", t.level.blocks.size());
+    Result<CpuDirectLight> dl = CpuDirectLight::create(t->level, t->albedo, dl_options(best_isa(), true));
+    ASSERT_TRUE(dl.ok());
+    std::vector<float> ld(3 * std::size_t(t->level.sample_count));
+    ASSERT_TRUE(dl->evaluate(lights, ld).ok());
+    const auto culled = dl->blocks_culled();
+    std::printf("  %-13s blocks culled per light at epsilon 0 with shadows:", t->name.c_str());
+    for (std::uint32_t c : culled) std::printf(" %u", c);
+    std::printf(" (of %zu; lights: %zu point, spot, directional, narrow spot)\n", t->level.blocks.size(),
+                t->description.lights.size());
+    if (t->level.blocks.size() >= 11) {
+      EXPECT_GT(culled[lights.size() - 1], 0u) << t->name;  // the narrow spot
+    }
+    if (t->name == "maze41") {
+      EXPECT_GT(culled[0], 10u);  // the portal walk
     }
   }
 }
@@ -441,8 +486,9 @@ TEST(CpuDirectLight, MovingLightRecomputesOnlyReachedBlocks) {
     LightType type;
     float epsilon;
   };
-  for (const Case& k : {Case{"spot, epsilon 0", LightType::spot, 0.0f},
-                        Case{"point, epsilon 0.02", LightType::point, 0.02f}}) {
+  for (const Case& k :
+       {Case{"spot, epsilon 0", LightType::spot, 0.0f}, Case{"point, epsilon 0", LightType::point, 0.0f},
+        Case{"point, epsilon 0.2", LightType::point, 0.2f}}) {
     const CpuDirectLightOptions o = dl_options(best_isa(), true, true, k.epsilon);
     Result<CpuDirectLight> inc = CpuDirectLight::create(t.level, t.albedo, o);
     Result<CpuDirectLight> full = CpuDirectLight::create(t.level, t.albedo, o);

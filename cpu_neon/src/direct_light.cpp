@@ -406,6 +406,46 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
     }
   }
 
+  // Portals and face planes for the portal walk (see portal_visibility).
+  d.closed_ = true;
+  d.block_planes_.resize(d.block_count_);
+  for (std::size_t bi = 0; bi < d.block_count_; ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    const FaceMask mask = dictionary_shape_mask(b.shape);
+    d.block_portal_begin_.push_back(std::uint32_t(d.portals_.size()));
+    BlockPlanes& bp = d.block_planes_[bi];
+    bp.planar = true;
+    for (int f = 0; f < kFaceCount; ++f) {
+      const glm::dvec3 c[4] = {block_to_world(b, face_point(f, 0, 0)), block_to_world(b, face_point(f, 1, 0)),
+                               block_to_world(b, face_point(f, 1, 1)),
+                               block_to_world(b, face_point(f, 0, 1))};
+      const glm::dvec3 nrm = glm::normalize(glm::cross(c[1] - c[0] + c[2] - c[3], c[3] - c[0] + c[2] - c[1]));
+      const glm::dvec3 mean = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+      double off_plane = 0.0;
+      for (const glm::dvec3& v : c) off_plane = std::max(off_plane, std::abs(glm::dot(nrm, v - mean)));
+      const bool planar = off_plane <= 1e-9 * d.h_;
+      bp.normal[f] = nrm;
+      bp.offset[f] = glm::dot(nrm, mean);
+      bp.planar = bp.planar && planar;
+      if (face_present(mask, f)) continue;
+      const int nb = b.neighbour[std::size_t(f)];
+      if (nb < 0) {
+        d.closed_ = false;  // a missing face onto empty space
+        continue;
+      }
+      Portal portal;
+      portal.to = std::uint32_t(nb);
+      portal.face = f;
+      portal.entry =
+          rotate_face(rotate_face(f, b.quarter_turns) ^ 1, -level.blocks[std::size_t(nb)].quarter_turns);
+      portal.planar = planar;
+      for (int k = 0; k < 4; ++k) portal.corner[k] = c[k];
+      d.portals_.push_back(portal);
+    }
+  }
+  d.block_portal_begin_.push_back(std::uint32_t(d.portals_.size()));
+  d.visible_.assign(d.block_count_, 0);
+
   d.last_.assign(options.max_lights, CpuLight{});
   d.prepared_.assign(options.max_lights, Prepared{});
   d.staging_.assign(options.max_lights, Prepared{});
@@ -430,6 +470,88 @@ Status CpuDirectLight::set_albedo(std::span<const float> albedo) {
     }
   valid_ = false;
   return Status::success();
+}
+
+// Portal walk (Luebke and Georges 1995). In a closed level (every missing face joins two blocks)
+// a wall stops every segment that leaves a block through it, so an unshadowed segment from the
+// light to a sample passes from block to block only through portals. Starting in the block that
+// holds the light, each portal is clipped by the frustum of the portals before it (planes through
+// the light and the clipped polygon's edges); a block reached by a non-empty polygon may see the
+// light, every other block gets exactly 0 from it. The frustum is widened by a relative 1e-6
+// (the shadow test's triangles are grown by 1e-5: an edge-grazing ray is stopped there), a bent
+// portal passes the frustum on unchanged, and the walk gives up (every block visible) when the
+// light is not inside a block with planar faces by a margin, or the walk grows too large.
+bool CpuDirectLight::portal_visibility(const glm::dvec3& L) {
+  std::fill(visible_.begin(), visible_.end(), std::uint8_t(0));
+  if (!closed_) return false;
+  const double inside = 2.0 * double(t_min_world_) + margin_;
+  for (std::size_t b = 0; b < block_count_; ++b) {
+    const BlockPlanes& bp = block_planes_[b];
+    bool in = true;
+    for (int f = 0; f < kFaceCount && in; ++f) in = glm::dot(bp.normal[f], L) - bp.offset[f] > inside;
+    if (!in) continue;
+    if (!bp.planar) return false;
+    portal_work_ = 0;
+    portal_gave_up_ = false;
+    visit_portals(std::uint32_t(b), -1, L, nullptr, 0, 0);
+    return !portal_gave_up_;
+  }
+  return false;
+}
+
+void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dvec3& L,
+                                   const glm::dvec3* planes, int count, int depth) {
+  constexpr int kMaxPlanes = 12, kMaxDepth = 256;
+  visible_[block] = 1;
+  if (portal_gave_up_) return;
+  if (++portal_work_ > 64 * block_count_ + 1024 || depth > kMaxDepth) {
+    portal_gave_up_ = true;
+    return;
+  }
+  const BlockPlanes& bp = block_planes_[block];
+  for (std::uint32_t k = block_portal_begin_[block]; k < block_portal_begin_[block + 1]; ++k) {
+    const Portal& portal = portals_[k];
+    if (portal.face == entry) continue;
+    if (!portal.planar) {
+      visit_portals(portal.to, portal.entry, L, planes, count, depth + 1);
+      continue;
+    }
+    // A line crosses the portal's plane once: the light must be on this block's side of it.
+    if (!(glm::dot(bp.normal[portal.face], L) - bp.offset[portal.face] > -margin_)) continue;
+    // Clip the portal by each plane: keep n . (p - L) >= -1e-6 |p - L|.
+    glm::dvec3 poly[4 + kMaxPlanes], next[4 + kMaxPlanes];
+    int n = 4;
+    for (int i = 0; i < 4; ++i) poly[i] = portal.corner[i];
+    for (int pl = 0; pl < count && n >= 3; ++pl) {
+      const glm::dvec3& nrm = planes[pl];
+      int m = 0;
+      for (int i = 0; i < n && m < 4 + kMaxPlanes; ++i) {
+        const glm::dvec3 &a = poly[i], &b = poly[(i + 1) % n];
+        const double da = glm::dot(nrm, a - L) + 1e-6 * glm::length(a - L);
+        const double db = glm::dot(nrm, b - L) + 1e-6 * glm::length(b - L);
+        if (da >= 0.0) next[m++] = a;
+        if ((da >= 0.0) != (db >= 0.0) && m < 4 + kMaxPlanes) next[m++] = a + (da / (da - db)) * (b - a);
+      }
+      n = m;
+      for (int i = 0; i < n; ++i) poly[i] = next[i];
+    }
+    if (n < 3) continue;
+    // The new frustum: planes through the light and each edge, facing the polygon's centroid.
+    glm::dvec3 centroid(0.0);
+    for (int i = 0; i < n; ++i) centroid += poly[i];
+    centroid /= double(n);
+    glm::dvec3 frustum[kMaxPlanes];
+    int planes_out = 0;
+    for (int i = 0; i < n && planes_out < kMaxPlanes; ++i) {
+      glm::dvec3 nrm = glm::cross(poly[i] - L, poly[(i + 1) % n] - L);
+      const double len = glm::length(nrm);
+      if (!(len > 1e-12 * glm::dot(poly[i] - L, poly[i] - L))) continue;  // a degenerate edge: no plane
+      nrm /= len;
+      if (glm::dot(nrm, centroid - L) < 0.0) nrm = -nrm;
+      frustum[planes_out++] = nrm;  // fewer planes than edges only widens the frustum
+    }
+    visit_portals(portal.to, portal.entry, L, frustum, planes_out, depth + 1);
+  }
 }
 
 // The influence bound of light `l` (already in last_ / prepared_) on every block (direct_light.h).
@@ -457,6 +579,7 @@ void CpuDirectLight::update_bounds(std::size_t l) {
     inv_range = 1.0 / std::max(std::cos(double(light.inner_angle)) - cos_outer, 1e-4);
   }
   const double threshold = double(options_.influence_epsilon) / (kPi * h_ * h_);
+  const bool portals = options_.influence && options_.shadows && light.shadows && portal_visibility(L);
   for (std::size_t b = 0; b < block_count_; ++b) {
     double g = 0.0;
     for (std::uint32_t fi = block_face_begin_[b]; fi < block_face_begin_[b + 1]; ++fi) {
@@ -481,6 +604,7 @@ void CpuDirectLight::update_bounds(std::size_t l) {
       const glm::dvec3 gap = glm::max(glm::max(f.lo - L, L - f.hi), glm::dvec3(0.0));
       g = std::max(g, s / (kPi * std::max(glm::dot(gap, gap), r2)));
     }
+    if (portals && !visible_[b]) g = 0.0;  // shadowed: exactly 0
     bound[b] = g * (1.0 + kBoundSlack);
     const bool r = !options_.influence || (g > 0.0 && bound[b] >= threshold);
     reach[b] = r;

@@ -30,10 +30,18 @@
 //   sphere lies outside the outer cone (angle between the axis and the sphere's centre minus the
 //   sphere's half-angle > outer angle, with a margin);
 //   else max over facing faces of s(bound on cos a) / (pi max(dist(light, face box)^2, r^2, 1e-12)).
+// With shadows, in a closed level (every missing face joins two blocks), g is also 0 for blocks
+// no straight line from the light reaches through a chain of portals (connected missing faces):
+// a portal walk from the light's block clips each portal by the frustum of the portals before
+// it (direct_light.cpp, portal_visibility). A wall stops every ray leaving its block through it,
+// so such blocks are in shadow and get exactly 0. The walk is skipped (every block counts as
+// visible) for open levels, for a light not inside a block with planar faces, or when it grows
+// past 64 visits per block; bent portals pass the frustum on unchanged.
 // A block is culled for a light when g pi h^2 < influence_epsilon (h: the mean block size), i.e.
 // when its bound is below influence_epsilon times the E / pi the light gives a surface facing it
 // one block away. influence_epsilon = 0 culls only blocks with g = 0, which the light gives
-// exactly 0, so the output is bit-identical to no culling. The energy left out is bounded per
+// exactly 0 (the bounds keep rounding margins for that), so the output is bit-identical to no
+// culling. The energy left out is bounded per
 // block and channel by max albedo x color x I x g, summed over the lights that culled it, and
 // reported (stats().ld_error_max, ld_error_l2). Directional lights reach every block.
 //
@@ -157,6 +165,9 @@ class CpuDirectLight {
   void evaluate_block(std::size_t block, std::span<float> ld);
   bool occluded(const float* origin, const float* dir, std::uint32_t skip_face) const;
   void compute_error_bounds();
+  bool portal_visibility(const glm::dvec3& light);
+  void visit_portals(std::uint32_t block, int entry, const glm::dvec3& light, const glm::dvec3* planes,
+                     int count, int depth);
 
   Isa isa_ = Isa::scalar;
   CpuDirectLightOptions options_;
@@ -196,6 +207,27 @@ class CpuDirectLight {
   std::vector<double> bound_;
   std::vector<std::uint8_t> reach_, dirty_;
   std::vector<std::uint32_t> culled_;
+  // Portal visibility (closed levels, shadowed lights): per block its 6 face planes (inward
+  // normal, offset; missing faces too) and whether all are planar; per block its portals
+  // (connected missing faces) in CSR; the blocks the last portal walk reached.
+  struct BlockPlanes {
+    glm::dvec3 normal[6];
+    double offset[6] = {0, 0, 0, 0, 0, 0};
+    bool planar = false;
+  };
+  struct Portal {
+    std::uint32_t to = 0;
+    int face = 0, entry = 0;  // canonical face in this block; the face it enters `to` through
+    bool planar = false;
+    glm::dvec3 corner[4];  // c00, c10, c11, c01: around the quad
+  };
+  std::vector<BlockPlanes> block_planes_;
+  std::vector<Portal> portals_;
+  std::vector<std::uint32_t> block_portal_begin_;
+  std::vector<std::uint8_t> visible_;
+  bool closed_ = false;
+  std::size_t portal_work_ = 0;
+  bool portal_gave_up_ = false;
   std::vector<float> e_;  // E / pi of one light over one block
   std::size_t light_count_ = 0;
   const float* last_ld_ = nullptr;
