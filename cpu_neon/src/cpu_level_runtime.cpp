@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <system_error>
@@ -92,6 +93,15 @@ double spectral_radius_bound(std::vector<double> x, std::size_t k) {
   return std::exp((std::log(n) + log_scale) / p) * (1.0 + 1e-9);
 }
 
+// The values the kernels read for m: m itself (float32 operators) or, given its half copy,
+// those decoded into `decoded` (float16 operators): the skip norms are computed from these.
+const Matrix& kernel_values(const Matrix& m, const std::uint16_t* half, Matrix& decoded) {
+  if (!half) return m;
+  decoded = Matrix(m.rows, m.cols);
+  for (std::size_t i = 0; i < decoded.data.size(); ++i) decoded.data[i] = half_to_float(half[i]);
+  return decoded;
+}
+
 bool same_bits(const float* a, const float* b, std::size_t n) {
   return std::memcmp(a, b, n * sizeof(float)) == 0;
 }
@@ -128,6 +138,100 @@ void CpuLevelRuntime::parallel_for(std::size_t count, F& f) const {
       count, [](void* ctx, std::size_t i, int thread) { (*static_cast<F*>(ctx))(i, thread); }, &f);
 }
 
+void CpuLevelRuntime::gemv(const OperatorRef& A, std::size_t rows, std::size_t cols, const float* planar,
+                           float* out, bool accumulate) const {
+  if (A.f16)
+    gemv_rgb_f16(isa_, A.f16, rows, cols, cols, planar, cols, out, accumulate);
+  else
+    gemv_rgb(isa_, A.f32, rows, cols, cols, planar, cols, out, accumulate);
+}
+
+void CpuLevelRuntime::gemv_scatter(const OperatorRef& A, std::size_t rows, std::size_t cols,
+                                   const std::int32_t* map, const float* planar, float* out) const {
+  if (A.f16)
+    gemv_rgb_scatter_f16(isa_, A.f16, rows, cols, cols, map, planar, cols, out);
+  else
+    gemv_rgb_scatter(isa_, A.f32, rows, cols, cols, map, planar, cols, out);
+}
+
+void CpuLevelRuntime::gemv_masked(const OperatorRef& A, std::size_t rows, std::size_t cols,
+                                  const std::int32_t* map, const float* planar, float* out) const {
+  if (A.f16)
+    gemv_rgb_masked_f16(isa_, A.f16, rows, cols, cols, map, planar, cols, out);
+  else
+    gemv_rgb_masked(isa_, A.f32, rows, cols, cols, map, planar, cols, out);
+}
+
+// Points every OperatorRef at the operator's floats (float32) or at its half copy in half_
+// (float16, converted here). Needs vector_ready_.
+Status CpuLevelRuntime::prepare_operators(OperatorStorage storage) {
+  const Level& level = *level_;
+  const Dictionary& dict = *dict_;
+  operators_ = storage;
+  enum Owner { kShape, kInterface, kRecord, kFace };
+  struct Item {
+    const Matrix* m;
+    OperatorRef* ref;
+    const char* what;
+    Owner owner;
+    std::size_t index;  // of the shape, record or face
+  };
+  std::vector<Item> items;
+  std::vector<std::uint8_t> shape_used(dict.shapes.size(), 0);
+  for (const LevelBlock& blk : level.blocks) shape_used[std::size_t(blk.shape)] = 1;
+  shape_ops_.assign(dict.shapes.size(), ShapeRefs{});
+  for (std::size_t sh = 0; sh < dict.shapes.size(); ++sh) {
+    if (!shape_used[sh]) continue;
+    const ShapeOperators& op = dict.shapes[sh];
+    items.push_back({&op.Td_b, &shape_ops_[sh].td_b, "Td_b", kShape, sh});
+    items.push_back({&op.Ub, &shape_ops_[sh].ub, "Ub", kShape, sh});
+    if (sizes_.probes > 0) items.push_back({&op.Ubvol, &shape_ops_[sh].ubvol, "Ubvol", kShape, sh});
+    if (vector_ready_) items.push_back({&op.Ub_vec, &shape_ops_[sh].ub_vec, "Ub_vec", kShape, sh});
+  }
+  if (!level.slots.empty()) items.push_back({&dict.interfaces.Ur, &ur_op_, "Ur", kInterface, 0});
+  record_ops_.assign(level.records.size(), OperatorRef{});
+  for (std::size_t q = 0; q < level.records.size(); ++q)
+    items.push_back({&level.records[q].T, &record_ops_[q], "T", kRecord, q});
+  probe_ops_.assign(kFaceCount, OperatorRef{});
+  vector_ops_.assign(kFaceCount, OperatorRef{});
+  for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f) {
+    if (sizes_.probes > 0 && !level.probe_response[f].empty())
+      items.push_back({&level.probe_response[f], &probe_ops_[f], "probe response", kFace, f});
+    if (vector_ready_ && !level.vector_response[f].empty())
+      items.push_back({&level.vector_response[f], &vector_ops_[f], "vector response", kFace, f});
+  }
+  std::size_t total = 0;
+  for (const Item& it : items) total += it.m->data.size();
+  if (storage == OperatorStorage::float32) {
+    for (const Item& it : items) it.ref->f32 = it.m->data.data();
+    operator_bytes_ = total * sizeof(float);
+    return Status::success();
+  }
+  half_.assign(total, 0);
+  std::size_t offset = 0;
+  for (const Item& it : items) {
+    const std::size_t count = it.m->data.size();
+    const std::size_t bad = float_to_half(it.m->data.data(), count, half_.data() + offset);
+    if (bad < count) {
+      const std::string index = std::to_string(it.index);
+      const std::string where = it.owner == kShape    ? "shape " + index + " " + it.what
+                                : it.owner == kRecord ? "record " + index + " (" + it.what + ")"
+                                : it.owner == kFace   ? std::string(it.what) + " of face " + index
+                                                      : std::string(it.what);
+      char value[32];
+      std::snprintf(value, sizeof value, "%g", double(it.m->data[bad]));
+      return Status::error(ErrorCode::invalid_argument,
+                           "cpu runtime: float16 operators: " + where + " value " + value + " at row " +
+                               std::to_string(bad / it.m->cols) + ", column " +
+                               std::to_string(bad % it.m->cols) + " exceeds float16 range (|v| <= 65504)");
+    }
+    it.ref->f16 = half_.data() + offset;
+    offset += count;
+  }
+  operator_bytes_ = total * sizeof(std::uint16_t);
+  return Status::success();
+}
+
 Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictionary& dict,
                                                 const CpuRuntimeOptions& options) {
   const Isa isa = options.isa.value_or(active_isa());
@@ -162,31 +266,51 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
       level.blocks.size(), level.slots.size(),
       [&](std::size_t m) { return std::size_t(level.slots[m].block); }, rt.block_slot_begin_,
       rt.block_slots_);
-  // Skipping: operator norms for the bounds, and the per-block / per-slot / per-thread state.
   const std::size_t threads = std::size_t(options.threads), blocks = level.blocks.size(),
                     slots = level.slots.size();
+  if (check_level_vector_operators(level, dict).ok()) {
+    rt.vector_ready_ = true;
+    rt.vector_rows_ = 4 * std::size_t(dict.interfaces.Ur.rows);
+    rt.vector_row_map_.assign(rt.vector_rows_ * slots, -1);
+    for (std::size_t s = 0; s < slots; ++s)
+      for (std::size_t t = 0; t < level.slots[s].ur_row_to_sample.size(); ++t) {
+        const std::int32_t sample = level.slots[s].ur_row_to_sample[t];
+        if (sample >= 0)
+          for (std::size_t i = 0; i < 4; ++i)
+            rt.vector_row_map_[rt.vector_rows_ * s + 4 * t + i] = 4 * sample + std::int32_t(i);
+      }
+  }
+  if (Status s = rt.prepare_operators(options.operators); !s.ok()) return s;
+  // Skipping: operator norms for the bounds (of the operators the kernels read: with float16,
+  // the half-rounded values), and the per-block / per-slot / per-thread state.
   // D = diag(column norms of Ub) (about the singular values): b's large, cancelling high
   // modes are small in D b, and ||X Td_b|| <= ||X D^-1|| ||D Td_b|| for any operator X.
   const std::size_t kb = level.kb;
-  for (const ShapeOperators& op : dict.shapes) {
+  Matrix decoded_ub, decoded_td_b, decoded;
+  for (std::size_t sh = 0; sh < dict.shapes.size(); ++sh) {
+    const ShapeRefs& refs = rt.shape_ops_[sh];
+    const Matrix& Ub = kernel_values(dict.shapes[sh].Ub, refs.ub.f16, decoded_ub);
+    const Matrix& Td_b = kernel_values(dict.shapes[sh].Td_b, refs.td_b.f16, decoded_td_b);
     std::vector<double> d(kb, 0.0);
-    for (std::uint32_t r = 0; r < op.Ub.rows; ++r)
-      for (std::size_t k = 0; k < kb; ++k)
-        d[k] += double(op.Ub(r, std::uint32_t(k))) * op.Ub(r, std::uint32_t(k));
+    for (std::uint32_t r = 0; r < Ub.rows; ++r)
+      for (std::size_t k = 0; k < kb; ++k) d[k] += double(Ub(r, std::uint32_t(k))) * Ub(r, std::uint32_t(k));
     for (double& v : d) v = std::max(std::sqrt(v), 1e-30);
-    const std::vector<double> td_gram = gram_rows(op.Td_b, nullptr);
+    const std::vector<double> td_gram = gram_rows(Td_b, nullptr);
     // ||Ub Td_b||_2^2 = rho((Ub^T Ub)(Td_b Td_b^T)); ||D Td_b||_2^2 = rho(D Td_b Td_b^T D).
-    rt.shape_ub_td_norm_.push_back(std::sqrt(spectral_radius_bound(matmul(gram(op.Ub), td_gram, kb), kb)));
-    rt.shape_d_td_norm_.push_back(std::sqrt(spectral_radius_bound(gram_rows(op.Td_b, d.data()), kb)));
+    rt.shape_ub_td_norm_.push_back(std::sqrt(spectral_radius_bound(matmul(gram(Ub), td_gram, kb), kb)));
+    rt.shape_d_td_norm_.push_back(std::sqrt(spectral_radius_bound(gram_rows(Td_b, d.data()), kb)));
     rt.shape_d_.insert(rt.shape_d_.end(), d.begin(), d.end());
   }
-  rt.ur_norm_ = std::sqrt(spectral_radius_bound(gram(dict.interfaces.Ur), level.kr));
+  rt.ur_norm_ = std::sqrt(
+      spectral_radius_bound(gram(kernel_values(dict.interfaces.Ur, rt.ur_op_.f16, decoded)), level.kr));
   rt.record_norm_.reserve(level.records.size());
   rt.record_d_norm_.reserve(level.records.size());
-  for (const ResponseRecord& rec : level.records) {
+  for (std::size_t q = 0; q < level.records.size(); ++q) {
+    const ResponseRecord& rec = level.records[q];
+    const Matrix& T = kernel_values(rec.T, rt.record_ops_[q].f16, decoded);
     const std::size_t shape = std::size_t(level.blocks[rec.source_block].shape);
-    rt.record_norm_.push_back(frobenius(rec.T));
-    rt.record_d_norm_.push_back(frobenius(rec.T, rt.shape_d_.data() + kb * shape));
+    rt.record_norm_.push_back(frobenius(T));
+    rt.record_d_norm_.push_back(frobenius(T, rt.shape_d_.data() + kb * shape));
   }
   rt.block_action_.assign(blocks, kComputed);
   rt.b_changed_.assign(blocks, 1);
@@ -207,18 +331,6 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.b_scratch_.assign(3 * std::size_t(level.kb) * threads, 0.0f);
   rt.r_scratch_.assign(3 * std::size_t(level.kr) * threads, 0.0f);
   if (Status s = rt.set_skip_options(options.skip); !s.ok()) return s;
-  if (check_level_vector_operators(level, dict).ok()) {
-    rt.vector_ready_ = true;
-    rt.vector_rows_ = 4 * std::size_t(dict.interfaces.Ur.rows);
-    rt.vector_row_map_.assign(rt.vector_rows_ * slots, -1);
-    for (std::size_t s = 0; s < slots; ++s)
-      for (std::size_t t = 0; t < level.slots[s].ur_row_to_sample.size(); ++t) {
-        const std::int32_t sample = level.slots[s].ur_row_to_sample[t];
-        if (sample >= 0)
-          for (std::size_t i = 0; i < 4; ++i)
-            rt.vector_row_map_[rt.vector_rows_ * s + 4 * t + i] = 4 * sample + std::int32_t(i);
-      }
-  }
 
   if (options.threads > 1) {
     try {
@@ -309,11 +421,10 @@ void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int
   block_action_[i] = kComputed;
   std::copy(l, l + 3 * n, ref);
   ld_ref_max_[i] = m_all;
-  const Matrix& Td_b = dict_->shapes[std::size_t(blk.shape)].Td_b;
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   float* b_new = b_scratch_.data() + 3 * kb * std::size_t(thread);
   deinterleave_rgb(l, n, scratch, n);
-  gemv_rgb(isa_, Td_b.data.data(), kb, n, n, scratch, n, b_new, false);
+  gemv(shape_ops_[std::size_t(blk.shape)].td_b, kb, n, scratch, b_new, false);
   const bool changed = force || !same_bits(b_new, b, 3 * kb);
   if (changed) {
     std::copy(b_new, b_new + 3 * kb, b);
@@ -373,8 +484,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
           ++skipped;
           continue;
         }
-        gemv_rgb(isa_, level.records[rec].T.data.data(), kr, kb, kb, b_planar_.data() + 3 * kb * src, kb,
-                 r_new, true);
+        gemv(record_ops_[rec], kr, kb, b_planar_.data() + 3 * kb * src, r_new, true);
         ++computed;
       }
       slot_rho_[s] = left_out;
@@ -420,8 +530,8 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
   float* self = self_lightmap_.data() + offset;
   const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
   if (force || b_changed_[i]) {
-    const Matrix& Ub = dict_->shapes[std::size_t(level.blocks[i].shape)].Ub;
-    gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, self, false);
+    const std::size_t shape = std::size_t(level.blocks[i].shape);
+    gemv(shape_ops_[shape].ub, dict_->shapes[shape].Ub.rows, kb, b_planar_.data() + 3 * kb * i, self, false);
   }
   std::copy(self, self + count, tile);
   // Each slot's Ur r contribution is kept too (the values the scatter adds): recomputed only
@@ -432,8 +542,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
     const std::int32_t* map = level.slots[s].ur_row_to_sample.data();
     float* contribution = slot_contribution_.data() + 3 * std::size_t(Ur.rows) * s;
     if (force || r_changed_[s])
-      gemv_rgb_masked(isa_, Ur.data.data(), Ur.rows, kr, kr, map, r_planar_.data() + 3 * kr * s, kr,
-                      contribution);
+      gemv_masked(ur_op_, Ur.rows, kr, map, r_planar_.data() + 3 * kr * s, contribution);
     add_scattered(Ur.rows, map, contribution, tile);
   }
 }
@@ -463,10 +572,9 @@ void CpuLevelRuntime::finish_skip_stats() {
 void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, int thread) {
   const LevelBlock& blk = level_->blocks[i];
   const std::size_t n = blk.sample_count, kb = level_->kb;
-  const Matrix& Td_b = dict_->shapes[std::size_t(blk.shape)].Td_b;
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   deinterleave_rgb(ld.data() + 3 * std::size_t(blk.sample_offset), n, scratch, n);
-  gemv_rgb(isa_, Td_b.data.data(), kb, n, n, scratch, n, b_.data() + 3 * kb * i, false);
+  gemv(shape_ops_[std::size_t(blk.shape)].td_b, kb, n, scratch, b_.data() + 3 * kb * i, false);
   deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
 }
 
@@ -481,19 +589,18 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
     float* r = r_.data() + 3 * kr * s;
     std::fill(r, r + 3 * kr, 0.0f);
     for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
-      const ResponseRecord& rec = level.records[slot_records_[q]];
-      gemv_rgb(isa_, rec.T.data.data(), kr, kb, kb, b_planar_.data() + 3 * kb * rec.source_block, kb, r,
-               true);
+      const std::size_t rec = slot_records_[q];
+      gemv(record_ops_[rec], kr, kb, b_planar_.data() + 3 * kb * level.records[rec].source_block, r, true);
     }
     deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
   }
-  const Matrix& Ub = dict_->shapes[std::size_t(level.blocks[i].shape)].Ub;
-  gemv_rgb(isa_, Ub.data.data(), Ub.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, tile, false);
-  const Matrix& Ur = dict_->interfaces.Ur;
+  const std::size_t shape = std::size_t(level.blocks[i].shape);
+  gemv(shape_ops_[shape].ub, dict_->shapes[shape].Ub.rows, kb, b_planar_.data() + 3 * kb * i, tile, false);
+  const std::size_t ur_rows = dict_->interfaces.Ur.rows;
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
-    gemv_rgb_scatter(isa_, Ur.data.data(), Ur.rows, kr, kr, level.slots[s].ur_row_to_sample.data(),
-                     r_planar_.data() + 3 * kr * s, kr, tile);
+    gemv_scatter(ur_op_, ur_rows, kr, level.slots[s].ur_row_to_sample.data(), r_planar_.data() + 3 * kr * s,
+                 tile);
   }
 }
 
@@ -541,12 +648,12 @@ Status CpuLevelRuntime::compute_probes(std::span<float> probes) const {
   const std::size_t per_block = 3 * std::size_t(dict_->shapes[0].Ubvol.rows);
   auto probe_phase = [&](std::size_t i, int) {
     float* out = probes.data() + per_block * i;
-    const Matrix& Ubvol = dict_->shapes[std::size_t(level.blocks[i].shape)].Ubvol;
-    gemv_rgb(isa_, Ubvol.data.data(), Ubvol.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, out, false);
+    const std::size_t shape = std::size_t(level.blocks[i].shape);
+    gemv(shape_ops_[shape].ubvol, dict_->shapes[shape].Ubvol.rows, kb, b_planar_.data() + 3 * kb * i, out,
+         false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
-      const std::size_t s = block_slots_[j];
-      const Matrix& P = level.probe_response[std::size_t(level.slots[s].entry_face)];
-      gemv_rgb(isa_, P.data.data(), P.rows, kr, kr, r_planar_.data() + 3 * kr * s, kr, out, true);
+      const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
+      gemv(probe_ops_[face], level.probe_response[face].rows, kr, r_planar_.data() + 3 * kr * s, out, true);
     }
   };
   parallel_for(level.blocks.size(), probe_phase);
@@ -565,13 +672,13 @@ Status CpuLevelRuntime::compute_vector_irradiance(std::span<float> vector_lightm
   auto vector_phase = [&](std::size_t i, int) {
     const LevelBlock& blk = level.blocks[i];
     float* out = vector_lightmap.data() + 12 * std::size_t(blk.sample_offset);
-    const Matrix& Ub_vec = dict_->shapes[std::size_t(blk.shape)].Ub_vec;
-    gemv_rgb(isa_, Ub_vec.data.data(), Ub_vec.rows, kb, kb, b_planar_.data() + 3 * kb * i, kb, out, false);
+    const std::size_t shape = std::size_t(blk.shape);
+    gemv(shape_ops_[shape].ub_vec, dict_->shapes[shape].Ub_vec.rows, kb, b_planar_.data() + 3 * kb * i, out,
+         false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
-      const std::size_t s = block_slots_[j];
-      const Matrix& U = level.vector_response[std::size_t(level.slots[s].entry_face)];
-      gemv_rgb_scatter(isa_, U.data.data(), U.rows, kr, kr, vector_row_map_.data() + vector_rows_ * s,
-                       r_planar_.data() + 3 * kr * s, kr, out);
+      const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
+      gemv_scatter(vector_ops_[face], level.vector_response[face].rows, kr,
+                   vector_row_map_.data() + vector_rows_ * s, r_planar_.data() + 3 * kr * s, out);
     }
   };
   parallel_for(level.blocks.size(), vector_phase);

@@ -24,8 +24,23 @@
 // Threads. threads > 1 starts a fixed pool of threads - 1 workers in create() (the caller of
 // evaluate() is the other one); blocks are handed out one at a time from an atomic counter.
 // The pool allocates nothing per call. A runtime must not be used from two threads at once.
-// Operators are not copied: they are read in place, row-major, from the Level and the
-// Dictionary, which the runtime borrows and which must outlive it and stay unchanged.
+// Operators are not copied (float32, the default): they are read in place, row-major, from the
+// Level and the Dictionary, which the runtime borrows and which must outlive it and stay
+// unchanged.
+//
+// Float16 operators (CpuRuntimeOptions::operators = float16). create() rounds every operator
+// a frame reads (Td_b, Ub, Ubvol and Ub_vec of the shapes the level's blocks use, Ur, every
+// record's T, the probe and vector responses) to IEEE binary16, to nearest even, once, into
+// one runtime-owned array (same row-major layouts); every GEMV then runs the _f16 kernels of
+// kernels.h, which convert on load and accumulate in float exactly as the float kernels do.
+// So the results are what this runtime computes in float32 for the half-rounded operators
+// (the same bits, and within 1e-5 of core's reference on those operators), threads stay
+// bit-identical, and no frame allocates. Half the operator bytes are streamed; rounding
+// costs 1.5e-4 to 5.3e-4 relative L2 against float32 operators (lightmap <= 1.8e-4, b <=
+// 5.3e-4 on the test levels; tests/test_cpu_backend.cpp, docs/cpu.md). A value with
+// |v| > 65504 (the largest finite half) makes create() fail, naming the operator, element
+// and value: never a silent Inf. Values below 6.1e-5 keep less relative precision
+// (subnormal halves) and below 3e-8 become 0; the errors above include that.
 #pragma once
 
 #include <cstddef>
@@ -86,6 +101,11 @@ class ThreadPool;  // src/thread_pool.h
 //   delta_s
 //   ||tile_i - tile_i^full||_F <= ||Ub Td_b||_2 e_i + ||Ur||_2 sum over slots s entering i of the above
 //   ||lightmap - lightmap^full||_2 <= sqrt(sum over blocks of the tile bounds^2).
+// With float16 operators every norm above is computed from the half-rounded operators the
+// kernels read (decoded exactly), not from the float originals: the bounds then hold for what
+// the runtime computes, and need no rounding term, because both paths they compare use the
+// same rounded operators. (The float16 rounding itself, float16 against float32 operators, is
+// not a skip and is not in the bound.)
 // Float rounding is not part of the bound: where b was kept, the two paths round different
 // sums (relative ~1e-7, kernels.h). tests/test_cpu_backend.cpp checks the bound on a
 // 300-frame moving-light sequence (observed error <= 0.25 x bound; docs/cpu.md).
@@ -112,10 +132,17 @@ struct CpuSkipStats {
   double lightmap_error_bound = 0;  // bound on ||lightmap - full path||_2 (all channels), see above
 };
 
+// How the runtime holds the operators (see the header comment).
+enum class OperatorStorage {
+  float32,  // read in place from the Level and the Dictionary
+  float16,  // rounded once by create() into runtime-owned IEEE binary16 arrays
+};
+
 struct CpuRuntimeOptions {
   std::optional<Isa> isa;  // none: active_isa(); an unsupported ISA makes create() fail
   int threads = 1;         // threads working on a frame, the caller included (1 to 256)
   CpuSkipOptions skip;     // off by default
+  OperatorStorage operators = OperatorStorage::float32;
 };
 
 class CpuLevelRuntime {
@@ -134,6 +161,11 @@ class CpuLevelRuntime {
 
   Isa isa() const { return isa_; }
   int threads() const { return threads_; }
+  OperatorStorage operators() const { return operators_; }
+  // Bytes of the operators this runtime's GEMVs read (the list in the header comment): float32,
+  // those it borrows from the Level and the Dictionary; float16, its own half arrays (half as
+  // many). The skip and schedule state is not counted.
+  std::size_t operator_bytes() const { return operator_bytes_; }
   // Sizes of ld, lightmap, atlas and probes (and of the b, r this runtime holds).
   const LevelBufferSizes& sizes() const { return sizes_; }
 
@@ -191,8 +223,33 @@ class CpuLevelRuntime {
   void finish_skip_stats();
   double record_weight(std::size_t rec, std::size_t src) const;
 
+  // One operator as the kernels read it: f32 (borrowed) or f16 (in half_), the other null.
+  struct OperatorRef {
+    const float* f32 = nullptr;
+    const std::uint16_t* f16 = nullptr;
+  };
+  struct ShapeRefs {
+    OperatorRef td_b, ub, ubvol, ub_vec;
+  };
+  // The GEMV kernels of kernels.h on A (rows x cols, lda = cols), float or f16 by A's storage.
+  void gemv(const OperatorRef& A, std::size_t rows, std::size_t cols, const float* planar, float* out,
+            bool accumulate) const;
+  void gemv_scatter(const OperatorRef& A, std::size_t rows, std::size_t cols, const std::int32_t* map,
+                    const float* planar, float* out) const;
+  void gemv_masked(const OperatorRef& A, std::size_t rows, std::size_t cols, const std::int32_t* map,
+                   const float* planar, float* out) const;
+  Status prepare_operators(OperatorStorage storage);
+
   const Level* level_ = nullptr;
   const Dictionary* dict_ = nullptr;
+  OperatorStorage operators_ = OperatorStorage::float32;
+  std::size_t operator_bytes_ = 0;
+  std::vector<std::uint16_t> half_;      // float16: every operator, one after another
+  std::vector<ShapeRefs> shape_ops_;     // per dictionary shape (null where no block uses it)
+  std::vector<OperatorRef> record_ops_;  // per record: T
+  std::vector<OperatorRef> probe_ops_;   // per face: probe_response (null where empty)
+  std::vector<OperatorRef> vector_ops_;  // per face: vector_response (null where empty)
+  OperatorRef ur_op_;
   Isa isa_ = Isa::scalar;
   int threads_ = 1;
   std::unique_ptr<ThreadPool> pool_;  // null with one thread
