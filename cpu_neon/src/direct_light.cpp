@@ -443,8 +443,23 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
       d.portals_.push_back(portal);
     }
   }
+  // Convex: planar faces and every corner on the inner side of every face plane (a segment
+  // between two points of the block then stays inside it).
+  for (std::size_t bi = 0; bi < d.block_count_; ++bi) {
+    BlockPlanes& bp = d.block_planes_[bi];
+    bp.convex = bp.planar;
+    for (const glm::dvec3& c : level.blocks[bi].corners)
+      for (int f = 0; f < kFaceCount; ++f)
+        bp.convex = bp.convex && glm::dot(bp.normal[f], c) - bp.offset[f] >= -1e-9 * d.h_;
+  }
   d.block_portal_begin_.push_back(std::uint32_t(d.portals_.size()));
   d.visible_.assign(d.block_count_, 0);
+  d.frustum_cap_ = 4 * d.block_count_ + 256;
+  d.frusta_.assign(options.max_lights * d.frustum_cap_, Frustum{});
+  d.frustum_planes_.assign(options.max_lights * d.frustum_cap_ * kMaxPlanes * 3, 0.0);
+  d.frustum_count_.assign(options.max_lights, 0);
+  d.frustum_exact_.assign(options.max_lights, 0);
+  d.sample_visible_.assign(std::max<std::size_t>(d.max_block_samples_, 1), 0);
 
   d.last_.assign(options.max_lights, CpuLight{});
   d.prepared_.assign(options.max_lights, Prepared{});
@@ -481,8 +496,10 @@ Status CpuDirectLight::set_albedo(std::span<const float> albedo) {
 // (the shadow test's triangles are grown by 1e-5: an edge-grazing ray is stopped there), a bent
 // portal passes the frustum on unchanged, and the walk gives up (every block visible) when the
 // light is not inside a block with planar faces by a margin, or the walk grows too large.
-bool CpuDirectLight::portal_visibility(const glm::dvec3& L) {
+bool CpuDirectLight::portal_visibility(std::size_t l, const glm::dvec3& L) {
   std::fill(visible_.begin(), visible_.end(), std::uint8_t(0));
+  frustum_count_[l] = 0;
+  frustum_exact_[l] = 0;
   if (!closed_) return false;
   const double inside = 2.0 * double(t_min_world_) + margin_;
   for (std::size_t b = 0; b < block_count_; ++b) {
@@ -493,7 +510,10 @@ bool CpuDirectLight::portal_visibility(const glm::dvec3& L) {
     if (!bp.planar) return false;
     portal_work_ = 0;
     portal_gave_up_ = false;
+    walk_light_ = l;
+    walk_exact_ = true;
     visit_portals(std::uint32_t(b), -1, L, nullptr, 0, 0);
+    frustum_exact_[l] = walk_exact_ && !portal_gave_up_;
     return !portal_gave_up_;
   }
   return false;
@@ -501,7 +521,7 @@ bool CpuDirectLight::portal_visibility(const glm::dvec3& L) {
 
 void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dvec3& L,
                                    const glm::dvec3* planes, int count, int depth) {
-  constexpr int kMaxPlanes = 12, kMaxDepth = 256;
+  constexpr int kMaxDepth = 256;
   visible_[block] = 1;
   if (portal_gave_up_) return;
   if (++portal_work_ > 64 * block_count_ + 1024 || depth > kMaxDepth) {
@@ -509,10 +529,28 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
     return;
   }
   const BlockPlanes& bp = block_planes_[block];
+  // Record the frustum that reaches this block: with convex blocks and planar portals, a sample
+  // of the block sees the light iff it lies in one of them (the segment from the light then
+  // runs through the chain's portals and convex blocks only).
+  if (walk_exact_) {
+    std::uint32_t& nf = frustum_count_[walk_light_];
+    if (!bp.convex || nf == frustum_cap_) {
+      walk_exact_ = false;
+    } else {
+      Frustum& fr = frusta_[walk_light_ * frustum_cap_ + nf];
+      fr.block = block;
+      fr.count = std::uint32_t(count);
+      double* dst = &frustum_planes_[((walk_light_ * frustum_cap_) + nf) * kMaxPlanes * 3];
+      for (int i = 0; i < count; ++i)
+        for (int a = 0; a < 3; ++a) dst[3 * i + a] = planes[i][a];
+      ++nf;
+    }
+  }
   for (std::uint32_t k = block_portal_begin_[block]; k < block_portal_begin_[block + 1]; ++k) {
     const Portal& portal = portals_[k];
     if (portal.face == entry) continue;
     if (!portal.planar) {
+      walk_exact_ = false;
       visit_portals(portal.to, portal.entry, L, planes, count, depth + 1);
       continue;
     }
@@ -525,6 +563,7 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
     for (int pl = 0; pl < count && n >= 3; ++pl) {
       const glm::dvec3& nrm = planes[pl];
       int m = 0;
+      if (n + 1 > 4 + kMaxPlanes) walk_exact_ = false;  // the clipped polygon could be truncated
       for (int i = 0; i < n && m < 4 + kMaxPlanes; ++i) {
         const glm::dvec3 &a = poly[i], &b = poly[(i + 1) % n];
         const double da = glm::dot(nrm, a - L) + 1e-6 * glm::length(a - L);
@@ -550,6 +589,7 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
       if (glm::dot(nrm, centroid - L) < 0.0) nrm = -nrm;
       frustum[planes_out++] = nrm;  // fewer planes than edges only widens the frustum
     }
+    if (n > kMaxPlanes) walk_exact_ = false;
     visit_portals(portal.to, portal.entry, L, frustum, planes_out, depth + 1);
   }
 }
@@ -560,6 +600,8 @@ void CpuDirectLight::update_bounds(std::size_t l) {
   double* bound = &bound_[l * block_count_];
   std::uint8_t* reach = &reach_[l * block_count_];
   std::uint32_t culled = 0;
+  frustum_count_[l] = 0;
+  frustum_exact_[l] = 0;
   if (light.type == LightType::directional) {
     std::fill(bound, bound + block_count_, 1.0 / kPi);
     std::fill(reach, reach + block_count_, std::uint8_t(1));
@@ -579,7 +621,9 @@ void CpuDirectLight::update_bounds(std::size_t l) {
     inv_range = 1.0 / std::max(std::cos(double(light.inner_angle)) - cos_outer, 1e-4);
   }
   const double threshold = double(options_.influence_epsilon) / (kPi * h_ * h_);
-  const bool portals = options_.influence && options_.shadows && light.shadows && portal_visibility(L);
+  // The walk also decides shadows (evaluate_block), so it runs with influence off too.
+  const bool walked = options_.shadows && light.shadows && portal_visibility(l, L);
+  const bool portals = options_.influence && walked;
   for (std::size_t b = 0; b < block_count_; ++b) {
     double g = 0.0;
     for (std::uint32_t fi = block_face_begin_[b]; fi < block_face_begin_[b + 1]; ++fi) {
@@ -713,7 +757,32 @@ void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
     ++stats_.pairs_evaluated;
     const Prepared& p = prepared_[l];
     DirectLightKernels::run(isa_, p, &px_[off], &py_[off], &pz_[off], &nx_[off], &ny_[off], &nz_[off], n, e);
-    if (options_.shadows && p.shadows) {
+    if (options_.shadows && p.shadows && frustum_exact_[l]) {
+      // Visible iff inside one of the frusta that reached this block (visit_portals); in double,
+      // widened by a relative 1e-9, so only rays within that of a portal edge count as grazing.
+      std::uint8_t* vis = sample_visible_.data();
+      std::fill(vis, vis + n, std::uint8_t(0));
+      const Frustum* fr = &frusta_[l * frustum_cap_];
+      const glm::dvec3 L(p.l[0], p.l[1], p.l[2]);
+      for (std::uint32_t k = 0; k < frustum_count_[l]; ++k) {
+        if (fr[k].block != b) continue;
+        const double* pl = &frustum_planes_[(l * frustum_cap_ + k) * kMaxPlanes * 3];
+        for (std::size_t i = 0; i < n; ++i) {
+          if (vis[i] || !(e[i] > 0.0f)) continue;
+          const double dx = px_[off + i] - L.x, dy = py_[off + i] - L.y, dz = pz_[off + i] - L.z;
+          const double slack = -1e-9 * std::sqrt(dx * dx + dy * dy + dz * dz);
+          bool in = true;
+          for (std::uint32_t q = 0; q < fr[k].count && in; ++q)
+            in = pl[3 * q] * dx + pl[3 * q + 1] * dy + pl[3 * q + 2] * dz >= slack;
+          vis[i] = in;
+        }
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!(e[i] > 0.0f)) continue;
+        ++stats_.frustum_tests;
+        if (!vis[i]) e[i] = 0.0f;
+      }
+    } else if (options_.shadows && p.shadows) {
       const float reach = p.pw == 0.0f ? far_ : 1.0f;
       for (std::size_t i = 0; i < n; ++i) {
         if (!(e[i] > 0.0f)) continue;

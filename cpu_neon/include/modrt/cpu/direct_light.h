@@ -103,8 +103,9 @@ struct CpuDirectLightStats {
   std::size_t blocks_recomputed = 0;  // blocks whose ld was rewritten
   std::size_t blocks_kept = 0;        // blocks whose ld was left untouched
   std::size_t pairs_evaluated = 0;    // (light, block) contributions computed
-  std::size_t shadow_rays = 0;
-  bool full_update = false;  // every block recomputed (first call, new buffer, ...)
+  std::size_t shadow_rays = 0;        // samples whose visibility a ray walk decided
+  std::size_t frustum_tests = 0;      // samples whose visibility the portal frusta decided
+  bool full_update = false;           // every block recomputed (first call, new buffer, ...)
   // Bounds on the light left out by culling, over the whole ld (every block, culled by a light
   // that changed this frame or not): max |ld - ld without culling| over samples and channels,
   // and ||ld - ld without culling||_2 over all channels. 0 with influence_epsilon = 0.
@@ -165,7 +166,7 @@ class CpuDirectLight {
   void evaluate_block(std::size_t block, std::span<float> ld);
   bool occluded(const float* origin, const float* dir, std::uint32_t skip_face) const;
   void compute_error_bounds();
-  bool portal_visibility(const glm::dvec3& light);
+  bool portal_visibility(std::size_t light_index, const glm::dvec3& light);
   void visit_portals(std::uint32_t block, int entry, const glm::dvec3& light, const glm::dvec3* planes,
                      int count, int depth);
 
@@ -213,7 +214,7 @@ class CpuDirectLight {
   struct BlockPlanes {
     glm::dvec3 normal[6];
     double offset[6] = {0, 0, 0, 0, 0, 0};
-    bool planar = false;
+    bool planar = false, convex = false;
   };
   struct Portal {
     std::uint32_t to = 0;
@@ -228,6 +229,20 @@ class CpuDirectLight {
   bool closed_ = false;
   std::size_t portal_work_ = 0;
   bool portal_gave_up_ = false;
+  // Portal frusta as the shadow test (direct_light.cpp, evaluate_block): per light up to
+  // frustum_cap_ frusta (block, planes through the light: 3 doubles each, kMaxPlanes per
+  // frustum), their count, and whether they are exact (every block and portal of the walk convex
+  // and planar, nothing truncated); the walk in progress records into light walk_light_.
+  static constexpr int kMaxPlanes = 12;
+  struct Frustum {
+    std::uint32_t block = 0, count = 0;
+  };
+  std::size_t frustum_cap_ = 0, walk_light_ = 0;
+  bool walk_exact_ = false;
+  std::vector<Frustum> frusta_;
+  std::vector<double> frustum_planes_;
+  std::vector<std::uint32_t> frustum_count_;
+  std::vector<std::uint8_t> frustum_exact_, sample_visible_;
   std::vector<float> e_;  // E / pi of one light over one block
   std::size_t light_count_ = 0;
   const float* last_ld_ = nullptr;
