@@ -1,54 +1,36 @@
-// modrt-bench-cpu — Google Benchmark timings of the SIMD CPU runtime
-// (cpu_neon/) against core's scalar reference, in the same run (SPEC §5). Speed
-// is measured only here.
+// modrt-bench-cpu — Google Benchmark timings of the SIMD CPU runtime (cpu_neon/) against
+// core's scalar reference, in the same run (SPEC §5). Speed is measured only here.
 //
-//   BM_PeakFma/<threads>                       this core's FMA peak: AVX2 (NEON
-//   on aarch64)
-//                                              FMAs into 12 independent
-//                                              accumulators
-//   BM_CoreFrame/<blocks>/<res>/<kb>           core level_evaluate (b, r,
-//   lightmap) BM_CpuFrame/<blocks>/<res>/<kb>/<threads>
-//   CpuLevelRuntime::evaluate, best ISA, full update BM_CpuIsa/<blocks>/<isa>
-//   the same with a forced ISA (res 16, kb 32;
-//                                              0 scalar, 1 sse41, 2 avx2, 3
-//                                              neon; unsupported skip)
-//   BM_CpuMovingLight/<blocks>/<threads>/<mode> maze41/… with light 0 circling
-//   inside its block
-//                                              (120 precomputed frames of
-//                                              shadowed direct light, cycled):
-//                                              mode 0 full path, 1 exact
-//                                              skipping, 2 approximate skipping
-//                                              (ld_epsilon 0.05, dark_ld 1e-3
-//                                              max ld, record_epsilon 0.05,
-//                                              r_epsilon 0.02)
-//   BM_DirectLight/<shadows>/<influence>/<spot>  CpuDirectLight::evaluate on
-//   maze41 (res 16): the
-//                                              maze's two lights, light 0
-//                                              circling inside its block (a
-//                                              point light, or with spot = 1 a
-//                                              spot with a 0.5 rad cone turning
-//                                              with it); influence 0 off, 1 on
-//                                              with epsilon 0 (exact), 2 on
-//                                              with epsilon 0.02
-//   BM_DirectLightFull/<shadows>                the same lights, every block
-//   recomputed each frame BM_MovingLightFrame/<influence>/<spot>      one whole
-//   frame: CpuDirectLight (shadows) then
-//                                              CpuLevelRuntime::evaluate with
-//                                              exact skipping
+//   BM_PeakFma/<threads>                       this core's FMA peak: AVX2 (NEON on aarch64)
+//                                              FMAs into 12 independent accumulators
+//   BM_CoreFrame/<blocks>/<res>/<kb>           core level_evaluate (b, r, lightmap)
+//   BM_CpuFrame/<blocks>/<res>/<kb>/<threads>  CpuLevelRuntime::evaluate, best ISA, full update
+//   BM_CpuIsa/<blocks>/<isa>                   the same with a forced ISA (res 16, kb 32;
+//                                              0 scalar, 1 sse41, 2 avx2, 3 neon; unsupported skip)
+//   BM_CpuMovingLight/<blocks>/<threads>/<mode> maze41/… with light 0 circling inside its block
+//                                              (120 precomputed frames of shadowed direct light,
+//                                              cycled): mode 0 full path, 1 exact skipping,
+//                                              2 approximate skipping (ld_epsilon 0.05, dark_ld
+//                                              1e-3 max ld, record_epsilon 0.05, r_epsilon 0.02)
+//   BM_DirectLight/<shadows>/<influence>/<spot>  CpuDirectLight::evaluate on maze41 (res 16): the
+//                                              maze's two lights, light 0 circling inside its
+//                                              block (a point light, or with spot = 1 a spot with
+//                                              a 0.5 rad cone turning with it); influence 0 off,
+//                                              1 on with epsilon 0 (exact), 2 on with epsilon 0.02
+//   BM_DirectLightFull/<shadows>                the same lights, every block recomputed each frame
+//   BM_MovingLightFrame/<influence>/<spot>      one whole frame: CpuDirectLight (shadows) then
+//                                              CpuLevelRuntime::evaluate with exact skipping
 //
-// Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b,
-// Tb->r records, Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs
-// / BM_PeakFma's rate for the same thread count (measured once at start).
-// Moving light: blocks/records/tiles computed per frame and the mean stated
-// error bound relative to ||lightmap||.
+// Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
+// Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
+// same thread count (measured once at start). Moving light: blocks/records/tiles computed per
+// frame and the mean stated error bound relative to ||lightmap||.
 //
-// Dictionaries: res 16 / kb 32 is the DEFAULT (bench_levels.h:
-// $MODRT_BENCH_DICTIONARY or the cache); the other (res, kb) pairs are the
-// default settings with res and kb changed (kb 12 at res 6 is bench_runtime's
-// mobile preset), loaded from the cache or baked on first use
-// (~40 s at res 6, ~70 s at res 16). Mazes: maze_level(blocks), dmax 8; ld a
-// fixed synthetic non-negative pattern for full updates (their cost does not
-// depend on it).
+// Dictionaries: res 16 / kb 32 is the DEFAULT (bench_levels.h: $MODRT_BENCH_DICTIONARY or the
+// cache); the other (res, kb) pairs are the default settings with res and kb changed (kb 12 at
+// res 6 is bench_runtime's mobile preset), loaded from the cache or baked on first use
+// (~40 s at res 6, ~70 s at res 16). Mazes: maze_level(blocks), dmax 8; ld a fixed synthetic
+// non-negative pattern for full updates (their cost does not depend on it).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -82,51 +64,39 @@ using namespace modrt;
 
 // ---- peak FMA throughput ----
 
-// 12 independent accumulators (FMA latency 4 x 2 ports = 8 in flight on recent
-// x86 cores; 12 covers 3 ports or latency 5 too). Returns flops done:
-// `iterations` x 12 FMAs x lanes x 2.
+// 12 independent accumulators (FMA latency 4 x 2 ports = 8 in flight on recent x86 cores;
+// 12 covers 3 ports or latency 5 too). Returns flops done: `iterations` x 12 FMAs x lanes x 2.
 #if defined(__x86_64__)
 __attribute__((target("avx2,fma"))) double fma_loop(long iterations) {
   __m256 a[12];
-  for (int i = 0; i < 12; ++i)
-    a[i] = _mm256_set1_ps(float(i) * 1e-3f);
+  for (int i = 0; i < 12; ++i) a[i] = _mm256_set1_ps(float(i) * 1e-3f);
   const __m256 x = _mm256_set1_ps(0.999999f), y = _mm256_set1_ps(1e-7f);
   for (long it = 0; it < iterations; ++it) {
-    for (int i = 0; i < 12; ++i)
-      a[i] = _mm256_fmadd_ps(a[i], x, y);
-    // Keep the accumulators in registers; stop the compiler from collapsing the
-    // loop.
+    for (int i = 0; i < 12; ++i) a[i] = _mm256_fmadd_ps(a[i], x, y);
+    // Keep the accumulators in registers; stop the compiler from collapsing the loop.
     __asm__ volatile(""
-                     : "+x"(a[0]), "+x"(a[1]), "+x"(a[2]), "+x"(a[3]),
-                       "+x"(a[4]), "+x"(a[5]), "+x"(a[6]), "+x"(a[7]),
-                       "+x"(a[8]), "+x"(a[9]), "+x"(a[10]), "+x"(a[11]));
+                     : "+x"(a[0]), "+x"(a[1]), "+x"(a[2]), "+x"(a[3]), "+x"(a[4]), "+x"(a[5]), "+x"(a[6]),
+                       "+x"(a[7]), "+x"(a[8]), "+x"(a[9]), "+x"(a[10]), "+x"(a[11]));
   }
   __m256 s = a[0];
-  for (int i = 1; i < 12; ++i)
-    s = _mm256_add_ps(s, a[i]);
+  for (int i = 1; i < 12; ++i) s = _mm256_add_ps(s, a[i]);
   benchmark::DoNotOptimize(s);
   return double(iterations) * 12 * 8 * 2;
 }
-bool fma_supported() {
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
+bool fma_supported() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 #elif defined(__aarch64__)
 double fma_loop(long iterations) {
   float32x4_t a[12];
-  for (int i = 0; i < 12; ++i)
-    a[i] = vdupq_n_f32(float(i) * 1e-3f);
+  for (int i = 0; i < 12; ++i) a[i] = vdupq_n_f32(float(i) * 1e-3f);
   const float32x4_t x = vdupq_n_f32(0.999999f), y = vdupq_n_f32(1e-7f);
   for (long it = 0; it < iterations; ++it) {
-    for (int i = 0; i < 12; ++i)
-      a[i] = vfmaq_f32(y, a[i], x);
+    for (int i = 0; i < 12; ++i) a[i] = vfmaq_f32(y, a[i], x);
     __asm__ volatile(""
-                     : "+w"(a[0]), "+w"(a[1]), "+w"(a[2]), "+w"(a[3]),
-                       "+w"(a[4]), "+w"(a[5]), "+w"(a[6]), "+w"(a[7]),
-                       "+w"(a[8]), "+w"(a[9]), "+w"(a[10]), "+w"(a[11]));
+                     : "+w"(a[0]), "+w"(a[1]), "+w"(a[2]), "+w"(a[3]), "+w"(a[4]), "+w"(a[5]), "+w"(a[6]),
+                       "+w"(a[7]), "+w"(a[8]), "+w"(a[9]), "+w"(a[10]), "+w"(a[11]));
   }
   float32x4_t s = a[0];
-  for (int i = 1; i < 12; ++i)
-    s = vaddq_f32(s, a[i]);
+  for (int i = 1; i < 12; ++i) s = vaddq_f32(s, a[i]);
   benchmark::DoNotOptimize(s);
   return double(iterations) * 12 * 4 * 2;
 }
@@ -140,109 +110,86 @@ bool fma_supported() { return false; }
 double run_fma(int threads, long iterations) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t)
-    workers.emplace_back([iterations] { fma_loop(iterations); });
+  for (int t = 1; t < threads; ++t) workers.emplace_back([iterations] { fma_loop(iterations); });
   double flops = fma_loop(iterations) * threads;
-  for (std::thread &w : workers)
-    w.join();
-  return flops /
-         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-             .count();
+  for (std::thread& w : workers) w.join();
+  return flops / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 // Best of 5 runs of ~50 ms each, measured once per thread count.
 double peak_flops(int threads) {
   static std::map<int, double> cache;
-  if (auto it = cache.find(threads); it != cache.end())
-    return it->second;
+  if (auto it = cache.find(threads); it != cache.end()) return it->second;
   double best = 0.0;
   if (fma_supported())
-    for (int k = 0; k < 5; ++k)
-      best = std::max(best, run_fma(threads, 2'000'000));
+    for (int k = 0; k < 5; ++k) best = std::max(best, run_fma(threads, 2'000'000));
   return cache[threads] = best;
 }
 
-void BM_PeakFma(benchmark::State &state) {
-  if (!fma_supported())
-    return state.SkipWithError("no AVX2+FMA / NEON");
+void BM_PeakFma(benchmark::State& state) {
+  if (!fma_supported()) return state.SkipWithError("no AVX2+FMA / NEON");
   const int threads = int(state.range(0));
   double flops = 0.0;
-  for (auto _ : state)
-    flops = std::max(flops, run_fma(threads, 1'000'000));
+  for (auto _ : state) flops = std::max(flops, run_fma(threads, 1'000'000));
   state.counters["GFLOPs"] = flops * 1e-9;
 }
 
 // ---- dictionaries and levels per (res, kb) ----
 
-const Dictionary *preset_dictionary(int res, int kb) {
-  if (res == 16 && kb == 32)
-    return bench::dictionary();
+const Dictionary* preset_dictionary(int res, int kb) {
+  if (res == 16 && kb == 32) return bench::dictionary();
   static std::map<std::pair<int, int>, std::unique_ptr<Dictionary>> cache;
   const auto key = std::make_pair(res, kb);
-  if (auto it = cache.find(key); it != cache.end())
-    return it->second.get();
+  if (auto it = cache.find(key); it != cache.end()) return it->second.get();
   DictionarySettings s;
   s.res = std::uint32_t(res);
   s.kb = std::uint32_t(kb);
-  std::fprintf(stderr, "bench: dictionary res %d kb %d (cache or bake)\n", res,
-               kb);
-  Result<Dictionary> d =
-      precompute::load_or_bake_dictionary(s, precompute::default_cache_dir());
+  std::fprintf(stderr, "bench: dictionary res %d kb %d (cache or bake)\n", res, kb);
+  Result<Dictionary> d = precompute::load_or_bake_dictionary(s, precompute::default_cache_dir());
   if (!d.ok())
-    std::fprintf(stderr, "bench: dictionary res %d kb %d: %s\n", res, kb,
-                 d.status().to_string().c_str());
-  return (cache[key] = d.ok()
-                           ? std::make_unique<Dictionary>(std::move(d).value())
-                           : nullptr)
-      .get();
+    std::fprintf(stderr, "bench: dictionary res %d kb %d: %s\n", res, kb, d.status().to_string().c_str());
+  return (cache[key] = d.ok() ? std::make_unique<Dictionary>(std::move(d).value()) : nullptr).get();
 }
 
 struct PresetLevel {
-  const Dictionary *dict = nullptr;
+  const Dictionary* dict = nullptr;
   LevelDescription description;
   Level level;
   std::vector<float> ld;
-  double flops = 0.0; // per frame
+  double flops = 0.0;  // per frame
 };
 
-// 2 flops per multiply-add, 3 channels: Td_b and Ub per block, T per record,
-// mapped Ur rows per slot.
-double frame_flops(const Level &level, const Dictionary &dict) {
+// 2 flops per multiply-add, 3 channels: Td_b and Ub per block, T per record, mapped Ur rows per slot.
+double frame_flops(const Level& level, const Dictionary& dict) {
   double madds = 0.0;
-  for (const LevelBlock &blk : level.blocks) {
-    const ShapeOperators &op = dict.shapes[std::size_t(blk.shape)];
-    madds +=
-        double(op.Td_b.rows) * op.Td_b.cols + double(op.Ub.rows) * op.Ub.cols;
+  for (const LevelBlock& blk : level.blocks) {
+    const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
+    madds += double(op.Td_b.rows) * op.Td_b.cols + double(op.Ub.rows) * op.Ub.cols;
   }
   madds += double(level.records.size()) * level.kr * level.kb;
-  for (const ResponseSlot &slot : level.slots)
-    madds += double(std::count_if(slot.ur_row_to_sample.begin(),
-                                  slot.ur_row_to_sample.end(),
+  for (const ResponseSlot& slot : level.slots)
+    madds += double(std::count_if(slot.ur_row_to_sample.begin(), slot.ur_row_to_sample.end(),
                                   [](std::int32_t s) { return s >= 0; })) *
              level.kr;
   return 2.0 * 3.0 * madds;
 }
 
-const PresetLevel *preset_level(int blocks, int res, int kb) {
-  static std::map<std::tuple<int, int, int>, std::unique_ptr<PresetLevel>>
-      cache;
+const PresetLevel* preset_level(int blocks, int res, int kb) {
+  static std::map<std::tuple<int, int, int>, std::unique_ptr<PresetLevel>> cache;
   const auto key = std::make_tuple(blocks, res, kb);
-  if (auto it = cache.find(key); it != cache.end())
-    return it->second.get();
+  if (auto it = cache.find(key); it != cache.end()) return it->second.get();
   std::unique_ptr<PresetLevel> out;
-  if (const Dictionary *dict = preset_dictionary(res, kb)) {
+  if (const Dictionary* dict = preset_dictionary(res, kb)) {
     Result<LevelDescription> desc = precompute::maze_level(blocks);
-    Result<Level> level = desc.ok()
-                              ? precompute::build_level(desc.value(), *dict)
-                              : Result<Level>(desc.status());
+    Result<Level> level =
+        desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
     if (level.ok()) {
       out = std::make_unique<PresetLevel>();
       out->dict = dict;
       out->description = desc.value();
       out->level = std::move(level).value();
       out->ld.resize(3 * std::size_t(out->level.sample_count));
-      for (std::size_t i = 0; i < out->ld.size(); ++i)
-        out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
+      for (std::size_t i = 0; i < out->ld.size(); ++i) out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
       out->flops = frame_flops(out->level, *dict);
     } else {
       std::fprintf(stderr, "bench: maze %d res %d kb %d: %s\n", blocks, res, kb,
@@ -252,52 +199,42 @@ const PresetLevel *preset_level(int blocks, int res, int kb) {
   return (cache[key] = std::move(out)).get();
 }
 
-void set_counters(benchmark::State &state, const PresetLevel &pl,
-                  double seconds, int threads) {
+void set_counters(benchmark::State& state, const PresetLevel& pl, double seconds, int threads) {
   state.counters["samples"] = double(pl.level.sample_count);
   state.counters["records"] = double(pl.level.records.size());
   const double rate = pl.flops * double(state.iterations()) / seconds;
   state.counters["GFLOPs"] = rate * 1e-9;
   const double peak = peak_flops(threads);
-  if (peak > 0)
-    state.counters["roofline"] = rate / peak;
+  if (peak > 0) state.counters["roofline"] = rate / peak;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 // ---- per-frame cost, full update ----
 
-void BM_CoreFrame(benchmark::State &state) {
-  const PresetLevel *pl = preset_level(int(state.range(0)), int(state.range(1)),
-                                       int(state.range(2)));
-  if (!pl)
-    return state.SkipWithError("no dictionary or level");
+void BM_CoreFrame(benchmark::State& state) {
+  const PresetLevel* pl = preset_level(int(state.range(0)), int(state.range(1)), int(state.range(2)));
+  if (!pl) return state.SkipWithError("no dictionary or level");
   const LevelBufferSizes s = level_buffer_sizes(pl->level, *pl->dict);
   std::vector<float> b(s.b), r(s.r), lightmap(s.lightmap);
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
-    const Status st =
-        level_evaluate(pl->level, *pl->dict, pl->ld, b, r, lightmap);
+    const Status st = level_evaluate(pl->level, *pl->dict, pl->ld, b, r, lightmap);
     benchmark::DoNotOptimize(st.ok());
     benchmark::ClobberMemory();
   }
   set_counters(state, *pl, seconds_since(t0), 1);
 }
 
-void cpu_frame(benchmark::State &state, const PresetLevel *pl, cpu::Isa isa,
-               int threads) {
-  if (!pl)
-    return state.SkipWithError("no dictionary or level");
+void cpu_frame(benchmark::State& state, const PresetLevel* pl, cpu::Isa isa, int threads) {
+  if (!pl) return state.SkipWithError("no dictionary or level");
   cpu::CpuRuntimeOptions o;
   o.isa = isa;
   o.threads = threads;
-  Result<cpu::CpuLevelRuntime> rt =
-      cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
-  if (!rt.ok())
-    return state.SkipWithError(rt.status().message().c_str());
+  Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
+  if (!rt.ok()) return state.SkipWithError(rt.status().message().c_str());
   std::vector<float> lightmap(rt->sizes().lightmap);
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
@@ -309,17 +246,14 @@ void cpu_frame(benchmark::State &state, const PresetLevel *pl, cpu::Isa isa,
   set_counters(state, *pl, seconds_since(t0), threads);
 }
 
-void BM_CpuFrame(benchmark::State &state) {
-  cpu_frame(state,
-            preset_level(int(state.range(0)), int(state.range(1)),
-                         int(state.range(2))),
+void BM_CpuFrame(benchmark::State& state) {
+  cpu_frame(state, preset_level(int(state.range(0)), int(state.range(1)), int(state.range(2))),
             cpu::best_isa(), int(state.range(3)));
 }
 
-void BM_CpuIsa(benchmark::State &state) {
+void BM_CpuIsa(benchmark::State& state) {
   const cpu::Isa isa = cpu::Isa(state.range(1));
-  if (!cpu::isa_supported(isa))
-    return state.SkipWithError("ISA not supported here");
+  if (!cpu::isa_supported(isa)) return state.SkipWithError("ISA not supported here");
   cpu_frame(state, preset_level(int(state.range(0)), 16, 32), isa, 1);
 }
 
@@ -332,78 +266,58 @@ struct LightSequence {
   float ld_max = 0.0f;
 };
 
-// Light 0 circles (radius 0.25 cells, bobbing) inside its block; the other
-// lights stay put.
-const LightSequence *light_sequence(int blocks) {
+// Light 0 circles (radius 0.25 cells, bobbing) inside its block; the other lights stay put.
+const LightSequence* light_sequence(int blocks) {
   static std::map<int, std::unique_ptr<LightSequence>> cache;
-  if (auto it = cache.find(blocks); it != cache.end())
-    return it->second.get();
+  if (auto it = cache.find(blocks); it != cache.end()) return it->second.get();
   std::unique_ptr<LightSequence> out;
-  if (const PresetLevel *pl = preset_level(blocks, 16, 32)) {
+  if (const PresetLevel* pl = preset_level(blocks, 16, 32)) {
     out = std::make_unique<LightSequence>();
     const precompute::LevelScene scene(pl->level, pl->level.res);
-    const std::vector<float> albedo =
-        precompute::level_albedo(pl->level, pl->description);
+    const std::vector<float> albedo = precompute::level_albedo(pl->level, pl->description);
     const glm::dvec3 centre = pl->description.lights.at(0).position;
     for (int f = 0; f < kLightFrames; ++f) {
       std::vector<LightDescription> lights = pl->description.lights;
-      const double a =
-          2.0 * 3.14159265358979 * double(f) / double(kLightFrames);
+      const double a = 2.0 * 3.14159265358979 * double(f) / double(kLightFrames);
       lights[0].position =
           centre + pl->description.cell_size *
-                       glm::dvec3(0.25 * std::cos(a), 0.1 * std::sin(3.0 * a),
-                                  0.25 * std::sin(a));
-      out->ld.push_back(
-          precompute::level_direct_light(scene, lights, albedo, 4));
-      out->ld_max =
-          std::max(out->ld_max, *std::max_element(out->ld.back().begin(),
-                                                  out->ld.back().end()));
+                       glm::dvec3(0.25 * std::cos(a), 0.1 * std::sin(3.0 * a), 0.25 * std::sin(a));
+      out->ld.push_back(precompute::level_direct_light(scene, lights, albedo, 4));
+      out->ld_max = std::max(out->ld_max, *std::max_element(out->ld.back().begin(), out->ld.back().end()));
     }
   }
   return (cache[blocks] = std::move(out)).get();
 }
 
-void BM_CpuMovingLight(benchmark::State &state) {
-  const int blocks = int(state.range(0)), threads = int(state.range(1)),
-            mode = int(state.range(2));
-  const PresetLevel *pl = preset_level(blocks, 16, 32);
-  const LightSequence *seq = light_sequence(blocks);
-  if (!pl || !seq)
-    return state.SkipWithError("no dictionary or level");
+void BM_CpuMovingLight(benchmark::State& state) {
+  const int blocks = int(state.range(0)), threads = int(state.range(1)), mode = int(state.range(2));
+  const PresetLevel* pl = preset_level(blocks, 16, 32);
+  const LightSequence* seq = light_sequence(blocks);
+  if (!pl || !seq) return state.SkipWithError("no dictionary or level");
   cpu::CpuRuntimeOptions o;
   o.threads = threads;
-  if (mode > 0)
-    o.skip.enabled = true;
-  if (mode == 2)
-    o.skip = {true, 0.05f, 1e-3f * seq->ld_max, 0.05f, true, 0.02f};
-  Result<cpu::CpuLevelRuntime> rt =
-      cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
-  if (!rt.ok())
-    return state.SkipWithError(rt.status().message().c_str());
+  if (mode > 0) o.skip.enabled = true;
+  if (mode == 2) o.skip = {true, 0.05f, 1e-3f * seq->ld_max, 0.05f, true, 0.02f};
+  Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
+  if (!rt.ok()) return state.SkipWithError(rt.status().message().c_str());
   std::vector<float> lightmap(rt->sizes().lightmap);
-  for (const auto &ld :
-       seq->ld) // one lap first: the steady state of a running game
-    if (!rt->evaluate(ld, lightmap).ok())
-      return state.SkipWithError("evaluate failed");
+  for (const auto& ld : seq->ld)  // one lap first: the steady state of a running game
+    if (!rt->evaluate(ld, lightmap).ok()) return state.SkipWithError("evaluate failed");
   std::size_t frame = 0;
-  double blocks_computed = 0, records_computed = 0, tiles_written = 0,
-         rel_bound = 0;
+  double blocks_computed = 0, records_computed = 0, tiles_written = 0, rel_bound = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
     const Status st = rt->evaluate(seq->ld[frame], lightmap);
     benchmark::DoNotOptimize(st.ok());
     benchmark::ClobberMemory();
-    const cpu::CpuSkipStats &s = rt->skip_stats();
-    blocks_computed += double(s.blocks_computed),
-        records_computed += double(s.records_computed);
-    tiles_written += double(s.tiles_written),
-        rel_bound += s.lightmap_error_bound;
+    const cpu::CpuSkipStats& s = rt->skip_stats();
+    blocks_computed += double(s.blocks_computed), records_computed += double(s.records_computed);
+    tiles_written += double(s.tiles_written), rel_bound += s.lightmap_error_bound;
     frame = (frame + 1) % seq->ld.size();
   }
   const double seconds = seconds_since(t0), n = double(state.iterations());
   double norm = 0.0;
-  for (float v : lightmap)
-    norm += double(v) * v;
+  for (float v : lightmap) norm += double(v) * v;
   state.counters["GFLOPs_full_equiv"] = pl->flops * n / seconds * 1e-9;
   if (mode > 0) {
     state.counters["blocks_computed"] = blocks_computed / n;
@@ -413,49 +327,41 @@ void BM_CpuMovingLight(benchmark::State &state) {
   }
   state.counters["blocks"] = double(pl->level.blocks.size());
   state.counters["records"] = double(pl->level.records.size());
-  state.SetLabel(mode == 0   ? "full"
-                 : mode == 1 ? "exact skipping"
-                             : "approximate skipping");
+  state.SetLabel(mode == 0 ? "full" : mode == 1 ? "exact skipping" : "approximate skipping");
 }
 
 // ---- the CPU direct-light evaluator ----
 
 struct DirectLightScene {
   std::vector<float> albedo;
-  std::vector<std::vector<cpu::CpuLight>>
-      frames[2]; // [spot]: kLightFrames light sets
+  std::vector<std::vector<cpu::CpuLight>> frames[2];  // [spot]: kLightFrames light sets
 };
 
-const DirectLightScene *direct_light_scene() {
+const DirectLightScene* direct_light_scene() {
   static std::unique_ptr<DirectLightScene> scene;
-  if (scene)
-    return scene.get();
-  const PresetLevel *pl = preset_level(41, 16, 32);
-  if (!pl)
-    return nullptr;
+  if (scene) return scene.get();
+  const PresetLevel* pl = preset_level(41, 16, 32);
+  if (!pl) return nullptr;
   scene = std::make_unique<DirectLightScene>();
   scene->albedo = precompute::level_albedo(pl->level, pl->description);
   const glm::dvec3 centre = pl->description.lights.at(0).position;
   for (int spot = 0; spot < 2; ++spot)
     for (int f = 0; f < kLightFrames; ++f) {
       std::vector<cpu::CpuLight> lights;
-      for (const LightDescription &d : pl->description.lights) {
+      for (const LightDescription& d : pl->description.lights) {
         cpu::CpuLight l;
         l.position = glm::vec3(d.position);
         l.radius = float(d.radius);
         l.intensity = float(d.intensity);
         lights.push_back(l);
       }
-      const double a =
-          2.0 * 3.14159265358979 * double(f) / double(kLightFrames);
-      lights[0].position = glm::vec3(
-          centre + pl->description.cell_size *
-                       glm::dvec3(0.25 * std::cos(a), 0.1 * std::sin(3.0 * a),
-                                  0.25 * std::sin(a)));
+      const double a = 2.0 * 3.14159265358979 * double(f) / double(kLightFrames);
+      lights[0].position =
+          glm::vec3(centre + pl->description.cell_size *
+                                 glm::dvec3(0.25 * std::cos(a), 0.1 * std::sin(3.0 * a), 0.25 * std::sin(a)));
       if (spot) {
         lights[0].type = cpu::LightType::spot;
-        lights[0].direction =
-            glm::vec3(float(std::cos(a)), -0.2f, float(std::sin(a)));
+        lights[0].direction = glm::vec3(float(std::cos(a)), -0.2f, float(std::sin(a)));
         lights[0].inner_angle = 0.3f;
         lights[0].outer_angle = 0.5f;
       }
@@ -472,31 +378,27 @@ cpu::CpuDirectLightOptions direct_light_options(bool shadows, int influence) {
   return o;
 }
 
-void BM_DirectLight(benchmark::State &state) {
+void BM_DirectLight(benchmark::State& state) {
   const bool shadows = state.range(0) != 0;
   const int influence = int(state.range(1)), spot = int(state.range(2));
-  const PresetLevel *pl = preset_level(41, 16, 32);
-  const DirectLightScene *sc = direct_light_scene();
-  if (!pl || !sc)
-    return state.SkipWithError("no dictionary or level");
-  Result<cpu::CpuDirectLight> dl = cpu::CpuDirectLight::create(
-      pl->level, sc->albedo, direct_light_options(shadows, influence));
-  if (!dl.ok())
-    return state.SkipWithError(dl.status().message().c_str());
+  const PresetLevel* pl = preset_level(41, 16, 32);
+  const DirectLightScene* sc = direct_light_scene();
+  if (!pl || !sc) return state.SkipWithError("no dictionary or level");
+  Result<cpu::CpuDirectLight> dl =
+      cpu::CpuDirectLight::create(pl->level, sc->albedo, direct_light_options(shadows, influence));
+  if (!dl.ok()) return state.SkipWithError(dl.status().message().c_str());
   std::vector<float> ld(3 * std::size_t(pl->level.sample_count));
-  const auto &frames = sc->frames[spot];
-  for (const auto &lights : frames) // one lap first
-    if (!dl->evaluate(lights, ld).ok())
-      return state.SkipWithError("evaluate failed");
+  const auto& frames = sc->frames[spot];
+  for (const auto& lights : frames)  // one lap first
+    if (!dl->evaluate(lights, ld).ok()) return state.SkipWithError("evaluate failed");
   std::size_t frame = 0;
   double blocks = 0, pairs = 0, rays = 0, bound = 0;
   for (auto _ : state) {
     const Status st = dl->evaluate(frames[frame], ld);
     benchmark::DoNotOptimize(st.ok());
     benchmark::ClobberMemory();
-    const cpu::CpuDirectLightStats &s = dl->stats();
-    blocks += double(s.blocks_recomputed), pairs += double(s.pairs_evaluated),
-        rays += double(s.shadow_rays);
+    const cpu::CpuDirectLightStats& s = dl->stats();
+    blocks += double(s.blocks_recomputed), pairs += double(s.pairs_evaluated), rays += double(s.shadow_rays);
     bound = std::max(bound, s.ld_error_max);
     frame = (frame + 1) % frames.size();
   }
@@ -507,23 +409,20 @@ void BM_DirectLight(benchmark::State &state) {
   state.counters["culled_light0"] = double(dl->blocks_culled()[0]);
   state.counters["max_ld_bound"] = bound;
   state.counters["samples"] = double(pl->level.sample_count);
-  state.SetLabel(std::string(spot ? "spot" : "point") +
-                 (shadows ? ", shadows" : "") +
+  state.SetLabel(std::string(spot ? "spot" : "point") + (shadows ? ", shadows" : "") +
                  (influence == 0   ? ", influence off"
                   : influence == 1 ? ", influence eps 0"
                                    : ", influence eps 0.02"));
 }
 
-void BM_DirectLightFull(benchmark::State &state) {
+void BM_DirectLightFull(benchmark::State& state) {
   const bool shadows = state.range(0) != 0;
-  const PresetLevel *pl = preset_level(41, 16, 32);
-  const DirectLightScene *sc = direct_light_scene();
-  if (!pl || !sc)
-    return state.SkipWithError("no dictionary or level");
-  Result<cpu::CpuDirectLight> dl = cpu::CpuDirectLight::create(
-      pl->level, sc->albedo, direct_light_options(shadows, 0));
-  if (!dl.ok())
-    return state.SkipWithError(dl.status().message().c_str());
+  const PresetLevel* pl = preset_level(41, 16, 32);
+  const DirectLightScene* sc = direct_light_scene();
+  if (!pl || !sc) return state.SkipWithError("no dictionary or level");
+  Result<cpu::CpuDirectLight> dl =
+      cpu::CpuDirectLight::create(pl->level, sc->albedo, direct_light_options(shadows, 0));
+  if (!dl.ok()) return state.SkipWithError(dl.status().message().c_str());
   std::vector<float> ld(3 * std::size_t(pl->level.sample_count));
   std::size_t frame = 0;
   double rays = 0;
@@ -539,36 +438,30 @@ void BM_DirectLightFull(benchmark::State &state) {
   state.counters["samples"] = double(pl->level.sample_count);
   state.counters["ns_per_sample"] =
       benchmark::Counter(double(pl->level.sample_count),
-                         benchmark::Counter::kIsIterationInvariantRate |
-                             benchmark::Counter::kInvert);
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.SetLabel(shadows ? "shadows" : "no shadows");
 }
 
-void BM_MovingLightFrame(benchmark::State &state) {
+void BM_MovingLightFrame(benchmark::State& state) {
   const int influence = int(state.range(0)), spot = int(state.range(1));
-  const PresetLevel *pl = preset_level(41, 16, 32);
-  const DirectLightScene *sc = direct_light_scene();
-  if (!pl || !sc)
-    return state.SkipWithError("no dictionary or level");
-  Result<cpu::CpuDirectLight> dl = cpu::CpuDirectLight::create(
-      pl->level, sc->albedo, direct_light_options(true, influence));
+  const PresetLevel* pl = preset_level(41, 16, 32);
+  const DirectLightScene* sc = direct_light_scene();
+  if (!pl || !sc) return state.SkipWithError("no dictionary or level");
+  Result<cpu::CpuDirectLight> dl =
+      cpu::CpuDirectLight::create(pl->level, sc->albedo, direct_light_options(true, influence));
   cpu::CpuRuntimeOptions o;
   o.skip.enabled = true;
-  Result<cpu::CpuLevelRuntime> rt =
-      cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
-  if (!dl.ok() || !rt.ok())
-    return state.SkipWithError("create failed");
-  std::vector<float> ld(3 * std::size_t(pl->level.sample_count)),
-      lightmap(rt->sizes().lightmap);
-  const auto &frames = sc->frames[spot];
-  for (const auto &lights : frames)
+  Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o);
+  if (!dl.ok() || !rt.ok()) return state.SkipWithError("create failed");
+  std::vector<float> ld(3 * std::size_t(pl->level.sample_count)), lightmap(rt->sizes().lightmap);
+  const auto& frames = sc->frames[spot];
+  for (const auto& lights : frames)
     if (!dl->evaluate(lights, ld).ok() || !rt->evaluate(ld, lightmap).ok())
       return state.SkipWithError("failed");
   std::size_t frame = 0;
   double dl_blocks = 0, b_blocks = 0, tiles = 0;
   for (auto _ : state) {
-    const bool ok =
-        dl->evaluate(frames[frame], ld).ok() && rt->evaluate(ld, lightmap).ok();
+    const bool ok = dl->evaluate(frames[frame], ld).ok() && rt->evaluate(ld, lightmap).ok();
     benchmark::DoNotOptimize(ok);
     benchmark::ClobberMemory();
     dl_blocks += double(dl->stats().blocks_recomputed);
@@ -580,10 +473,9 @@ void BM_MovingLightFrame(benchmark::State &state) {
   state.counters["ld_blocks"] = dl_blocks / n;
   state.counters["b_blocks"] = b_blocks / n;
   state.counters["tiles_written"] = tiles / n;
-  state.SetLabel(std::string(spot ? "spot" : "point") +
-                 (influence == 0   ? ", influence off"
-                  : influence == 1 ? ", influence eps 0"
-                                   : ", influence eps 0.02"));
+  state.SetLabel(std::string(spot ? "spot" : "point") + (influence == 0   ? ", influence off"
+                                                         : influence == 1 ? ", influence eps 0"
+                                                                          : ", influence eps 0.02"));
 }
 
 BENCHMARK(BM_PeakFma)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
@@ -608,15 +500,12 @@ BENCHMARK(BM_DirectLight)
     ->ArgsProduct({{0, 1}, {0, 1, 2}, {0, 1}})
     ->ArgNames({"shadows", "influence", "spot"})
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_DirectLightFull)
-    ->ArgsProduct({{0, 1}})
-    ->ArgNames({"shadows"})
-    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DirectLightFull)->ArgsProduct({{0, 1}})->ArgNames({"shadows"})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MovingLightFrame)
     ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->ArgNames({"influence", "spot"})
     ->Unit(benchmark::kMicrosecond);
 
-} // namespace
+}  // namespace
 
 BENCHMARK_MAIN();
