@@ -478,6 +478,62 @@ void BM_MovingLightFrame(benchmark::State& state) {
                                                                           : ", influence eps 0.02"));
 }
 
+// ---- float16 operators (CpuRuntimeOptions::operators) ----
+//
+// BM_CpuFloat16/<blocks>/<threads>: the full-update frame (res 16, kb 32, best ISA) of a
+// float16-operator runtime against a float32 one in the same loop: each iteration runs a
+// chunk of frames of each (16, or 2 at 1000 blocks), the first frame of a chunk untimed so
+// that each chunk starts with its own operators in cache, as BM_CpuFrame's steady state does.
+// The reported time is the float16 frame's. Counters: float32_us and float16_us per frame,
+// speedup = float32 / float16 time, the operator bytes of each (operator_bytes(), MB),
+// rel_l2 = ||lightmap16 - lightmap32|| / ||lightmap32||; GFLOPs and roofline as BM_CpuFrame,
+// for the float16 time.
+void BM_CpuFloat16(benchmark::State& state) {
+  const int blocks = int(state.range(0)), threads = int(state.range(1));
+  const PresetLevel* pl = preset_level(blocks, 16, 32);
+  if (!pl) return state.SkipWithError("no dictionary or level");
+  cpu::CpuRuntimeOptions o32;
+  o32.threads = threads;
+  cpu::CpuRuntimeOptions o16 = o32;
+  o16.operators = cpu::OperatorStorage::float16;
+  Result<cpu::CpuLevelRuntime> rt32 = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o32);
+  Result<cpu::CpuLevelRuntime> rt16 = cpu::CpuLevelRuntime::create(pl->level, *pl->dict, o16);
+  if (!rt32.ok()) return state.SkipWithError(rt32.status().message().c_str());
+  if (!rt16.ok()) return state.SkipWithError(rt16.status().message().c_str());
+  std::vector<float> lm32(rt32->sizes().lightmap), lm16(lm32.size());
+  const int chunk = blocks >= 1000 ? 2 : 16;
+  // Seconds for frames 2..chunk of a chunk (frame 1 brings the operators into cache).
+  auto run_chunk = [&](cpu::CpuLevelRuntime& rt, std::vector<float>& lightmap) {
+    bool ok = rt.evaluate(pl->ld, lightmap).ok();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int f = 1; f < chunk; ++f) ok &= rt.evaluate(pl->ld, lightmap).ok();
+    benchmark::DoNotOptimize(ok);
+    benchmark::ClobberMemory();
+    return seconds_since(t0);
+  };
+  double t32 = 0.0, t16 = 0.0;
+  for (auto _ : state) {
+    t32 += run_chunk(rt32.value(), lm32);
+    const double c16 = run_chunk(rt16.value(), lm16);
+    t16 += c16;
+    state.SetIterationTime(c16 / double(chunk - 1));
+  }
+  const double frames = double(state.iterations()) * double(chunk - 1);
+  double diff = 0.0, norm = 0.0;
+  for (std::size_t i = 0; i < lm32.size(); ++i) {
+    diff += (double(lm16[i]) - lm32[i]) * (double(lm16[i]) - lm32[i]);
+    norm += double(lm32[i]) * lm32[i];
+  }
+  state.counters["float32_us"] = t32 / frames * 1e6;
+  state.counters["float16_us"] = t16 / frames * 1e6;
+  state.counters["speedup"] = t32 / t16;
+  state.counters["float32_MB"] = double(rt32->operator_bytes()) * 1e-6;
+  state.counters["float16_MB"] = double(rt16->operator_bytes()) * 1e-6;
+  state.counters["rel_l2"] = norm > 0.0 ? std::sqrt(diff / norm) : 0.0;
+  state.SetLabel(cpu::isa_name(rt16->isa()));
+  set_counters(state, *pl, t16 * double(state.iterations()) / frames, threads);
+}
+
 BENCHMARK(BM_PeakFma)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CoreFrame)
     ->ArgsProduct({{11, 41, 1000}, {6, 16}, {12, 32}})
@@ -490,6 +546,11 @@ BENCHMARK(BM_CpuFrame)
 BENCHMARK(BM_CpuIsa)
     ->ArgsProduct({{11, 41}, {0, 1, 2, 3}})
     ->ArgNames({"blocks", "isa"})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CpuFloat16)
+    ->ArgsProduct({{11, 41, 1000}, {1, 2}})
+    ->ArgNames({"blocks", "threads"})
+    ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuMovingLight)
     ->ArgsProduct({{41}, {1, 2}, {0, 1, 2}})
