@@ -18,18 +18,21 @@ void encode_srgb8(std::span<const float> linear_rgb, float scale, std::span<std:
   }
 }
 
-Status write_rgb8_image(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
+namespace {
+
+// Writes through a temporary file next to `path`, renamed into place.
+Status write_image(const std::string& path, int width, int height, OIIO::TypeDesc type, const void* pixels) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path target(path);
   if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
   // Keep the extension last so OpenImageIO picks the right writer for the temp file.
-  const fs::path temp = target.parent_path() /
-                        (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
+  const fs::path temp =
+      target.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
   auto out = OIIO::ImageOutput::create(temp.string());
   if (!out) return Status::error(ErrorCode::io_error, path + ": no image writer: " + OIIO::geterror());
-  const OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-  if (!out->open(temp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
+  const OIIO::ImageSpec spec(width, height, 3, type);
+  if (!out->open(temp.string(), spec) || !out->write_image(type, pixels) || !out->close()) {
     const std::string error = out->geterror();
     fs::remove(temp, ec);
     return Status::error(ErrorCode::io_error, path + ": " + error);
@@ -40,6 +43,20 @@ Status write_rgb8_image(const std::string& path, int width, int height, std::spa
     return Status::error(ErrorCode::io_error, path + ": rename failed: " + ec.message());
   }
   return Status::success();
+}
+
+}  // namespace
+
+Status write_rgb8_image(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
+  if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
+    return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
+  return write_image(path, width, height, OIIO::TypeDesc::UINT8, rgb.data());
+}
+
+Status write_rgb_float_image(const std::string& path, int width, int height, std::span<const float> rgb) {
+  if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
+    return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
+  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data());
 }
 
 }  // namespace modrt::demo

@@ -1,0 +1,543 @@
+#include "scene_renderer.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <string>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "modrt/level_geometry.h"
+#include "modrt/platform/gl_program.h"
+
+namespace modrt::demo {
+
+// Shader sources, generated from demo/render/shaders/*.glsl by cmake/EmbedShaders.cmake.
+extern const char* const kFullscreenVert;
+extern const char* const kShadowVert;
+extern const char* const kShadowFrag;
+extern const char* const kLighting;
+extern const char* const kLdFrag;
+extern const char* const kSceneVert;
+extern const char* const kSceneFrag;
+extern const char* const kTonemapFrag;
+
+namespace {
+
+constexpr int kLdWidth = 1024;  // geometry images and ld: one texel per sample, rows of 1024
+constexpr float kShadowNear = 0.01f, kShadowFar = 30.0f;
+const char* const kHeader =
+    "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp sampler2D;\n"
+    "precision highp samplerCubeShadow;\n#define LD_WIDTH 1024\n#define SHADOW_NEAR 0.01\n#define SHADOW_FAR "
+    "30.0\n";
+
+struct DrawRange {
+  GLint first = 0;
+  GLsizei count = 0;
+  int material = 0;
+  bool dynamic = false;
+};
+
+void append_sphere(std::vector<MappedVertex>& out, float radius) {
+  const int rings = 8, segments = 16;
+  auto at = [&](int r, int s) {
+    const float th = 3.14159265f * float(r) / float(rings), ph = 6.2831853f * float(s) / float(segments);
+    MappedVertex v;
+    v.normal = glm::vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+    v.position = radius * v.normal;
+    return v;
+  };
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < segments; ++s)
+      for (auto [dr, ds] : {std::pair{0, 0}, {1, 0}, {0, 1}, {0, 1}, {1, 0}, {1, 1}})
+        out.push_back(at(r + dr, s + ds));
+}
+
+}  // namespace
+
+struct SceneRenderer::Impl {
+  const platform::GlFunctions& gl;
+  explicit Impl(const platform::GlFunctions& g) : gl(g) {}
+  ~Impl() {
+    for (GLuint p : programs) gl.glDeleteProgram(p);
+    if (!framebuffers.empty()) gl.glDeleteFramebuffers(GLsizei(framebuffers.size()), framebuffers.data());
+    if (!textures.empty()) gl.glDeleteTextures(GLsizei(textures.size()), textures.data());
+    if (!buffers.empty()) gl.glDeleteBuffers(GLsizei(buffers.size()), buffers.data());
+    if (vao) gl.glDeleteVertexArrays(1, &vao);
+    if (empty_vao) gl.glDeleteVertexArrays(1, &empty_vao);
+  }
+  GLuint texture(GLenum format, int w, int h) {
+    const GLuint t = platform::create_texture(gl, format, w, h);
+    textures.push_back(t);
+    return t;
+  }
+  GLint loc(GLuint program, const char* name) const { return gl.glGetUniformLocation(program, name); }
+
+  std::vector<GLuint> programs, framebuffers, textures, buffers;
+  GLuint vao = 0, empty_vao = 0, vbo = 0;
+  GLuint shadow_program = 0, ld_program = 0, scene_program = 0, tonemap_program = 0;
+  GLuint shadow_cube = 0;
+  std::array<GLuint, 6> shadow_fbo{};
+  int shadow_size = 0;
+  GLuint sample_position = 0, sample_normal = 0, sample_albedo = 0, ld_target = 0, ld_fbo = 0;
+  int ld_rows = 0;
+  std::size_t samples = 0;
+  GLuint color = 0, depth = 0, scene_fbo = 0, display = 0, display_fbo = 0;
+  GLuint own_atlas = 0;
+  int atlas_width = 0, atlas_height = 0;
+  std::vector<DrawRange> draws;
+  DrawRange light_marker;
+  std::vector<Material> materials;
+  std::vector<GLuint> material_normal;  // texture per material, 0 = none
+  std::vector<float> readback;
+};
+
+SceneRenderer::SceneRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SceneRenderer::~SceneRenderer() = default;
+
+Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlFunctions& gl,
+                                                             bool gles_context, const DemoScene& scene,
+                                                             std::span<const MappedMesh> mapped,
+                                                             const Level& level,
+                                                             std::span<const float> albedo,
+                                                             const RendererOptions& options) {
+  if (options.width < 1 || options.height < 1 || options.width > 8192 || options.height > 8192)
+    return Status::error(ErrorCode::invalid_argument, "renderer: image size must be 1..8192 on each side");
+  if (options.shadow_size < 16 || options.shadow_size > 4096)
+    return Status::error(ErrorCode::invalid_argument, "renderer: shadow map size must be 16..4096");
+  if (albedo.size() != 3 * std::size_t(level.sample_count))
+    return Status::error(ErrorCode::invalid_argument, "renderer: albedo has the wrong size for the level");
+  if (gles_context && !platform::has_gl_extension(gl, "GL_EXT_color_buffer_float"))
+    return Status::error(
+        ErrorCode::resource_limit,
+        "renderer: this GLES context cannot render to float targets (no EXT_color_buffer_float)");
+  while (gl.glGetError() != GL_NO_ERROR) {
+  }
+  auto impl = std::make_unique<Impl>(gl);
+  Impl& m = *impl;
+  m.atlas_width = level.atlas.width;
+  m.atlas_height = level.atlas.height;
+
+  // ---- programs ----
+  auto program = [&](const char* name, std::initializer_list<const char*> vs,
+                     std::initializer_list<const char*> fs, GLuint& out) -> Status {
+    Result<GLuint> p = platform::build_program(gl, name, vs, fs);
+    if (!p.ok()) return p.status();
+    out = p.value();
+    m.programs.push_back(out);
+    return Status::success();
+  };
+  if (Status s = program("demo shadow", {kHeader, kShadowVert}, {kHeader, kShadowFrag}, m.shadow_program);
+      !s.ok())
+    return s;
+  if (Status s = program("demo ld", {kHeader, kFullscreenVert}, {kHeader, kLighting, kLdFrag}, m.ld_program);
+      !s.ok())
+    return s;
+  if (Status s =
+          program("demo scene", {kHeader, kSceneVert}, {kHeader, kLighting, kSceneFrag}, m.scene_program);
+      !s.ok())
+    return s;
+  if (Status s =
+          program("demo tonemap", {kHeader, kFullscreenVert}, {kHeader, kTonemapFrag}, m.tonemap_program);
+      !s.ok())
+    return s;
+  gl.glUseProgram(m.ld_program);
+  platform::assign_sampler_units(gl, m.ld_program,
+                                 {"u_shadow", "u_sample_position", "u_sample_normal", "u_sample_albedo"});
+  gl.glUseProgram(m.scene_program);
+  platform::assign_sampler_units(
+      gl, m.scene_program,
+      {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1", "u_vector2", "u_vector3"});
+  gl.glUseProgram(m.tonemap_program);
+  platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
+  gl.glUseProgram(0);
+
+  // ---- geometry ----
+  std::vector<MappedVertex> vertices;
+  for (const MappedMesh& mm : mapped) {
+    DrawRange d{GLint(vertices.size()), GLsizei(mm.vertices.size()),
+                scene.meshes[std::size_t(mm.mesh)].material, false};
+    vertices.insert(vertices.end(), mm.vertices.begin(), mm.vertices.end());
+    m.draws.push_back(d);
+  }
+  for (const Mesh& mesh : scene.meshes) {
+    if (!mesh.dynamic) continue;
+    DrawRange d{GLint(vertices.size()), 0, mesh.material, true};
+    for (std::uint32_t i : mesh.indices) {
+      if (i >= mesh.position.size() || i >= mesh.normal.size())
+        return Status::error(ErrorCode::invalid_argument,
+                             "renderer: mesh '" + mesh.name + "': index out of range");
+      MappedVertex v;
+      v.position = mesh.position[i];
+      v.normal = mesh.normal[i];
+      if (i < mesh.uv.size()) v.uv = mesh.uv[i];
+      vertices.push_back(v);
+    }
+    d.count = GLsizei(vertices.size()) - d.first;
+    m.draws.push_back(d);
+  }
+  m.light_marker.first = GLint(vertices.size());
+  append_sphere(vertices, 1.0f);
+  m.light_marker.count = GLsizei(vertices.size()) - m.light_marker.first;
+  for (const DrawRange& d : m.draws)
+    if (d.material < 0 || std::size_t(d.material) >= scene.materials.size())
+      return Status::error(ErrorCode::invalid_argument, "renderer: a mesh uses material " +
+                                                            std::to_string(d.material) + ", the scene has " +
+                                                            std::to_string(scene.materials.size()));
+  gl.glGenVertexArrays(1, &m.vao);
+  gl.glGenVertexArrays(1, &m.empty_vao);
+  gl.glGenBuffers(1, &m.vbo);
+  m.buffers.push_back(m.vbo);
+  gl.glBindVertexArray(m.vao);
+  gl.glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
+  gl.glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(MappedVertex)), vertices.data(),
+                  GL_STATIC_DRAW);
+  const struct {
+    GLuint location;
+    GLint size;
+    std::size_t offset;
+  } attributes[] = {{0, 3, offsetof(MappedVertex, position)}, {1, 3, offsetof(MappedVertex, normal)},
+                    {2, 4, offsetof(MappedVertex, tangent)},  {3, 2, offsetof(MappedVertex, uv)},
+                    {4, 2, offsetof(MappedVertex, lightmap)}, {5, 3, offsetof(MappedVertex, face_u)},
+                    {6, 3, offsetof(MappedVertex, face_v)}};
+  for (const auto& a : attributes) {
+    gl.glEnableVertexAttribArray(a.location);
+    gl.glVertexAttribPointer(a.location, a.size, GL_FLOAT, GL_FALSE, sizeof(MappedVertex),
+                             reinterpret_cast<const void*>(a.offset));
+  }
+  gl.glBindVertexArray(0);
+
+  // ---- material textures (normal maps, mipmapped) ----
+  m.materials = scene.materials;
+  std::vector<GLuint> image_texture(scene.images.size(), 0);
+  for (std::size_t i = 0; i < scene.images.size(); ++i) {
+    const Image& img = scene.images[i];
+    if (img.width < 1 || img.height < 1 ||
+        img.rgba.size() != 4 * std::size_t(img.width) * std::size_t(img.height))
+      return Status::error(ErrorCode::invalid_argument,
+                           "renderer: image '" + img.name + "' has no valid RGBA8 data");
+    GLuint t = 0;
+    gl.glGenTextures(1, &t);
+    m.textures.push_back(t);
+    int levels = 1;
+    while ((std::max(img.width, img.height) >> levels) > 0) ++levels;
+    gl.glBindTexture(GL_TEXTURE_2D, t);
+    gl.glTexStorage2D(GL_TEXTURE_2D, levels, GL_RGBA8, img.width, img.height);
+    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, img.width, img.height, GL_RGBA, GL_UNSIGNED_BYTE,
+                       img.rgba.data());
+    gl.glGenerateMipmap(GL_TEXTURE_2D);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    image_texture[i] = t;
+  }
+  for (const Material& mat : m.materials)
+    m.material_normal.push_back(mat.normal_texture >= 0 &&
+                                        std::size_t(mat.normal_texture) < image_texture.size()
+                                    ? image_texture[std::size_t(mat.normal_texture)]
+                                    : 0);
+
+  // ---- shadow cube map (depth, hardware comparison) ----
+  m.shadow_size = options.shadow_size;
+  gl.glGenTextures(1, &m.shadow_cube);
+  m.textures.push_back(m.shadow_cube);
+  gl.glBindTexture(GL_TEXTURE_CUBE_MAP, m.shadow_cube);
+  gl.glTexStorage2D(GL_TEXTURE_CUBE_MAP, 1, GL_DEPTH_COMPONENT24, m.shadow_size, m.shadow_size);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  for (int f = 0; f < 6; ++f) {
+    GLuint fbo = 0;
+    gl.glGenFramebuffers(1, &fbo);
+    m.framebuffers.push_back(fbo);
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GLenum(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f),
+                              m.shadow_cube, 0);
+    const GLenum none = GL_NONE;
+    gl.glDrawBuffers(1, &none);
+    gl.glReadBuffer(GL_NONE);
+    if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      return Status::error(ErrorCode::resource_limit,
+                           "renderer: the shadow cube map (DEPTH_COMPONENT24) is not renderable");
+    m.shadow_fbo[std::size_t(f)] = fbo;
+  }
+
+  // ---- geometry images of the proxy samples, ld target ----
+  const LevelSampleGeometry geometry = level_sample_geometry(level);
+  m.samples = level.sample_count;
+  m.ld_rows = int(std::max<std::size_t>(1, (m.samples + kLdWidth - 1) / kLdWidth));
+  std::vector<float> pos(4 * std::size_t(kLdWidth) * std::size_t(m.ld_rows), 0.0f), nrm(pos.size(), 0.0f),
+      alb(pos.size(), 0.0f);
+  for (std::size_t s = 0; s < m.samples; ++s)
+    for (int c = 0; c < 3; ++c) {
+      pos[4 * s + std::size_t(c)] = float(geometry.position[s][c]);
+      nrm[4 * s + std::size_t(c)] = float(geometry.normal[s][c]);
+      alb[4 * s + std::size_t(c)] = albedo[3 * s + std::size_t(c)];
+    }
+  for (auto [tex, data] :
+       {std::pair{&m.sample_position, &pos}, {&m.sample_normal, &nrm}, {&m.sample_albedo, &alb}}) {
+    *tex = m.texture(GL_RGBA32F, kLdWidth, m.ld_rows);
+    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kLdWidth, m.ld_rows, GL_RGBA, GL_FLOAT, data->data());
+  }
+  m.ld_target = m.texture(GL_RGBA32F, kLdWidth, m.ld_rows);
+  Result<GLuint> ld_fbo = platform::create_framebuffer(gl, "demo ld", {m.ld_target}, "RGBA32F");
+  if (!ld_fbo.ok()) return ld_fbo.status();
+  m.ld_fbo = ld_fbo.value();
+  m.framebuffers.push_back(m.ld_fbo);
+
+  // ---- camera targets ----
+  m.color = m.texture(GL_RGBA32F, options.width, options.height);
+  m.depth = m.texture(GL_DEPTH_COMPONENT24, options.width, options.height);
+  Result<GLuint> scene_fbo = platform::create_framebuffer(gl, "demo scene", {m.color}, "RGBA32F");
+  if (!scene_fbo.ok()) return scene_fbo.status();
+  m.scene_fbo = scene_fbo.value();
+  m.framebuffers.push_back(m.scene_fbo);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.scene_fbo);
+  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, m.depth, 0);
+  if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+    return Status::error(ErrorCode::resource_limit,
+                         "renderer: RGBA32F colour + DEPTH_COMPONENT24 is not renderable");
+  m.display = m.texture(GL_RGBA8, options.width, options.height);
+  Result<GLuint> display_fbo = platform::create_framebuffer(gl, "demo display", {m.display}, "RGBA8");
+  if (!display_fbo.ok()) return display_fbo.status();
+  m.display_fbo = display_fbo.value();
+  m.framebuffers.push_back(m.display_fbo);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  m.readback.resize(4 * std::max(std::size_t(options.width) * std::size_t(options.height),
+                                 std::size_t(kLdWidth) * std::size_t(m.ld_rows)));
+  const GLenum e = gl.glGetError();
+  if (e != GL_NO_ERROR)
+    return Status::error(ErrorCode::internal_error,
+                         "renderer: creating GL objects: " + platform::gl_error_name(e));
+  std::unique_ptr<SceneRenderer> r(new SceneRenderer(std::move(impl)));
+  r->options_ = options;
+  return r;
+}
+
+namespace {
+
+void set_lighting(const platform::GlFunctions& gl, GLuint program, const FrameState& l) {
+  gl.glUniform3f(gl.glGetUniformLocation(program, "u_light_position"), l.light_position.x, l.light_position.y,
+                 l.light_position.z);
+  gl.glUniform3f(gl.glGetUniformLocation(program, "u_light_rgb"), l.light_rgb.x, l.light_rgb.y,
+                 l.light_rgb.z);
+  gl.glUniform1f(gl.glGetUniformLocation(program, "u_light_radius"), l.light_radius);
+}
+
+void bind_texture(const platform::GlFunctions& gl, int unit, GLenum target, GLuint texture) {
+  gl.glActiveTexture(GLenum(GL_TEXTURE0 + unit));
+  gl.glBindTexture(target, texture);
+}
+
+Status gl_status(const platform::GlFunctions& gl, const char* what) {
+  const GLenum e = gl.glGetError();
+  return e == GL_NO_ERROR ? Status::success()
+                          : Status::error(ErrorCode::internal_error, std::string("renderer: ") + what + ": " +
+                                                                         platform::gl_error_name(e));
+}
+
+}  // namespace
+
+Status SceneRenderer::render_shadows(const FrameState& frame) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  static const glm::vec3 dirs[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  static const glm::vec3 ups[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+  const glm::mat4 proj = glm::perspective(glm::radians(90.0f), 1.0f, kShadowNear, kShadowFar);
+  gl.glUseProgram(m.shadow_program);
+  gl.glBindVertexArray(m.vao);
+  gl.glEnable(GL_DEPTH_TEST);
+  gl.glDepthFunc(GL_LESS);
+  gl.glDepthMask(GL_TRUE);
+  gl.glDisable(GL_BLEND);
+  gl.glDisable(GL_CULL_FACE);
+  gl.glEnable(GL_POLYGON_OFFSET_FILL);
+  gl.glPolygonOffset(1.5f, 2.0f);
+  gl.glViewport(0, 0, m.shadow_size, m.shadow_size);
+  const GLint vp = m.loc(m.shadow_program, "u_view_proj"), off = m.loc(m.shadow_program, "u_offset");
+  for (int f = 0; f < 6; ++f) {
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbo[std::size_t(f)]);
+    gl.glClearDepthf(1.0f);
+    gl.glClear(GL_DEPTH_BUFFER_BIT);
+    const glm::mat4 view_proj =
+        proj * glm::lookAt(frame.light_position, frame.light_position + dirs[f], ups[f]);
+    gl.glUniformMatrix4fv(vp, 1, GL_FALSE, glm::value_ptr(view_proj));
+    for (const DrawRange& d : m.draws) {
+      const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
+      gl.glUniform3f(off, o.x, o.y, o.z);
+      gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
+    }
+  }
+  gl.glDisable(GL_POLYGON_OFFSET_FILL);
+  gl.glBindVertexArray(0);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return gl_status(gl, "shadow pass");
+}
+
+Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (ld.size() != 3 * m.samples)
+    return Status::error(ErrorCode::invalid_argument, "renderer: ld has " + std::to_string(ld.size()) +
+                                                          " floats, expected " +
+                                                          std::to_string(3 * m.samples));
+  gl.glDisable(GL_DEPTH_TEST);
+  gl.glDisable(GL_BLEND);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.ld_fbo);
+  gl.glViewport(0, 0, kLdWidth, m.ld_rows);
+  gl.glUseProgram(m.ld_program);
+  set_lighting(gl, m.ld_program, frame);
+  gl.glUniform1i(m.loc(m.ld_program, "u_count"), GLint(m.samples));
+  bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
+  bind_texture(gl, 1, GL_TEXTURE_2D, m.sample_position);
+  bind_texture(gl, 2, GL_TEXTURE_2D, m.sample_normal);
+  bind_texture(gl, 3, GL_TEXTURE_2D, m.sample_albedo);
+  gl.glBindVertexArray(m.empty_vao);
+  gl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  gl.glReadPixels(0, 0, kLdWidth, m.ld_rows, GL_RGBA, GL_FLOAT, m.readback.data());
+  gl.glBindVertexArray(0);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (Status s = gl_status(gl, "ld pass"); !s.ok()) return s;
+  // Sanitised: the runtime rejects NaN or negative ld; a light inside a wall must not
+  // become a failed frame.
+  for (std::size_t s = 0; s < m.samples; ++s)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const float v = m.readback[4 * s + c];
+      ld[3 * s + c] = v > 0.0f && v < 3.0e38f ? v : 0.0f;
+    }
+  return Status::success();
+}
+
+Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  const std::size_t texels = std::size_t(m.atlas_width) * std::size_t(m.atlas_height);
+  if (atlas_rgb.size() != 3 * texels)
+    return Status::error(ErrorCode::invalid_argument, "renderer: the atlas has the wrong size for the level");
+  if (!m.own_atlas)
+    m.own_atlas = m.texture(GL_RGBA32F, std::max(m.atlas_width, 1), std::max(m.atlas_height, 1));
+  for (std::size_t i = 0; i < texels; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) m.readback[4 * i + c] = atlas_rgb[3 * i + c];
+    m.readback[4 * i + 3] = 1.0f;
+  }
+  if (m.readback.size() < 4 * texels) m.readback.resize(4 * texels);
+  gl.glBindTexture(GL_TEXTURE_2D, m.own_atlas);
+  gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m.atlas_width, m.atlas_height, GL_RGBA, GL_FLOAT,
+                     m.readback.data());
+  if (Status s = gl_status(gl, "uploading the atlas"); !s.ok()) return s;
+  return m.own_atlas;
+}
+
+Status SceneRenderer::render_image(const FrameState& frame, std::span<float> linear_rgb,
+                                   std::span<std::uint8_t> srgb8) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  const std::size_t pixels = std::size_t(options_.width) * std::size_t(options_.height);
+  if (linear_rgb.size() != 3 * pixels || srgb8.size() != 3 * pixels)
+    return Status::error(ErrorCode::invalid_argument, "renderer: output buffers have the wrong size");
+  if (!frame.atlas) return Status::error(ErrorCode::invalid_argument, "renderer: no lightmap atlas given");
+  const DemoCamera& cam = frame.camera;
+  const glm::mat4 view_proj =
+      glm::perspective(cam.yfov, float(options_.width) / float(options_.height), cam.znear, cam.zfar) *
+      glm::lookAt(cam.position, cam.target, cam.up);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.scene_fbo);
+  gl.glViewport(0, 0, options_.width, options_.height);
+  gl.glEnable(GL_DEPTH_TEST);
+  gl.glDepthFunc(GL_LESS);
+  gl.glDepthMask(GL_TRUE);
+  // Walls are one-sided: two blocks sharing a wall each draw their own face of it, coplanar
+  // and facing apart, and only the one facing the camera may win.
+  gl.glEnable(GL_CULL_FACE);
+  gl.glCullFace(GL_BACK);
+  gl.glDisable(GL_BLEND);
+  gl.glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
+  gl.glClearDepthf(1.0f);
+  gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  const GLuint p = m.scene_program;
+  gl.glUseProgram(p);
+  set_lighting(gl, p, frame);
+  gl.glUniformMatrix4fv(m.loc(p, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
+  gl.glUniform1i(m.loc(p, "u_output"), int(frame.output == OutputMode::combined ? 0
+                                           : frame.output == OutputMode::direct ? 1
+                                                                                : 2));
+  const bool vector =
+      std::all_of(frame.vector_atlas.begin(), frame.vector_atlas.end(), [](GLuint t) { return t != 0; });
+  float sh[27];
+  for (int k = 0; k < 9; ++k)
+    for (int c = 0; c < 3; ++c) sh[3 * k + c] = frame.probe_sh[std::size_t(k)][c];
+  gl.glUniform3fv(m.loc(p, "u_probe_sh"), 9, sh);
+  gl.glUniformMatrix3fv(m.loc(p, "u_to_canonical"), 1, GL_FALSE, glm::value_ptr(frame.to_canonical));
+  bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
+  bind_texture(gl, 2, GL_TEXTURE_2D, frame.atlas);
+  for (int i = 0; i < 4; ++i)
+    bind_texture(gl, 3 + i, GL_TEXTURE_2D, vector ? frame.vector_atlas[std::size_t(i)] : frame.atlas);
+  gl.glBindVertexArray(m.vao);
+  const GLint u_offset = m.loc(p, "u_offset"), u_base = m.loc(p, "u_base_color"),
+              u_nm = m.loc(p, "u_has_normal_map"), u_scale = m.loc(p, "u_normal_scale"),
+              u_vec = m.loc(p, "u_use_vector"), u_dyn = m.loc(p, "u_dynamic"),
+              u_emissive = m.loc(p, "u_emissive");
+  gl.glUniform1i(u_emissive, 0);
+  for (const DrawRange& d : m.draws) {
+    const Material& mat = m.materials[std::size_t(d.material)];
+    const GLuint normal_map = m.material_normal[std::size_t(d.material)];
+    const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
+    gl.glUniform3f(u_offset, o.x, o.y, o.z);
+    gl.glUniform3f(u_base, mat.base_color.x, mat.base_color.y, mat.base_color.z);
+    gl.glUniform1i(u_nm, normal_map != 0);
+    gl.glUniform1f(u_scale, mat.normal_scale);
+    gl.glUniform1i(u_vec, vector && normal_map != 0 && !d.dynamic);
+    gl.glUniform1i(u_dyn, d.dynamic);
+    bind_texture(gl, 1, GL_TEXTURE_2D, normal_map);
+    gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
+  }
+  // The light itself, a small bright sphere (scaled through the offset trick: radius 1 mesh).
+  gl.glUniform1i(u_emissive, 1);
+  const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), frame.light_position) *
+                           glm::scale(glm::mat4(1.0f), glm::vec3(std::max(frame.light_radius, 0.01f)));
+  gl.glUniformMatrix4fv(m.loc(p, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(marker));
+  gl.glUniform3f(u_offset, 0.0f, 0.0f, 0.0f);
+  gl.glDrawArrays(GL_TRIANGLES, m.light_marker.first, m.light_marker.count);
+  gl.glBindVertexArray(0);
+  gl.glDisable(GL_CULL_FACE);
+  if (Status s = gl_status(gl, "scene pass"); !s.ok()) return s;
+  gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl.glReadPixels(0, 0, options_.width, options_.height, GL_RGBA, GL_FLOAT, m.readback.data());
+  for (std::size_t i = 0; i < pixels; ++i)
+    for (std::size_t c = 0; c < 3; ++c) linear_rgb[3 * i + c] = m.readback[4 * i + c];
+
+  // Tone mapping into RGBA8, read back top row first.
+  gl.glDisable(GL_DEPTH_TEST);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.display_fbo);
+  gl.glUseProgram(m.tonemap_program);
+  gl.glUniform1f(m.loc(m.tonemap_program, "u_exposure"), frame.exposure);
+  bind_texture(gl, 0, GL_TEXTURE_2D, m.color);
+  gl.glBindVertexArray(m.empty_vao);
+  gl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  gl.glBindVertexArray(0);
+  gl.glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  auto* rgba = reinterpret_cast<std::uint8_t*>(m.readback.data());
+  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl.glReadPixels(0, 0, options_.width, options_.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+  for (int y = 0; y < options_.height; ++y)
+    for (int x = 0; x < options_.width; ++x) {
+      const std::size_t src =
+          4 * (std::size_t(options_.height - 1 - y) * std::size_t(options_.width) + std::size_t(x));
+      const std::size_t dst = 3 * (std::size_t(y) * std::size_t(options_.width) + std::size_t(x));
+      for (std::size_t c = 0; c < 3; ++c) srgb8[dst + c] = rgba[src + c];
+    }
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl.glUseProgram(0);
+  return gl_status(gl, "tone mapping");
+}
+
+}  // namespace modrt::demo

@@ -1,0 +1,88 @@
+// modrt demo — the OpenGL ES 3.0 scene renderer: shadow cube map of the point light, direct
+// light at the proxy samples (the ld the MRT runtime takes), and the camera image shaded with
+// direct light plus indirect light from the lightmap atlas, the vector irradiance atlases
+// (normal-mapped materials) or the probe volume (dynamic meshes), tone-mapped to sRGB.
+//
+// Works with either backend: the GLES backend's atlas textures are sampled directly (same
+// context); the CPU backend's atlas is uploaded with upload_atlas(). Needs float render
+// targets (EXT_color_buffer_float, or desktop GL); every Mesa context here has them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/mat3x3.hpp>
+#include <glm/vec3.hpp>
+
+#include "../scene/demo_scene.h"
+#include "../scene/proxy_mapping.h"
+#include "modrt/level.h"
+#include "modrt/platform/gl_functions.h"
+#include "modrt/status.h"
+
+namespace modrt::demo {
+
+enum class OutputMode { combined, direct, indirect };
+
+struct RendererOptions {
+  int width = 960, height = 540;
+  int shadow_size = 1024;  // texels per cube face
+};
+
+// What one frame shows and is lit by.
+struct FrameState {
+  DemoCamera camera;
+  glm::vec3 light_position{0.5f};
+  glm::vec3 light_rgb{1.0f};  // radiant intensity per channel (W/sr)
+  float light_radius = 0.05f;
+  glm::vec3 dynamic_offset{0.0f};
+  // Indirect light: the scalar atlas (RGBA, .rgb = E/pi) and, when all four are set, the
+  // OHLSH vector atlases used by normal-mapped materials.
+  GLuint atlas = 0;
+  std::array<GLuint, 4> vector_atlas{};
+  // Dynamic meshes: E/pi SH9 (RGB per coefficient) in the canonical frame of the block they
+  // are in, and the rotation from world into that frame.
+  std::array<glm::vec3, 9> probe_sh{};
+  glm::mat3 to_canonical{1.0f};
+  OutputMode output = OutputMode::combined;
+  float exposure = 1.0f;
+};
+
+class SceneRenderer {
+ public:
+  // `mapped` from map_to_proxies(scene, level); `albedo` is the level's per-sample albedo
+  // (3 per sample). The context must be current for every call.
+  static Result<std::unique_ptr<SceneRenderer>> create(const platform::GlFunctions& gl, bool gles_context,
+                                                       const DemoScene& scene,
+                                                       std::span<const MappedMesh> mapped, const Level& level,
+                                                       std::span<const float> albedo,
+                                                       const RendererOptions& options);
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  // The light's cube shadow map over every mesh (dynamic ones at dynamic_offset).
+  Status render_shadows(const FrameState& frame);
+  // ld = albedo * E/pi at every level sample (3 per sample) with that shadow map; read back.
+  Status compute_ld(const FrameState& frame, std::span<float> ld);
+  // Uploads an atlas computed on the CPU (3 floats per texel) into the renderer's own atlas
+  // texture and returns it (for FrameState::atlas).
+  Result<GLuint> upload_atlas(std::span<const float> atlas_rgb);
+  // The camera image: linear RGB (3 floats per pixel, rows bottom to top) and sRGB8 (3 bytes
+  // per pixel, rows top to bottom, ready for an image file).
+  Status render_image(const FrameState& frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);
+
+  int width() const { return options_.width; }
+  int height() const { return options_.height; }
+
+ private:
+  struct Impl;
+  explicit SceneRenderer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+  RendererOptions options_;
+};
+
+}  // namespace modrt::demo

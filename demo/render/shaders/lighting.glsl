@@ -1,0 +1,28 @@
+// Direct light of the demo's point light (radiant intensity u_light_rgb, W/sr per channel)
+// with a cube shadow map; shared by the ld pass (proxy samples) and the camera image so
+// both see the same light. Returns E/pi.
+uniform vec3 u_light_position;
+uniform vec3 u_light_rgb;
+uniform float u_light_radius;
+uniform highp samplerCubeShadow u_shadow;
+
+// Cube-map depth of a point at offset v from the light: the perspective depth of the face
+// it projects to (its major axis), as the shadow pass wrote it.
+float shadow_depth(vec3 v) {
+  float d = max(abs(v.x), max(abs(v.y), abs(v.z)));
+  float n = SHADOW_NEAR, f = SHADOW_FAR;
+  float ndc = (f + n) / (f - n) - (2.0 * f * n) / ((f - n) * d);
+  return 0.5 * ndc + 0.5;
+}
+
+vec3 direct_e_over_pi(vec3 position, vec3 normal) {
+  vec3 to_light = u_light_position - position;
+  float d2 = dot(to_light, to_light);
+  vec3 l = to_light * inversesqrt(max(d2, 1e-12));
+  float cosine = dot(normal, l);
+  if (cosine <= 0.0) return vec3(0.0);
+  // Normal offset against acne, scaled with distance (texel footprint grows with it).
+  vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
+  float visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
+  return u_light_rgb * (visible * cosine / max(d2, u_light_radius * u_light_radius) / 3.14159265);
+}

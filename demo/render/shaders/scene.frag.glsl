@@ -1,0 +1,87 @@
+// Shading: outgoing radiance = albedo * (direct E/pi + indirect E/pi). Indirect E/pi comes
+// from the lightmap atlas (bilinear over texelFetch: float32 textures need not be
+// filterable in ES 3.0), or for normal-mapped surfaces from the four OHLSH vector irradiance
+// atlases evaluated at the bumped normal in the proxy face's frame (MRT §6.4), or for
+// dynamic meshes from the probe volume's SH9 (MRT §6.5). u_output: 0 combined, 1 direct,
+// 2 indirect.
+uniform vec3 u_base_color;
+uniform int u_has_normal_map;
+uniform float u_normal_scale;
+uniform sampler2D u_normal_map;
+uniform sampler2D u_atlas;
+uniform sampler2D u_vector0, u_vector1, u_vector2, u_vector3;
+uniform int u_use_vector;
+uniform int u_dynamic;
+uniform vec3 u_probe_sh[9];   // E/pi SH9 of the probe volume at the dynamic object (canonical frame)
+uniform mat3 u_to_canonical;  // world -> that block's canonical frame
+uniform int u_output;
+uniform int u_emissive;       // the light's own marker
+in vec3 v_position;
+in vec3 v_normal;
+in vec4 v_tangent;
+in vec2 v_uv;
+in vec2 v_lightmap;
+in vec3 v_face_u;
+in vec3 v_face_v;
+layout(location = 0) out vec4 o_color;
+
+vec4 bilinear(sampler2D t, vec2 texel) {
+  vec2 p = texel - 0.5;
+  ivec2 i = ivec2(floor(p));
+  vec2 f = p - vec2(i);
+  vec4 a = mix(texelFetch(t, i, 0), texelFetch(t, i + ivec2(1, 0), 0), f.x);
+  vec4 b = mix(texelFetch(t, i + ivec2(0, 1), 0), texelFetch(t, i + ivec2(1, 1), 0), f.x);
+  return mix(a, b, f.y);
+}
+
+vec3 sh9(vec3 n) {
+  float y[9];
+  y[0] = 0.282095;
+  y[1] = 0.488603 * n.y;
+  y[2] = 0.488603 * n.z;
+  y[3] = 0.488603 * n.x;
+  y[4] = 1.092548 * n.x * n.y;
+  y[5] = 1.092548 * n.y * n.z;
+  y[6] = 0.315392 * (3.0 * n.z * n.z - 1.0);
+  y[7] = 1.092548 * n.x * n.z;
+  y[8] = 0.546274 * (n.x * n.x - n.y * n.y);
+  vec3 e = vec3(0.0);
+  for (int k = 0; k < 9; ++k) e += u_probe_sh[k] * y[k];
+  return max(e, vec3(0.0));
+}
+
+void main() {
+  if (u_emissive != 0) {
+    o_color = vec4(u_light_rgb * 20.0, 1.0);
+    return;
+  }
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) n = -n;
+  vec3 shading_n = n;
+  if (u_has_normal_map != 0) {
+    vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
+    vec3 b = cross(n, t) * v_tangent.w;
+    vec3 m = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
+    m.xy *= u_normal_scale;
+    shading_n = normalize(mat3(t, b, n) * m);
+  }
+  vec3 direct = direct_e_over_pi(v_position, shading_n);
+  vec3 indirect;
+  if (u_dynamic != 0) {
+    indirect = sh9(normalize(u_to_canonical * shading_n));
+  } else if (u_use_vector != 0) {
+    // The OHLSH coefficients are in the proxy face frame (u, v, inward normal).
+    vec3 fu = normalize(v_face_u), fv = normalize(v_face_v);
+    vec3 fn = cross(fu, fv);
+    vec3 nf = vec3(dot(shading_n, fu), dot(shading_n, fv), dot(shading_n, fn));
+    nf.z = max(nf.z, 0.0);  // OHLSH is defined over the face's hemisphere
+    nf = normalize(nf);
+    indirect = 0.282095 * bilinear(u_vector0, v_lightmap).rgb + 0.488603 * nf.y * bilinear(u_vector1, v_lightmap).rgb +
+               0.488603 * nf.z * bilinear(u_vector2, v_lightmap).rgb + 0.488603 * nf.x * bilinear(u_vector3, v_lightmap).rgb;
+    indirect = max(indirect, vec3(0.0));
+  } else {
+    indirect = max(bilinear(u_atlas, v_lightmap).rgb, vec3(0.0));
+  }
+  vec3 e = u_output == 1 ? direct : u_output == 2 ? indirect : direct + indirect;
+  o_color = vec4(u_base_color * e, 1.0);
+}

@@ -1,0 +1,77 @@
+// modrt demo — what the demo renders: a level of proxy blocks (the MRT level) plus the real
+// geometry drawn on top of it, its materials and textures, lights, a camera and the dynamic
+// objects lit by the probe volume. Filled by the built-in default scene (default_scene.h) or
+// a glTF file; proxy_mapping.h then gives every static mesh its lightmap coordinates.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "modrt/level_description.h"
+
+namespace modrt::demo {
+
+// RGBA8 image, rows top to bottom. base colour textures are sRGB, normal maps linear.
+struct Image {
+  std::string name;
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgba;
+};
+
+struct Material {
+  std::string name;
+  glm::vec3 base_color{0.7f};   // linear RGB, multiplies the base colour texture
+  int base_color_texture = -1;  // index into DemoScene::images, -1: none
+  int normal_texture = -1;      // tangent-space normal map (glTF convention), -1: none
+  float normal_scale = 1.0f;
+};
+
+// Triangle mesh in world space (node transforms applied), indexed.
+struct Mesh {
+  std::string name;
+  std::vector<glm::vec3> position, normal;
+  std::vector<glm::vec4> tangent;  // xyz + handedness w; empty when the material has no normal map
+  std::vector<glm::vec2> uv;       // material texture coordinates; may be empty
+  std::vector<std::uint32_t> indices;
+  int material = 0;
+  // Dynamic meshes move and are lit by the probe volume; static ones get lightmap
+  // coordinates (proxy_mapping.h). A dynamic mesh's positions are in its local frame and
+  // `animation` moves it.
+  bool dynamic = false;
+};
+
+// A point light moves along a closed path of key positions (Catmull-Rom, one loop per
+// `period` frames); a single key holds it still.
+struct DemoLight {
+  std::vector<glm::vec3> path;
+  int period = 120;
+  glm::vec3 color{1.0f};
+  float intensity = 1.0f;  // radiant intensity (W/sr) at colour (1, 1, 1)
+  float radius = 0.05f;    // size of the emitter drawn in the image; shading treats it as a point
+};
+
+struct DemoCamera {
+  glm::vec3 position{0.5f}, target{0.5f, 0.5f, 1.5f}, up{0.0f, 1.0f, 0.0f};
+  float yfov = 1.1f;  // vertical field of view, radians
+  float znear = 0.02f, zfar = 100.0f;
+};
+
+struct DemoScene {
+  std::string name;
+  LevelDescription level;  // the proxy blocks (MRT level)
+  std::vector<Mesh> meshes;
+  std::vector<Material> materials;
+  std::vector<Image> images;
+  std::vector<DemoLight> lights;
+  DemoCamera camera;
+  // Path of the dynamic meshes (all move together), as DemoLight::path.
+  std::vector<glm::vec3> dynamic_path;
+  int dynamic_period = 120;
+};
+
+}  // namespace modrt::demo
