@@ -96,6 +96,7 @@ namespace modrt::platform {
   X(PFNGLUNIFORM4IPROC, glUniform4i)                             \
   X(PFNGLUNIFORM3FPROC, glUniform3f)                             \
   X(PFNGLUNIFORM3FVPROC, glUniform3fv)                           \
+  X(PFNGLUNIFORMMATRIX3FVPROC, glUniformMatrix3fv)               \
   X(PFNGLUNIFORMMATRIX4FVPROC, glUniformMatrix4fv)               \
   X(PFNGLUSEPROGRAMPROC, glUseProgram)                           \
   X(PFNGLVERTEXATTRIBPOINTERPROC, glVertexAttribPointer)         \
