@@ -15,20 +15,13 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <glm/geometric.hpp>
 
+#include "demo_run.h"
 #include "image_output.h"
-#include "modrt/cpu/cpu_backend.h"
 #include "modrt/dictionary_io.h"
-#include "modrt/gles/gles_level_runtime.h"
-#include "modrt/level_runtime.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/dictionary_cache.h"
-#include "modrt/precompute/level_build.h"
-#include "modrt/precompute/level_scene.h"
-#include "render/scene_renderer.h"
 #include "scene/default_scene.h"
-#include "scene/proxy_mapping.h"
 
 namespace {
 
@@ -39,64 +32,6 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
-
-// Catmull-Rom through the closed loop of keys, t in [0, 1).
-glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
-  if (keys.empty()) return glm::vec3(0.0f);
-  if (keys.size() == 1) return keys[0];
-  const double x = (t - std::floor(t)) * double(keys.size());
-  const int n = int(keys.size()), i = int(x) % n;
-  const float u = float(x - std::floor(x));
-  const glm::vec3 p0 = keys[std::size_t((i + n - 1) % n)], p1 = keys[std::size_t(i)],
-                  p2 = keys[std::size_t((i + 1) % n)], p3 = keys[std::size_t((i + 2) % n)];
-  return 0.5f * ((2.0f * p1) + (-p0 + p2) * u + (2.0f * p0 - 5.0f * p1 + 4.0f * p2 - p3) * u * u +
-                 (-p0 + 3.0f * p1 - 3.0f * p2 + p3) * u * u * u);
-}
-
-// E/pi SH9 of the probe volume at world point x (trilinear between the g^3 probes of the
-// block containing x, canonical block frame) and the world -> canonical rotation.
-void probe_lighting(const Level& level, std::span<const float> probes, int grid, const glm::vec3& x,
-                    FrameState& frame) {
-  std::size_t block = 0;
-  double best = 1e30;
-  glm::dvec3 p(0.5);
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const glm::dvec3 q = world_to_block(level.blocks[i], glm::dvec3(x));
-    double out = 0.0;
-    for (int a = 0; a < 3; ++a) out = std::max({out, -q[a], q[a] - 1.0});
-    if (out < best) best = out, block = i, p = q;
-  }
-  const std::size_t rows = 9 * std::size_t(grid) * std::size_t(grid) * std::size_t(grid);
-  const float* base = probes.data() + 3 * rows * block;
-  glm::vec3 sh[9] = {};
-  glm::dvec3 g = glm::clamp(p * double(grid) - 0.5, glm::dvec3(0.0), glm::dvec3(grid - 1));
-  const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(g)), glm::ivec3(grid - 2 < 0 ? 0 : grid - 2));
-  const glm::dvec3 f = grid > 1 ? g - glm::dvec3(i0) : glm::dvec3(0.0);
-  for (int c = 0; c < 8; ++c) {
-    const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-    const glm::ivec3 q = glm::min(i0 + o, glm::ivec3(grid - 1));
-    const double w = (o.x ? f.x : 1 - f.x) * (o.y ? f.y : 1 - f.y) * (o.z ? f.z : 1 - f.z);
-    const std::size_t probe = std::size_t(q.x + grid * (q.y + grid * q.z));
-    for (int k = 0; k < 9; ++k)
-      for (int ch = 0; ch < 3; ++ch)
-        sh[k][ch] += float(w) * base[3 * (9 * probe + std::size_t(k)) + std::size_t(ch)];
-  }
-  // Radiance -> E/pi: band l scaled by A_l / pi = 1, 2/3, 1/4 (sh.h).
-  for (int k = 0; k < 9; ++k)
-    frame.probe_sh[std::size_t(k)] = sh[k] * (k == 0 ? 1.0f : k < 4 ? 2.0f / 3.0f : 0.25f);
-  const int turns = level.blocks[block].quarter_turns;
-  for (int a = 0; a < 3; ++a) {
-    glm::dvec3 e(0.0);
-    e[a] = 1.0;
-    frame.to_canonical[a] = glm::vec3(rotate_direction(e, -turns));
-  }
-}
-
-struct StageTimes {
-  double shadows = 0, direct = 0, indirect = 0, render = 0, write = 0;
-  // GLES backend only: its passes (GPU timer queries, or CPU time around glFinish).
-  double b = 0, r = 0, lightmaps = 0, probes = 0, vector = 0;
-};
 
 }  // namespace
 
@@ -190,142 +125,47 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
     return 1;
   }
-  Result<Level> level = precompute::build_level(scene->level, dict.value());
-  if (!level.ok()) {
-    std::fprintf(stderr, "modrt-demo: level: %s\n", level.status().to_string().c_str());
-    return 1;
-  }
-  const std::vector<float> albedo = precompute::level_albedo(level.value(), scene->level);
-  Result<std::vector<MappedMesh>> mapped = map_to_proxies(scene.value(), level.value());
-  if (!mapped.ok()) {
-    std::fprintf(stderr, "modrt-demo: %s\n", mapped.status().to_string().c_str());
-    return 1;
-  }
-  std::size_t triangles = 0;
-  for (const MappedMesh& m : mapped.value()) triangles += m.vertices.size() / 3;
 
-  // ---- GL context, renderer, backend ----
+  // ---- GL context and the run (level, renderer, backend) ----
   Result<std::unique_ptr<platform::GlContext>> context = platform::create_context(request);
   if (!context.ok()) {
     std::fprintf(stderr, "modrt-demo: GL context: %s\n", context.status().to_string().c_str());
     return 1;
   }
   platform::GlContext& ctx = *context.value();
-  const platform::GlFunctions& gl = ctx.gl();
   std::printf("modrt-demo: %s\n  GL: %s | %s\n%s\n", scene->name.c_str(), ctx.info().renderer.c_str(),
               ctx.info().version.c_str(), ctx.info().selection_report.c_str());
-  RendererOptions ropt;
-  ropt.width = width;
-  ropt.height = height;
-  Result<std::unique_ptr<SceneRenderer>> renderer =
-      SceneRenderer::create(gl, ctx.info().gles, scene.value(), mapped.value(), level.value(), albedo, ropt);
-  if (!renderer.ok()) {
-    std::fprintf(stderr, "modrt-demo: %s\n", renderer.status().to_string().c_str());
+  DemoRunOptions options;
+  options.backend = backend_name == "cpu" ? DemoBackend::cpu : DemoBackend::gles;
+  options.renderer.width = width;
+  options.renderer.height = height;
+  options.output = mode;
+  options.exposure = exposure;
+  options.bounces = bounces;
+  Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
+  if (!run.ok()) {
+    std::fprintf(stderr, "modrt-demo: %s\n", run.status().to_string().c_str());
     return 1;
   }
-  std::unique_ptr<Backend> backend;
-  gles::GlesLevelRuntime* gles_runtime = nullptr;
-  if (backend_name == "gles") {
-    gles::GlesRuntimeOptions options;
-    options.vector_irradiance = check_level_vector_operators(level.value(), dict.value()).ok();
-    Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
-        gles::GlesLevelRuntime::create(gl, ctx.info().gles, level.value(), dict.value(), options);
-    if (!rt.ok()) {
-      std::fprintf(stderr, "modrt-demo: GLES backend: %s\n", rt.status().to_string().c_str());
-      return 1;
-    }
-    gles_runtime = rt.value().get();
-    gles_runtime->set_timing(true);
-    backend = std::move(rt).value();
-  } else {
-    Result<std::unique_ptr<Backend>> be = cpu::create_cpu_backend(level.value(), dict.value());
-    if (!be.ok()) {
-      std::fprintf(stderr, "modrt-demo: CPU backend: %s\n", be.status().to_string().c_str());
-      return 1;
-    }
-    backend = std::move(be).value();
-  }
-  if (Status s = backend->set_albedo(albedo); !s.ok()) {
-    std::fprintf(stderr, "modrt-demo: %s\n", s.to_string().c_str());
-    return 1;
-  }
-  const LevelBufferSizes& sizes = backend->sizes();
-  const bool has_probes = sizes.probes > 0;
-  const bool has_vector = check_level_vector_operators(level.value(), dict.value()).ok();
-  const int probe_grid = int(dict->settings.probe_grid);
+  const Level& level = run.value()->level();
   std::printf(
       "  %zu blocks, %u samples, res %d, kb %u, %zu Tb->r records; %zu mapped triangles; backend: %s\n"
       "  setup %.1f s\n",
-      level->blocks.size(), level->sample_count, level->res, level->kb, level->records.size(), triangles,
-      backend->description(), ms_since(t_setup) / 1000.0);
+      level.blocks.size(), level.sample_count, level.res, level.kb, level.records.size(),
+      run.value()->mapped_triangles(), run.value()->backend().description(), ms_since(t_setup) / 1000.0);
 
-  std::vector<float> ld(sizes.ld), atlas(sizes.atlas), probes(sizes.probes), vec(sizes.vector_lightmap);
-  std::vector<float> linear(3 * std::size_t(width) * std::size_t(height));
+  std::vector<float> linear(3 * std::size_t(width) * std::size_t(height)), flipped(linear.size());
   std::vector<std::uint8_t> srgb(linear.size());
-  std::vector<float> flipped(linear.size());
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
-  StageTimes total;
-  const DemoLight& light = scene->lights.front();
   std::vector<std::string> written;
+  double write_ms = 0.0;
   for (int frame = 0; frame < frames; ++frame) {
-    FrameState state;
-    state.camera = scene->camera;
-    state.light_position = path_point(light.path, double(frame) / double(light.period));
-    state.light_rgb = light.color * light.intensity;
-    state.light_radius = light.radius;
-    state.dynamic_offset = path_point(scene->dynamic_path, double(frame) / double(scene->dynamic_period));
-    state.output = mode;
-    state.exposure = exposure;
-
-    Clock::time_point t = Clock::now();
-    Status s = renderer.value()->render_shadows(state);
-    gl.glFinish();
-    total.shadows += ms_since(t);
-    t = Clock::now();
-    if (s.ok()) s = renderer.value()->compute_ld(state, ld);
-    total.direct += ms_since(t);
-    // Indirect: one update, then feedback steps (the first frame converges further).
-    t = Clock::now();
-    if (s.ok()) s = backend->update(ld);
-    if (gles_runtime) {
-      const gles::GlesPassTimes& pt = gles_runtime->pass_times();
-      total.b += double(pt.b) * 1e-6, total.r += double(pt.r) * 1e-6,
-          total.lightmaps += double(pt.atlas) * 1e-6, total.probes += double(pt.probes) * 1e-6,
-          total.vector += double(pt.vector) * 1e-6;
-    }
-    const int steps = frame == 0 ? 3 * bounces : bounces;
-    for (int k = 0; k < steps && s.ok(); ++k) s = backend->multi_bounce_step(ld);
-    if (s.ok() && has_probes) s = backend->read_probes(probes);
-    GLuint atlas_texture = 0;
-    if (s.ok()) {
-      if (gles_runtime) {
-        atlas_texture = gles_runtime->atlas_texture();
-        for (int i = 0; i < 4; ++i) state.vector_atlas[std::size_t(i)] = gles_runtime->vector_texture(i);
-      } else if ((s = backend->read_atlas(atlas)).ok()) {
-        Result<GLuint> up = renderer.value()->upload_atlas(atlas);
-        if (up.ok())
-          atlas_texture = up.value();
-        else
-          s = up.status();
-      }
-    }
-    gl.glFinish();
-    total.indirect += ms_since(t);
-    if (!s.ok()) {
+    if (Status s = run.value()->render(frame, linear, srgb); !s.ok()) {
       std::fprintf(stderr, "\nmodrt-demo: frame %d: %s\n", frame, s.to_string().c_str());
       return 1;
     }
-    state.atlas = atlas_texture;
-    if (has_probes) probe_lighting(level.value(), probes, probe_grid, state.dynamic_offset, state);
-    t = Clock::now();
-    s = renderer.value()->render_image(state, linear, srgb);
-    total.render += ms_since(t);
-    if (!s.ok()) {
-      std::fprintf(stderr, "\nmodrt-demo: frame %d: %s\n", frame, s.to_string().c_str());
-      return 1;
-    }
-    t = Clock::now();
+    const Clock::time_point t = Clock::now();
     if (frame % every == 0 || frame == frames - 1) {
       char name[64];
       std::snprintf(name, sizeof name, "frame_%04d", frame);
@@ -345,27 +185,29 @@ int main(int argc, char** argv) {
         }
       }
     }
-    total.write += ms_since(t);
-    // Progress bar.
-    const int filled = (frame + 1) * 30 / frames;
+    write_ms += ms_since(t);
+    const int filled = (frame + 1) * 30 / frames;  // progress bar
     std::fprintf(stderr, "\r  [%.*s%.*s] frame %d/%d", filled, "##############################", 30 - filled,
                  "                              ", frame + 1, frames);
   }
   std::fprintf(stderr, "\n");
+  const StageTimes& total = run.value()->times();
   const double n = double(frames);
-  std::printf("per-stage time per frame (mean of %d frames, ms; wall clock around glFinish):\n", frames);
-  std::printf("  shadows (cube shadow map)       %8.3f\n", total.shadows / n);
-  std::printf("  direct (ld at proxy samples)    %8.3f\n", total.direct / n);
-  std::printf("  indirect (%s, %d bounce steps) %8.3f\n",
-              backend->kind() == BackendKind::gles ? "gles" : "cpu", bounces, total.indirect / n);
-  if (gles_runtime)
+  const bool gles_backend = options.backend == DemoBackend::gles;
+  std::printf("per-stage time per frame (mean of %d frames, ms; wall clock, glFinish after each stage):\n",
+              frames);
+  std::printf("  shadows (cube shadow map, 6 faces)        %8.3f\n", total.shadows / n);
+  std::printf("  direct (ld at the proxy samples, readback) %8.3f\n", total.direct / n);
+  std::printf("  indirect (%s backend: update + %d feedback steps%s) %8.3f\n", gles_backend ? "gles" : "cpu",
+              bounces, gles_backend ? "" : ", atlas upload", total.indirect / n);
+  if (gles_backend)
     std::printf(
-        "    of which, first update: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",
+        "    first update's passes: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",
         total.b / n, total.r / n, total.lightmaps / n, total.probes / n, total.vector / n);
-  std::printf("  render (camera image, tone map, readback) %8.3f\n", total.render / n);
-  std::printf("  write images                    %8.3f\n", total.write / n);
+  std::printf("  render (camera image, tone map, readback)  %8.3f\n", total.render / n);
+  std::printf("  write images                               %8.3f\n", write_ms / n);
   std::printf("vector irradiance on normal maps: %s\n",
-              has_vector && gles_runtime ? "yes" : "no (scalar lightmap)");
+              run.value()->vector_irradiance() && gles_backend ? "yes" : "no (scalar lightmap)");
   std::printf("wrote %zu frames, last: %s\n", written.size(), written.empty() ? "-" : written.back().c_str());
   return 0;
 }

@@ -1,0 +1,180 @@
+#include "demo_run.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "modrt/cpu/cpu_backend.h"
+#include "modrt/gles/gles_level_runtime.h"
+#include "modrt/level_runtime.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/level_scene.h"
+#include "scene/proxy_mapping.h"
+
+namespace modrt::demo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+// E/pi SH9 of the probe volume at world point x (trilinear between the g^3 probes of the
+// block containing x, canonical block frame) and the world -> canonical rotation.
+void probe_lighting(const Level& level, std::span<const float> probes, int grid, const glm::vec3& x,
+                    FrameState& frame) {
+  std::size_t block = 0;
+  double best = 1e30;
+  glm::dvec3 p(0.5);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const glm::dvec3 q = world_to_block(level.blocks[i], glm::dvec3(x));
+    double out = 0.0;
+    for (int a = 0; a < 3; ++a) out = std::max({out, -q[a], q[a] - 1.0});
+    if (out < best) best = out, block = i, p = q;
+  }
+  const std::size_t rows = 9 * std::size_t(grid) * std::size_t(grid) * std::size_t(grid);
+  const float* base = probes.data() + 3 * rows * block;
+  glm::vec3 sh[9] = {};
+  glm::dvec3 g = glm::clamp(p * double(grid) - 0.5, glm::dvec3(0.0), glm::dvec3(grid - 1));
+  const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(g)), glm::ivec3(grid - 2 < 0 ? 0 : grid - 2));
+  const glm::dvec3 f = grid > 1 ? g - glm::dvec3(i0) : glm::dvec3(0.0);
+  for (int c = 0; c < 8; ++c) {
+    const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    const glm::ivec3 q = glm::min(i0 + o, glm::ivec3(grid - 1));
+    const double w = (o.x ? f.x : 1 - f.x) * (o.y ? f.y : 1 - f.y) * (o.z ? f.z : 1 - f.z);
+    const std::size_t probe = std::size_t(q.x + grid * (q.y + grid * q.z));
+    for (int k = 0; k < 9; ++k)
+      for (int ch = 0; ch < 3; ++ch)
+        sh[k][ch] += float(w) * base[3 * (9 * probe + std::size_t(k)) + std::size_t(ch)];
+  }
+  // Radiance -> E/pi: band l scaled by A_l / pi = 1, 2/3, 1/4 (sh.h).
+  for (int k = 0; k < 9; ++k)
+    frame.probe_sh[std::size_t(k)] = sh[k] * (k == 0 ? 1.0f : k < 4 ? 2.0f / 3.0f : 0.25f);
+  const int turns = level.blocks[block].quarter_turns;
+  for (int a = 0; a < 3; ++a) {
+    glm::dvec3 e(0.0);
+    e[a] = 1.0;
+    frame.to_canonical[a] = glm::vec3(rotate_direction(e, -turns));
+  }
+}
+
+}  // namespace
+
+// Catmull-Rom through the closed loop of keys, t in [0, 1).
+glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
+  if (keys.empty()) return glm::vec3(0.0f);
+  if (keys.size() == 1) return keys[0];
+  const double x = (t - std::floor(t)) * double(keys.size());
+  const int n = int(keys.size()), i = int(x) % n;
+  const float u = float(x - std::floor(x));
+  const glm::vec3 p0 = keys[std::size_t((i + n - 1) % n)], p1 = keys[std::size_t(i)],
+                  p2 = keys[std::size_t((i + 1) % n)], p3 = keys[std::size_t((i + 2) % n)];
+  return 0.5f * ((2.0f * p1) + (-p0 + p2) * u + (2.0f * p0 - 5.0f * p1 + 4.0f * p2 - p3) * u * u +
+                 (-p0 + 3.0f * p1 - 3.0f * p2 + p3) * u * u * u);
+}
+
+DemoRun::~DemoRun() = default;
+
+Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const Dictionary& dict,
+                                                 platform::GlContext& context,
+                                                 const DemoRunOptions& options) {
+  if (scene.lights.empty()) return Status::error(ErrorCode::invalid_argument, "demo: the scene has no light");
+  std::unique_ptr<DemoRun> run(new DemoRun());
+  run->scene_ = &scene;
+  run->dict_ = &dict;
+  run->context_ = &context;
+  run->options_ = options;
+  Result<Level> level = precompute::build_level(scene.level, dict);
+  if (!level.ok()) return level.status();
+  run->level_ = std::move(level).value();
+  const Level& lv = run->level_;
+  const std::vector<float> albedo = precompute::level_albedo(lv, scene.level);
+  Result<std::vector<MappedMesh>> mapped = map_to_proxies(scene, lv);
+  if (!mapped.ok()) return mapped.status();
+  for (const MappedMesh& m : mapped.value()) run->mapped_triangles_ += m.vertices.size() / 3;
+  const platform::GlFunctions& gl = context.gl();
+  Result<std::unique_ptr<SceneRenderer>> renderer =
+      SceneRenderer::create(gl, context.info().gles, scene, mapped.value(), lv, albedo, options.renderer);
+  if (!renderer.ok()) return renderer.status();
+  run->renderer_ = std::move(renderer).value();
+  run->vector_ = check_level_vector_operators(lv, dict).ok();
+  if (options.backend == DemoBackend::gles) {
+    gles::GlesRuntimeOptions go;
+    go.vector_irradiance = run->vector_;
+    Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
+        gles::GlesLevelRuntime::create(gl, context.info().gles, lv, dict, go);
+    if (!rt.ok()) return rt.status();
+    rt.value()->set_timing(true);
+    run->gles_runtime_ = rt.value().get();
+    run->backend_ = std::move(rt).value();
+  } else {
+    Result<std::unique_ptr<Backend>> be = cpu::create_cpu_backend(lv, dict);
+    if (!be.ok()) return be.status();
+    run->backend_ = std::move(be).value();
+  }
+  if (Status s = run->backend_->set_albedo(albedo); !s.ok()) return s;
+  const LevelBufferSizes& sizes = run->backend_->sizes();
+  run->ld_.assign(sizes.ld, 0.0f);
+  run->atlas_.assign(sizes.atlas, 0.0f);
+  run->probes_.assign(sizes.probes, 0.0f);
+  return run;
+}
+
+Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8) {
+  const DemoScene& scene = *scene_;
+  const platform::GlFunctions& gl = context_->gl();
+  auto* gles_runtime = static_cast<gles::GlesLevelRuntime*>(gles_runtime_);
+  const DemoLight& light = scene.lights.front();
+  FrameState state;
+  state.camera = scene.camera;
+  state.light_position = path_point(light.path, double(frame) / double(std::max(light.period, 1)));
+  state.light_rgb = light.color * light.intensity;
+  state.light_radius = light.radius;
+  state.dynamic_offset =
+      path_point(scene.dynamic_path, double(frame) / double(std::max(scene.dynamic_period, 1)));
+  state.output = options_.output;
+  state.exposure = options_.exposure;
+
+  Clock::time_point t = Clock::now();
+  Status s = renderer_->render_shadows(state);
+  gl.glFinish();
+  times_.shadows += ms_since(t);
+  t = Clock::now();
+  if (s.ok()) s = renderer_->compute_ld(state, ld_);
+  times_.direct += ms_since(t);
+  // Indirect: one update, then feedback steps (frame 0 converges further).
+  t = Clock::now();
+  if (s.ok()) s = backend_->update(ld_);
+  if (s.ok() && gles_runtime) {
+    const gles::GlesPassTimes& pt = gles_runtime->pass_times();
+    times_.b += double(pt.b) * 1e-6, times_.r += double(pt.r) * 1e-6,
+        times_.lightmaps += double(pt.atlas) * 1e-6, times_.probes += double(pt.probes) * 1e-6,
+        times_.vector += double(pt.vector) * 1e-6;
+  }
+  const int steps = frame == 0 ? 3 * options_.bounces : options_.bounces;
+  for (int k = 0; k < steps && s.ok(); ++k) s = backend_->multi_bounce_step(ld_);
+  if (s.ok() && !probes_.empty()) s = backend_->read_probes(probes_);
+  if (s.ok()) {
+    if (gles_runtime) {
+      state.atlas = gles_runtime->atlas_texture();
+      for (int i = 0; i < 4; ++i) state.vector_atlas[std::size_t(i)] = gles_runtime->vector_texture(i);
+    } else if ((s = backend_->read_atlas(atlas_)).ok()) {
+      Result<GLuint> up = renderer_->upload_atlas(atlas_);
+      if (up.ok())
+        state.atlas = up.value();
+      else
+        s = up.status();
+    }
+  }
+  gl.glFinish();
+  times_.indirect += ms_since(t);
+  if (!s.ok()) return s;
+  if (!probes_.empty())
+    probe_lighting(level_, probes_, int(dict_->settings.probe_grid), state.dynamic_offset, state);
+  t = Clock::now();
+  s = renderer_->render_image(state, linear_rgb, srgb8);
+  times_.render += ms_since(t);
+  return s;
+}
+
+}  // namespace modrt::demo

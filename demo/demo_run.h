@@ -1,0 +1,79 @@
+// modrt demo — one demo run: a scene, its built level, the renderer and the backend, and the
+// per-frame pipeline (shadow map, ld at the proxy samples, indirect light, camera image).
+// Used by modrt-demo and by the demo's golden-image tests.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "modrt/backend.h"
+#include "modrt/dictionary.h"
+#include "modrt/level.h"
+#include "modrt/platform/gl_context.h"
+#include "render/scene_renderer.h"
+#include "scene/demo_scene.h"
+
+namespace modrt::demo {
+
+enum class DemoBackend { gles, cpu };
+
+struct DemoRunOptions {
+  DemoBackend backend = DemoBackend::gles;
+  RendererOptions renderer;
+  OutputMode output = OutputMode::combined;
+  float exposure = 1.0f;
+  int bounces = 2;  // multi-bounce feedback steps per frame (three times as many on frame 0)
+};
+
+// Wall-clock milliseconds per stage, summed over frames (glFinish closes each stage).
+struct StageTimes {
+  double shadows = 0, direct = 0, indirect = 0, render = 0;
+  // GLES backend only, from its pass timers (GPU timer queries where the context has them):
+  // the frame's first update; feedback steps repeat b, r and lightmaps.
+  double b = 0, r = 0, lightmaps = 0, probes = 0, vector = 0;
+};
+
+class DemoRun {
+ public:
+  // Builds the level against `dict`, maps the meshes onto it and creates the renderer and
+  // the backend in `context` (current on this thread). `scene` and `dict` must outlive the run.
+  static Result<std::unique_ptr<DemoRun>> create(const DemoScene& scene, const Dictionary& dict,
+                                                 platform::GlContext& context, const DemoRunOptions& options);
+  ~DemoRun();
+
+  // Renders frame `frame` of the animation: linear RGB (rows bottom to top) and sRGB8 (rows
+  // top to bottom), each 3 x width x height.
+  Status render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);
+
+  const Level& level() const { return level_; }
+  const Backend& backend() const { return *backend_; }
+  const StageTimes& times() const { return times_; }
+  std::size_t mapped_triangles() const { return mapped_triangles_; }
+  bool vector_irradiance() const { return vector_; }
+  int width() const { return options_.renderer.width; }
+  int height() const { return options_.renderer.height; }
+  // The ld of the last frame (3 per sample), for tests.
+  std::span<const float> ld() const { return ld_; }
+
+ private:
+  DemoRun() = default;
+  const DemoScene* scene_ = nullptr;
+  const Dictionary* dict_ = nullptr;
+  platform::GlContext* context_ = nullptr;
+  DemoRunOptions options_;
+  Level level_;
+  std::unique_ptr<SceneRenderer> renderer_;
+  std::unique_ptr<Backend> backend_;
+  void* gles_runtime_ = nullptr;  // the backend as gles::GlesLevelRuntime, when it is one
+  std::vector<float> ld_, atlas_, probes_;
+  std::size_t mapped_triangles_ = 0;
+  bool vector_ = false;
+  StageTimes times_;
+};
+
+// Catmull-Rom through the closed loop of keys, t in [0, 1) once around.
+glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t);
+
+}  // namespace modrt::demo
