@@ -18,6 +18,7 @@
 //                                              a 0.5 rad cone turning with it); influence 0 off,
 //                                              1 on with epsilon 0 (exact), 2 on with epsilon 0.02
 //   BM_DirectLightFull/<shadows>                the same lights, every block recomputed each frame
+//   BM_DirectLightIsa/<isa>                     BM_DirectLightFull without shadows, forced ISA
 //   BM_MovingLightFrame/<influence>/<spot>      one whole frame: CpuDirectLight (shadows) then
 //                                              CpuLevelRuntime::evaluate with exact skipping
 //
@@ -442,6 +443,28 @@ void BM_DirectLightFull(benchmark::State& state) {
   state.SetLabel(shadows ? "shadows" : "no shadows");
 }
 
+void BM_DirectLightIsa(benchmark::State& state) {
+  const cpu::Isa isa = cpu::Isa(state.range(0));
+  if (!cpu::isa_supported(isa)) return state.SkipWithError("ISA not supported here");
+  const PresetLevel* pl = preset_level(41, 16, 32);
+  const DirectLightScene* sc = direct_light_scene();
+  if (!pl || !sc) return state.SkipWithError("no dictionary or level");
+  cpu::CpuDirectLightOptions o = direct_light_options(false, 0);
+  o.isa = isa;
+  Result<cpu::CpuDirectLight> dl = cpu::CpuDirectLight::create(pl->level, sc->albedo, o);
+  if (!dl.ok()) return state.SkipWithError(dl.status().message().c_str());
+  std::vector<float> ld(3 * std::size_t(pl->level.sample_count));
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    dl->invalidate();
+    const Status st = dl->evaluate(sc->frames[0][frame], ld);
+    benchmark::DoNotOptimize(st.ok());
+    benchmark::ClobberMemory();
+    frame = (frame + 1) % sc->frames[0].size();
+  }
+  state.SetLabel(cpu::isa_name(isa));
+}
+
 void BM_MovingLightFrame(benchmark::State& state) {
   const int influence = int(state.range(0)), spot = int(state.range(1));
   const PresetLevel* pl = preset_level(41, 16, 32);
@@ -562,6 +585,7 @@ BENCHMARK(BM_DirectLight)
     ->ArgNames({"shadows", "influence", "spot"})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DirectLightFull)->ArgsProduct({{0, 1}})->ArgNames({"shadows"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DirectLightIsa)->DenseRange(0, 3)->ArgName("isa")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MovingLightFrame)
     ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->ArgNames({"influence", "spot"})

@@ -70,6 +70,20 @@ Status light_error(std::size_t index, const char* field, const std::string& prob
     }                                                                                                 \
   } while (false)
 
+// acc_c += albedo_c * (color_c * e), planar (one channel array after the other).
+#define MODRT_DIRECT_LIGHT_ACCUMULATE                                    \
+  do {                                                                   \
+    for (int c = 0; c < 3; ++c) {                                        \
+      const float col = color[c];                                        \
+      const float* a = albedo + std::size_t(c) * stride;                 \
+      float* out = acc + std::size_t(c) * n;                             \
+      for (std::size_t i = 0; i < n; ++i) out[i] += a[i] * (col * e[i]); \
+    }                                                                    \
+  } while (false)
+
+#define MODRT_DIRECT_LIGHT_ACC_ARGS \
+  const float *color, const float *albedo, std::size_t stride, const float *e, std::size_t n, float *acc
+
 #define MODRT_DIRECT_LIGHT_ARGS                                                                          \
   const CpuDirectLight::Prepared &p, const float *px, const float *py, const float *pz, const float *nx, \
       const float *ny, const float *nz, std::size_t n, float *e
@@ -82,19 +96,41 @@ struct DirectLightKernels {
   __attribute__((optimize("no-tree-vectorize"))) static void scalar(MODRT_DIRECT_LIGHT_ARGS) {
     MODRT_DIRECT_LIGHT_LOOP;
   }
+  __attribute__((optimize("no-tree-vectorize"))) static void scalar_acc(MODRT_DIRECT_LIGHT_ACC_ARGS) {
+    MODRT_DIRECT_LIGHT_ACCUMULATE;
+  }
 #else
   static void scalar(MODRT_DIRECT_LIGHT_ARGS) {
 #pragma clang loop vectorize(disable) interleave(disable)
     MODRT_DIRECT_LIGHT_LOOP;
   }
+  static void scalar_acc(MODRT_DIRECT_LIGHT_ACC_ARGS) {
+#pragma clang loop vectorize(disable) interleave(disable)
+    MODRT_DIRECT_LIGHT_ACCUMULATE;
+  }
 #endif
 #if MODRT_CPU_X86
   MODRT_TARGET_SSE41 static void sse41(MODRT_DIRECT_LIGHT_ARGS) { MODRT_DIRECT_LIGHT_LOOP; }
   MODRT_TARGET_AVX2 static void avx2(MODRT_DIRECT_LIGHT_ARGS) { MODRT_DIRECT_LIGHT_LOOP; }
+  MODRT_TARGET_SSE41 static void sse41_acc(MODRT_DIRECT_LIGHT_ACC_ARGS) { MODRT_DIRECT_LIGHT_ACCUMULATE; }
+  MODRT_TARGET_AVX2 static void avx2_acc(MODRT_DIRECT_LIGHT_ACC_ARGS) { MODRT_DIRECT_LIGHT_ACCUMULATE; }
 #endif
 #if MODRT_CPU_NEON
   static void neon(MODRT_DIRECT_LIGHT_ARGS) { MODRT_DIRECT_LIGHT_LOOP; }
+  static void neon_acc(MODRT_DIRECT_LIGHT_ACC_ARGS) { MODRT_DIRECT_LIGHT_ACCUMULATE; }
 #endif
+  static void accumulate(Isa isa, MODRT_DIRECT_LIGHT_ACC_ARGS) {
+    switch (isa) {
+#if MODRT_CPU_X86
+      case Isa::avx2: return avx2_acc(color, albedo, stride, e, n, acc);
+      case Isa::sse41: return sse41_acc(color, albedo, stride, e, n, acc);
+#endif
+#if MODRT_CPU_NEON
+      case Isa::neon: return neon_acc(color, albedo, stride, e, n, acc);
+#endif
+      default: return scalar_acc(color, albedo, stride, e, n, acc);
+    }
+  }
   static void run(Isa isa, MODRT_DIRECT_LIGHT_ARGS) {
     switch (isa) {
 #if MODRT_CPU_X86
@@ -111,6 +147,8 @@ struct DirectLightKernels {
 
 #undef MODRT_DIRECT_LIGHT_LOOP
 #undef MODRT_DIRECT_LIGHT_ARGS
+#undef MODRT_DIRECT_LIGHT_ACCUMULATE
+#undef MODRT_DIRECT_LIGHT_ACC_ARGS
 
 Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, Prepared& out) {
   const int type = int(light.type);
@@ -469,6 +507,8 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
   d.dirty_.assign(d.block_count_, 0);
   d.culled_.assign(options.max_lights, 0);
   d.e_.assign(std::max<std::size_t>(d.max_block_samples_, 1), 0.0f);
+  d.acc_.assign(3 * std::max<std::size_t>(d.max_block_samples_, 1), 0.0f);
+  d.albedo_planar_.assign(3 * n, 0.0f);
   if (Status s = d.set_albedo(albedo); !s.ok()) return s;
   return d;
 }
@@ -476,6 +516,8 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
 Status CpuDirectLight::set_albedo(std::span<const float> albedo) {
   if (Status s = check_albedo(albedo, sample_count_); !s.ok()) return s;
   std::copy(albedo.begin(), albedo.end(), albedo_.begin());
+  for (std::size_t i = 0; i < sample_count_; ++i)
+    for (std::size_t c = 0; c < 3; ++c) albedo_planar_[c * sample_count_ + i] = albedo_[3 * i + c];
   for (std::size_t b = 0; b < block_count_; ++b)
     for (int c = 0; c < 3; ++c) {
       float m = 0.0f;
@@ -750,7 +792,9 @@ bool CpuDirectLight::occluded(const float* o, const float* d, std::uint32_t skip
 void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
   const std::size_t off = block_offset_[b], n = block_samples_[b];
   float* out = ld.data() + 3 * off;
-  std::fill(out, out + 3 * n, 0.0f);
+  // Summed planar (vector adds), in light order, then interleaved once.
+  float* acc = acc_.data();
+  std::fill(acc, acc + 3 * n, 0.0f);
   float* e = e_.data();
   for (std::size_t l = 0; l < light_count_; ++l) {
     if (!reach_[l * block_count_ + b]) continue;
@@ -793,12 +837,12 @@ void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
         if (occluded(o, dir, sample_twin_[off + i])) e[i] = 0.0f;
       }
     }
-    const float* a = &albedo_[3 * off];
-    for (std::size_t i = 0; i < n; ++i) {
-      out[3 * i] += a[3 * i] * (p.color[0] * e[i]);
-      out[3 * i + 1] += a[3 * i + 1] * (p.color[1] * e[i]);
-      out[3 * i + 2] += a[3 * i + 2] * (p.color[2] * e[i]);
-    }
+    DirectLightKernels::accumulate(isa_, p.color, &albedo_planar_[off], sample_count_, e, n, acc);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    out[3 * i] = acc[i];
+    out[3 * i + 1] = acc[n + i];
+    out[3 * i + 2] = acc[2 * n + i];
   }
 }
 

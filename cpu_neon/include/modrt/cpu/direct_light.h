@@ -243,7 +243,9 @@ class CpuDirectLight {
   std::vector<double> frustum_planes_;
   std::vector<std::uint32_t> frustum_count_;
   std::vector<std::uint8_t> frustum_exact_, sample_visible_;
-  std::vector<float> e_;  // E / pi of one light over one block
+  std::vector<float> e_;              // E / pi of one light over one block
+  std::vector<float> acc_;            // ld of one block, planar (3 x its samples)
+  std::vector<float> albedo_planar_;  // 3 x samples, channel after channel
   std::size_t light_count_ = 0;
   const float* last_ld_ = nullptr;
   bool valid_ = false;
