@@ -207,7 +207,7 @@ int main(int argc, char** argv) {
   std::printf("  render (camera image, tone map, readback)  %8.3f\n", total.render / n);
   std::printf("  write images                               %8.3f\n", write_ms / n);
   std::printf("vector irradiance on normal maps: %s\n",
-              run.value()->vector_irradiance() && gles_backend ? "yes" : "no (scalar lightmap)");
+              run.value()->vector_irradiance() ? "yes" : "no (the dictionary has no vector operators)");
   std::printf("wrote %zu frames, last: %s\n", written.size(), written.empty() ? "-" : written.back().c_str());
   return 0;
 }

@@ -117,6 +117,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   run->ld_.assign(sizes.ld, 0.0f);
   run->atlas_.assign(sizes.atlas, 0.0f);
   run->probes_.assign(sizes.probes, 0.0f);
+  run->vector_lightmap_.assign(run->vector_ ? sizes.vector_lightmap : 0, 0.0f);
+  run->coefficient_.assign(run->vector_ ? sizes.lightmap : 0, 0.0f);
   return run;
 }
 
@@ -164,6 +166,20 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
         state.atlas = up.value();
       else
         s = up.status();
+      // The vector irradiance as four atlases, padded like the scalar one, so that the CPU
+      // path shades normal maps exactly as the GLES path does.
+      if (s.ok() && vector_) s = backend_->read_vector_lightmap(vector_lightmap_);
+      for (int i = 0; i < 4 && s.ok() && vector_; ++i) {
+        for (std::size_t k = 0; k < level_.sample_count; ++k)
+          for (std::size_t c = 0; c < 3; ++c)
+            coefficient_[3 * k + c] = vector_lightmap_[3 * (4 * k + std::size_t(i)) + c];
+        level_fill_atlas(level_, coefficient_, atlas_);
+        Result<GLuint> v = renderer_->upload_atlas(atlas_, 1 + i);
+        if (v.ok())
+          state.vector_atlas[std::size_t(i)] = v.value();
+        else
+          s = v.status();
+      }
     }
   }
   gl.glFinish();

@@ -67,7 +67,7 @@ class DemoRun {
   std::unique_ptr<SceneRenderer> renderer_;
   std::unique_ptr<Backend> backend_;
   void* gles_runtime_ = nullptr;  // the backend as gles::GlesLevelRuntime, when it is one
-  std::vector<float> ld_, atlas_, probes_;
+  std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
   std::size_t mapped_triangles_ = 0;
   bool vector_ = false;
   StageTimes times_;

@@ -83,7 +83,7 @@ struct SceneRenderer::Impl {
   int ld_rows = 0;
   std::size_t samples = 0;
   GLuint color = 0, depth = 0, scene_fbo = 0, display = 0, display_fbo = 0;
-  GLuint own_atlas = 0;
+  std::array<GLuint, 5> own_atlas{};  // CPU-computed atlas (0) and vector atlases (1..4)
   int atlas_width = 0, atlas_height = 0;
   std::vector<DrawRange> draws;
   DrawRange light_marker;
@@ -416,25 +416,27 @@ Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
   return Status::success();
 }
 
-Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb) {
+Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int slot) {
   Impl& m = *impl_;
   const platform::GlFunctions& gl = m.gl;
   const std::size_t texels = std::size_t(m.atlas_width) * std::size_t(m.atlas_height);
   if (atlas_rgb.size() != 3 * texels)
     return Status::error(ErrorCode::invalid_argument, "renderer: the atlas has the wrong size for the level");
-  if (!m.own_atlas)
-    m.own_atlas = m.texture(GL_RGBA32F, std::max(m.atlas_width, 1), std::max(m.atlas_height, 1));
+  if (slot < 0 || slot > 4)
+    return Status::error(ErrorCode::invalid_argument, "renderer: atlas slot must be 0..4");
+  GLuint& target = m.own_atlas[std::size_t(slot)];
+  if (!target) target = m.texture(GL_RGBA32F, std::max(m.atlas_width, 1), std::max(m.atlas_height, 1));
+  if (m.readback.size() < 4 * texels) m.readback.resize(4 * texels);
   for (std::size_t i = 0; i < texels; ++i) {
     for (std::size_t c = 0; c < 3; ++c) m.readback[4 * i + c] = atlas_rgb[3 * i + c];
     m.readback[4 * i + 3] = 1.0f;
   }
-  if (m.readback.size() < 4 * texels) m.readback.resize(4 * texels);
-  gl.glBindTexture(GL_TEXTURE_2D, m.own_atlas);
+  gl.glBindTexture(GL_TEXTURE_2D, target);
   gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m.atlas_width, m.atlas_height, GL_RGBA, GL_FLOAT,
                      m.readback.data());
   if (Status s = gl_status(gl, "uploading the atlas"); !s.ok()) return s;
-  return m.own_atlas;
+  return target;
 }
 
 Status SceneRenderer::render_image(const FrameState& frame, std::span<float> linear_rgb,

@@ -68,9 +68,9 @@ class SceneRenderer {
   Status render_shadows(const FrameState& frame);
   // ld = albedo * E/pi at every level sample (3 per sample) with that shadow map; read back.
   Status compute_ld(const FrameState& frame, std::span<float> ld);
-  // Uploads an atlas computed on the CPU (3 floats per texel) into the renderer's own atlas
-  // texture and returns it (for FrameState::atlas).
-  Result<GLuint> upload_atlas(std::span<const float> atlas_rgb);
+  // Uploads an atlas computed on the CPU (3 floats per texel) into one of the renderer's own
+  // atlas textures and returns it: slot 0 for FrameState::atlas, 1..4 for vector_atlas[0..3].
+  Result<GLuint> upload_atlas(std::span<const float> atlas_rgb, int slot = 0);
   // The camera image: linear RGB (3 floats per pixel, rows bottom to top) and sRGB8 (3 bytes
   // per pixel, rows top to bottom, ready for an image file).
   Status render_image(const FrameState& frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);

@@ -139,7 +139,7 @@ void add_wall_meshes(DemoScene& scene, int subdivisions) {
           const double u0 = double(i) / k, v0 = double(j) / k, u1 = double(i + 1) / k, v1 = double(j + 1) / k;
           const glm::vec3 p[4] = {at(u0, v0), at(u1, v0), at(u1, v1), at(u0, v1)};
           const glm::vec3 n =
-              glm::normalize(glm::cross(p[1] - p[0], p[3] - p[0]) + glm::cross(p[2] - p[1], p[2] - p[3]));
+              glm::normalize(glm::cross(p[2] - p[0], p[3] - p[1]));
           const std::uint32_t base = std::uint32_t(m.position.size());
           const glm::vec2 uv[4] = {{u0, v0}, {u1, v0}, {u1, v1}, {u0, v1}};
           for (int q = 0; q < 4; ++q) {

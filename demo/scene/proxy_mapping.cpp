@@ -47,6 +47,10 @@ Result<std::vector<MappedMesh>> map_to_proxies(const DemoScene& scene, const Lev
   if (level.atlas.tile_origin_x.size() != level.blocks.size() || level.res <= 0)
     return Status::error(ErrorCode::invalid_argument, "proxy mapping: the level has no lightmap atlas");
   const double res = level.res;
+  const double block_size =
+      level.blocks.empty()
+          ? 1.0
+          : glm::length(level.blocks[0].corners[7] - level.blocks[0].corners[0]) / std::sqrt(3.0);
   std::vector<MappedMesh> out;
   for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
     const Mesh& mesh = scene.meshes[mi];
@@ -73,8 +77,9 @@ Result<std::vector<MappedMesh>> map_to_proxies(const DemoScene& scene, const Lev
       if (glm::dot(normal, normal) < 1e-20) normal = glm::cross(b - a, c - a);
       normal = glm::dot(normal, normal) > 0 ? glm::normalize(normal) : glm::dvec3(0, 1, 0);
       // The block containing the centroid (or the nearest one), looked up a little in front of
-      // the surface: a wall on the boundary of two blocks is lit from the block it faces.
-      const glm::dvec3 probe = centroid + 1e-3 * normal;
+      // the surface: a wall on the boundary of two blocks is lit from the block it faces. 2 %
+      // of a block: more than a warped wall's flat triangles stray from its bilinear surface.
+      const glm::dvec3 probe = centroid + 0.02 * block_size * normal;
       std::size_t best_block = 0;
       double best_out = std::numeric_limits<double>::infinity();
       glm::dvec3 best_p(0.5);
