@@ -21,7 +21,8 @@ void encode_srgb8(std::span<const float> linear_rgb, float scale, std::span<std:
 namespace {
 
 // Writes through a temporary file next to `path`, renamed into place.
-Status write_image(const std::string& path, int width, int height, OIIO::TypeDesc type, const void* pixels) {
+Status write_image(const std::string& path, int width, int height, OIIO::TypeDesc type, const void* pixels,
+                   OIIO::TypeDesc file_type) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path target(path);
@@ -31,7 +32,8 @@ Status write_image(const std::string& path, int width, int height, OIIO::TypeDes
       target.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
   auto out = OIIO::ImageOutput::create(temp.string());
   if (!out) return Status::error(ErrorCode::io_error, path + ": no image writer: " + OIIO::geterror());
-  const OIIO::ImageSpec spec(width, height, 3, type);
+  OIIO::ImageSpec spec(width, height, 3, file_type);
+  spec.attribute("compression", "zip");  // EXR: lossless, a fraction of the raw size
   if (!out->open(temp.string(), spec) || !out->write_image(type, pixels) || !out->close()) {
     const std::string error = out->geterror();
     fs::remove(temp, ec);
@@ -50,13 +52,14 @@ Status write_image(const std::string& path, int width, int height, OIIO::TypeDes
 Status write_rgb8_image(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
   if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
     return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
-  return write_image(path, width, height, OIIO::TypeDesc::UINT8, rgb.data());
+  return write_image(path, width, height, OIIO::TypeDesc::UINT8, rgb.data(), OIIO::TypeDesc::UINT8);
 }
 
 Status write_rgb_float_image(const std::string& path, int width, int height, std::span<const float> rgb) {
   if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
     return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
-  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data());
+  // Stored as half floats, the usual precision of linear HDR frames (11-bit mantissa).
+  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data(), OIIO::TypeDesc::HALF);
 }
 
 }  // namespace modrt::demo
