@@ -375,7 +375,7 @@ HalfMatrix random_half_matrix(std::mt19937& rng, std::size_t rows, std::size_t c
 
 // The float kernel an _f16 kernel equals bit for bit: the same ISA, except AVX2 without F16C
 // (then the SSE4.1 variant runs).
-Isa float_twin(Isa isa) { return isa == Isa::avx2 && !f16c_supported() ? Isa::sse41 : isa; }
+Isa float_twin(Isa isa) { return isa == Isa::avx2 && !f16c_active() ? Isa::sse41 : isa; }
 
 // Every ISA's f16 GEMV equals the scalar f16 twin within 1e-5 relative, and the float kernel
 // on the same (half-rounded) values bit for bit; the scalar twin equals core's reference on
@@ -465,6 +465,33 @@ TEST(CpuKernels, ScatterAndMaskedF16MatchScalarTwin) {
       }
     worst.print("gemv_rgb_scatter_f16", isa);
   }
+}
+
+// Without F16C (forced off here) the AVX2 f16 kernels run the SSE4.1 variant: its bits, not
+// the F16C path's; the switch refuses to turn F16C on where the CPU lacks it.
+TEST(CpuKernels, F16WithoutF16cRunsTheSse41Variant) {
+  if (!isa_supported(Isa::avx2) || !isa_supported(Isa::sse41)) GTEST_SKIP() << "no AVX2 / SSE4.1 here";
+  const bool before = f16c_active();
+  EXPECT_EQ(set_f16c(true), f16c_supported());
+  ASSERT_TRUE(set_f16c(false));
+  EXPECT_FALSE(f16c_active());
+  std::mt19937 rng(8);
+  int differs_from_f16c = 0;
+  for (std::uint32_t rows : {1u, 5u, 16u, 33u})
+    for (std::uint32_t cols : {3u, 12u, 31u, 100u}) {
+      const HalfMatrix A = random_half_matrix(rng, rows, cols, cols);
+      const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
+      std::vector<float> planar(3 * std::size_t(cols));
+      deinterleave_rgb(in.data(), cols, planar.data(), cols);
+      std::vector<float> got(3 * std::size_t(rows)), sse(got.size()), avx(got.size());
+      gemv_rgb_f16(Isa::avx2, A.half.data(), rows, cols, cols, planar.data(), cols, got.data(), false);
+      gemv_rgb(Isa::sse41, A.value.data(), rows, cols, cols, planar.data(), cols, sse.data(), false);
+      gemv_rgb(Isa::avx2, A.value.data(), rows, cols, cols, planar.data(), cols, avx.data(), false);
+      EXPECT_EQ(got, sse) << rows << "x" << cols;
+      differs_from_f16c += got != avx;
+    }
+  EXPECT_GT(differs_from_f16c, 0);  // the two variants do round differently: the test can tell
+  EXPECT_TRUE(set_f16c(before));
 }
 
 }  // namespace

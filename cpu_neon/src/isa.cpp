@@ -68,6 +68,21 @@ bool f16c_supported() {
   return has;
 }
 
+namespace {
+bool& f16c_use() {
+  static bool use = f16c_supported();
+  return use;
+}
+}  // namespace
+
+bool f16c_active() { return f16c_use(); }
+
+bool set_f16c(bool enabled) {
+  if (enabled && !f16c_supported()) return false;
+  f16c_use() = enabled;
+  return true;
+}
+
 bool set_isa(Isa isa) {
   if (!isa_supported(isa)) return false;
   active() = isa;

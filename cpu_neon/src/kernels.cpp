@@ -172,7 +172,7 @@ MODRT_TARGET_AVX2 inline __m128 hsum4_avx(__m256 a, __m256 b, __m256 c, __m256 d
 }
 
 // Matrix loads: floats in place; binary16 through F16C (the T = uint16_t instantiation is
-// dispatched only when f16c_supported()).
+// dispatched only when f16c_active()).
 MODRT_TARGET_AVX2 inline __m256 load8_avx(const float* p) { return _mm256_loadu_ps(p); }
 MODRT_TARGET_AVX2_F16C inline __m256 load8_avx(const std::uint16_t* p) {
   return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
@@ -618,7 +618,7 @@ void gemv_dispatch(Isa isa, const T* A, std::size_t rows, std::size_t cols, std:
                    std::size_t stride, float* out, const std::int32_t* map, bool accumulate) {
   if (rows == 0) return;
   Isa use = isa_supported(isa) ? isa : Isa::scalar;
-  if (std::is_same_v<T, std::uint16_t> && use == Isa::avx2 && !f16c_supported())
+  if (std::is_same_v<T, std::uint16_t> && use == Isa::avx2 && !f16c_active())
     use = isa_supported(Isa::sse41) ? Isa::sse41 : Isa::scalar;
   switch (use) {
 #if MODRT_CPU_X86

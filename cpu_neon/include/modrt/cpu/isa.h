@@ -39,6 +39,13 @@ Isa active_isa();
 // kernels run their SSE4.1 variant. False on other architectures and with MODRT_NO_SIMD.
 bool f16c_supported();
 
+// Whether the AVX2 float16 kernels use F16C now: starts as f16c_supported(). set_f16c(false)
+// makes them run their SSE4.1 variant, as on a CPU without F16C (tests cover that path here);
+// set_f16c(true) returns false, changing nothing, where F16C is not supported. Not
+// synchronised, like set_isa().
+bool f16c_active();
+bool set_f16c(bool enabled);
+
 // Forces the default ISA. Returns false (and changes nothing) when `isa` is not supported.
 bool set_isa(Isa isa);
 

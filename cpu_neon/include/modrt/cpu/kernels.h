@@ -65,10 +65,10 @@ void add_scattered(std::size_t rows, const std::int32_t* row_to_sample, const fl
 // otherwise the float kernels: same row/column blocking and tails, same float accumulation in
 // 64-column blocks summed in double, same rounding of the outputs. So an _f16 kernel on A
 // writes the bits its float twin of the same ISA writes for the float matrix half_to_float(A)
-// (tests/test_cpu_kernels.cpp; AVX2 without F16C: the SSE4.1 twin's); the scalar twin thus equals core's
-// reference on those values. Conversion per ISA: AVX2 with F16C (_mm256_cvtph_ps; a CPU with AVX2 + FMA but
-// no F16C runs the SSE4.1 variant instead), SSE4.1 in software (half_to_float), NEON vcvt_f32_f16, scalar
-// half_to_float.
+// (tests/test_cpu_kernels.cpp), and the scalar twin equals core's reference on those values.
+// Conversion per ISA: AVX2 with F16C (_mm256_cvtph_ps), SSE4.1 in software (half_to_float),
+// NEON vcvt_f32_f16, scalar half_to_float. Where F16C is missing (or set_f16c(false)), Isa::avx2
+// runs the SSE4.1 variant, whose bits it then writes.
 void gemv_rgb_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols, std::size_t lda,
                   const float* planar, std::size_t stride, float* out, bool accumulate);
 void gemv_rgb_scatter_f16(Isa isa, const std::uint16_t* A, std::size_t rows, std::size_t cols,
