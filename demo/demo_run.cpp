@@ -132,6 +132,9 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   state.light_position = path_point(light.path, double(frame) / double(std::max(light.period, 1)));
   state.light_rgb = light.color * light.intensity;
   state.light_radius = light.radius;
+  state.spot_direction = light.direction;
+  state.spot_inner = light.inner_cone;
+  state.spot_outer = light.outer_cone;
   state.dynamic_offset =
       path_point(scene.dynamic_path, double(frame) / double(std::max(scene.dynamic_period, 1)));
   state.output = options_.output;

@@ -194,6 +194,62 @@ TEST(DemoRender, LdPassMatchesRayTracedDirectLight) {
   }
 }
 
+// A spot light is the point light at the same place times its cone: samples inside the
+// inner cone get the point light's ld exactly, samples beyond the outer cone nothing, and
+// the ones between something in between.
+TEST(DemoRender, SpotLightIsThePointLightTimesItsCone) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoScene point = walls_only();
+  DemoLight& l = point.lights.front();
+  l.path = {l.path.front()};  // held still
+  DemoScene spot = point;
+  DemoLight& s = spot.lights.front();
+  s.direction = glm::vec3(0.3f, -1.0f, 0.1f);
+  s.inner_cone = 0.5f;
+  s.outer_cone = 0.75f;
+  std::vector<std::vector<float>> ld;
+  std::vector<float> linear(3 * 32 * 18);
+  std::vector<std::uint8_t> srgb(linear.size());
+  for (const DemoScene* sc : {&point, &spot}) {
+    DemoRunOptions options;
+    options.renderer.width = 32, options.renderer.height = 18;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(*sc, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    ASSERT_TRUE(run.value()->render(0, linear, srgb).ok());
+    ld.emplace_back(run.value()->ld().begin(), run.value()->ld().end());
+  }
+  Result<Level> level = precompute::build_level(point.level, dict());
+  ASSERT_TRUE(level.ok());
+  const LevelSampleGeometry g = level_sample_geometry(level.value());
+  const glm::dvec3 axis = glm::normalize(glm::dvec3(s.direction));
+  std::size_t inside = 0, outside = 0, between = 0;
+  for (std::size_t i = 0; i < g.position.size(); ++i) {
+    const double angle = std::acos(
+        std::clamp(glm::dot(glm::normalize(g.position[i] - glm::dvec3(s.path[0])), axis), -1.0, 1.0));
+    for (std::size_t c = 0; c < 3; ++c) {
+      const float p = ld[0][3 * i + c], q = ld[1][3 * i + c];
+      if (angle < s.inner_cone - 1e-3) {
+        EXPECT_NEAR(q, p, 1e-5f * p + 1e-9f) << "sample " << i;
+        inside += c == 0 && p > 0;
+      } else if (angle > s.outer_cone + 1e-3) {
+        EXPECT_EQ(q, 0.0f) << "sample " << i;
+        outside += c == 0 && p > 0;
+      } else {
+        EXPECT_LE(q, p * (1 + 1e-5f) + 1e-9f) << "sample " << i;
+        between += c == 0 && q > 0 && q < p;
+      }
+    }
+  }
+  EXPECT_GT(inside, 10u);
+  EXPECT_GT(outside, 100u);
+  EXPECT_GT(between, 5u);
+  std::printf(
+      "  lit samples inside the inner cone %zu, in the fade %zu, lit by the point light beyond the cone "
+      "%zu\n",
+      inside, between, outside);
+}
+
 double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 // CIELAB (D65) of an sRGB8 pixel.

@@ -1,6 +1,7 @@
 #include "scene_renderer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <string>
 
@@ -328,6 +329,14 @@ void set_lighting(const platform::GlFunctions& gl, GLuint program, const FrameSt
   gl.glUniform3f(gl.glGetUniformLocation(program, "u_light_rgb"), l.light_rgb.x, l.light_rgb.y,
                  l.light_rgb.z);
   gl.glUniform1f(gl.glGetUniformLocation(program, "u_light_radius"), l.light_radius);
+  const glm::vec3 d =
+      glm::length(l.spot_direction) > 0.0f ? glm::normalize(l.spot_direction) : glm::vec3(0, -1, 0);
+  gl.glUniform3f(gl.glGetUniformLocation(program, "u_spot_direction"), d.x, d.y, d.z);
+  // cos of the cones; a point light (outer cone >= pi) gets -2, below every cosine.
+  const float cos_outer = l.spot_outer >= 3.14159f ? -2.0f : std::cos(l.spot_outer);
+  const float cos_inner =
+      std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
+  gl.glUniform3f(gl.glGetUniformLocation(program, "u_spot_cos"), cos_outer, cos_inner, 0.0f);
 }
 
 void bind_texture(const platform::GlFunctions& gl, int unit, GLenum target, GLuint texture) {

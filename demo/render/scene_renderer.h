@@ -38,6 +38,8 @@ struct FrameState {
   glm::vec3 light_position{0.5f};
   glm::vec3 light_rgb{1.0f};  // radiant intensity per channel (W/sr)
   float light_radius = 0.05f;
+  glm::vec3 spot_direction{0.0f, -1.0f, 0.0f};  // spot lights (DemoLight); cones of pi: a point light
+  float spot_inner = 3.14159265f, spot_outer = 3.14159265f;
   glm::vec3 dynamic_offset{0.0f};
   // Indirect light: the scalar atlas (RGBA, .rgb = E/pi) and, when all four are set, the
   // OHLSH vector atlases used by normal-mapped materials.

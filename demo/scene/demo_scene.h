@@ -45,10 +45,14 @@ struct Mesh {
   bool dynamic = false;
 };
 
-// A point light moves along a closed path of key positions (Catmull-Rom, one loop per
-// `period` frames); a single key holds it still.
+// A point or spot light moves along a closed path of key positions (Catmull-Rom, one loop
+// per `period` frames); a single key holds it still. A spot light (outer_cone < pi) shines
+// along `direction`, full inside inner_cone, fading smoothly to zero at outer_cone (half
+// angles, radians, as glTF's KHR_lights_punctual); both backends see it through ld.
 struct DemoLight {
   std::vector<glm::vec3> path;
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};
+  float inner_cone = 3.14159265f, outer_cone = 3.14159265f;
   int period = 120;
   glm::vec3 color{1.0f};
   float intensity = 1.0f;  // radiant intensity (W/sr) at colour (1, 1, 1)

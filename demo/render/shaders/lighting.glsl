@@ -4,6 +4,8 @@
 uniform vec3 u_light_position;
 uniform vec3 u_light_rgb;
 uniform float u_light_radius;
+uniform vec3 u_spot_direction;  // spot lights: unit axis
+uniform vec3 u_spot_cos;        // (cos outer cone, cos inner cone, 0); outer -2 for a point light
 uniform highp samplerCubeShadow u_shadow;
 
 // Cube-map depth of a point at offset v from the light: the perspective depth of the face
@@ -21,8 +23,10 @@ vec3 direct_e_over_pi(vec3 position, vec3 normal) {
   vec3 l = to_light * inversesqrt(max(d2, 1e-12));
   float cosine = dot(normal, l);
   if (cosine <= 0.0) return vec3(0.0);
+  float cone = smoothstep(u_spot_cos.x, u_spot_cos.y, dot(-l, u_spot_direction));
+  if (cone <= 0.0) return vec3(0.0);
   // Normal offset against acne, scaled with distance (texel footprint grows with it).
   vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
   float visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
-  return u_light_rgb * (visible * cosine / max(d2, u_light_radius * u_light_radius) / 3.14159265);
+  return u_light_rgb * (cone * visible * cosine / max(d2, u_light_radius * u_light_radius) / 3.14159265);
 }
