@@ -407,7 +407,8 @@ TEST(CpuKernels, GemvF16MatchesScalarTwinForEveryIsaAndSize) {
           if (isa == Isa::scalar) {
             Matrix dense(rows, cols);
             for (std::size_t r = 0; r < rows; ++r)
-              std::copy_n(&A.value[r * lda], cols, &dense.data[r * std::size_t(cols)]);
+              std::copy_n(A.value.begin() + std::ptrdiff_t(r * lda), cols,
+                          dense.data.begin() + std::ptrdiff_t(r * cols));
             std::vector<float> ref = start;
             reference_gemv_rgb(dense, in.data(), ref.data(), accumulate);
             EXPECT_EQ(twin, ref) << what;
