@@ -1,0 +1,1267 @@
+#include "gltf_scene.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <new>
+#include <utility>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
+
+// The Debian package ships tinygltf compiled (libtinygltf, with stb_image and nlohmann-json
+// inside): the header is included without TINYGLTF_IMPLEMENTATION.
+#include <tiny_gltf.h>
+
+#include "default_scene.h"
+#include "modrt/precompute/level_json.h"
+
+namespace modrt::demo {
+namespace fs = std::filesystem;
+
+std::string gltf_sidecar_level_path(const std::string& gltf_path) {
+  fs::path p(gltf_path);
+  p.replace_extension(".level.json");
+  return p.string();
+}
+
+namespace {
+
+// Thrown inside the loader, turned into a Status (prefixed with the file) at the top.
+struct LoadFailure {
+  ErrorCode code;
+  std::string message;
+};
+
+[[noreturn]] void fail(ErrorCode code, std::string message) { throw LoadFailure{code, std::move(message)}; }
+
+std::string quote(const std::string& s) { return "'" + s + "'"; }
+std::string num(std::size_t v) { return std::to_string(v); }
+std::string num(int v) { return std::to_string(v); }
+
+std::string fmt_double(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string short_double(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// tinygltf's warn/err texts are newline-separated sentences.
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    while (!line.empty() && (line.back() == ' ' || line.back() == '\r')) line.pop_back();
+    if (!line.empty()) lines.push_back(std::move(line));
+    start = end + 1;
+  }
+  return lines;
+}
+
+std::string join_lines(const std::string& text) {
+  std::string out;
+  for (const std::string& l : split_lines(text)) out += (out.empty() ? "" : "; ") + l;
+  return out;
+}
+
+const char* mode_name(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS: return "POINTS";
+    case TINYGLTF_MODE_LINE: return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLES: return "TRIANGLES";
+    case TINYGLTF_MODE_TRIANGLE_STRIP: return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN: return "TRIANGLE_FAN";
+    default: return "unknown";
+  }
+}
+
+// ---- files ----
+
+std::vector<unsigned char> read_file_capped(const std::string& path, std::size_t cap) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail(ErrorCode::io_error, "file not found");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) fail(ErrorCode::io_error, "cannot read the file: " + ec.message());
+  if (size > cap)
+    fail(ErrorCode::resource_limit,
+         "the file is " + std::to_string(size) + " bytes, more than the limit of " + num(cap));
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(ErrorCode::io_error, "cannot open the file");
+  in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+  if (std::size_t(in.gcount()) != bytes.size()) fail(ErrorCode::io_error, "error while reading the file");
+  return bytes;
+}
+
+struct LoaderContext {
+  std::size_t max_file_bytes = 0;
+  int max_image_side = 0;
+};
+
+// tinygltf's file reader, refusing external buffers and images beyond the size limit before
+// it allocates them.
+bool read_whole_file_capped(std::vector<unsigned char>* out, std::string* err, const std::string& filepath,
+                            void* user) {
+  const auto* ctx = static_cast<const LoaderContext*>(user);
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(filepath, ec);
+  if (ec) {
+    if (err) *err += "cannot read " + filepath + ": " + ec.message() + "\n";
+    return false;
+  }
+  if (size > ctx->max_file_bytes) {
+    if (err)
+      *err += filepath + " is " + std::to_string(size) + " bytes, more than the limit of " +
+              num(ctx->max_file_bytes) + "\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, filepath, nullptr);
+}
+
+std::uint32_t be32(const unsigned char* p) {
+  return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
+}
+
+// Width and height from a PNG's IHDR or a JPEG's start-of-frame segment, read before stb
+// decodes (and allocates) the image. Returns false when the bytes are neither PNG nor JPEG;
+// w = h = 0 when the header is not found (stb then reports the corrupt file).
+bool sniff_image(const unsigned char* bytes, int size, int* w, int* h) {
+  *w = *h = 0;
+  static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (size >= 8 && std::memcmp(bytes, png, 8) == 0) {
+    if (size >= 24 && std::memcmp(bytes + 12, "IHDR", 4) == 0) {
+      *w = int(std::min<std::uint32_t>(be32(bytes + 16), 0x7fffffff));
+      *h = int(std::min<std::uint32_t>(be32(bytes + 20), 0x7fffffff));
+    }
+    return true;
+  }
+  if (size >= 3 && bytes[0] == 0xff && bytes[1] == 0xd8 && bytes[2] == 0xff) {
+    int i = 2;
+    while (i + 9 < size) {
+      if (bytes[i] != 0xff) break;
+      const int marker = bytes[i + 1];
+      if (marker == 0xff) {  // fill byte
+        ++i;
+        continue;
+      }
+      const int length = (bytes[i + 2] << 8) | bytes[i + 3];
+      const bool sof = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+      if (sof) {
+        *h = (bytes[i + 5] << 8) | bytes[i + 6];
+        *w = (bytes[i + 7] << 8) | bytes[i + 8];
+        break;
+      }
+      if (length < 2) break;
+      i += 2 + length;
+    }
+    return true;
+  }
+  return false;
+}
+
+// Image decoding through tinygltf's stb loader, after checking the format and the size.
+bool load_image_checked(tinygltf::Image* image, const int index, std::string* err, std::string* warn,
+                        int req_width, int req_height, const unsigned char* bytes, int size, void* user) {
+  const auto* ctx = static_cast<const LoaderContext*>(user);
+  std::string label = "image " + num(index);
+  if (!image->uri.empty())
+    label += " (" + image->uri + ")";
+  else if (!image->name.empty())
+    label += " ('" + image->name + "')";
+  int w = 0, h = 0;
+  if (!sniff_image(bytes, size, &w, &h)) {
+    if (err)
+      *err += label + ": unsupported image format" +
+              (image->mimeType.empty() ? std::string() : " (declared " + image->mimeType + ")") +
+              "; glTF 2.0 images are PNG or JPEG\n";
+    return false;
+  }
+  if (w > ctx->max_image_side || h > ctx->max_image_side) {
+    if (err)
+      *err += label + ": " + num(w) + " x " + num(h) + " pixels, more than the renderer's texture limit of " +
+              num(ctx->max_image_side) + " per side\n";
+    return false;
+  }
+  return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size, nullptr);
+}
+
+// ---- JSON text from tinygltf values (the extras become level JSON) ----
+
+void append_json_string(std::string& out, const std::string& s) {
+  out += '"';
+  for (const char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(static_cast<unsigned char>(c)));
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  out += '"';
+}
+
+void append_json(std::string& out, const tinygltf::Value& v) {
+  if (v.IsBool()) {
+    out += v.Get<bool>() ? "true" : "false";
+  } else if (v.IsInt()) {
+    out += std::to_string(v.Get<int>());
+  } else if (v.IsReal()) {
+    out += fmt_double(v.Get<double>());
+  } else if (v.IsString()) {
+    append_json_string(out, v.Get<std::string>());
+  } else if (v.IsArray()) {
+    out += '[';
+    for (std::size_t i = 0; i < v.ArrayLen(); ++i) {
+      if (i) out += ',';
+      append_json(out, v.Get(int(i)));
+    }
+    out += ']';
+  } else if (v.IsObject()) {
+    out += '{';
+    bool first = true;
+    for (const std::string& key : v.Keys()) {
+      if (!first) out += ',';
+      first = false;
+      append_json_string(out, key);
+      out += ':';
+      append_json(out, v.Get(key));
+    }
+    out += '}';
+  } else {
+    out += "null";
+  }
+}
+
+std::string json_vec3(const glm::dvec3& v) {
+  return "[" + fmt_double(v.x) + "," + fmt_double(v.y) + "," + fmt_double(v.z) + "]";
+}
+
+// ---- the loader ----
+
+struct NodeInstance {
+  int node = 0;
+  glm::dmat4 world{1.0};
+};
+
+struct BlockNode {
+  int node = 0;
+  glm::dmat4 world{1.0};
+  const tinygltf::Value* block = nullptr;  // extras.modrt_block (an object, or true)
+};
+
+class Loader {
+ public:
+  Loader(const tinygltf::Model& model, const GltfSceneOptions& options, std::string tinygltf_warn)
+      : model_(model), options_(options), tinygltf_warn_(std::move(tinygltf_warn)) {}
+
+  DemoScene load(const std::string& path);
+  std::vector<std::string>& warnings() { return warnings_; }
+
+ private:
+  std::vector<NodeInstance> traverse(const std::vector<int>& roots) const;
+  glm::dmat4 local_matrix(int index) const;
+  void convert_materials();
+  int image_for_texture(int texture, const std::string& what);
+  int default_material();
+  int material_without_normal_map(int material);
+  void add_mesh(int node, const glm::dmat4& transform, bool dynamic);
+  struct Stream {
+    const unsigned char* data = nullptr;  // nullptr: an accessor without buffer view (zeros)
+    std::size_t stride = 0, count = 0;
+    int components = 0, component_type = 0;
+    bool normalized = false;
+  };
+  Stream accessor_stream(int index, const std::string& what, std::size_t cap) const;
+  std::vector<float> read_floats(int index, const std::string& what, int components) const;
+  std::vector<std::uint32_t> read_indices(int index, const std::string& what) const;
+  void add_light(const NodeInstance& inst, int light);
+  void set_camera(const NodeInstance& inst);
+  LevelDescription level_from_extras(const std::string& path, const std::vector<BlockNode>& blocks) const;
+  const tinygltf::Value* scene_level_extras() const;
+
+  static std::string node_label(const tinygltf::Node& n, int index) {
+    return "node " + num(index) + (n.name.empty() ? std::string() : " (" + quote(n.name) + ")");
+  }
+
+  const tinygltf::Model& model_;
+  const GltfSceneOptions& options_;
+  std::string tinygltf_warn_;
+  std::vector<std::string> warnings_;
+  DemoScene scene_;
+  int scene_index_ = -1;
+  std::map<int, int> image_of_gltf_image_;
+  int default_material_ = -1;
+  std::map<int, int> material_without_normal_map_;
+  std::size_t total_vertices_ = 0;
+  bool have_camera_ = false;
+  bool have_dynamic_key_ = false;
+  glm::dvec3 dynamic_key_{0.0};
+  bool warned_morph_ = false, warned_texcoord_ = false;
+};
+
+std::vector<NodeInstance> Loader::traverse(const std::vector<int>& roots) const {
+  std::vector<NodeInstance> out;
+  std::vector<char> seen(model_.nodes.size(), 0);
+  std::vector<NodeInstance> stack;
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, glm::dmat4(1.0)});
+  while (!stack.empty()) {
+    NodeInstance inst = stack.back();
+    stack.pop_back();
+    if (inst.node < 0 || std::size_t(inst.node) >= model_.nodes.size())
+      fail(ErrorCode::format_error, "node " + num(inst.node) + " is referenced but the file has " +
+                                        num(model_.nodes.size()) + " nodes");
+    // glTF nodes form a forest; a node reached twice is a cycle or a shared child.
+    if (seen[std::size_t(inst.node)])
+      fail(ErrorCode::format_error, node_label(model_.nodes[std::size_t(inst.node)], inst.node) +
+                                        " is reached twice (a cycle or a node with two parents)");
+    seen[std::size_t(inst.node)] = 1;
+    inst.world = inst.world * local_matrix(inst.node);
+    out.push_back(inst);
+    const std::vector<int>& children = model_.nodes[std::size_t(inst.node)].children;
+    for (auto it = children.rbegin(); it != children.rend(); ++it) stack.push_back({*it, inst.world});
+  }
+  return out;
+}
+
+glm::dmat4 Loader::local_matrix(int index) const {
+  const tinygltf::Node& n = model_.nodes[std::size_t(index)];
+  auto check = [&](const std::vector<double>& v, std::size_t want, const char* what) {
+    if (!v.empty() && v.size() != want)
+      fail(ErrorCode::format_error,
+           node_label(n, index) + ": " + what + " has " + num(v.size()) + " numbers, expected " + num(want));
+    for (double x : v)
+      if (!std::isfinite(x))
+        fail(ErrorCode::format_error, node_label(n, index) + ": " + what + " is not finite");
+  };
+  check(n.matrix, 16, "matrix");
+  check(n.translation, 3, "translation");
+  check(n.rotation, 4, "rotation");
+  check(n.scale, 3, "scale");
+  if (!n.matrix.empty()) {
+    glm::dmat4 m(1.0);
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r) m[c][r] = n.matrix[std::size_t(4 * c + r)];  // glTF is column-major
+    return m;
+  }
+  glm::dmat4 m(1.0);
+  if (!n.translation.empty()) m[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+  if (!n.rotation.empty()) {
+    glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);  // glTF stores x, y, z, w
+    const double len = glm::length(q);
+    if (!(len > 1e-12)) fail(ErrorCode::format_error, node_label(n, index) + ": rotation quaternion is zero");
+    m = m * glm::dmat4(glm::mat4_cast(q / len));
+  }
+  if (!n.scale.empty()) {
+    glm::dmat4 s(1.0);
+    s[0][0] = n.scale[0], s[1][1] = n.scale[1], s[2][2] = n.scale[2];
+    m = m * s;
+  }
+  return m;
+}
+
+Loader::Stream Loader::accessor_stream(int index, const std::string& what, std::size_t cap) const {
+  if (index < 0 || std::size_t(index) >= model_.accessors.size())
+    fail(ErrorCode::format_error, what + " refers to accessor " + num(index) + "; the file has " +
+                                      num(model_.accessors.size()) + " accessors");
+  const tinygltf::Accessor& a = model_.accessors[std::size_t(index)];
+  const std::string name = "accessor " + num(index) + " (" + what + ")";
+  if (a.sparse.isSparse) fail(ErrorCode::format_error, name + ": sparse accessors are not supported");
+  const int components = tinygltf::GetNumComponentsInType(std::uint32_t(a.type));
+  const int component_size = tinygltf::GetComponentSizeInBytes(std::uint32_t(a.componentType));
+  if (components <= 0 || component_size <= 0 || a.componentType == TINYGLTF_COMPONENT_TYPE_DOUBLE)
+    fail(ErrorCode::format_error,
+         name + ": invalid type " + num(a.type) + " or componentType " + num(a.componentType));
+  if (a.count > cap)
+    fail(ErrorCode::resource_limit,
+         name + ": " + num(a.count) + " elements, more than the limit of " + num(cap));
+  Stream s;
+  s.count = a.count;
+  s.components = components;
+  s.component_type = a.componentType;
+  s.normalized = a.normalized;
+  const std::size_t element = std::size_t(components) * std::size_t(component_size);
+  s.stride = element;
+  if (a.bufferView < 0) return s;
+  if (std::size_t(a.bufferView) >= model_.bufferViews.size())
+    fail(ErrorCode::format_error, name + ": buffer view " + num(a.bufferView) +
+                                      " does not exist; the file has " + num(model_.bufferViews.size()));
+  const tinygltf::BufferView& view = model_.bufferViews[std::size_t(a.bufferView)];
+  if (view.buffer < 0 || std::size_t(view.buffer) >= model_.buffers.size())
+    fail(ErrorCode::format_error, name + ": buffer view " + num(a.bufferView) + " refers to buffer " +
+                                      num(view.buffer) + "; the file has " + num(model_.buffers.size()));
+  const std::vector<unsigned char>& buffer = model_.buffers[std::size_t(view.buffer)].data;
+  if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+    fail(ErrorCode::format_error, name + ": buffer view " + num(a.bufferView) + " (offset " +
+                                      num(view.byteOffset) + ", " + num(view.byteLength) +
+                                      " bytes) lies outside buffer " + num(view.buffer) + " (" +
+                                      num(buffer.size()) + " bytes)");
+  if (view.byteStride != 0) {
+    if (view.byteStride < element)
+      fail(ErrorCode::format_error, name + ": byteStride " + num(view.byteStride) + " of buffer view " +
+                                        num(a.bufferView) + " is less than the element size " + num(element));
+    s.stride = view.byteStride;
+  }
+  if (s.count > 0) {
+    // count <= cap and stride <= byteLength keep this product far from overflowing.
+    const bool fits = a.byteOffset <= view.byteLength && s.stride <= view.byteLength &&
+                      (s.count - 1) * s.stride + element <= view.byteLength - a.byteOffset;
+    if (!fits)
+      fail(ErrorCode::format_error, name + ": accessor out of range: " + num(s.count) + " elements of " +
+                                        num(element) + " bytes (stride " + num(s.stride) + ", offset " +
+                                        num(a.byteOffset) + ") do not fit in buffer view " +
+                                        num(a.bufferView) + " of " + num(view.byteLength) + " bytes");
+  }
+  s.data = buffer.data() + view.byteOffset + a.byteOffset;
+  return s;
+}
+
+std::vector<float> Loader::read_floats(int index, const std::string& what, int components) const {
+  const Stream s = accessor_stream(index, what, options_.max_vertices);
+  if (s.components != components)
+    fail(ErrorCode::format_error, "accessor " + num(index) + " (" + what + ") has " + num(s.components) +
+                                      " components per element, expected " + num(components));
+  std::vector<float> out(s.count * std::size_t(components), 0.0f);
+  if (!s.data) return out;
+  const int ct = s.component_type;
+  for (std::size_t i = 0; i < s.count; ++i) {
+    const unsigned char* e = s.data + i * s.stride;
+    for (int c = 0; c < components; ++c) {
+      double v = 0.0;
+      switch (ct) {
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+          float f;
+          std::memcpy(&f, e + 4 * c, 4);
+          v = f;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+          const auto x = static_cast<std::int8_t>(e[c]);
+          v = s.normalized ? std::max(double(x) / 127.0, -1.0) : double(x);
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: v = s.normalized ? e[c] / 255.0 : double(e[c]); break;
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+          std::int16_t x;
+          std::memcpy(&x, e + 2 * c, 2);
+          v = s.normalized ? std::max(double(x) / 32767.0, -1.0) : double(x);
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+          std::uint16_t x;
+          std::memcpy(&x, e + 2 * c, 2);
+          v = s.normalized ? x / 65535.0 : double(x);
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_INT: {
+          std::int32_t x;
+          std::memcpy(&x, e + 4 * c, 4);
+          v = double(x);
+          break;
+        }
+        default: {
+          std::uint32_t x;
+          std::memcpy(&x, e + 4 * c, 4);
+          v = double(x);
+          break;
+        }
+      }
+      if (!std::isfinite(v))
+        fail(ErrorCode::non_finite,
+             "accessor " + num(index) + " (" + what + "): element " + num(i) + " is not finite");
+      out[i * std::size_t(components) + std::size_t(c)] = float(v);
+    }
+  }
+  return out;
+}
+
+std::vector<std::uint32_t> Loader::read_indices(int index, const std::string& what) const {
+  const std::size_t cap = options_.max_vertices > std::numeric_limits<std::size_t>::max() / 3
+                              ? std::numeric_limits<std::size_t>::max()
+                              : 3 * options_.max_vertices;
+  const Stream s = accessor_stream(index, what, cap);
+  const int ct = s.component_type;
+  if (s.components != 1 ||
+      (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+       ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+    fail(ErrorCode::format_error,
+         "accessor " + num(index) + " (" + what + "): indices must be unsigned byte, short or int scalars");
+  std::vector<std::uint32_t> out(s.count, 0);
+  if (!s.data) return out;
+  for (std::size_t i = 0; i < s.count; ++i) {
+    const unsigned char* e = s.data + i * s.stride;
+    if (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+      out[i] = e[0];
+    } else if (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+      std::uint16_t x;
+      std::memcpy(&x, e, 2);
+      out[i] = x;
+    } else {
+      std::memcpy(&out[i], e, 4);
+    }
+  }
+  return out;
+}
+
+int Loader::image_for_texture(int texture, const std::string& what) {
+  if (texture < 0 || std::size_t(texture) >= model_.textures.size())
+    fail(ErrorCode::format_error, what + " refers to texture " + num(texture) + "; the file has " +
+                                      num(model_.textures.size()) + " textures");
+  const tinygltf::Texture& tex = model_.textures[std::size_t(texture)];
+  if (tex.source < 0) {
+    std::string ext;
+    for (const auto& [name, value] : tex.extensions) ext += (ext.empty() ? "" : ", ") + name;
+    fail(ErrorCode::format_error,
+         what + ": texture " + num(texture) + " has no PNG or JPEG source" +
+             (ext.empty() ? std::string() : " (only an extension's image: " + ext + ")") +
+             "; unsupported image format");
+  }
+  if (std::size_t(tex.source) >= model_.images.size())
+    fail(ErrorCode::format_error, what + ": texture " + num(texture) + " refers to image " + num(tex.source) +
+                                      "; the file has " + num(model_.images.size()) + " images");
+  if (auto it = image_of_gltf_image_.find(tex.source); it != image_of_gltf_image_.end()) return it->second;
+  const tinygltf::Image& img = model_.images[std::size_t(tex.source)];
+  std::string label = "image " + num(tex.source);
+  if (!img.uri.empty())
+    label += " (" + img.uri + ")";
+  else if (!img.name.empty())
+    label += " (" + quote(img.name) + ")";
+  if (img.image.empty())
+    fail(ErrorCode::io_error,
+         label + " could not be loaded (missing image file?)" +
+             (tinygltf_warn_.empty() ? std::string() : ": " + join_lines(tinygltf_warn_)));
+  const int comp = img.component, bytes = img.bits / 8;
+  if (img.width < 1 || img.height < 1 || comp < 1 || comp > 4 || (bytes != 1 && bytes != 2) ||
+      img.image.size() != std::size_t(img.width) * std::size_t(img.height) * std::size_t(comp * bytes))
+    fail(ErrorCode::format_error, label + ": decoded as " + num(img.width) + " x " + num(img.height) + ", " +
+                                      num(comp) + " channels of " + num(img.bits) +
+                                      " bits, which the renderer cannot use (RGBA8 needed)");
+  Image out;
+  out.name = img.name.empty() ? (img.uri.empty() ? label : img.uri) : img.name;
+  out.width = img.width;
+  out.height = img.height;
+  const std::size_t pixels = std::size_t(img.width) * std::size_t(img.height);
+  out.rgba.resize(4 * pixels);
+  // 16-bit channels keep their high byte; grey expands to RGB; missing alpha is opaque.
+  auto channel = [&](std::size_t p, int c) -> std::uint8_t {
+    const std::size_t at = (p * std::size_t(comp) + std::size_t(c)) * std::size_t(bytes);
+    return bytes == 1 ? img.image[at] : img.image[at + 1];  // stb's 16-bit data is native (little) endian
+  };
+  for (std::size_t p = 0; p < pixels; ++p) {
+    std::uint8_t* o = out.rgba.data() + 4 * p;
+    if (comp >= 3) {
+      o[0] = channel(p, 0), o[1] = channel(p, 1), o[2] = channel(p, 2);
+      o[3] = comp == 4 ? channel(p, 3) : 255;
+    } else {
+      o[0] = o[1] = o[2] = channel(p, 0);
+      o[3] = comp == 2 ? channel(p, 1) : 255;
+    }
+  }
+  scene_.images.push_back(std::move(out));
+  const int result = int(scene_.images.size()) - 1;
+  image_of_gltf_image_[tex.source] = result;
+  return result;
+}
+
+void Loader::convert_materials() {
+  for (std::size_t i = 0; i < model_.materials.size(); ++i) {
+    const tinygltf::Material& gm = model_.materials[i];
+    const std::string what =
+        "material " + num(i) + (gm.name.empty() ? std::string() : " (" + quote(gm.name) + ")");
+    Material m;
+    m.name = gm.name.empty() ? "material " + num(i) : gm.name;
+    const std::vector<double>& f = gm.pbrMetallicRoughness.baseColorFactor;
+    if (f.size() != 4)
+      fail(ErrorCode::format_error, what + ": baseColorFactor has " + num(f.size()) + " numbers");
+    for (double x : f)
+      if (!std::isfinite(x) || x < 0.0)
+        fail(ErrorCode::format_error,
+             what + ": baseColorFactor " + short_double(x) + " is not a finite number >= 0");
+    m.base_color = glm::vec3(float(f[0]), float(f[1]), float(f[2]));  // glTF factors are linear already
+    const tinygltf::TextureInfo& base = gm.pbrMetallicRoughness.baseColorTexture;
+    if (base.index >= 0) {
+      m.base_color_texture = image_for_texture(base.index, what + " baseColorTexture");
+      if (base.texCoord != 0 && !warned_texcoord_) {
+        warned_texcoord_ = true;
+        warnings_.push_back(what + ": baseColorTexture uses TEXCOORD_" + num(base.texCoord) +
+                            "; the demo reads TEXCOORD_0 only");
+      }
+    }
+    if (gm.normalTexture.index >= 0) {
+      m.normal_texture = image_for_texture(gm.normalTexture.index, what + " normalTexture");
+      m.normal_scale = float(gm.normalTexture.scale);
+      if (gm.normalTexture.texCoord != 0 && !warned_texcoord_) {
+        warned_texcoord_ = true;
+        warnings_.push_back(what + ": normalTexture uses TEXCOORD_" + num(gm.normalTexture.texCoord) +
+                            "; the demo reads TEXCOORD_0 only");
+      }
+    }
+    scene_.materials.push_back(std::move(m));
+  }
+}
+
+int Loader::default_material() {
+  if (default_material_ < 0) {
+    Material m;
+    m.name = "glTF default";
+    // The glTF default base colour is white; an albedo of 1 would never lose energy
+    // between bounces, so primitives without a material get the demo's neutral grey.
+    m.base_color = Material{}.base_color;
+    scene_.materials.push_back(m);
+    default_material_ = int(scene_.materials.size()) - 1;
+  }
+  return default_material_;
+}
+
+int Loader::material_without_normal_map(int material) {
+  if (auto it = material_without_normal_map_.find(material); it != material_without_normal_map_.end())
+    return it->second;
+  Material m = scene_.materials[std::size_t(material)];
+  m.normal_texture = -1;
+  m.name += " (no normal map)";
+  scene_.materials.push_back(m);
+  const int index = int(scene_.materials.size()) - 1;
+  material_without_normal_map_[material] = index;
+  return index;
+}
+
+glm::vec3 any_perpendicular(const glm::vec3& n) {
+  const glm::vec3 axis = std::abs(n.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+  return glm::normalize(glm::cross(axis, n));
+}
+
+void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic) {
+  const tinygltf::Node& node = model_.nodes[std::size_t(node_index)];
+  if (node.mesh < 0 || std::size_t(node.mesh) >= model_.meshes.size())
+    fail(ErrorCode::format_error, node_label(node, node_index) + " refers to mesh " + num(node.mesh) +
+                                      "; the file has " + num(model_.meshes.size()) + " meshes");
+  const tinygltf::Mesh& gm = model_.meshes[std::size_t(node.mesh)];
+  const glm::dmat3 linear(transform);
+  const double det = glm::determinant(linear);
+  if (!std::isfinite(det) || std::abs(det) < 1e-30) {
+    warnings_.push_back(node_label(node, node_index) + ": its transform is singular; its mesh is skipped");
+    return;
+  }
+  const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(linear));
+  const bool mirrored = det < 0.0;
+  for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+    const tinygltf::Primitive& prim = gm.primitives[pi];
+    const std::string what = "mesh " + num(node.mesh) +
+                             (gm.name.empty() ? std::string() : " (" + quote(gm.name) + ")") + " primitive " +
+                             num(pi);
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        mode != TINYGLTF_MODE_TRIANGLE_FAN)
+      fail(ErrorCode::format_error,
+           what + ": primitive mode " + num(mode) + " (" + mode_name(mode) +
+               ") is not supported; only triangles (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN)");
+    if (!prim.targets.empty() && !warned_morph_) {
+      warned_morph_ = true;
+      warnings_.push_back(what + ": morph targets are ignored (drawn with the base geometry)");
+    }
+    auto attribute = [&](const char* name) {
+      const auto it = prim.attributes.find(name);
+      return it == prim.attributes.end() ? -1 : it->second;
+    };
+    const int pos_acc = attribute("POSITION");
+    if (pos_acc < 0) fail(ErrorCode::format_error, what + ": missing POSITION attribute");
+    const std::vector<float> pos = read_floats(pos_acc, what + " POSITION", 3);
+    const std::size_t n = pos.size() / 3;
+    auto read_attribute = [&](const char* name, int components) {
+      const int acc = attribute(name);
+      if (acc < 0) return std::vector<float>();
+      std::vector<float> v = read_floats(acc, what + " " + name, components);
+      if (v.size() / std::size_t(components) != n)
+        fail(ErrorCode::format_error, what + ": " + name + " has " + num(v.size() / std::size_t(components)) +
+                                          " elements, POSITION has " + num(n));
+      return v;
+    };
+    std::vector<float> nrm = read_attribute("NORMAL", 3);
+    std::vector<float> uv = read_attribute("TEXCOORD_0", 2);
+
+    std::vector<std::uint32_t> idx;
+    if (prim.indices >= 0) {
+      idx = read_indices(prim.indices, what + " indices");
+      for (std::size_t i = 0; i < idx.size(); ++i)
+        if (idx[i] >= n)
+          fail(ErrorCode::format_error, what + ": index out of range: index " + num(i) + " is " +
+                                            std::to_string(idx[i]) + ", the primitive has " + num(n) +
+                                            " vertices");
+    } else {
+      if (n > std::numeric_limits<std::uint32_t>::max())
+        fail(ErrorCode::resource_limit, what + ": more than 2^32 vertices");
+      idx.resize(n);
+      for (std::size_t i = 0; i < n; ++i) idx[i] = std::uint32_t(i);
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES) {
+      std::vector<std::uint32_t> list;
+      for (std::size_t i = 2; i < idx.size(); ++i) {
+        std::uint32_t a = mode == TINYGLTF_MODE_TRIANGLE_FAN ? idx[0] : idx[i - 2], b = idx[i - 1],
+                      c = idx[i];
+        if (mode == TINYGLTF_MODE_TRIANGLE_STRIP && i % 2 == 1) std::swap(a, b);  // keep the winding
+        list.insert(list.end(), {a, b, c});
+      }
+      idx = std::move(list);
+    } else if (idx.size() % 3 != 0) {
+      fail(ErrorCode::format_error,
+           what + ": " + num(idx.size()) + " indices is not a multiple of 3 (TRIANGLES)");
+    }
+    if (idx.empty()) continue;
+    if (mirrored)
+      for (std::size_t t = 0; t + 2 < idx.size(); t += 3) std::swap(idx[t + 1], idx[t + 2]);
+
+    int material = prim.material;
+    if (material >= 0 && std::size_t(material) >= model_.materials.size())
+      fail(ErrorCode::format_error, what + " refers to material " + num(material) + "; the file has " +
+                                        num(model_.materials.size()) + " materials");
+    if (material < 0) material = default_material();
+    bool normal_mapped = scene_.materials[std::size_t(material)].normal_texture >= 0;
+    if (normal_mapped && uv.empty()) {
+      warnings_.push_back(what +
+                          ": the material has a normal map but the primitive has no TEXCOORD_0; drawn "
+                          "without the normal map");
+      material = material_without_normal_map(material);
+      normal_mapped = false;
+    }
+    std::vector<float> tan = normal_mapped ? read_attribute("TANGENT", 4) : std::vector<float>();
+
+    // Flat normals (the glTF rule for primitives without NORMAL) need a vertex per corner.
+    const bool split = nrm.empty() && !options_.smooth_missing_normals;
+    const std::size_t out_vertices = split ? idx.size() : n;
+    if (out_vertices > options_.max_vertices - std::min(total_vertices_, options_.max_vertices))
+      fail(ErrorCode::resource_limit,
+           what + ": the scene would have more than " + num(options_.max_vertices) + " vertices");
+    total_vertices_ += out_vertices;
+
+    Mesh mesh;
+    mesh.name = (node.name.empty() ? "node " + num(node_index) : node.name) +
+                (gm.primitives.size() > 1 ? " #" + num(pi) : std::string());
+    mesh.material = material;
+    mesh.dynamic = dynamic;
+    auto local_pos = [&](std::size_t v) { return glm::dvec3(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]); };
+    const std::vector<std::uint32_t>& src = idx;  // corner -> source vertex
+    auto source = [&](std::size_t out_v) { return split ? src[out_v] : std::uint32_t(out_v); };
+    mesh.position.resize(out_vertices);
+    mesh.normal.resize(out_vertices);
+    if (!uv.empty()) mesh.uv.resize(out_vertices);
+    for (std::size_t v = 0; v < out_vertices; ++v) {
+      const std::uint32_t s = source(v);
+      mesh.position[v] = glm::vec3(transform * glm::dvec4(local_pos(s), 1.0));
+      if (!uv.empty()) mesh.uv[v] = glm::vec2(uv[2 * s], uv[2 * s + 1]);
+      if (!nrm.empty()) {
+        const glm::dvec3 nn = normal_matrix * glm::dvec3(nrm[3 * s], nrm[3 * s + 1], nrm[3 * s + 2]);
+        const double len = glm::length(nn);
+        mesh.normal[v] = len > 0.0 ? glm::vec3(nn / len) : glm::vec3(0.0f, 1.0f, 0.0f);
+      }
+    }
+    if (split) {
+      mesh.indices.resize(out_vertices);
+      for (std::size_t v = 0; v < out_vertices; ++v) mesh.indices[v] = std::uint32_t(v);
+    } else {
+      mesh.indices = idx;
+    }
+    if (nrm.empty()) {
+      // World-space face normals (the index order is already corrected for mirroring):
+      // per corner when split, area-weighted sums per shared vertex otherwise.
+      std::vector<glm::dvec3> acc(out_vertices, glm::dvec3(0.0));
+      for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+        const std::uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
+        const glm::dvec3 fn = glm::cross(glm::dvec3(mesh.position[b] - mesh.position[a]),
+                                         glm::dvec3(mesh.position[c] - mesh.position[a]));
+        acc[a] += fn, acc[b] += fn, acc[c] += fn;
+      }
+      for (std::size_t v = 0; v < out_vertices; ++v) {
+        const double len = glm::length(acc[v]);
+        mesh.normal[v] = len > 0.0 ? glm::vec3(acc[v] / len) : glm::vec3(0.0f, 1.0f, 0.0f);
+      }
+    }
+    if (normal_mapped) {
+      mesh.tangent.resize(out_vertices);
+      if (!tan.empty()) {
+        for (std::size_t v = 0; v < out_vertices; ++v) {
+          const std::uint32_t s = source(v);
+          const glm::dvec3 t = linear * glm::dvec3(tan[4 * s], tan[4 * s + 1], tan[4 * s + 2]);
+          const double len = glm::length(t);
+          // A mirroring transform flips the bitangent cross(n, t) relative to the turned one.
+          const float w = (tan[4 * s + 3] < 0.0f ? -1.0f : 1.0f) * (mirrored ? -1.0f : 1.0f);
+          mesh.tangent[v] = glm::vec4(len > 0.0 ? glm::vec3(t / len) : any_perpendicular(mesh.normal[v]), w);
+        }
+      } else {
+        // Tangents from the UV gradients (Lengyel), in world space. glTF's v runs down the
+        // image while the normal map's green points up it, so the bitangent cross(n, t) * w
+        // must point along -dP/dv.
+        std::vector<glm::dvec3> dpdu(out_vertices, glm::dvec3(0.0)), dpdv(out_vertices, glm::dvec3(0.0));
+        for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+          const std::uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
+          const glm::dvec3 e1(mesh.position[b] - mesh.position[a]), e2(mesh.position[c] - mesh.position[a]);
+          const glm::dvec2 d1(mesh.uv[b] - mesh.uv[a]), d2(mesh.uv[c] - mesh.uv[a]);
+          const double r = d1.x * d2.y - d2.x * d1.y;
+          if (std::abs(r) < 1e-20) continue;
+          const glm::dvec3 su = (e1 * d2.y - e2 * d1.y) / r, sv = (e2 * d1.x - e1 * d2.x) / r;
+          for (std::uint32_t v : {a, b, c}) dpdu[v] += su, dpdv[v] += sv;
+        }
+        for (std::size_t v = 0; v < out_vertices; ++v) {
+          const glm::dvec3 nv(mesh.normal[v]);
+          glm::dvec3 t = dpdu[v] - nv * glm::dot(nv, dpdu[v]);
+          const double len = glm::length(t);
+          const glm::vec3 tv = len > 1e-20 ? glm::vec3(t / len) : any_perpendicular(mesh.normal[v]);
+          const float w = glm::dot(glm::cross(nv, glm::dvec3(tv)), -dpdv[v]) < 0.0 ? -1.0f : 1.0f;
+          mesh.tangent[v] = glm::vec4(tv, w);
+        }
+      }
+    }
+    scene_.meshes.push_back(std::move(mesh));
+  }
+}
+
+void Loader::add_light(const NodeInstance& inst, int light) {
+  const tinygltf::Node& node = model_.nodes[std::size_t(inst.node)];
+  if (light < 0 || std::size_t(light) >= model_.lights.size())
+    fail(ErrorCode::format_error, node_label(node, inst.node) + " refers to light " + num(light) +
+                                      "; the file has " + num(model_.lights.size()) +
+                                      " KHR_lights_punctual lights");
+  const tinygltf::Light& l = model_.lights[std::size_t(light)];
+  const std::string what =
+      "light " + num(light) + (l.name.empty() ? std::string() : " (" + quote(l.name) + ")");
+  if (l.type == "directional") {
+    warnings_.push_back(what +
+                        ": directional lights are not supported (the demo renders point lights); skipped");
+    return;
+  }
+  if (l.type != "point" && l.type != "spot") {
+    warnings_.push_back(what + ": unknown light type " + quote(l.type) + "; skipped");
+    return;
+  }
+  if (l.type == "spot")
+    warnings_.push_back(what +
+                        ": spot light drawn as a point light of the same intensity; its cone (outer angle " +
+                        short_double(l.spot.outerConeAngle) + " rad) is ignored");
+  glm::dvec3 color(1.0);
+  if (!l.color.empty()) {
+    if (l.color.size() != 3)
+      fail(ErrorCode::format_error, what + ": color has " + num(l.color.size()) + " numbers, expected 3");
+    color = glm::dvec3(l.color[0], l.color[1], l.color[2]);
+  }
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(color[c]) || color[c] < 0.0)
+      fail(ErrorCode::format_error, what + ": color must be finite and >= 0");
+  if (!std::isfinite(l.intensity) || l.intensity < 0.0)
+    fail(ErrorCode::format_error,
+         what + ": intensity " + short_double(l.intensity) + " must be finite and >= 0");
+  DemoLight d;
+  d.path = {glm::vec3(inst.world[3])};
+  d.color = glm::vec3(color);
+  d.intensity = float(l.intensity) * options_.light_intensity_scale;
+  d.radius = options_.light_radius;
+  scene_.lights.push_back(d);
+}
+
+void Loader::set_camera(const NodeInstance& inst) {
+  const tinygltf::Node& node = model_.nodes[std::size_t(inst.node)];
+  if (node.camera < 0 || std::size_t(node.camera) >= model_.cameras.size())
+    fail(ErrorCode::format_error, node_label(node, inst.node) + " refers to camera " + num(node.camera) +
+                                      "; the file has " + num(model_.cameras.size()) + " cameras");
+  const tinygltf::Camera& c = model_.cameras[std::size_t(node.camera)];
+  const std::string what =
+      "camera " + num(node.camera) + (c.name.empty() ? std::string() : " (" + quote(c.name) + ")");
+  DemoCamera cam;
+  if (c.type == "perspective") {
+    const tinygltf::PerspectiveCamera& p = c.perspective;
+    if (!(p.yfov > 0.0 && p.yfov < 3.14159))
+      fail(ErrorCode::format_error, what + ": yfov " + short_double(p.yfov) + " must be in (0, pi)");
+    if (!(p.znear > 0.0 && std::isfinite(p.znear)))
+      fail(ErrorCode::format_error, what + ": znear " + short_double(p.znear) + " must be > 0");
+    if (p.zfar != 0.0 && !(p.zfar > p.znear && std::isfinite(p.zfar)))
+      fail(ErrorCode::format_error, what + ": zfar " + short_double(p.zfar) + " must be greater than znear");
+    cam.yfov = float(p.yfov);
+    cam.znear = float(p.znear);
+    cam.zfar = p.zfar > 0.0 ? float(p.zfar) : 0.0f;  // 0: infinite, resolved from the scene bounds later
+  } else {
+    warnings_.push_back(what + ": " + (c.type.empty() ? std::string("untyped") : c.type) +
+                        " camera; drawn as a perspective camera with the default field of view");
+    cam.zfar = 0.0f;
+  }
+  // glTF cameras look along their local -Z with +Y up.
+  const glm::dmat3 r(inst.world);
+  const glm::dvec3 forward = r * glm::dvec3(0, 0, -1), up = r * glm::dvec3(0, 1, 0);
+  if (!(glm::length(forward) > 1e-12) || !(glm::length(up) > 1e-12))
+    fail(ErrorCode::format_error, what + ": its node transform is singular");
+  cam.position = glm::vec3(inst.world[3]);
+  cam.target = cam.position + glm::vec3(glm::normalize(forward));
+  cam.up = glm::vec3(glm::normalize(up));
+  scene_.camera = cam;
+  have_camera_ = true;
+}
+
+const tinygltf::Value* Loader::scene_level_extras() const {
+  if (scene_index_ < 0) return nullptr;
+  const tinygltf::Value& extras = model_.scenes[std::size_t(scene_index_)].extras;
+  if (!extras.IsObject() || !extras.Has("modrt_level")) return nullptr;
+  const tinygltf::Value& v = extras.Get("modrt_level");
+  if (!v.IsObject())
+    fail(ErrorCode::format_error, "scene " + num(scene_index_) + ": extras.modrt_level must be an object");
+  return &v;
+}
+
+LevelDescription Loader::level_from_extras(const std::string& path,
+                                           const std::vector<BlockNode>& blocks) const {
+  std::string text = "{\"format\":\"modrt-level\",\"version\":1";
+  double cell_size = 1.0;
+  if (const tinygltf::Value* lv = scene_level_extras()) {
+    for (const std::string& key : lv->Keys()) {
+      if (key == "proxy_walls") continue;
+      if (key == "format" || key == "version" || key == "blocks")
+        fail(ErrorCode::format_error, "scene " + num(scene_index_) + ": extras.modrt_level." + key +
+                                          " is set by the loader; remove it");
+      text += ",";
+      append_json_string(text, key);
+      text += ":";
+      append_json(text, lv->Get(key));
+      if (key == "cell_size" && lv->Get(key).IsNumber()) cell_size = lv->Get(key).GetNumberAsDouble();
+    }
+  }
+  text += ",\"blocks\":[";
+  for (std::size_t bi = 0; bi < blocks.size(); ++bi) {
+    const BlockNode& b = blocks[bi];
+    const tinygltf::Node& node = model_.nodes[std::size_t(b.node)];
+    const std::string label = node_label(node, b.node);
+    static const tinygltf::Value empty_object{tinygltf::Value::Object()};
+    const tinygltf::Value& spec = b.block->IsObject() ? *b.block : empty_object;
+    if (bi) text += ",";
+    text += "{";
+    bool first = true;
+    for (const std::string& key : spec.Keys()) {
+      if (key == "draw") continue;
+      text += first ? "" : ",";
+      first = false;
+      append_json_string(text, key);
+      text += ":";
+      append_json(text, spec.Get(key));
+    }
+    auto add_field = [&](const std::string& key, const std::string& json_value) {
+      text += first ? "" : ",";
+      first = false;
+      append_json_string(text, key);
+      text += ":" + json_value;
+    };
+    if (!spec.Has("name")) {
+      std::string name;
+      append_json_string(name, node.name.empty() ? label : node.name);
+      add_field("name", name);
+    }
+    if (!spec.Has("cell")) {
+      if (node.mesh < 0)
+        fail(ErrorCode::format_error, label +
+                                          ": extras.modrt_block has no \"cell\" and the node has no mesh to "
+                                          "take the block's corners from");
+      if (std::size_t(node.mesh) >= model_.meshes.size())
+        fail(ErrorCode::format_error, label + " refers to mesh " + num(node.mesh) + "; the file has " +
+                                          num(model_.meshes.size()) + " meshes");
+      // The block is the node's mesh bounding box (local frame) carried by its world
+      // transform: a rotated, sheared or tapered box gives a warped block.
+      glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+      const tinygltf::Mesh& gm = model_.meshes[std::size_t(node.mesh)];
+      for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+        const auto it = gm.primitives[pi].attributes.find("POSITION");
+        if (it == gm.primitives[pi].attributes.end()) continue;
+        const std::vector<float> p = read_floats(it->second, label + " block mesh POSITION", 3);
+        for (std::size_t v = 0; v + 2 < p.size(); v += 3) {
+          const glm::dvec3 x(p[v], p[v + 1], p[v + 2]);
+          lo = glm::min(lo, x), hi = glm::max(hi, x);
+        }
+      }
+      if (!(lo.x <= hi.x))
+        fail(ErrorCode::format_error, label + ": extras.modrt_block: the node's mesh has no vertices");
+      std::array<glm::dvec3, 8> corners;
+      glm::dvec3 centre(0.0);
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 t(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        corners[std::size_t(k)] = glm::dvec3(b.world * glm::dvec4(lo + t * (hi - lo), 1.0));
+        centre += corners[std::size_t(k)] / 8.0;
+      }
+      const double cs = cell_size > 0.0 && std::isfinite(cell_size) ? cell_size : 1.0;
+      const glm::ivec3 cell(glm::floor(centre / cs));
+      const std::array<glm::dvec3, 8> grid = grid_cell_corners(cell, cs);
+      bool on_grid = true;
+      for (int k = 0; k < 8; ++k)
+        on_grid = on_grid && glm::length(corners[std::size_t(k)] - grid[std::size_t(k)]) <= 1e-5 * cs;
+      add_field("cell", "[" + num(cell.x) + "," + num(cell.y) + "," + num(cell.z) + "]");
+      if (!on_grid) {
+        std::string list = "[";
+        for (int k = 0; k < 8; ++k) list += (k ? "," : "") + json_vec3(corners[std::size_t(k)]);
+        add_field("corners", list + "]");
+      }
+    }
+    text += "}";
+  }
+  text += "]}";
+  Result<LevelDescription> level = precompute::parse_level_json(text, path + " (extras.modrt_block)");
+  if (!level.ok()) {
+    // The level parser names blocks by position; say which nodes those are.
+    std::string message = level.status().message(), nodes;
+    for (std::size_t bi = 0; bi < blocks.size(); ++bi) {
+      const std::string a = "blocks[" + num(bi) + "]", c = "block " + num(bi);
+      auto names = [&](const std::string& token) {
+        const std::size_t at = message.find(token);
+        return at != std::string::npos &&
+               (at + token.size() >= message.size() ||
+                !std::isdigit(static_cast<unsigned char>(message[at + token.size()])));
+      };
+      if (names(a) || names(c))
+        nodes += (nodes.empty() ? "" : ", ") + c + " is " +
+                 node_label(model_.nodes[std::size_t(blocks[bi].node)], blocks[bi].node);
+    }
+    fail(level.status().code(),
+         "level JSON error: " + message + (nodes.empty() ? std::string() : " (" + nodes + ")"));
+  }
+  return std::move(level).value();
+}
+
+DemoScene Loader::load(const std::string& path) {
+  for (const std::string& ext : model_.extensionsRequired)
+    if (ext != "KHR_lights_punctual" && ext != "KHR_mesh_quantization")
+      fail(ErrorCode::format_error,
+           "the file requires extension " + ext + ", which the demo does not support");
+  for (const std::string& ext : model_.extensionsUsed)
+    if (ext != "KHR_lights_punctual" && ext != "KHR_mesh_quantization")
+      warnings_.push_back("extension " + ext + " is ignored");
+
+  std::vector<int> roots;
+  if (model_.scenes.empty()) {
+    if (options_.scene > 0)
+      fail(ErrorCode::invalid_argument,
+           "scene " + num(options_.scene) + " does not exist; the file has no scenes");
+    // No scenes: every node that is nobody's child is a root.
+    std::vector<char> child(model_.nodes.size(), 0);
+    for (const tinygltf::Node& n : model_.nodes)
+      for (int c : n.children)
+        if (c >= 0 && std::size_t(c) < child.size()) child[std::size_t(c)] = 1;
+    for (std::size_t i = 0; i < model_.nodes.size(); ++i)
+      if (!child[i]) roots.push_back(int(i));
+  } else {
+    scene_index_ = options_.scene >= 0 ? options_.scene : std::max(model_.defaultScene, 0);
+    if (std::size_t(scene_index_) >= model_.scenes.size())
+      fail(ErrorCode::invalid_argument, "scene " + num(scene_index_) + " does not exist; the file has " +
+                                            num(model_.scenes.size()) + " scenes");
+    roots = model_.scenes[std::size_t(scene_index_)].nodes;
+  }
+  scene_.name = fs::path(path).filename().string();
+  if (scene_index_ >= 0 && !model_.scenes[std::size_t(scene_index_)].name.empty())
+    scene_.name += " (" + model_.scenes[std::size_t(scene_index_)].name + ")";
+
+  convert_materials();
+  const std::vector<NodeInstance> instances = traverse(roots);
+
+  // Dynamic meshes share one path key: the first dynamic node's world translation. Every
+  // dynamic mesh keeps its world rotation and scale and is placed relative to that key.
+  std::vector<BlockNode> block_nodes;
+  for (const NodeInstance& inst : instances) {
+    const tinygltf::Node& node = model_.nodes[std::size_t(inst.node)];
+    const std::string label = node_label(node, inst.node);
+    bool is_block = false, draw_block = false, dynamic = false;
+    if (node.extras.IsObject()) {
+      if (node.extras.Has("modrt_block")) {
+        const tinygltf::Value& b = node.extras.Get("modrt_block");
+        if (b.IsObject()) {
+          is_block = true;
+          if (b.Has("draw")) {
+            if (!b.Get("draw").IsBool())
+              fail(ErrorCode::format_error, label + ": extras.modrt_block.draw must be true or false");
+            draw_block = b.Get("draw").Get<bool>();
+          }
+        } else if (b.IsBool()) {
+          is_block = b.Get<bool>();
+        } else {
+          fail(ErrorCode::format_error, label + ": extras.modrt_block must be an object (or true)");
+        }
+        if (is_block) block_nodes.push_back({inst.node, inst.world, &b});
+      }
+    }
+    // tinygltf drops empty objects from extras: `"modrt_block": {}` would vanish silently.
+    if (!node.extras.IsObject() || !node.extras.Has("modrt_block")) {
+      const std::string& raw = node.extras_json_string;
+      if (raw.find("\"modrt_block\"") != std::string::npos)
+        fail(ErrorCode::format_error,
+             label +
+                 ": extras.modrt_block is empty or null; write true for a block with "
+                 "default fields, or give its fields");
+    }
+    if (node.extras.IsObject()) {
+      if (node.extras.Has("modrt_dynamic")) {
+        const tinygltf::Value& d = node.extras.Get("modrt_dynamic");
+        if (!d.IsBool())
+          fail(ErrorCode::format_error, label + ": extras.modrt_dynamic must be true or false");
+        dynamic = d.Get<bool>();
+      }
+    }
+    if (is_block && dynamic)
+      fail(ErrorCode::format_error, label + ": a node cannot be both a proxy block and dynamic");
+    if (node.skin >= 0) warnings_.push_back(label + ": skin ignored; the mesh is drawn unskinned");
+    if (node.camera >= 0 && !have_camera_) set_camera(inst);
+    if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end()) {
+      if (!it->second.IsObject() || !it->second.Has("light") || !it->second.Get("light").IsInt())
+        fail(ErrorCode::format_error, label + ": KHR_lights_punctual needs an integer \"light\"");
+      add_light(inst, it->second.Get("light").Get<int>());
+    }
+    if (node.mesh < 0 || (is_block && !draw_block)) continue;
+    if (dynamic) {
+      if (!have_dynamic_key_) {
+        have_dynamic_key_ = true;
+        dynamic_key_ = glm::dvec3(inst.world[3]);
+      }
+      glm::dmat4 relative = inst.world;
+      relative[3] -= glm::dvec4(dynamic_key_, 0.0);
+      add_mesh(inst.node, relative, true);
+    } else {
+      add_mesh(inst.node, inst.world, false);
+    }
+  }
+  if (have_dynamic_key_) scene_.dynamic_path = {glm::vec3(dynamic_key_)};
+
+  // The proxy blocks: an explicit level file, the sidecar, or the marked nodes.
+  const std::string sidecar = gltf_sidecar_level_path(path);
+  std::error_code ec;
+  std::string level_file = options_.level_path;
+  if (level_file.empty() && fs::exists(sidecar, ec)) level_file = sidecar;
+  if (!level_file.empty()) {
+    Result<LevelDescription> level = precompute::load_level_json(level_file);
+    if (!level.ok()) fail(level.status().code(), "level JSON error: " + level.status().message());
+    scene_.level = std::move(level).value();
+    if (!block_nodes.empty())
+      warnings_.push_back(num(block_nodes.size()) +
+                          " nodes marked extras.modrt_block are ignored as proxies: the "
+                          "blocks come from " +
+                          level_file);
+  } else if (!block_nodes.empty()) {
+    scene_.level = level_from_extras(path, block_nodes);
+  }
+  if (scene_.level.blocks.empty())
+    fail(ErrorCode::format_error,
+         "no proxy blocks found: mark nodes with extras.modrt_block or add a level file " + sidecar +
+             (level_file.empty() ? std::string() : " (" + level_file + " has no blocks)"));
+
+  bool walls = true;
+  if (const tinygltf::Value* lv = scene_level_extras(); lv && lv->Has("proxy_walls")) {
+    if (!lv->Get("proxy_walls").IsBool())
+      fail(ErrorCode::format_error,
+           "scene " + num(scene_index_) + ": extras.modrt_level.proxy_walls must be true or false");
+    walls = lv->Get("proxy_walls").Get<bool>();
+  }
+  if (options_.proxy_walls) walls = *options_.proxy_walls;
+  if (walls) add_wall_meshes(scene_, options_.wall_subdivisions);
+
+  // Scene bounds: the proxy blocks (they enclose the scene) and the static meshes.
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const BlockDescription& b : scene_.level.blocks)
+    for (const glm::dvec3& c : block_corners(scene_.level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
+  for (const Mesh& m : scene_.meshes)
+    if (!m.dynamic)
+      for (const glm::vec3& p : m.position)
+        lo = glm::min(lo, glm::dvec3(p)), hi = glm::max(hi, glm::dvec3(p));
+  const double diagonal = glm::length(hi - lo);
+  if (!have_camera_) {
+    // No camera: stand in the middle of the first block, looking at the middle of the level
+    // (or along +Z when that is straight up or down, or the same point).
+    const BlockDescription& b0 = scene_.level.blocks.front();
+    const glm::dvec3 eye = trilinear(block_corners(scene_.level, b0), glm::dvec3(0.5));
+    glm::dvec3 dir = 0.5 * (lo + hi) - eye;
+    dir.y = 0.0;
+    if (glm::length(dir) < 1e-3 * scene_.level.cell_size) dir = glm::dvec3(0, 0, 1);
+    scene_.camera = DemoCamera{};
+    scene_.camera.position = glm::vec3(eye);
+    scene_.camera.target = glm::vec3(eye + glm::normalize(dir));
+    scene_.camera.up = glm::vec3(0, 1, 0);
+    warnings_.push_back("no camera in the glTF scene; using one in the middle of the first proxy block");
+  }
+  if (scene_.camera.zfar == 0.0f)
+    scene_.camera.zfar = float(std::max(double(DemoCamera{}.zfar), 2.0 * diagonal));
+
+  if (scene_.lights.empty()) {
+    // The level file's lights stand in when the glTF file has no point light.
+    for (const LightDescription& l : scene_.level.lights) {
+      DemoLight d;
+      d.path = {glm::vec3(l.position)};
+      d.color = glm::vec3(l.color);
+      d.intensity = float(l.intensity);
+      d.radius = l.radius > 0.0 ? float(l.radius) : options_.light_radius;
+      scene_.lights.push_back(d);
+    }
+    if (scene_.lights.empty())
+      warnings_.push_back("no point light in the glTF scene or its level; the demo needs one");
+  } else if (scene_.lights.size() > 1) {
+    warnings_.push_back(num(scene_.lights.size()) + " point lights; modrt-demo renders the first one");
+  }
+  return std::move(scene_);
+}
+
+}  // namespace
+
+Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOptions& options) {
+  try {
+    // LoadBinaryFromMemory and LoadASCIIFromString take the length as unsigned int.
+    const std::size_t cap =
+        std::min<std::size_t>(options.max_file_bytes, std::numeric_limits<unsigned int>::max());
+    const std::vector<unsigned char> bytes = read_file_capped(path, cap);
+    LoaderContext ctx{options.max_file_bytes, options.max_image_side};
+    tinygltf::TinyGLTF gltf;
+    tinygltf::FsCallbacks callbacks{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_whole_file_capped,
+                                    &tinygltf::WriteWholeFile, &ctx};
+    gltf.SetFsCallbacks(callbacks);
+    gltf.SetImageLoader(&load_image_checked, &ctx);
+    gltf.SetStoreOriginalJSONForExtrasAndExtensions(true);  // see the empty modrt_block check
+    tinygltf::Model model;
+    std::string err, warn;
+    const std::string base_dir = fs::path(path).parent_path().string();
+    const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    const bool ok =
+        binary
+            ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), base_dir)
+            : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                       unsigned(bytes.size()), base_dir);
+    if (!ok)
+      return Status::error(ErrorCode::format_error,
+                           path + ": tinygltf could not load the " + (binary ? "glb" : "glTF") +
+                               " file: " + (err.empty() ? std::string("no reason given") : join_lines(err)) +
+                               (warn.empty() ? std::string() : " (warnings: " + join_lines(warn) + ")"));
+    Loader loader(model, options, warn);
+    DemoScene scene = loader.load(path);
+    if (options.warnings) {
+      for (const std::string& w : split_lines(warn)) options.warnings->push_back(path + ": tinygltf: " + w);
+      for (const std::string& w : loader.warnings()) options.warnings->push_back(path + ": " + w);
+    }
+    return scene;
+  } catch (const LoadFailure& f) {
+    return Status::error(f.code, path + ": " + f.message);
+  } catch (const std::bad_alloc&) {
+    return Status::error(ErrorCode::resource_limit, path + ": out of memory while loading the glTF scene");
+  } catch (const std::exception& e) {
+    return Status::error(ErrorCode::internal_error,
+                         path + ": unexpected error while loading the glTF scene: " + e.what());
+  }
+}
+
+}  // namespace modrt::demo

@@ -1,0 +1,59 @@
+// modrt demo — scenes from glTF 2.0 files (.gltf with external or embedded buffers and
+// images, or .glb), read with tinygltf: triangle meshes with their node transforms baked
+// in, pbrMetallicRoughness base colours and normal maps, the first camera, the
+// KHR_lights_punctual point lights, dynamic meshes, and the proxy blocks (the MRT level),
+// either from nodes marked in `extras` or from a sidecar level JSON file. The schema, units
+// and limits are documented in docs/demo.md, "Scenes from glTF".
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "demo_scene.h"
+#include "modrt/status.h"
+
+namespace modrt::demo {
+
+// glTF point lights are photometric (candela); DemoLight::intensity is radiometric (W/sr).
+// The default divides by the luminous efficacy of 555 nm light, 683 lm/W, i.e. treats the
+// light as if all its power were at the eye's peak sensitivity.
+inline constexpr float kCandelaToWattsPerSr = 1.0f / 683.0f;
+
+struct GltfSceneOptions {
+  // The proxy blocks: this level JSON file when set; otherwise `<scene>.level.json` next to
+  // the glTF file when it exists (`scene.gltf` -> `scene.level.json`); otherwise the nodes
+  // marked with `extras.modrt_block`.
+  std::string level_path;
+  int scene = -1;  // glTF scene to load; -1: the file's default scene (or scene 0)
+  // Draw the proxy blocks' walls as meshes (add_wall_meshes). Unset: the glTF scene's
+  // `extras.modrt_level.proxy_walls`, true when that is absent too.
+  std::optional<bool> proxy_walls;
+  int wall_subdivisions = 4;
+  // Primitives without NORMAL: flat normals (the glTF rule; vertices are split per
+  // triangle) or, when true, area-weighted smooth normals over the shared vertices.
+  bool smooth_missing_normals = false;
+  float light_intensity_scale = kCandelaToWattsPerSr;  // multiplies KHR_lights_punctual intensity
+  float light_radius = 0.05f;                          // DemoLight::radius of every light
+  // Size limits, checked before anything of that size is allocated.
+  std::size_t max_vertices = 50'000'000;              // all meshes together, after normal splitting
+  std::size_t max_file_bytes = std::size_t(1) << 30;  // the glTF/glb file and each external file
+  int max_image_side = 16384;                         // texture width and height (GLES limit)
+  // Non-fatal problems (spot light turned into a point light, directional light dropped,
+  // orthographic camera, skins, tinygltf's own warnings) are appended here when set.
+  std::vector<std::string>* warnings = nullptr;
+};
+
+// Reads a glTF 2.0 scene. Errors name the file and the problem: missing or unreadable file,
+// malformed JSON or glb, accessor or buffer view out of range, non-triangle primitive mode,
+// missing POSITION, index out of range, unsupported or undecodable image, missing image
+// file, size limit exceeded, no proxy blocks, level JSON errors (from load_level_json or
+// from the extras turned into level JSON). Never throws.
+Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOptions& options = {});
+
+// The sidecar level file checked for `gltf_path`: the same path with its extension replaced
+// by `.level.json`.
+std::string gltf_sidecar_level_path(const std::string& gltf_path);
+
+}  // namespace modrt::demo

@@ -1,0 +1,603 @@
+// glTF scenes for the demo (demo/scene/gltf_scene.h): the committed sample
+// data/scenes/two_rooms.gltf (scripts/make_sample_gltf.py) loads with the counts, transforms,
+// materials, camera and light the script wrote, maps onto its proxies inside the atlas and
+// survives a .glb round trip through tinygltf's writer; small synthetic files check the
+// extras schema, the light conversion and that every kind of broken input is an error that
+// names the file and the problem.
+#include <gtest/gtest.h>
+
+#include <tiny_gltf.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "modrt/precompute/level_build.h"
+#include "scene/gltf_scene.h"
+#include "scene/proxy_mapping.h"
+#include "test_support.h"
+
+namespace modrt::demo {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr float kDegree = 3.14159265358979f / 180.0f;
+const std::string kSample = std::string(MODRT_SCENES_DIR) + "/two_rooms.gltf";
+
+fs::path temp_dir() {
+  static const fs::path dir = [] {
+    fs::path d = fs::temp_directory_path() / ("modrt_test_gltf_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  ASSERT_TRUE(out.good()) << path;
+}
+
+const DemoScene& sample(std::vector<std::string>* warnings = nullptr) {
+  static std::vector<std::string> sample_warnings;
+  static const DemoScene s = [] {
+    GltfSceneOptions options;
+    options.warnings = &sample_warnings;
+    Result<DemoScene> r = load_gltf_scene(kSample, options);
+    if (!r.ok()) {
+      std::fprintf(stderr, "sample: %s\n", r.status().to_string().c_str());
+      std::abort();
+    }
+    return std::move(r).value();
+  }();
+  if (warnings) *warnings = sample_warnings;
+  return s;
+}
+
+// Bounding box of a mesh's positions.
+std::pair<glm::vec3, glm::vec3> bounds(const Mesh& m) {
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const glm::vec3& p : m.position) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  return {lo, hi};
+}
+
+void expect_near(const glm::vec3& a, const glm::vec3& b, float tol, const std::string& what) {
+  EXPECT_LE(glm::length(a - b), tol) << what << ": (" << a.x << ", " << a.y << ", " << a.z << ") vs (" << b.x
+                                     << ", " << b.y << ", " << b.z << ")";
+}
+
+TEST(GltfScene, SampleMeshesAndTransforms) {
+  std::vector<std::string> warnings;
+  const DemoScene& s = sample(&warnings);
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  ASSERT_EQ(s.level.blocks.size(), 3u);
+  EXPECT_EQ(s.level.blocks[1].name, "corner");
+  // The four glTF meshes first, in node order, then the proxy walls (proxy_walls: true).
+  ASSERT_GT(s.meshes.size(), 4u);
+  const char* names[4] = {"crate", "bench", "pillar", "rolling cube"};
+  const std::size_t vertices[4] = {24, 24, 36, 24};  // the pillar has no NORMAL: flat, split per corner
+  for (int i = 0; i < 4; ++i) {
+    const Mesh& m = s.meshes[std::size_t(i)];
+    EXPECT_EQ(m.name, names[i]);
+    EXPECT_EQ(m.position.size(), vertices[i]) << m.name;
+    EXPECT_EQ(m.normal.size(), vertices[i]) << m.name;
+    EXPECT_EQ(m.uv.size(), vertices[i]) << m.name;
+    EXPECT_EQ(m.indices.size(), 36u) << m.name;
+    EXPECT_EQ(m.dynamic, i == 3) << m.name;
+    for (std::uint32_t idx : m.indices) ASSERT_LT(idx, m.position.size()) << m.name;
+  }
+  for (std::size_t i = 4; i < s.meshes.size(); ++i) {
+    EXPECT_FALSE(s.meshes[i].dynamic);
+    EXPECT_EQ(s.materials[std::size_t(s.meshes[i].material)].name.rfind("wall", 0), 0u);
+  }
+
+  // crate: translation (0.7, 0.1, 0.3), scale 0.2 of the unit cube.
+  auto [clo, chi] = bounds(s.meshes[0]);
+  expect_near(clo, {0.6f, 0.0f, 0.2f}, 1e-6f, "crate min");
+  expect_near(chi, {0.8f, 0.2f, 0.4f}, 1e-6f, "crate max");
+
+  // bench: parent translation (0.5, 0, 1.5); child translation (0, 0.1, 0), 30 degrees about
+  // +Y, scale (0.4, 0.2, 0.15). The local corner (0.5, 0.5, 0.5):
+  const float c = std::cos(30.0f * kDegree), sn = std::sin(30.0f * kDegree);
+  const glm::vec3 scaled(0.2f, 0.1f, 0.075f);
+  const glm::vec3 corner(0.5f + c * scaled.x + sn * scaled.z, 0.1f + scaled.y,
+                         1.5f - sn * scaled.x + c * scaled.z);
+  const Mesh& bench = s.meshes[1];
+  float best = 1e30f;
+  for (const glm::vec3& p : bench.position) best = std::min(best, glm::length(p - corner));
+  EXPECT_LT(best, 1e-5f) << "no bench vertex at the transformed corner";
+  // Its +X face normal turns with the rotation (the non-uniform scale leaves it axial).
+  const glm::vec3 turned_x(c, 0.0f, -sn);
+  int facing = 0;
+  for (const glm::vec3& n : bench.normal) {
+    EXPECT_NEAR(glm::length(n), 1.0f, 1e-5f);
+    facing += glm::length(n - turned_x) < 1e-5f;
+  }
+  EXPECT_EQ(facing, 4);
+
+  // pillar: column-major matrix, scale (0.1, 0.9, 0.1) at (1.8, 0.45, 1.8); computed flat
+  // normals perpendicular to their triangles and pointing out of the box.
+  const Mesh& pillar = s.meshes[2];
+  auto [plo, phi] = bounds(pillar);
+  expect_near(plo, {1.75f, 0.0f, 1.75f}, 1e-6f, "pillar min");
+  expect_near(phi, {1.85f, 0.9f, 1.85f}, 1e-6f, "pillar max");
+  const glm::vec3 pillar_centre(1.8f, 0.45f, 1.8f);
+  for (std::size_t t = 0; t < pillar.indices.size(); t += 3) {
+    const glm::vec3 a = pillar.position[pillar.indices[t]], b = pillar.position[pillar.indices[t + 1]],
+                    d = pillar.position[pillar.indices[t + 2]];
+    const glm::vec3 n = pillar.normal[pillar.indices[t]];
+    EXPECT_NEAR(glm::dot(n, b - a), 0.0f, 1e-6f);
+    EXPECT_NEAR(glm::dot(n, d - a), 0.0f, 1e-6f);
+    EXPECT_GT(glm::dot(n, (a + b + d) / 3.0f - pillar_centre), 0.0f) << "normal points into the box";
+    EXPECT_GT(glm::dot(glm::cross(b - a, d - a), n), 0.0f) << "counter-clockwise winding";
+  }
+  // Tangents from the UVs: unit, perpendicular to the normal; on the +Z face u runs along +X
+  // and the image's up (-v) along +Y, so the tangent is (1, 0, 0) with w = +1.
+  ASSERT_EQ(pillar.tangent.size(), pillar.position.size());
+  int plus_z = 0;
+  for (std::size_t v = 0; v < pillar.tangent.size(); ++v) {
+    const glm::vec3 t(pillar.tangent[v]);
+    EXPECT_NEAR(glm::length(t), 1.0f, 1e-5f);
+    EXPECT_NEAR(glm::dot(t, pillar.normal[v]), 0.0f, 1e-5f);
+    EXPECT_EQ(std::abs(pillar.tangent[v].w), 1.0f);
+    if (glm::length(pillar.normal[v] - glm::vec3(0, 0, 1)) < 1e-6f) {
+      ++plus_z;
+      expect_near(t, {1, 0, 0}, 1e-5f, "+Z face tangent");
+      EXPECT_EQ(pillar.tangent[v].w, 1.0f);
+    }
+  }
+  EXPECT_EQ(plus_z, 6);
+  EXPECT_TRUE(s.meshes[0].tangent.empty()) << "no normal map, no tangents";
+
+  // The dynamic cube sits at its path's only key; its vertices are relative to it.
+  ASSERT_EQ(s.dynamic_path.size(), 1u);
+  expect_near(s.dynamic_path[0], {1.4f, 0.08f, 1.5f}, 1e-6f, "dynamic key");
+  auto [dlo, dhi] = bounds(s.meshes[3]);
+  expect_near(dlo, glm::vec3(-0.08f), 1e-6f, "dynamic min");
+  expect_near(dhi, glm::vec3(0.08f), 1e-6f, "dynamic max");
+}
+
+TEST(GltfScene, SampleMaterialsCameraLight) {
+  const DemoScene& s = sample();
+  const Material& crate = s.materials[std::size_t(s.meshes[0].material)];
+  EXPECT_EQ(crate.name, "painted crate");
+  expect_near(crate.base_color, {0.75f, 0.62f, 0.15f}, 1e-6f, "crate colour");
+  EXPECT_EQ(crate.normal_texture, -1);
+  EXPECT_EQ(crate.base_color_texture, -1);
+  const Material& stone = s.materials[std::size_t(s.meshes[2].material)];
+  EXPECT_EQ(stone.name, "stone");
+  expect_near(stone.base_color, {0.62f, 0.6f, 0.56f}, 1e-6f, "stone colour");
+  EXPECT_FLOAT_EQ(stone.normal_scale, 0.8f);
+  ASSERT_GE(stone.normal_texture, 0);
+  ASSERT_GE(stone.base_color_texture, 0);
+  ASSERT_EQ(s.images.size(), 2u);
+  const Image& tiles = s.images[std::size_t(stone.normal_texture)];
+  EXPECT_EQ(tiles.name, "tiles");
+  ASSERT_EQ(tiles.width, 16);
+  ASSERT_EQ(tiles.height, 16);
+  ASSERT_EQ(tiles.rgba.size(), 16u * 16u * 4u);
+  // The middle of a tile is flat: (0, 0, 1) encoded.
+  const std::uint8_t* flat = &tiles.rgba[4 * (4 * 16 + 4)];
+  EXPECT_EQ(int(flat[0]), 128);
+  EXPECT_EQ(int(flat[1]), 128);
+  EXPECT_EQ(int(flat[2]), 255);
+  const Image& checker = s.images[std::size_t(stone.base_color_texture)];
+  ASSERT_EQ(checker.width, 8);
+  EXPECT_EQ(int(checker.rgba[0]), 200);
+  EXPECT_EQ(int(checker.rgba[2]), 190);
+  EXPECT_EQ(int(checker.rgba[4]), 150);  // the next pixel is the other square
+  EXPECT_EQ(int(checker.rgba[3]), 255);
+
+  expect_near(s.camera.position, {0.5f, 0.55f, 0.12f}, 1e-6f, "camera position");
+  expect_near(s.camera.target, {0.5f, 0.55f, 1.12f}, 1e-6f, "camera target (rotated 180 degrees: +Z)");
+  expect_near(s.camera.up, {0.0f, 1.0f, 0.0f}, 1e-6f, "camera up");
+  EXPECT_FLOAT_EQ(s.camera.yfov, 1.1f);
+  EXPECT_FLOAT_EQ(s.camera.znear, 0.02f);
+  EXPECT_FLOAT_EQ(s.camera.zfar, 50.0f);
+
+  ASSERT_EQ(s.lights.size(), 1u);
+  ASSERT_EQ(s.lights[0].path.size(), 1u);
+  expect_near(s.lights[0].path[0], {0.5f, 0.75f, 0.9f}, 1e-6f, "light position");
+  expect_near(s.lights[0].color, {1.0f, 0.9f, 0.8f}, 1e-6f, "light colour");
+  EXPECT_NEAR(s.lights[0].intensity, 410.0f / 683.0f, 1e-6f);
+}
+
+TEST(GltfScene, SampleMapsOntoItsProxies) {
+  const DemoScene& s = sample();
+  Result<Level> level = precompute::build_level(s.level, test::small_test_dictionary());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  Result<std::vector<MappedMesh>> mapped = map_to_proxies(s, level.value());
+  ASSERT_TRUE(mapped.ok()) << mapped.status().to_string();
+  const std::size_t static_meshes =
+      std::size_t(std::count_if(s.meshes.begin(), s.meshes.end(), [](const Mesh& m) { return !m.dynamic; }));
+  ASSERT_EQ(mapped->size(), static_meshes);
+  const float w = float(level->atlas.width), h = float(level->atlas.height);
+  ASSERT_GT(w, 0.0f);
+  for (const MappedMesh& mm : mapped.value()) {
+    const Mesh& m = s.meshes[std::size_t(mm.mesh)];
+    EXPECT_EQ(mm.vertices.size(), m.indices.size()) << m.name;
+    // Only the bottoms of boxes resting on the floor face away from every block.
+    int on_floor_facing_down = 0;
+    for (std::size_t t = 0; t < m.indices.size(); t += 3) {
+      bool down = true;
+      for (std::size_t k = 0; k < 3; ++k)
+        down = down && m.position[m.indices[t + k]].y < 1e-6f && m.normal[m.indices[t + k]].y < -0.99f;
+      on_floor_facing_down += down;
+    }
+    EXPECT_EQ(mm.triangles_outside, on_floor_facing_down) << m.name;
+    for (const MappedVertex& v : mm.vertices) {
+      ASSERT_GE(v.lightmap.x, 0.0f) << m.name;
+      ASSERT_GE(v.lightmap.y, 0.0f) << m.name;
+      ASSERT_LE(v.lightmap.x, w) << m.name;
+      ASSERT_LE(v.lightmap.y, h) << m.name;
+    }
+  }
+}
+
+TEST(GltfScene, GlbRoundTrip) {
+  tinygltf::TinyGLTF io;
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(io.LoadASCIIFromFile(&model, &err, &warn, kSample)) << err;
+  const fs::path glb = temp_dir() / "two_rooms_copy.glb";
+  ASSERT_TRUE(io.WriteGltfSceneToFile(&model, glb.string(), true, true, false, true));
+  std::ifstream head(glb, std::ios::binary);
+  char magic[4] = {};
+  head.read(magic, 4);
+  ASSERT_EQ(std::string(magic, 4), "glTF");
+  // The sidecar travels with it under the .glb's name.
+  fs::copy_file(std::string(MODRT_SCENES_DIR) + "/two_rooms.level.json",
+                gltf_sidecar_level_path(glb.string()), fs::copy_options::overwrite_existing);
+  Result<DemoScene> r = load_gltf_scene(glb.string());
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const DemoScene& a = sample();
+  const DemoScene& b = r.value();
+  ASSERT_EQ(b.meshes.size(), a.meshes.size());
+  for (std::size_t i = 0; i < a.meshes.size(); ++i) {
+    EXPECT_EQ(b.meshes[i].name, a.meshes[i].name);
+    ASSERT_EQ(b.meshes[i].position.size(), a.meshes[i].position.size());
+    EXPECT_EQ(b.meshes[i].indices, a.meshes[i].indices);
+    EXPECT_EQ(b.meshes[i].dynamic, a.meshes[i].dynamic);
+    for (std::size_t v = 0; v < a.meshes[i].position.size(); ++v)
+      ASSERT_EQ(b.meshes[i].position[v], a.meshes[i].position[v]);
+  }
+  ASSERT_EQ(b.images.size(), a.images.size());
+  for (std::size_t i = 0; i < a.images.size(); ++i)
+    EXPECT_EQ(b.images[i].rgba, a.images[i].rgba);  // PNG is lossless
+  EXPECT_EQ(b.level.blocks.size(), a.level.blocks.size());
+  ASSERT_EQ(b.lights.size(), 1u);
+  EXPECT_EQ(b.lights[0].intensity, a.lights[0].intensity);
+  EXPECT_EQ(b.camera.position, a.camera.position);
+  EXPECT_EQ(b.dynamic_path, a.dynamic_path);
+}
+
+// ---- synthetic files ----
+
+std::string base64(const std::vector<std::uint8_t>& bytes) {
+  static const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (std::size_t i = 0; i < bytes.size(); i += 3) {
+    const std::uint32_t n = (std::uint32_t(bytes[i]) << 16) | (i + 1 < bytes.size() ? bytes[i + 1] << 8 : 0) |
+                            (i + 2 < bytes.size() ? bytes[i + 2] : 0);
+    out += table[(n >> 18) & 63];
+    out += table[(n >> 12) & 63];
+    out += i + 1 < bytes.size() ? table[(n >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? table[n & 63] : '=';
+  }
+  return out;
+}
+
+// A triangle (optionally a unit cube's 8 corners for block nodes) in one embedded buffer.
+struct Synthetic {
+  std::vector<float> positions = {0.2f, 0.1f, 0.2f, 0.5f, 0.1f, 0.8f, 0.8f, 0.1f, 0.2f};
+  std::vector<std::uint16_t> indices = {0, 1, 2};
+  std::string nodes =
+      R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}}])";
+  std::string scene_nodes = "[0,1]";
+  std::string primitive_extra;  // appended inside the primitive object
+  std::string accessor0_extra;  // appended inside accessor 0
+  std::string top_extra;        // appended at the top level (",\"materials\":...")
+
+  std::string text() const {
+    std::vector<std::uint8_t> bytes(positions.size() * 4 + indices.size() * 2);
+    std::memcpy(bytes.data(), positions.data(), positions.size() * 4);
+    std::memcpy(bytes.data() + positions.size() * 4, indices.data(), indices.size() * 2);
+    const std::string pos_len = std::to_string(positions.size() * 4),
+                      idx_len = std::to_string(indices.size() * 2);
+    return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":)" + scene_nodes + R"(}],"nodes":)" +
+           nodes + R"(,"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1)" + primitive_extra +
+           R"(}]}],"buffers":[{"byteLength":)" + std::to_string(bytes.size()) +
+           R"(,"uri":"data:application/octet-stream;base64,)" + base64(bytes) +
+           R"("}],"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":)" + pos_len +
+           R"(},{"buffer":0,"byteOffset":)" + pos_len + R"(,"byteLength":)" + idx_len +
+           R"(}],"accessors":[{"bufferView":0,"componentType":5126,"count":)" +
+           std::to_string(positions.size() / 3) + R"(,"type":"VEC3")" + accessor0_extra +
+           R"(},{"bufferView":1,"componentType":5123,"count":)" + std::to_string(indices.size()) +
+           R"(,"type":"SCALAR"}])" + top_extra + "}";
+  }
+};
+
+Result<DemoScene> load_text(const std::string& name, const std::string& text, GltfSceneOptions options = {}) {
+  const fs::path path = temp_dir() / name;
+  write_text(path, text);
+  return load_gltf_scene(path.string(), options);
+}
+
+// The error names the file and contains every one of `words`.
+void expect_error(const Result<DemoScene>& r, const std::string& file,
+                  std::initializer_list<const char*> words) {
+  ASSERT_FALSE(r.ok()) << file << " loaded";
+  const std::string& m = r.status().message();
+  EXPECT_NE(m.find(file), std::string::npos) << m;
+  for (const char* w : words) EXPECT_NE(m.find(w), std::string::npos) << "'" << w << "' not in: " << m;
+}
+
+TEST(GltfScene, SyntheticTriangleLoads) {
+  // The base file of the error tests is valid: each test below breaks one thing.
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  Result<DemoScene> r = load_text("ok.gltf", Synthetic().text(), options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_GE(r->meshes.size(), 1u);
+  EXPECT_EQ(r->meshes[0].name, "tri");
+  EXPECT_EQ(r->meshes[0].position.size(), 3u);  // flat normals: one vertex per corner already
+  expect_near(r->meshes[0].normal[0], {0, 1, 0}, 1e-6f, "computed normal");
+  ASSERT_EQ(r->level.blocks.size(), 1u);
+  EXPECT_EQ(r->level.blocks[0].name, "room");
+  EXPECT_TRUE(r->lights.empty());
+  bool warned_light = false, warned_camera = false;
+  for (const std::string& w : warnings) {
+    warned_light = warned_light || w.find("no point light") != std::string::npos;
+    warned_camera = warned_camera || w.find("no camera") != std::string::npos;
+  }
+  EXPECT_TRUE(warned_light);
+  EXPECT_TRUE(warned_camera);
+  // The default camera stands in the block's middle.
+  expect_near(r->camera.position, glm::vec3(0.5f), 1e-6f, "default camera");
+}
+
+TEST(GltfScene, MatrixIsColumnMajorAndFlatNormalsFollowTheGeometry) {
+  Synthetic syn;
+  // x += 1.0 * y: a shear that tilts the triangle (y = 0.1 plane stays a plane) and moves it.
+  syn.positions = {0.2f, 0.1f, 0.2f, 0.3f, 0.6f, 0.2f, 0.2f, 0.1f, 0.7f};
+  syn.nodes = R"([{"name":"tri","mesh":0,"matrix":[1,0,0,0, 0.5,1,0,0, 0,0,1,0, 0,0,0,1]},)"
+              R"({"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}}])";
+  syn.primitive_extra = R"(,"material":0)";
+  syn.top_extra = R"(,"materials":[{"name":"m"}])";
+  // Without NORMAL the flat normal comes from the transformed triangle.
+  Result<DemoScene> r = load_text("shear.gltf", syn.text());
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const Mesh& m = r->meshes[0];
+  const glm::vec3 a = m.position[m.indices[0]], b = m.position[m.indices[1]], c = m.position[m.indices[2]];
+  expect_near(b, {0.3f + 0.5f * 0.6f, 0.6f, 0.2f}, 1e-6f, "sheared vertex");
+  EXPECT_NEAR(glm::dot(m.normal[0], b - a), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::dot(m.normal[0], c - a), 0.0f, 1e-6f);
+  expect_near(r->materials[std::size_t(m.material)].base_color, glm::vec3(1.0f), 1e-6f,
+              "glTF default factor");
+}
+
+TEST(GltfScene, ExplicitNormalsTurnWithTheInverseTranspose) {
+  // Positions, then normals: accessor 2 reads the normals from bytes appended after the
+  // indices (the index view is 6 bytes; 2 bytes of padding keep the floats aligned).
+  Synthetic syn;
+  syn.positions = {0, 0, 0, 1, 0, 0, 0, 0, 1};
+  const std::vector<float> normals = {0, 1, 0, 0, 1, 0, 0, 1, 0};
+  std::vector<std::uint8_t> bytes(36 + 6 + 2 + 36);
+  std::memcpy(bytes.data(), syn.positions.data(), 36);
+  std::memcpy(bytes.data() + 36, syn.indices.data(), 6);
+  std::memcpy(bytes.data() + 44, normals.data(), 36);
+  // A shear mixing y into z (column 1 = (0, 1, 0.5)): the normal (0, 1, 0) of the plane
+  // y = 0 stays (0, 1, 0) under the inverse transpose, while M * n would tilt it.
+  const std::string text =
+      R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],)"
+      R"("nodes":[{"name":"tri","mesh":0,"matrix":[1,0,0,0, 0,1,0.5,0, 0,0,1,0, 0,0,0,1]},)"
+      R"({"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}}],)"
+      R"("meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":2},"indices":1}]}],)"
+      R"("buffers":[{"byteLength":80,"uri":"data:application/octet-stream;base64,)" +
+      base64(bytes) +
+      R"("}],"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6},)"
+      R"({"buffer":0,"byteOffset":44,"byteLength":36}],)"
+      R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
+      R"({"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"},)"
+      R"({"bufferView":2,"componentType":5126,"count":3,"type":"VEC3"}]})";
+  Result<DemoScene> r = load_text("normals.gltf", text);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const Mesh& m = r->meshes[0];
+  const glm::vec3 a = m.position[m.indices[0]], b = m.position[m.indices[1]], c = m.position[m.indices[2]];
+  EXPECT_NEAR(glm::dot(m.normal[0], b - a), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::dot(m.normal[0], c - a), 0.0f, 1e-6f);
+  expect_near(m.normal[0], {0, 1, 0}, 1e-6f, "normal");
+}
+
+TEST(GltfScene, BlocksFromExtras) {
+  // Two blocks from the bounding boxes of a unit cube mesh (8 corners, no indices needed
+  // for a bounding box but the mesh is a valid triangle list), a third with an explicit cell.
+  Synthetic syn;
+  syn.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+  syn.indices = {0, 1, 2, 1, 3, 2};
+  syn.nodes =
+      R"([{"name":"south","mesh":0,"extras":{"modrt_block":{"missing":["+Z"],"albedo":[0.5,0.4,0.3]}}},)"
+      R"({"name":"north","mesh":0,"translation":[0,0,1],"extras":{"modrt_block":{"missing":["-Z","+X"]}}},)"
+      R"({"name":"east","extras":{"modrt_block":{"cell":[1,0,1],"missing":["-X"]}}},)"
+      R"({"name":"detail","mesh":0,"translation":[0.25,0,0.25],"scale":[0.1,0.1,0.1]}])";
+  syn.scene_nodes = "[0,1,2,3]";
+  syn.top_extra = "";
+  const std::string text = syn.text();
+  // proxy_walls false: only the detail mesh is drawn; the block meshes are not.
+  std::string no_walls = text;
+  no_walls.replace(
+      no_walls.find(R"("scenes":[{"nodes":[0,1,2,3]})"),
+      std::string(R"("scenes":[{"nodes":[0,1,2,3]})").size(),
+      R"("scenes":[{"nodes":[0,1,2,3],"extras":{"modrt_level":{"proxy_walls":false,"cell_size":1.0}}})");
+  Result<DemoScene> r = load_text("blocks.gltf", no_walls);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->level.blocks.size(), 3u);
+  EXPECT_EQ(r->level.blocks[0].name, "south");
+  EXPECT_EQ(r->level.blocks[1].cell, glm::ivec3(0, 0, 1));
+  EXPECT_EQ(r->level.blocks[2].cell, glm::ivec3(1, 0, 1));
+  for (const BlockDescription& b : r->level.blocks) EXPECT_FALSE(b.warped) << b.name;
+  EXPECT_EQ(r->level.blocks[0].albedo[0], glm::dvec3(0.5, 0.4, 0.3));
+  ASSERT_EQ(r->meshes.size(), 1u);
+  EXPECT_EQ(r->meshes[0].name, "detail");
+  // With the default proxy_walls the walls are added.
+  Result<DemoScene> walls = load_text("blocks_walls.gltf", text);
+  ASSERT_TRUE(walls.ok()) << walls.status().to_string();
+  EXPECT_GT(walls->meshes.size(), 1u);
+  // draw: true keeps the block's mesh as geometry too.
+  std::string drawn = text;
+  drawn.replace(drawn.find(R"("albedo":[0.5,0.4,0.3])"), std::string(R"("albedo":[0.5,0.4,0.3])").size(),
+                R"("albedo":[0.5,0.4,0.3],"draw":true)");
+  GltfSceneOptions no_wall_option;
+  no_wall_option.proxy_walls = false;
+  Result<DemoScene> d = load_text("blocks_drawn.gltf", drawn, no_wall_option);
+  ASSERT_TRUE(d.ok()) << d.status().to_string();
+  ASSERT_EQ(d->meshes.size(), 2u);
+  EXPECT_EQ(d->meshes[0].name, "south");
+
+  // A stretched box is a warped block with the box's corners.
+  Synthetic warped = syn;
+  warped.nodes = R"([{"name":"wide","mesh":0,"scale":[1.2,1,1],"extras":{"modrt_block":true}}])";
+  warped.scene_nodes = "[0]";
+  Result<DemoScene> w = load_text("warped.gltf", warped.text());
+  ASSERT_TRUE(w.ok()) << w.status().to_string();
+  ASSERT_EQ(w->level.blocks.size(), 1u);
+  EXPECT_TRUE(w->level.blocks[0].warped);
+  EXPECT_EQ(w->level.blocks[0].corners[7], glm::dvec3(1.2, 1.0, 1.0));
+  // tinygltf drops empty objects from extras; an empty modrt_block is reported, not ignored.
+  Synthetic empty = warped;
+  empty.nodes = R"([{"name":"wide","mesh":0,"extras":{"modrt_block":{}}}])";
+  expect_error(load_text("empty_block.gltf", empty.text()), "empty_block.gltf",
+               {"modrt_block is empty", "'wide'"});
+}
+
+TEST(GltfScene, LightConversion) {
+  Synthetic syn;
+  syn.nodes =
+      R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}},)"
+      R"({"name":"sun","extensions":{"KHR_lights_punctual":{"light":0}}},)"
+      R"({"name":"spot","translation":[0.5,0.9,0.5],"extensions":{"KHR_lights_punctual":{"light":1}}}])";
+  syn.scene_nodes = "[0,1,2,3]";
+  syn.top_extra =
+      R"(,"extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[)"
+      R"({"type":"directional","name":"sun","intensity":3},)"
+      R"({"type":"spot","name":"torch","intensity":68.3,"color":[1,0.5,0.25],"spot":{"outerConeAngle":0.5}}]}})";
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  Result<DemoScene> r = load_text("lights.gltf", syn.text(), options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->lights.size(), 1u);
+  EXPECT_NEAR(r->lights[0].intensity, 0.1f, 1e-6f);  // 68.3 cd / 683 lm/W
+  expect_near(r->lights[0].color, {1.0f, 0.5f, 0.25f}, 1e-6f, "spot colour");
+  expect_near(r->lights[0].path[0], {0.5f, 0.9f, 0.5f}, 1e-6f, "spot position");
+  bool sun = false, spot = false;
+  for (const std::string& w : warnings) {
+    sun = sun || (w.find("'sun'") != std::string::npos && w.find("directional") != std::string::npos);
+    spot = spot || (w.find("'torch'") != std::string::npos && w.find("point light") != std::string::npos);
+  }
+  EXPECT_TRUE(sun);
+  EXPECT_TRUE(spot);
+}
+
+TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {
+  const std::string valid = Synthetic().text();
+
+  Result<DemoScene> missing = load_gltf_scene((temp_dir() / "absent.gltf").string());
+  expect_error(missing, "absent.gltf", {"not found"});
+  EXPECT_EQ(missing.status().code(), ErrorCode::io_error);
+
+  expect_error(load_text("truncated.gltf", valid.substr(0, valid.size() / 2)), "truncated.gltf",
+               {"tinygltf"});
+  expect_error(load_text("garbage.gltf", "this is not JSON"), "garbage.gltf", {"tinygltf"});
+
+  Synthetic beyond;
+  beyond.accessor0_extra = "";
+  std::string beyond_text = beyond.text();
+  beyond_text.replace(beyond_text.find(R"("count":3,"type":"VEC3")"),
+                      std::string(R"("count":3,"type":"VEC3")").size(), R"("count":300,"type":"VEC3")");
+  expect_error(load_text("beyond.gltf", beyond_text), "beyond.gltf", {"accessor 0", "out of range"});
+
+  Synthetic bad_index;
+  bad_index.indices = {0, 1, 7};
+  expect_error(load_text("index.gltf", bad_index.text()), "index.gltf", {"index out of range", "7"});
+
+  Synthetic points;
+  points.primitive_extra = R"(,"mode":0)";
+  expect_error(load_text("points.gltf", points.text()), "points.gltf", {"POINTS", "not supported"});
+
+  std::string no_position = valid;
+  no_position.replace(no_position.find(R"({"POSITION":0})"), std::string(R"({"POSITION":0})").size(),
+                      R"({"NORMAL":0})");
+  expect_error(load_text("noposition.gltf", no_position), "noposition.gltf", {"missing POSITION"});
+
+  Synthetic missing_image;
+  missing_image.primitive_extra = R"(,"material":0)";
+  missing_image.top_extra =
+      R"(,"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],"textures":[{"source":0}],)"
+      R"("images":[{"uri":"nowhere.png"}])";
+  expect_error(load_text("noimage.gltf", missing_image.text()), "noimage.gltf",
+               {"nowhere.png", "could not be loaded"});
+
+  Synthetic gif = missing_image;
+  gif.top_extra = R"(,"materials":[{"normalTexture":{"index":0}}],"textures":[{"source":0}],)"
+                  R"("images":[{"uri":"data:image/png;base64,)" +
+                  base64({'G', 'I', 'F', '8', '9', 'a', 1, 0, 1, 0, 0, 0, 0}) + R"("}])";
+  expect_error(load_text("gif.gltf", gif.text()), "gif.gltf", {"unsupported image format"});
+
+  Synthetic no_blocks;
+  no_blocks.scene_nodes = "[0]";
+  expect_error(load_text("noblocks.gltf", no_blocks.text()), "noblocks.gltf", {"no proxy blocks found"});
+
+  // A sidecar level file with an error: the level loader's message comes through.
+  write_text(temp_dir() / "sidecar.level.json",
+             R"({"format":"modrt-level","version":1,"blocks":[{"cel":[0,0,0]}]})");
+  expect_error(load_text("sidecar.gltf", valid), "sidecar.gltf", {"level JSON error", "cel"});
+  GltfSceneOptions explicit_level;
+  explicit_level.level_path = (temp_dir() / "absent.level.json").string();
+  expect_error(load_text("explicit.gltf", valid, explicit_level), "explicit.gltf",
+               {"level JSON error", "absent.level.json"});
+
+  // An extras block with a bad face name: the message names the node.
+  Synthetic bad_block;
+  bad_block.nodes =
+      R"([{"name":"tri","mesh":0},{"name":"hall","extras":{"modrt_block":{"cell":[0,0,0],"missing":["+W"]}}}])";
+  expect_error(load_text("badblock.gltf", bad_block.text()), "badblock.gltf",
+               {"level JSON error", "+W", "'hall'"});
+
+  // Node cycle: never loops.
+  Synthetic cycle;
+  cycle.nodes = R"([{"name":"a","mesh":0,"children":[1]},{"name":"b","children":[0]}])";
+  cycle.scene_nodes = "[0]";
+  expect_error(load_text("cycle.gltf", cycle.text()), "cycle.gltf", {"reached twice"});
+
+  // Size limits are checked before allocating.
+  GltfSceneOptions tiny;
+  tiny.max_vertices = 2;
+  const Result<DemoScene> limited = load_text("limit.gltf", valid, tiny);
+  expect_error(limited, "limit.gltf", {"limit"});
+  EXPECT_EQ(limited.status().code(), ErrorCode::resource_limit);
+  GltfSceneOptions small_files;
+  small_files.max_file_bytes = 100;
+  expect_error(load_text("bigfile.gltf", valid, small_files), "bigfile.gltf", {"bytes"});
+
+  // A required extension the loader does not implement.
+  Synthetic draco;
+  draco.top_extra =
+      R"(,"extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"])";
+  expect_error(load_text("draco.gltf", draco.text()), "draco.gltf", {"KHR_draco_mesh_compression"});
+}
+
+}  // namespace
+}  // namespace modrt::demo
