@@ -37,14 +37,19 @@ double ms_since(Clock::time_point t) {
 
 int main(int argc, char** argv) {
   CLI::App app{"modrt-demo: real-time indirect light (Modular Radiance Transfer) in an offscreen render"};
-  std::string backend_name = "gles", platform_name = "auto", size = "960x540", out_dir = "out/demo",
-              output = "combined";
+  std::string direct_name = "gpu", backend_name = "gles", platform_name = "auto", size = "960x540",
+              out_dir = "out/demo", output = "combined";
   std::string scene_file, dictionary_path;
   int frames = 48, modes = 32, res = 16, bounces = 2, every = 1;
   float exposure = 1.0f;
   bool exr = true;
   app.add_option("--backend", backend_name, "Indirect light on the GPU (gles) or the SIMD CPU runtime (cpu)")
       ->check(CLI::IsMember({"gles", "cpu"}))
+      ->capture_default_str();
+  app.add_option("--direct", direct_name,
+                 "Direct light at the proxy samples: GL pass with the shadow cube map (gpu) or the CPU "
+                 "evaluator with proxy-wall shadows (cpu)")
+      ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();
   app.add_option("--platform", platform_name, "GL context: egl (surfaceless), egl-device, osmesa or auto")
       ->capture_default_str();
@@ -137,6 +142,7 @@ int main(int argc, char** argv) {
               ctx.info().version.c_str(), ctx.info().selection_report.c_str());
   DemoRunOptions options;
   options.backend = backend_name == "cpu" ? DemoBackend::cpu : DemoBackend::gles;
+  options.direct = direct_name == "cpu" ? DemoDirect::cpu : DemoDirect::gpu;
   options.renderer.width = width;
   options.renderer.height = height;
   options.output = mode;
@@ -197,7 +203,8 @@ int main(int argc, char** argv) {
   std::printf("per-stage time per frame (mean of %d frames, ms; wall clock, glFinish after each stage):\n",
               frames);
   std::printf("  shadows (cube shadow map, 6 faces)        %8.3f\n", total.shadows / n);
-  std::printf("  direct (ld at the proxy samples, readback) %8.3f\n", total.direct / n);
+  std::printf("  direct (ld at the proxy samples, %s)     %8.3f\n",
+              options.direct == DemoDirect::cpu ? "CPU evaluator" : "GL pass + readback", total.direct / n);
   std::printf("  indirect (%s backend: update + %d feedback steps%s) %8.3f\n", gles_backend ? "gles" : "cpu",
               bounces, gles_backend ? "" : ", atlas upload", total.indirect / n);
   if (gles_backend)

@@ -113,6 +113,11 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->backend_ = std::move(be).value();
   }
   if (Status s = run->backend_->set_albedo(albedo); !s.ok()) return s;
+  if (options.direct == DemoDirect::cpu) {
+    Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(lv, albedo);
+    if (!direct.ok()) return direct.status();
+    run->cpu_direct_ = std::make_unique<cpu::CpuDirectLight>(std::move(direct).value());
+  }
   const LevelBufferSizes& sizes = run->backend_->sizes();
   run->ld_.assign(sizes.ld, 0.0f);
   run->atlas_.assign(sizes.atlas, 0.0f);
@@ -145,7 +150,20 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   gl.glFinish();
   times_.shadows += ms_since(t);
   t = Clock::now();
-  if (s.ok()) s = renderer_->compute_ld(state, ld_);
+  if (s.ok() && cpu_direct_) {
+    cpu::CpuLight l;
+    l.type = light.outer_cone >= 3.14159f ? cpu::LightType::point : cpu::LightType::spot;
+    l.position = state.light_position;
+    l.direction = light.direction;
+    l.color = light.color;
+    l.intensity = light.intensity;
+    l.radius = light.radius;
+    l.inner_angle = std::min(light.inner_cone, light.outer_cone);
+    l.outer_angle = std::min(light.outer_cone, 3.14159265f);
+    s = cpu_direct_->evaluate(std::span(&l, 1), ld_);
+  } else if (s.ok()) {
+    s = renderer_->compute_ld(state, ld_);
+  }
   times_.direct += ms_since(t);
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();

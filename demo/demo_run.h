@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "modrt/backend.h"
+#include "modrt/cpu/direct_light.h"
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_context.h"
@@ -18,9 +19,14 @@
 namespace modrt::demo {
 
 enum class DemoBackend { gles, cpu };
+// Who computes ld at the proxy samples: the GL pass over the geometry images with the camera
+// image's shadow cube map (shadows from every mesh), or modrt::cpu::CpuDirectLight (shadows
+// from the proxy walls only; no GPU needed for the lightmaps).
+enum class DemoDirect { gpu, cpu };
 
 struct DemoRunOptions {
   DemoBackend backend = DemoBackend::gles;
+  DemoDirect direct = DemoDirect::gpu;
   RendererOptions renderer;
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
@@ -66,7 +72,8 @@ class DemoRun {
   Level level_;
   std::unique_ptr<SceneRenderer> renderer_;
   std::unique_ptr<Backend> backend_;
-  void* gles_runtime_ = nullptr;  // the backend as gles::GlesLevelRuntime, when it is one
+  void* gles_runtime_ = nullptr;                     // the backend as gles::GlesLevelRuntime, when it is one
+  std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
   std::size_t mapped_triangles_ = 0;
   bool vector_ = false;

@@ -250,6 +250,39 @@ TEST(DemoRender, SpotLightIsThePointLightTimesItsCone) {
       inside, between, outside);
 }
 
+// The two sources of ld agree where they see the same occluders (walls only): the GL pass
+// with its shadow cube map and the CPU evaluator with exact proxy-wall shadows, 3 % relative
+// L2 as the ray-traced reference above.
+TEST(DemoRender, CpuDirectLightMatchesTheLdPass) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoScene walls;
+  walls.level = scene().level;
+  for (BlockDescription& b : walls.level.blocks) b.warped = false;
+  add_wall_meshes(walls, 4);
+  walls.lights = scene().lights;
+  walls.camera = scene().camera;
+  std::vector<std::vector<float>> ld;
+  std::vector<float> linear(3 * 32 * 18);
+  std::vector<std::uint8_t> srgb(linear.size());
+  for (DemoDirect direct : {DemoDirect::gpu, DemoDirect::cpu}) {
+    DemoRunOptions options;
+    options.direct = direct;
+    options.renderer.width = 32, options.renderer.height = 18;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(walls, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    ASSERT_TRUE(run.value()->render(30, linear, srgb).ok());
+    ld.emplace_back(run.value()->ld().begin(), run.value()->ld().end());
+  }
+  double num = 0, den = 0;
+  for (std::size_t i = 0; i < ld[0].size(); ++i) {
+    num += (double(ld[0][i]) - ld[1][i]) * (double(ld[0][i]) - ld[1][i]);
+    den += double(ld[1][i]) * ld[1][i];
+  }
+  EXPECT_LT(std::sqrt(num / den), 0.03);
+  std::printf("  GL ld pass vs CpuDirectLight: rel L2 %.4f\n", std::sqrt(num / den));
+}
+
 double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 // CIELAB (D65) of an sRGB8 pixel.
