@@ -359,7 +359,7 @@ TEST(GltfScene, SyntheticTriangleLoads) {
   EXPECT_TRUE(r->lights.empty());
   bool warned_light = false, warned_camera = false;
   for (const std::string& w : warnings) {
-    warned_light = warned_light || w.find("no point light") != std::string::npos;
+    warned_light = warned_light || w.find("no point or spot light") != std::string::npos;
     warned_camera = warned_camera || w.find("no camera") != std::string::npos;
   }
   EXPECT_TRUE(warned_light);
@@ -482,33 +482,69 @@ TEST(GltfScene, BlocksFromExtras) {
                {"modrt_block is empty", "'wide'"});
 }
 
+TEST(GltfScene, SmoothMissingNormalsShareVertices) {
+  // Two triangles folded along their shared edge (vertices 1 and 2).
+  Synthetic syn;
+  syn.positions = {0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0.5f, 1};
+  syn.indices = {0, 2, 1, 1, 2, 3};
+  GltfSceneOptions options;
+  options.smooth_missing_normals = true;
+  Result<DemoScene> smooth = load_text("smooth.gltf", syn.text(), options);
+  ASSERT_TRUE(smooth.ok()) << smooth.status().to_string();
+  const Mesh& m = smooth->meshes[0];
+  ASSERT_EQ(m.position.size(), 4u);
+  const glm::vec3 p0(0, 0, 0), p1(1, 0, 0), p2(0, 0, 1), p3(1, 0.5f, 1);
+  const glm::vec3 n0 = glm::cross(p2 - p0, p1 - p0), n1 = glm::cross(p2 - p1, p3 - p1);  // area-weighted
+  expect_near(m.normal[0], glm::normalize(n0), 1e-6f, "vertex 0 (one triangle)");
+  expect_near(m.normal[1], glm::normalize(n0 + n1), 1e-6f, "vertex 1 (shared)");
+  expect_near(m.normal[3], glm::normalize(n1), 1e-6f, "vertex 3 (one triangle)");
+  // The default (the glTF rule): flat, a vertex per corner.
+  Result<DemoScene> flat = load_text("flat.gltf", syn.text());
+  ASSERT_TRUE(flat.ok()) << flat.status().to_string();
+  EXPECT_EQ(flat->meshes[0].position.size(), 6u);
+  expect_near(flat->meshes[0].normal[3], glm::normalize(n1), 1e-6f, "second triangle, flat");
+}
+
 TEST(GltfScene, LightConversion) {
   Synthetic syn;
-  syn.nodes =
-      R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}},)"
-      R"({"name":"sun","extensions":{"KHR_lights_punctual":{"light":0}}},)"
-      R"({"name":"spot","translation":[0.5,0.9,0.5],"extensions":{"KHR_lights_punctual":{"light":1}}}])";
+  // The spot turned 90 degrees about +X: its local -Z shines down (-Y).
+  const double h = std::sqrt(0.5);
+  syn.nodes = R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}},)"
+              R"({"name":"sun","extensions":{"KHR_lights_punctual":{"light":0}}},)"
+              R"({"name":"spot","translation":[0.5,0.9,0.5],"rotation":[)" +
+              std::to_string(-h) + ",0,0," + std::to_string(h) +
+              R"(],"extensions":{"KHR_lights_punctual":{"light":1}}}])";
   syn.scene_nodes = "[0,1,2,3]";
   syn.top_extra =
       R"(,"extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[)"
       R"({"type":"directional","name":"sun","intensity":3},)"
-      R"({"type":"spot","name":"torch","intensity":68.3,"color":[1,0.5,0.25],"spot":{"outerConeAngle":0.5}}]}})";
+      R"({"type":"spot","name":"torch","intensity":68.3,"color":[1,0.5,0.25],)"
+      R"("spot":{"innerConeAngle":0.25,"outerConeAngle":0.5}}]}})";
   std::vector<std::string> warnings;
   GltfSceneOptions options;
   options.warnings = &warnings;
   Result<DemoScene> r = load_text("lights.gltf", syn.text(), options);
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   ASSERT_EQ(r->lights.size(), 1u);
-  EXPECT_NEAR(r->lights[0].intensity, 0.1f, 1e-6f);  // 68.3 cd / 683 lm/W
-  expect_near(r->lights[0].color, {1.0f, 0.5f, 0.25f}, 1e-6f, "spot colour");
-  expect_near(r->lights[0].path[0], {0.5f, 0.9f, 0.5f}, 1e-6f, "spot position");
-  bool sun = false, spot = false;
-  for (const std::string& w : warnings) {
+  const DemoLight& spot = r->lights[0];
+  EXPECT_NEAR(spot.intensity, 0.1f, 1e-6f);  // 68.3 cd / 683 lm/W
+  expect_near(spot.color, {1.0f, 0.5f, 0.25f}, 1e-6f, "spot colour");
+  expect_near(spot.path[0], {0.5f, 0.9f, 0.5f}, 1e-6f, "spot position");
+  expect_near(spot.direction, {0.0f, -1.0f, 0.0f}, 1e-5f, "spot direction");
+  EXPECT_FLOAT_EQ(spot.inner_cone, 0.25f);
+  EXPECT_FLOAT_EQ(spot.outer_cone, 0.5f);
+  bool sun = false;
+  for (const std::string& w : warnings)
     sun = sun || (w.find("'sun'") != std::string::npos && w.find("directional") != std::string::npos);
-    spot = spot || (w.find("'torch'") != std::string::npos && w.find("point light") != std::string::npos);
-  }
   EXPECT_TRUE(sun);
-  EXPECT_TRUE(spot);
+  // A point light keeps the DemoLight defaults: no cone.
+  EXPECT_GE(sample().lights[0].outer_cone, 3.14159f);
+
+  // Cone angles outside the extension's rules are errors.
+  std::string bad = syn.text();
+  bad.replace(bad.find(R"("innerConeAngle":0.25)"), std::string(R"("innerConeAngle":0.25)").size(),
+              R"("innerConeAngle":0.75)");
+  expect_error(load_text("badspot.gltf", bad), "badspot.gltf", {"'torch'", "cone"});
 }
 
 TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {

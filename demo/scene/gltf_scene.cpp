@@ -406,7 +406,7 @@ Loader::Stream Loader::accessor_stream(int index, const std::string& what, std::
   s.normalized = a.normalized;
   const std::size_t element = std::size_t(components) * std::size_t(component_size);
   s.stride = element;
-  if (a.bufferView < 0) return s;
+  if (a.bufferView < 0 || a.count == 0) return s;  // no data: zeros (glTF), or nothing to read
   if (std::size_t(a.bufferView) >= model_.bufferViews.size())
     fail(ErrorCode::format_error, name + ": buffer view " + num(a.bufferView) +
                                       " does not exist; the file has " + num(model_.bufferViews.size()));
@@ -426,7 +426,7 @@ Loader::Stream Loader::accessor_stream(int index, const std::string& what, std::
                                         num(a.bufferView) + " is less than the element size " + num(element));
     s.stride = view.byteStride;
   }
-  if (s.count > 0) {
+  {
     // count <= cap and stride <= byteLength keep this product far from overflowing.
     const bool fits = a.byteOffset <= view.byteLength && s.stride <= view.byteLength &&
                       (s.count - 1) * s.stride + element <= view.byteLength - a.byteOffset;
@@ -569,7 +569,10 @@ int Loader::image_for_texture(int texture, const std::string& what) {
   // 16-bit channels keep their high byte; grey expands to RGB; missing alpha is opaque.
   auto channel = [&](std::size_t p, int c) -> std::uint8_t {
     const std::size_t at = (p * std::size_t(comp) + std::size_t(c)) * std::size_t(bytes);
-    return bytes == 1 ? img.image[at] : img.image[at + 1];  // stb's 16-bit data is native (little) endian
+    if (bytes == 1) return img.image[at];
+    std::uint16_t v;  // stb's 16-bit samples are native-endian
+    std::memcpy(&v, &img.image[at], 2);
+    return std::uint8_t(v >> 8);
   };
   for (std::size_t p = 0; p < pixels; ++p) {
     std::uint8_t* o = out.rgba.data() + 4 * p;
@@ -856,10 +859,6 @@ void Loader::add_light(const NodeInstance& inst, int light) {
     warnings_.push_back(what + ": unknown light type " + quote(l.type) + "; skipped");
     return;
   }
-  if (l.type == "spot")
-    warnings_.push_back(what +
-                        ": spot light drawn as a point light of the same intensity; its cone (outer angle " +
-                        short_double(l.spot.outerConeAngle) + " rad) is ignored");
   glm::dvec3 color(1.0);
   if (!l.color.empty()) {
     if (l.color.size() != 3)
@@ -874,6 +873,18 @@ void Loader::add_light(const NodeInstance& inst, int light) {
          what + ": intensity " + short_double(l.intensity) + " must be finite and >= 0");
   DemoLight d;
   d.path = {glm::vec3(inst.world[3])};
+  if (l.type == "spot") {
+    const double inner = l.spot.innerConeAngle, outer = l.spot.outerConeAngle;
+    if (!(inner >= 0.0 && inner < outer && outer <= 0.5 * 3.14159265358979 + 1e-9))
+      fail(ErrorCode::format_error, what + ": spot cone angles (inner " + short_double(inner) + ", outer " +
+                                        short_double(outer) + ") must satisfy 0 <= inner < outer <= pi/2");
+    // KHR_lights_punctual spot lights shine along their node's local -Z.
+    const glm::dvec3 dir = glm::dmat3(inst.world) * glm::dvec3(0, 0, -1);
+    if (!(glm::length(dir) > 1e-12)) fail(ErrorCode::format_error, what + ": its node transform is singular");
+    d.direction = glm::vec3(glm::normalize(dir));
+    d.inner_cone = float(inner);
+    d.outer_cone = float(outer);
+  }
   d.color = glm::vec3(color);
   d.intensity = float(l.intensity) * options_.light_intensity_scale;
   d.radius = options_.light_radius;
@@ -1211,9 +1222,9 @@ DemoScene Loader::load(const std::string& path) {
       scene_.lights.push_back(d);
     }
     if (scene_.lights.empty())
-      warnings_.push_back("no point light in the glTF scene or its level; the demo needs one");
+      warnings_.push_back("no point or spot light in the glTF scene or its level; the demo needs one");
   } else if (scene_.lights.size() > 1) {
-    warnings_.push_back(num(scene_.lights.size()) + " point lights; modrt-demo renders the first one");
+    warnings_.push_back(num(scene_.lights.size()) + " lights; modrt-demo renders the first one");
   }
   return std::move(scene_);
 }

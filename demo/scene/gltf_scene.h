@@ -1,7 +1,7 @@
 // modrt demo — scenes from glTF 2.0 files (.gltf with external or embedded buffers and
 // images, or .glb), read with tinygltf: triangle meshes with their node transforms baked
 // in, pbrMetallicRoughness base colours and normal maps, the first camera, the
-// KHR_lights_punctual point lights, dynamic meshes, and the proxy blocks (the MRT level),
+// KHR_lights_punctual point and spot lights, dynamic meshes, and the proxy blocks (the MRT level),
 // either from nodes marked in `extras` or from a sidecar level JSON file. The schema, units
 // and limits are documented in docs/demo.md, "Scenes from glTF".
 #pragma once
@@ -40,8 +40,9 @@ struct GltfSceneOptions {
   std::size_t max_vertices = 50'000'000;              // all meshes together, after normal splitting
   std::size_t max_file_bytes = std::size_t(1) << 30;  // the glTF/glb file and each external file
   int max_image_side = 16384;                         // texture width and height (GLES limit)
-  // Non-fatal problems (spot light turned into a point light, directional light dropped,
-  // orthographic camera, skins, tinygltf's own warnings) are appended here when set.
+  // Non-fatal problems (directional light dropped, more than one light, no light, no
+  // camera, orthographic camera, skins, ignored extensions, tinygltf's own warnings) are
+  // appended here when set.
   std::vector<std::string>* warnings = nullptr;
 };
 
