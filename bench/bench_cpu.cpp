@@ -18,6 +18,7 @@
 //                                              a 0.5 rad cone turning with it); influence 0 off,
 //                                              1 on with epsilon 0 (exact), 2 on with epsilon 0.02
 //   BM_DirectLightFull/<shadows>                the same lights, every block recomputed each frame
+//                                              (shadows 1: portal frusta where exact, 2: ray walk)
 //   BM_DirectLightIsa/<isa>                     BM_DirectLightFull without shadows, forced ISA
 //   BM_MovingLightFrame/<influence>/<spot>      one whole frame: CpuDirectLight (shadows) then
 //                                              CpuLevelRuntime::evaluate with exact skipping
@@ -421,8 +422,9 @@ void BM_DirectLightFull(benchmark::State& state) {
   const PresetLevel* pl = preset_level(41, 16, 32);
   const DirectLightScene* sc = direct_light_scene();
   if (!pl || !sc) return state.SkipWithError("no dictionary or level");
-  Result<cpu::CpuDirectLight> dl =
-      cpu::CpuDirectLight::create(pl->level, sc->albedo, direct_light_options(shadows, 0));
+  cpu::CpuDirectLightOptions o = direct_light_options(shadows, 0);
+  o.portal_frusta = state.range(0) != 2;
+  Result<cpu::CpuDirectLight> dl = cpu::CpuDirectLight::create(pl->level, sc->albedo, o);
   if (!dl.ok()) return state.SkipWithError(dl.status().message().c_str());
   std::vector<float> ld(3 * std::size_t(pl->level.sample_count));
   std::size_t frame = 0;
@@ -440,7 +442,9 @@ void BM_DirectLightFull(benchmark::State& state) {
   state.counters["ns_per_sample"] =
       benchmark::Counter(double(pl->level.sample_count),
                          benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.SetLabel(shadows ? "shadows" : "no shadows");
+  state.SetLabel(!shadows          ? "no shadows"
+                 : o.portal_frusta ? "shadows (portal frusta)"
+                                   : "shadows (ray walk)");
 }
 
 void BM_DirectLightIsa(benchmark::State& state) {
@@ -584,7 +588,7 @@ BENCHMARK(BM_DirectLight)
     ->ArgsProduct({{0, 1}, {0, 1, 2}, {0, 1}})
     ->ArgNames({"shadows", "influence", "spot"})
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_DirectLightFull)->ArgsProduct({{0, 1}})->ArgNames({"shadows"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DirectLightFull)->ArgsProduct({{0, 1, 2}})->ArgNames({"shadows"})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DirectLightIsa)->DenseRange(0, 3)->ArgName("isa")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MovingLightFrame)
     ->ArgsProduct({{0, 1, 2}, {0, 1}})

@@ -242,14 +242,17 @@ struct ShadowCompare {
 // visibility sample at the centre, the same radius clamp), over the samples `use` accepts.
 template <class Use>
 ShadowCompare compare_with_embree(const Level& level, LevelDescription description,
-                                  std::span<const float> albedo, const glm::dvec3& offset, const Use& use) {
+                                  std::span<const float> albedo, const glm::dvec3& offset, const Use& use,
+                                  bool frusta = true) {
   for (LightDescription& d : description.lights) d.position += offset;
   const precompute::LevelScene scene(level, level.res);
   const std::vector<float> ref = precompute::level_direct_light(scene, description.lights, albedo, 1);
   std::vector<CpuLight> lights;
   for (const LightDescription& d : description.lights)
     lights.push_back(point_light(d.position, float(d.radius), glm::vec3(d.color) * float(d.intensity)));
-  const std::vector<float> got = evaluate_once(level, albedo, lights, dl_options(best_isa(), true));
+  CpuDirectLightOptions o = dl_options(best_isa(), true);
+  o.portal_frusta = frusta;
+  const std::vector<float> got = evaluate_once(level, albedo, lights, o);
   const LevelSampleGeometry g = level_sample_geometry(level);
   ShadowCompare r;
   double num = 0.0, den = 0.0;
@@ -288,14 +291,18 @@ TEST(CpuDirectLight, ShadowedPointLightsMatchEmbree) {
     const ShadowCompare grazing =
         compare_with_embree(t.level, t.description, t.albedo, glm::dvec3(0.0), every);
     const ShadowCompare r = compare_with_embree(t.level, t.description, t.albedo, off, every);
+    const ShadowCompare rays = compare_with_embree(t.level, t.description, t.albedo, off, every, false);
     std::printf(
         "  shadows vs Embree %-8s lights at block centres: rel L2 %.3g, %zu of %zu lit samples differ; "
         "lights "
-        "moved: rel L2 %.3g, %zu of %zu differ\n",
-        t.name.c_str(), grazing.rel_l2, grazing.differing, grazing.lit, r.rel_l2, r.differing, r.lit);
-    EXPECT_LE(r.rel_l2, 1e-5) << t.name;
-    EXPECT_EQ(r.differing, 0u) << t.name;
-    EXPECT_GT(r.lit, 0u);
+        "moved: rel L2 %.3g, %zu of %zu differ (ray walk only: %.3g, %zu differ)\n",
+        t.name.c_str(), grazing.rel_l2, grazing.differing, grazing.lit, r.rel_l2, r.differing, r.lit,
+        rays.rel_l2, rays.differing);
+    for (const ShadowCompare* c : {&r, &rays}) {
+      EXPECT_LE(c->rel_l2, 1e-5) << t.name;
+      EXPECT_EQ(c->differing, 0u) << t.name;
+      EXPECT_GT(c->lit, 0u);
+    }
   }
   precompute::MazeSettings ms;
   ms.blocks = 11;
@@ -318,6 +325,17 @@ TEST(CpuDirectLight, ShadowedPointLightsMatchEmbree) {
   const ShadowCompare walls = compare_with_embree(level.value(), desc, albedo, off, every);
   std::printf("  (all samples of warped11, walls included: rel L2 %.3g, %zu of %zu lit samples differ)\n",
               walls.rel_l2, walls.differing, walls.lit);
+  // An open level (a corridor's end missing onto empty space): the ray walk decides.
+  LevelDescription open = precompute::corridor_level();
+  open.blocks[0].faces &= FaceMask(~(1u << kFaceNegZ));
+  Result<Level> open_level = precompute::build_level(open, dict());
+  ASSERT_TRUE(open_level.ok());
+  const ShadowCompare o = compare_with_embree(open_level.value(), open,
+                                              precompute::level_albedo(open_level.value(), open), off, every);
+  std::printf("  shadows vs Embree open corridor: rel L2 %.3g, %zu of %zu lit samples differ\n", o.rel_l2,
+              o.differing, o.lit);
+  EXPECT_LE(o.rel_l2, 1e-5);
+  EXPECT_EQ(o.differing, 0u);
   // The evaluator's own triangles: 4 x 4 cells per bent face, more than two per face on average.
   Result<CpuDirectLight> dl = CpuDirectLight::create(level.value(), albedo, dl_options(best_isa(), true));
   ASSERT_TRUE(dl.ok());
@@ -374,7 +392,8 @@ const std::vector<ExtraLevel>& extra_levels() {
 
 // influence_epsilon = 0 culls only (light, block) pairs the light gives exactly 0 (behind every
 // face, outside the cone, or, with shadows, beyond every portal chain): the same bits as no
-// culling, with and without shadows, on every fixture level, a warped maze and an open level.
+// culling, without shadows and with either shadow method, on every fixture level, a warped maze
+// and an open level.
 // The narrow spot's cone culls; with shadows the portal walk culls most of maze41 for the point
 // lights too.
 TEST(CpuDirectLight, ZeroEpsilonCullingIsBitIdentical) {
@@ -387,13 +406,14 @@ TEST(CpuDirectLight, ZeroEpsilonCullingIsBitIdentical) {
     const TestLevel as_test{t->name, t->description, t->level, {}, t->albedo};
     std::vector<CpuLight> lights = mixed_lights(as_test, true);
     lights.push_back(spot_light(t->description.lights.at(0).position, {0.0f, 0.0f, 1.0f}, 0.1f, 0.25f));
-    for (bool shadows : {false, true})
+    for (int shadows : {0, 1, 2})  // 2: shadows by the ray walk only
       for (Isa isa : supported_isas()) {
         CpuDirectLightStats culled_stats;
-        const std::vector<float> culled =
-            evaluate_once(t->level, t->albedo, lights, dl_options(isa, shadows, true, 0.0f), &culled_stats);
-        const std::vector<float> all =
-            evaluate_once(t->level, t->albedo, lights, dl_options(isa, shadows, false));
+        CpuDirectLightOptions with = dl_options(isa, shadows > 0, true, 0.0f),
+                              without = dl_options(isa, shadows > 0, false);
+        with.portal_frusta = without.portal_frusta = shadows != 2;
+        const std::vector<float> culled = evaluate_once(t->level, t->albedo, lights, with, &culled_stats);
+        const std::vector<float> all = evaluate_once(t->level, t->albedo, lights, without);
         EXPECT_EQ(culled, all) << t->name << " " << isa_name(isa) << " shadows " << shadows;
         EXPECT_EQ(culled_stats.ld_error_max, 0.0);
         EXPECT_EQ(culled_stats.ld_error_l2, 0.0);

@@ -555,7 +555,7 @@ bool CpuDirectLight::portal_visibility(std::size_t l, const glm::dvec3& L) {
     walk_light_ = l;
     walk_exact_ = true;
     visit_portals(std::uint32_t(b), -1, L, nullptr, 0, 0);
-    frustum_exact_[l] = walk_exact_ && !portal_gave_up_;
+    frustum_exact_[l] = options_.portal_frusta && walk_exact_ && !portal_gave_up_;
     return !portal_gave_up_;
   }
   return false;

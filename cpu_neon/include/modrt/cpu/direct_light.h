@@ -95,6 +95,7 @@ struct CpuDirectLightOptions {
   bool influence = true;             // per-light block culling (off: every light reaches every block)
   float influence_epsilon = 0.0f;    // relative culling threshold (see above), finite, >= 0
   int warped_face_subdivisions = 4;  // m for bent faces (1 to 64)
+  bool portal_frusta = true;         // shadows by portal frusta where exact (false: always the ray walk)
 };
 
 // What the last evaluate() did.
