@@ -492,7 +492,9 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
   }
   d.block_portal_begin_.push_back(std::uint32_t(d.portals_.size()));
   d.visible_.assign(d.block_count_, 0);
-  d.frustum_cap_ = 4 * d.block_count_ + 256;
+  // Up to 1024 frusta per light (~300 KB); a walk that needs more falls back to the ray walk.
+  d.frustum_cap_ =
+      options.shadows && options.portal_frusta ? std::min<std::size_t>(4 * d.block_count_ + 256, 1024) : 0;
   d.frusta_.assign(options.max_lights * d.frustum_cap_, Frustum{});
   d.frustum_planes_.assign(options.max_lights * d.frustum_cap_ * kMaxPlanes * 3, 0.0);
   d.frustum_count_.assign(options.max_lights, 0);
@@ -563,7 +565,9 @@ bool CpuDirectLight::portal_visibility(std::size_t l, const glm::dvec3& L) {
 
 void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dvec3& L,
                                    const glm::dvec3* planes, int count, int depth) {
-  constexpr int kMaxDepth = 256;
+  // Each level of recursion keeps ~1.1 KB of polygons and planes on the stack: 64 levels stay
+  // within a small thread stack; a deeper chain gives up (every block visible, ray walk).
+  constexpr int kMaxDepth = 64;
   visible_[block] = 1;
   if (portal_gave_up_) return;
   if (++portal_work_ > 64 * block_count_ + 1024 || depth > kMaxDepth) {

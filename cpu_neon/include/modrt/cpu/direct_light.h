@@ -36,7 +36,7 @@
 // it (direct_light.cpp, portal_visibility). A wall stops every ray leaving its block through it,
 // so such blocks are in shadow and get exactly 0. The walk is skipped (every block counts as
 // visible) for open levels, for a light not inside a block with planar faces, or when it grows
-// past 64 visits per block; bent portals pass the frustum on unchanged.
+// past 64 visits per block or 64 portals deep; bent portals pass the frustum on unchanged.
 // A block is culled for a light when g pi h^2 < influence_epsilon (h: the mean block size), i.e.
 // when its bound is below influence_epsilon times the E / pi the light gives a surface facing it
 // one block away. influence_epsilon = 0 culls only blocks with g = 0, which the light gives
@@ -90,7 +90,8 @@ struct CpuLight {
 
 struct CpuDirectLightOptions {
   std::optional<Isa> isa;            // none: active_isa(); an unsupported ISA fails create()
-  std::size_t max_lights = 8;        // evaluate() accepts up to this many lights (1 to 4096)
+  std::size_t max_lights = 8;        // evaluate() accepts up to this many lights (1 to 4096;
+                                     // with shadows and portal_frusta, ~300 KB of frusta per light)
   bool shadows = true;               // shadow rays against the walls
   bool influence = true;             // per-light block culling (off: every light reaches every block)
   float influence_epsilon = 0.0f;    // relative culling threshold (see above), finite, >= 0
