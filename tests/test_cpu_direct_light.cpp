@@ -477,6 +477,42 @@ TEST(CpuDirectLight, CullingErrorStaysWithinReportedBound) {
   }
 }
 
+// A straight corridor of 80 blocks with the light near one end: the portal walk goes deeper
+// than its 64-portal limit and gives up, so every block counts as reached and the ray walk
+// decides shadows. Still exact: equal to Embree (lights off-centre) and to no culling.
+TEST(CpuDirectLight, DeepPortalChainFallsBackToTheRayWalk) {
+  LevelDescription desc = precompute::corridor_level();
+  const BlockDescription proto = desc.blocks[0];
+  desc.blocks.clear();
+  constexpr int kLength = 80;
+  for (int z = 0; z < kLength; ++z) {
+    BlockDescription b = proto;
+    b.name.clear();
+    b.cell = glm::ivec3(0, 0, z);
+    b.faces = kAllFaces;
+    if (z > 0) b.faces &= FaceMask(~(1u << kFaceNegZ));
+    if (z + 1 < kLength) b.faces &= FaceMask(~(1u << kFacePosZ));
+    desc.blocks.push_back(b);
+  }
+  desc.lights.at(0).position = {0.513, 0.507, 0.489};
+  Result<Level> level = precompute::build_level(desc, dict());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  const std::vector<float> albedo = precompute::level_albedo(level.value(), desc);
+  const auto every = [](const LevelSampleGeometry&, std::size_t) { return true; };
+  const ShadowCompare r = compare_with_embree(level.value(), desc, albedo, glm::dvec3(0.0), every);
+  std::printf("  shadows vs Embree 80-block corridor: rel L2 %.3g, %zu of %zu lit samples differ\n", r.rel_l2,
+              r.differing, r.lit);
+  EXPECT_LE(r.rel_l2, 1e-5);
+  EXPECT_EQ(r.differing, 0u);
+  const std::vector<CpuLight> lights = {point_light(desc.lights[0].position)};
+  CpuDirectLightStats stats;
+  const std::vector<float> culled =
+      evaluate_once(level.value(), albedo, lights, dl_options(best_isa(), true, true, 0.0f), &stats);
+  EXPECT_EQ(culled, evaluate_once(level.value(), albedo, lights, dl_options(best_isa(), true, false)));
+  EXPECT_GT(stats.shadow_rays, 0u);  // the ray walk decided
+  EXPECT_EQ(stats.frustum_tests, 0u);
+}
+
 // ---- a moving light, incremental, through CpuLevelRuntime with exact skipping ----
 
 constexpr int kFrames = 120;
