@@ -628,6 +628,18 @@ TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {
   small_files.max_file_bytes = 100;
   expect_error(load_text("bigfile.gltf", valid, small_files), "bigfile.gltf", {"bytes"});
 
+  // JSON nested deep enough to overflow a recursive parser's stack is refused up front.
+  std::string deep = valid;
+  deep.insert(deep.size() - 1, R"(,"extras":)" + std::string(100000, '[') + std::string(100000, ']'));
+  expect_error(load_text("deep.gltf", deep), "deep.gltf", {"nested deeper"});
+
+  // An accessor without a buffer view would be all zeros: refused rather than allocated.
+  std::string zeros = valid;
+  zeros.replace(zeros.find(R"({"bufferView":0,"componentType":5126,"count":3)"),
+                std::string(R"({"bufferView":0,"componentType":5126,"count":3)").size(),
+                R"({"componentType":5126,"count":40000000)");
+  expect_error(load_text("zeros.gltf", zeros), "zeros.gltf", {"accessor 0", "no bufferView"});
+
   // A required extension the loader does not implement.
   Synthetic draco;
   draco.top_extra =

@@ -139,6 +139,37 @@ bool read_whole_file_capped(std::vector<unsigned char>* out, std::string* err, c
   return tinygltf::ReadWholeFile(out, err, filepath, nullptr);
 }
 
+// Deepest nesting of arrays and objects in JSON text (strings skipped). The JSON parsers
+// below (nlohmann's DOM, tinygltf's value conversion) recurse per level, so a file nested
+// thousands deep would overflow the stack; glTF itself needs fewer than ten levels.
+std::size_t json_depth(const unsigned char* p, std::size_t n) {
+  std::size_t depth = 0, deepest = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = p[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+constexpr std::size_t kMaxJsonDepth = 256;
+
+std::uint32_t le32(const unsigned char* p) {
+  return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) |
+         (std::uint32_t(p[3]) << 24);
+}
+
 std::uint32_t be32(const unsigned char* p) {
   return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
 }
@@ -406,7 +437,11 @@ Loader::Stream Loader::accessor_stream(int index, const std::string& what, std::
   s.normalized = a.normalized;
   const std::size_t element = std::size_t(components) * std::size_t(component_size);
   s.stride = element;
-  if (a.bufferView < 0 || a.count == 0) return s;  // no data: zeros (glTF), or nothing to read
+  // Without a buffer view glTF means all zeros (a base for sparse accessors, which are not
+  // supported): refused, so that a few bytes of JSON cannot demand gigabytes of zeros.
+  if (a.bufferView < 0)
+    fail(ErrorCode::format_error, name + ": no bufferView (all zeros; sparse accessors are not supported)");
+  if (a.count == 0) return s;
   if (std::size_t(a.bufferView) >= model_.bufferViews.size())
     fail(ErrorCode::format_error, name + ": buffer view " + num(a.bufferView) +
                                       " does not exist; the file has " + num(model_.bufferViews.size()));
@@ -721,6 +756,10 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic)
       for (std::size_t i = 0; i < n; ++i) idx[i] = std::uint32_t(i);
     }
     if (mode != TINYGLTF_MODE_TRIANGLES) {
+      if (idx.size() > 2 && idx.size() - 2 > options_.max_vertices)
+        fail(ErrorCode::resource_limit, what + ": " + num(idx.size() - 2) +
+                                            " strip or fan triangles, more than the limit of " +
+                                            num(options_.max_vertices));
       std::vector<std::uint32_t> list;
       for (std::size_t i = 2; i < idx.size(); ++i) {
         std::uint32_t a = mode == TINYGLTF_MODE_TRIANGLE_FAN ? idx[0] : idx[i - 2], b = idx[i - 1],
@@ -1248,6 +1287,19 @@ Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOption
     std::string err, warn;
     const std::string base_dir = fs::path(path).parent_path().string();
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    {
+      // The JSON text: the whole file, or a glb's first chunk (tinygltf checks the rest).
+      const unsigned char* json = bytes.data();
+      std::size_t json_size = bytes.size();
+      if (binary) {
+        json_size =
+            bytes.size() >= 20 ? std::min<std::size_t>(le32(bytes.data() + 12), bytes.size() - 20) : 0;
+        json = bytes.data() + std::min<std::size_t>(20, bytes.size());
+      }
+      if (json_depth(json, json_size) > kMaxJsonDepth)
+        return Status::error(ErrorCode::format_error, path + ": JSON nested deeper than " +
+                                                          num(kMaxJsonDepth) + " levels; not a glTF file");
+    }
     const bool ok =
         binary
             ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), base_dir)
