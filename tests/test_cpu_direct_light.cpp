@@ -699,6 +699,10 @@ TEST(CpuDirectLight, RejectsBadLightsAndNeverWritesNaN) {
   o = {};
   o.warped_face_subdivisions = 0;
   EXPECT_FALSE(CpuDirectLight::create(t.level, t.albedo, o).ok());
+  // An empty level: nothing to light, no error.
+  Result<CpuDirectLight> empty = CpuDirectLight::create(Level{}, {});
+  ASSERT_TRUE(empty.ok()) << empty.status().to_string();
+  EXPECT_TRUE(empty->evaluate(good, {}).ok());
 }
 
 // ---- no allocation per frame ----
