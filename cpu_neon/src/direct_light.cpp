@@ -586,7 +586,7 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
       Frustum& fr = frusta_[walk_light_ * frustum_cap_ + nf];
       fr.block = block;
       fr.count = std::uint32_t(count);
-      double* dst = &frustum_planes_[((walk_light_ * frustum_cap_) + nf) * kMaxPlanes * 3];
+      double* dst = frustum_planes_.data() + (((walk_light_ * frustum_cap_) + nf) * kMaxPlanes * 3);
       for (int i = 0; i < count; ++i)
         for (int a = 0; a < 3; ++a) dst[3 * i + a] = planes[i][a];
       ++nf;
@@ -643,8 +643,8 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
 // The influence bound of light `l` (already in last_ / prepared_) on every block (direct_light.h).
 void CpuDirectLight::update_bounds(std::size_t l) {
   const CpuLight& light = last_[l];
-  double* bound = &bound_[l * block_count_];
-  std::uint8_t* reach = &reach_[l * block_count_];
+  double* bound = bound_.data() + (l * block_count_);
+  std::uint8_t* reach = reach_.data() + (l * block_count_);
   std::uint32_t culled = 0;
   frustum_count_[l] = 0;
   frustum_exact_[l] = 0;
@@ -804,17 +804,18 @@ void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
     if (!reach_[l * block_count_ + b]) continue;
     ++stats_.pairs_evaluated;
     const Prepared& p = prepared_[l];
-    DirectLightKernels::run(isa_, p, &px_[off], &py_[off], &pz_[off], &nx_[off], &ny_[off], &nz_[off], n, e);
+    DirectLightKernels::run(isa_, p, px_.data() + off, py_.data() + off, pz_.data() + off, nx_.data() + off,
+                            ny_.data() + off, nz_.data() + off, n, e);
     if (options_.shadows && p.shadows && frustum_exact_[l]) {
       // Visible iff inside one of the frusta that reached this block (visit_portals); in double,
       // widened by a relative 1e-9, so only rays within that of a portal edge count as grazing.
       std::uint8_t* vis = sample_visible_.data();
       std::fill(vis, vis + n, std::uint8_t(0));
-      const Frustum* fr = &frusta_[l * frustum_cap_];
+      const Frustum* fr = frusta_.data() + (l * frustum_cap_);
       const glm::dvec3 L(p.l[0], p.l[1], p.l[2]);
       for (std::uint32_t k = 0; k < frustum_count_[l]; ++k) {
         if (fr[k].block != b) continue;
-        const double* pl = &frustum_planes_[(l * frustum_cap_ + k) * kMaxPlanes * 3];
+        const double* pl = frustum_planes_.data() + ((l * frustum_cap_ + k) * kMaxPlanes * 3);
         for (std::size_t i = 0; i < n; ++i) {
           if (vis[i] || !(e[i] > 0.0f)) continue;
           const double dx = px_[off + i] - L.x, dy = py_[off + i] - L.y, dz = pz_[off + i] - L.z;
@@ -841,7 +842,7 @@ void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
         if (occluded(o, dir, sample_twin_[off + i])) e[i] = 0.0f;
       }
     }
-    DirectLightKernels::accumulate(isa_, p.color, &albedo_planar_[off], sample_count_, e, n, acc);
+    DirectLightKernels::accumulate(isa_, p.color, albedo_planar_.data() + off, sample_count_, e, n, acc);
   }
   for (std::size_t i = 0; i < n; ++i) {
     out[3 * i] = acc[i];
@@ -871,7 +872,7 @@ Status CpuDirectLight::evaluate(std::span<const CpuLight> lights, std::span<floa
     const bool changed = full || l >= old_count || l >= lights.size() || !same_light(last_[l], lights[l]);
     if (!changed) continue;
     ++stats_.lights_changed;
-    std::uint8_t* reach = &reach_[l * block_count_];
+    std::uint8_t* reach = reach_.data() + (l * block_count_);
     if (!full && l < old_count)
       for (std::size_t b = 0; b < block_count_; ++b) dirty_[b] |= reach[b];
     if (l < lights.size()) {
