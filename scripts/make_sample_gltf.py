@@ -12,7 +12,8 @@ data/scenes/two_rooms.level.json (kept by hand, not written here). The scene:
   * a normal-mapped pillar given by a column-major `matrix`, without NORMAL or TANGENT (the
     loader computes flat normals and tangents from TEXCOORD_0), with 8-bit indices,
   * a small cube marked "modrt_dynamic" (32-bit indices),
-  * a camera looking +Z through the first block, and one KHR_lights_punctual point light.
+  * a camera in the corner block looking into the pillar room (yaw and pitch), and one
+    KHR_lights_punctual point light.
 
 tests/test_gltf_scene.cpp checks the loaded scene against these numbers: change both.
 """
@@ -85,6 +86,22 @@ def box():
     return pos, nrm, uv, idx
 
 
+# The camera stands in the corner block near its entrance and looks into the pillar room.
+CAMERA_POSITION = (0.15, 0.55, 1.15)
+CAMERA_TARGET = (1.5, 0.35, 1.75)
+
+
+def look_at_rotation(eye, target):
+    """Quaternion [x, y, z, w] turning a glTF camera (looking along -Z, +Y up) towards
+    target with its up in the vertical plane: a yaw about +Y after a pitch about +X."""
+    d = [t - e for t, e in zip(target, eye)]
+    length = math.sqrt(sum(c * c for c in d))
+    d = [c / length for c in d]
+    pitch, yaw = math.asin(d[1]), math.atan2(-d[0], -d[2])
+    sy, cy, sp, cp = math.sin(yaw / 2), math.cos(yaw / 2), math.sin(pitch / 2), math.cos(pitch / 2)
+    return [cy * sp, sy * cp, -sy * sp, cy * cp]
+
+
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     out_dir = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "data", "scenes")
@@ -136,8 +153,9 @@ def main():
              "rotation": [0.0, math.sin(half), 0.0, math.cos(half)], "scale": [0.4, 0.2, 0.15]},
             {"name": "pillar", "mesh": 2,
              "matrix": [0.1, 0, 0, 0, 0, 0.9, 0, 0, 0, 0, 0.1, 0, 1.8, 0.45, 1.8, 1]},
-            {"name": "camera", "camera": 0, "translation": [0.5, 0.55, 0.12], "rotation": [0.0, 1.0, 0.0, 0.0]},
-            {"name": "lamp", "translation": [0.5, 0.75, 0.9], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "camera", "camera": 0, "translation": list(CAMERA_POSITION),
+             "rotation": look_at_rotation(CAMERA_POSITION, CAMERA_TARGET)},
+            {"name": "lamp", "translation": [0.9, 0.8, 1.3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
             {"name": "rolling cube", "mesh": 3, "translation": [1.4, 0.08, 1.5], "scale": [0.16, 0.16, 0.16],
              "extras": {"modrt_dynamic": True}},
         ],

@@ -199,16 +199,22 @@ TEST(GltfScene, SampleMaterialsCameraLight) {
   EXPECT_EQ(int(checker.rgba[4]), 150);  // the next pixel is the other square
   EXPECT_EQ(int(checker.rgba[3]), 255);
 
-  expect_near(s.camera.position, {0.5f, 0.55f, 0.12f}, 1e-6f, "camera position");
-  expect_near(s.camera.target, {0.5f, 0.55f, 1.12f}, 1e-6f, "camera target (rotated 180 degrees: +Z)");
-  expect_near(s.camera.up, {0.0f, 1.0f, 0.0f}, 1e-6f, "camera up");
+  // The script turns the camera (local -Z) towards (1.5, 0.35, 1.75), its up in the vertical
+  // plane through that direction.
+  const glm::vec3 eye(0.15f, 0.55f, 1.15f), view = glm::normalize(glm::vec3(1.5f, 0.35f, 1.75f) - eye);
+  expect_near(s.camera.position, eye, 1e-6f, "camera position");
+  expect_near(s.camera.target, eye + view, 1e-6f, "camera target");
+  EXPECT_NEAR(glm::length(s.camera.up), 1.0f, 1e-6f);
+  EXPECT_NEAR(glm::dot(s.camera.up, view), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::dot(s.camera.up, glm::cross(view, glm::vec3(0, 1, 0))), 0.0f, 1e-6f);
+  EXPECT_GT(s.camera.up.y, 0.9f);
   EXPECT_FLOAT_EQ(s.camera.yfov, 1.1f);
   EXPECT_FLOAT_EQ(s.camera.znear, 0.02f);
   EXPECT_FLOAT_EQ(s.camera.zfar, 50.0f);
 
   ASSERT_EQ(s.lights.size(), 1u);
   ASSERT_EQ(s.lights[0].path.size(), 1u);
-  expect_near(s.lights[0].path[0], {0.5f, 0.75f, 0.9f}, 1e-6f, "light position");
+  expect_near(s.lights[0].path[0], {0.9f, 0.8f, 1.3f}, 1e-6f, "light position");
   expect_near(s.lights[0].color, {1.0f, 0.9f, 0.8f}, 1e-6f, "light colour");
   EXPECT_NEAR(s.lights[0].intensity, 410.0f / 683.0f, 1e-6f);
 }
