@@ -630,6 +630,19 @@ TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {
   const Result<DemoScene> limited = load_text("limit.gltf", valid, tiny);
   expect_error(limited, "limit.gltf", {"limit"});
   EXPECT_EQ(limited.status().code(), ErrorCode::resource_limit);
+  GltfSceneOptions small_images;
+  small_images.max_image_side = 8;  // the sample's normal map is 16 x 16, read from its PNG header
+  expect_error(load_gltf_scene(kSample, small_images), "two_rooms.gltf", {"16 x 16", "texture limit"});
+  // A JPEG claiming 20000 x 20000 pixels is refused from its start-of-frame header, before
+  // anything decodes it (the rest of the file is missing).
+  Synthetic huge_jpeg = gif;
+  huge_jpeg.top_extra = R"(,"materials":[{"normalTexture":{"index":0}}],"textures":[{"source":0}],)"
+                        R"("images":[{"uri":"data:image/jpeg;base64,)" +
+                        base64({0xff, 0xd8, 0xff, 0xe0, 0x00, 0x10, 'J', 'F',  'I',  'F',  0,    1,    1,
+                                0,    0,    1,    0,    1,    0,    0,   0xff, 0xc0, 0x00, 0x11, 0x08, 0x4e,
+                                0x20, 0x4e, 0x20, 0x03, 1,    0x22, 0,   2,    0x11, 1,    3,    0x11, 1}) +
+                        R"("}])";
+  expect_error(load_text("huge.gltf", huge_jpeg.text()), "huge.gltf", {"20000 x 20000", "texture limit"});
   GltfSceneOptions small_files;
   small_files.max_file_bytes = 100;
   expect_error(load_text("bigfile.gltf", valid, small_files), "bigfile.gltf", {"bytes"});

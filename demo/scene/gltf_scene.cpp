@@ -196,6 +196,10 @@ bool sniff_image(const unsigned char* bytes, int size, int* w, int* h) {
         ++i;
         continue;
       }
+      if (marker == 0x01 || (marker >= 0xd0 && marker <= 0xd9)) {  // markers without a length
+        i += 2;
+        continue;
+      }
       const int length = (bytes[i + 2] << 8) | bytes[i + 3];
       const bool sof = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
       if (sof) {
