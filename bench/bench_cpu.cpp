@@ -20,6 +20,8 @@
 //   BM_DirectLightFull/<shadows>                the same lights, every block recomputed each frame
 //                                              (shadows 1: portal frusta where exact, 2: ray walk)
 //   BM_DirectLightIsa/<isa>                     BM_DirectLightFull without shadows, forced ISA
+//   BM_DirectLightWarped/<shadows>              warped 41-block maze (warp 0.2), the same moving light,
+//                                              influence on (epsilon 0): shadows by the ray walk
 //   BM_MovingLightFrame/<influence>/<spot>      one whole frame: CpuDirectLight (shadows) then
 //                                              CpuLevelRuntime::evaluate with exact skipping
 //
@@ -51,6 +53,7 @@
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/precompute/maze.h"
 
 #include "bench_levels.h"
 
@@ -469,6 +472,46 @@ void BM_DirectLightIsa(benchmark::State& state) {
   state.SetLabel(cpu::isa_name(isa));
 }
 
+// A warped 41-block maze (generate_maze, warp 0.2, seed 1): bent walls, so the ray walk decides
+// shadows (portal frusta need planar, convex blocks).
+void BM_DirectLightWarped(benchmark::State& state) {
+  const bool shadows = state.range(0) != 0;
+  const Dictionary* dict = preset_dictionary(16, 32);
+  if (!dict) return state.SkipWithError("no dictionary");
+  static const std::unique_ptr<std::pair<Level, std::vector<float>>> warped = [dict] {
+    precompute::MazeSettings ms;
+    ms.blocks = 41;
+    ms.warp = 0.2;
+    Result<LevelDescription> desc = precompute::generate_maze(ms);
+    Result<Level> level =
+        desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
+    if (!level.ok()) return std::unique_ptr<std::pair<Level, std::vector<float>>>();
+    std::vector<float> albedo = precompute::level_albedo(level.value(), desc.value());
+    return std::make_unique<std::pair<Level, std::vector<float>>>(std::move(level).value(),
+                                                                  std::move(albedo));
+  }();
+  const DirectLightScene* sc = direct_light_scene();
+  if (!warped || !sc) return state.SkipWithError("no level");
+  Result<cpu::CpuDirectLight> dl =
+      cpu::CpuDirectLight::create(warped->first, warped->second, direct_light_options(shadows, 1));
+  if (!dl.ok()) return state.SkipWithError(dl.status().message().c_str());
+  std::vector<float> ld(3 * std::size_t(warped->first.sample_count));
+  std::size_t frame = 0;
+  double rays = 0, blocks = 0;
+  for (auto _ : state) {
+    const Status st = dl->evaluate(sc->frames[0][frame], ld);
+    benchmark::DoNotOptimize(st.ok());
+    benchmark::ClobberMemory();
+    rays += double(dl->stats().shadow_rays);
+    blocks += double(dl->stats().blocks_recomputed);
+    frame = (frame + 1) % sc->frames[0].size();
+  }
+  state.counters["shadow_rays"] = rays / double(state.iterations());
+  state.counters["blocks_recomputed"] = blocks / double(state.iterations());
+  state.counters["triangles"] = double(dl->triangle_count());
+  state.SetLabel(shadows ? "warped, shadows (ray walk), moving light" : "warped, no shadows, moving light");
+}
+
 void BM_MovingLightFrame(benchmark::State& state) {
   const int influence = int(state.range(0)), spot = int(state.range(1));
   const PresetLevel* pl = preset_level(41, 16, 32);
@@ -590,6 +633,7 @@ BENCHMARK(BM_DirectLight)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DirectLightFull)->ArgsProduct({{0, 1, 2}})->ArgNames({"shadows"})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DirectLightIsa)->DenseRange(0, 3)->ArgName("isa")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DirectLightWarped)->Arg(0)->Arg(1)->ArgName("shadows")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MovingLightFrame)
     ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->ArgNames({"influence", "spot"})

@@ -374,7 +374,7 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
     }
   }
 
-  // Uniform grid over the triangles, cells one block wide unless that makes too many cells.
+  // Uniform grid over the triangles, cells a third of a block wide unless that makes too many.
   const std::size_t tris = d.triangle_count();
   double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
   if (tris > 0) {
@@ -390,7 +390,10 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
     }
   }
   const double pad = 1e-3 * d.h_;
-  double cell = d.h_;
+  // A third of a block per cell: a ray then tests the walls near its path only (modrt-bench-cpu,
+  // ray walk on maze41: 1.5x faster than one block per cell, 2.7x on a warped maze; a quarter
+  // is no faster).
+  double cell = d.h_ / 3.0;
   const std::size_t max_cells = std::max<std::size_t>(4096, 64 * d.block_count_);
   for (;;) {
     std::size_t total = 1;

@@ -18,7 +18,7 @@
 // As in precompute's Embree scene (level_scene.h) a wall only stops rays that leave its block
 // through it (back-to-back walls of neighbours must not shadow each other's samples). A shadow
 // ray is a segment from the sample to the light (or out of the level, for a directional light);
-// it walks a uniform grid over the level (cells about one block wide, 3D DDA) and tests only the
+// it walks a uniform grid over the level (cells a third of a block wide, 3D DDA) and tests only the
 // triangles binned in the cells it crosses, stopping at the first hit: its cost follows the
 // path's length in blocks, not the level's size. Triangles are grown by 1e-5 of their edges so
 // that a ray cannot slip between two walls that meet.
