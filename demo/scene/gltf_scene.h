@@ -35,11 +35,11 @@ struct GltfSceneOptions {
   // triangle) or, when true, area-weighted smooth normals over the shared vertices.
   bool smooth_missing_normals = false;
   float light_intensity_scale = kCandelaToWattsPerSr;  // multiplies KHR_lights_punctual intensity
-  float light_radius = 0.05f;                          // DemoLight::radius of every light
+  float light_radius = 0.05f;                          // DemoLight::radius of the glTF lights
   // Size limits, checked before anything of that size is allocated.
   std::size_t max_vertices = 50'000'000;              // all meshes together, after normal splitting
   std::size_t max_file_bytes = std::size_t(1) << 30;  // the glTF/glb file and each external file
-  int max_image_side = 16384;                         // texture width and height (GLES limit)
+  int max_image_side = 16384;                         // texture side (llvmpipe GL_MAX_TEXTURE_SIZE)
   // Non-fatal problems (directional light dropped, more than one light, no light, no
   // camera, orthographic camera, skins, ignored extensions, tinygltf's own warnings) are
   // appended here when set.
