@@ -50,6 +50,40 @@ Status light_error(std::size_t index, const char* field, const std::string& prob
                        "direct light: light " + std::to_string(index) + ": " + field + " " + problem);
 }
 
+// The convex hull of 4 points as seen from `eye` (central projection onto the plane normal to
+// `axis`, every point in front), written to `out` in order around it; returns its size (3 or 4).
+int hull_from(const glm::dvec3& eye, const glm::dvec3& axis, const glm::dvec3* p, glm::dvec3* out) {
+  const glm::dvec3 helper = std::abs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+  const glm::dvec3 u = glm::normalize(glm::cross(axis, helper)), v = glm::cross(axis, u);
+  struct P2 {
+    double x, y;
+    int i;
+  } q[4];
+  for (int i = 0; i < 4; ++i) {
+    const glm::dvec3 d = p[i] - eye;
+    const double t = glm::dot(d, axis);
+    q[i] = {glm::dot(d, u) / t, glm::dot(d, v) / t, i};
+  }
+  std::sort(q, q + 4, [](const P2& a, const P2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  // Andrew's monotone chain: lower then upper hull, counter-clockwise.
+  auto cross = [](const P2& o, const P2& a, const P2& b) {
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+  };
+  P2 h[8];
+  int k = 0;
+  for (int i = 0; i < 4; ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], q[i]) <= 0) --k;
+    h[k++] = q[i];
+  }
+  for (int i = 2, lower = k + 1; i >= 0; --i) {
+    while (k >= lower && cross(h[k - 2], h[k - 1], q[i]) <= 0) --k;
+    h[k++] = q[i];
+  }
+  const int m = k - 1;  // the last point repeats the first
+  for (int i = 0; i < m; ++i) out[i] = p[h[i].i];
+  return m;
+}
+
 // ---- the per-sample kernel: E / pi of one light over a run of samples (SoA) ----
 // One branch-free loop for every light type (direct_light.h, Prepared), so that it vectorises;
 // the scalar twin is the same source with vectorisation off, the SIMD variants the same source
@@ -467,6 +501,7 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
       const bool planar = off_plane <= 1e-9 * d.h_;
       bp.normal[f] = nrm;
       bp.offset[f] = glm::dot(nrm, mean);
+      bp.deviation[f] = off_plane;
       bp.planar = bp.planar && planar;
       if (face_present(mask, f)) continue;
       const int nb = b.neighbour[std::size_t(f)];
@@ -541,8 +576,8 @@ Status CpuDirectLight::set_albedo(std::span<const float> albedo) {
 // the light and the clipped polygon's edges); a block reached by a non-empty polygon may see the
 // light, every other block gets exactly 0 from it. The frustum is widened by a relative 1e-6
 // (the shadow test's triangles are grown by 1e-5: an edge-grazing ray is stopped there), a bent
-// portal passes the frustum on unchanged, and the walk gives up (every block visible) when the
-// light is not inside a block with planar faces by a margin, or the walk grows too large.
+// portal clips the cone over its corners' convex hull, and the walk gives up (every block
+// visible) when the light is not inside a block by a margin, or the walk grows too large.
 bool CpuDirectLight::portal_visibility(std::size_t l, const glm::dvec3& L) {
   std::fill(visible_.begin(), visible_.end(), std::uint8_t(0));
   frustum_count_[l] = 0;
@@ -552,9 +587,10 @@ bool CpuDirectLight::portal_visibility(std::size_t l, const glm::dvec3& L) {
   for (std::size_t b = 0; b < block_count_; ++b) {
     const BlockPlanes& bp = block_planes_[b];
     bool in = true;
-    for (int f = 0; f < kFaceCount && in; ++f) in = glm::dot(bp.normal[f], L) - bp.offset[f] > inside;
+    // A bent face lies within `deviation` of its corners' mean plane.
+    for (int f = 0; f < kFaceCount && in; ++f)
+      in = glm::dot(bp.normal[f], L) - bp.offset[f] > inside + bp.deviation[f];
     if (!in) continue;
-    if (!bp.planar) return false;
     portal_work_ = 0;
     portal_gave_up_ = false;
     walk_light_ = l;
@@ -598,17 +634,26 @@ void CpuDirectLight::visit_portals(std::uint32_t block, int entry, const glm::dv
   for (std::uint32_t k = block_portal_begin_[block]; k < block_portal_begin_[block + 1]; ++k) {
     const Portal& portal = portals_[k];
     if (portal.face == entry) continue;
-    if (!portal.planar) {
-      walk_exact_ = false;
-      visit_portals(portal.to, portal.entry, L, planes, count, depth + 1);
-      continue;
-    }
-    // A line crosses the portal's plane once: the light must be on this block's side of it.
-    if (!(glm::dot(bp.normal[portal.face], L) - bp.offset[portal.face] > -margin_)) continue;
-    // Clip the portal by each plane: keep n . (p - L) >= -1e-6 |p - L|.
+    const glm::dvec3& pn = bp.normal[portal.face];
+    const double side = glm::dot(pn, L) - bp.offset[portal.face], dev = bp.deviation[portal.face];
     glm::dvec3 poly[4 + kMaxPlanes], next[4 + kMaxPlanes];
     int n = 4;
     for (int i = 0; i < 4; ++i) poly[i] = portal.corner[i];
+    if (portal.planar) {
+      // A line crosses the portal's plane once: the light must be on this block's side of it.
+      if (!(side > -margin_)) continue;
+    } else {
+      walk_exact_ = false;
+      if (side < -(dev + margin_)) continue;  // the light is beyond the whole bent portal
+      if (side <= dev + margin_) {            // in its slab: no narrower cone than the one so far
+        visit_portals(portal.to, portal.entry, L, planes, count, depth + 1);
+        continue;
+      }
+      // Lines from the light through the bent portal stay in the cone over its corners' hull
+      // (the patch lies in their tetrahedron): the hull of the corners seen from the light.
+      n = hull_from(L, -pn, portal.corner, poly);
+    }
+    // Clip the portal by each plane: keep n . (p - L) >= -1e-6 |p - L|.
     for (int pl = 0; pl < count && n >= 3; ++pl) {
       const glm::dvec3& nrm = planes[pl];
       int m = 0;

@@ -35,8 +35,11 @@
 // a portal walk from the light's block clips each portal by the frustum of the portals before
 // it (direct_light.cpp, portal_visibility). A wall stops every ray leaving its block through it,
 // so such blocks are in shadow and get exactly 0. The walk is skipped (every block counts as
-// visible) for open levels, for a light not inside a block with planar faces, or when it grows
-// past 64 visits per block or 64 portals deep; bent portals pass the frustum on unchanged.
+// visible) for open levels, for a light not inside a block by a margin (bent faces: beyond their
+// corners' spread about their mean plane), or when it grows past 64 visits per block or 64
+// portals deep; a bent portal narrows the frustum to the cone over its corners' convex hull
+// (the patch lies in their tetrahedron), or leaves it unchanged when the light is within that
+// spread of the portal's plane.
 // A block is culled for a light when g pi h^2 < influence_epsilon (h: the mean block size), i.e.
 // when its bound is below influence_epsilon times the E / pi the light gives a surface facing it
 // one block away. influence_epsilon = 0 culls only blocks with g = 0, which the light gives
@@ -216,6 +219,7 @@ class CpuDirectLight {
   struct BlockPlanes {
     glm::dvec3 normal[6];
     double offset[6] = {0, 0, 0, 0, 0, 0};
+    double deviation[6] = {0, 0, 0, 0, 0, 0};  // max distance of a corner from the plane
     bool planar = false, convex = false;
   };
   struct Portal {
