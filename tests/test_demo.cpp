@@ -50,6 +50,18 @@ DemoScene walls_only() {
   return s;
 }
 
+// The default scene's maze unwarped, its walls as the only meshes, the same light and camera:
+// what a ray-traced reference with planar proxies sees exactly.
+DemoScene unwarped_walls() {
+  DemoScene walls;
+  walls.level = scene().level;
+  for (BlockDescription& b : walls.level.blocks) b.warped = false;
+  add_wall_meshes(walls, 4);
+  walls.lights = scene().lights;
+  walls.camera = scene().camera;
+  return walls;
+}
+
 // One context for the whole program, destroyed before Mesa's exit handlers (see
 // test_gles_backend.cpp).
 std::unique_ptr<platform::GlContext>& context_slot() {
@@ -149,12 +161,7 @@ TEST(ProxyMapping, WallsLandOnTheirOwnFaceTiles) {
 TEST(DemoRender, LdPassMatchesRayTracedDirectLight) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";
-  DemoScene walls;
-  walls.level = scene().level;
-  for (BlockDescription& b : walls.level.blocks) b.warped = false;
-  add_wall_meshes(walls, 4);
-  walls.lights = scene().lights;
-  walls.camera = scene().camera;
+  const DemoScene walls = unwarped_walls();
   DemoRunOptions options;
   options.renderer.width = 64, options.renderer.height = 36;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(walls, dict(), *ctx, options);
@@ -256,12 +263,7 @@ TEST(DemoRender, SpotLightIsThePointLightTimesItsCone) {
 TEST(DemoRender, CpuDirectLightMatchesTheLdPass) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";
-  DemoScene walls;
-  walls.level = scene().level;
-  for (BlockDescription& b : walls.level.blocks) b.warped = false;
-  add_wall_meshes(walls, 4);
-  walls.lights = scene().lights;
-  walls.camera = scene().camera;
+  const DemoScene walls = unwarped_walls();
   std::vector<std::vector<float>> ld;
   std::vector<float> linear(3 * 32 * 18);
   std::vector<std::uint8_t> srgb(linear.size());
