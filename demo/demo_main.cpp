@@ -22,6 +22,7 @@
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "scene/default_scene.h"
+#include "scene/gltf_scene.h"
 
 namespace {
 
@@ -75,14 +76,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--exposure", exposure, "Exposure before tone mapping")->capture_default_str();
   app.add_option("--dictionary", dictionary_path, "Load this dictionary file instead of the cache");
-  app.add_option("--scene", scene_file, "glTF 2.0 scene (not available yet: the built-in scene is rendered)");
+  std::string level_file;
+  app.add_option("--scene", scene_file,
+                 "glTF 2.0 scene (.gltf or .glb; proxy blocks from --level, <scene>.level.json or nodes "
+                 "marked extras.modrt_block, docs/demo.md); default: the built-in scene");
+  app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks");
   app.add_flag("!--no-exr", exr, "Do not write the linear EXR files");
   CLI11_PARSE(app, argc, argv);
-  if (!scene_file.empty()) {
-    std::fprintf(stderr, "modrt-demo: --scene %s: glTF scenes are not supported by this build yet\n",
-                 scene_file.c_str());
-    return 2;
-  }
   int width = 0, height = 0;
   if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 ||
       height > 8192) {
@@ -125,7 +125,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "modrt-demo: dictionary: %s\n", dict.status().to_string().c_str());
     return 1;
   }
-  Result<DemoScene> scene = default_scene();
+  std::vector<std::string> warnings;
+  Result<DemoScene> scene = Status::success();
+  if (scene_file.empty()) {
+    scene = default_scene();
+  } else {
+    GltfSceneOptions gltf;
+    gltf.level_path = level_file;
+    gltf.warnings = &warnings;
+    scene = load_gltf_scene(scene_file, gltf);
+  }
+  for (const std::string& w : warnings) std::fprintf(stderr, "modrt-demo: warning: %s\n", w.c_str());
   if (!scene.ok()) {
     std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
     return 1;

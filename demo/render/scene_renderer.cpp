@@ -90,6 +90,11 @@ struct SceneRenderer::Impl {
   DrawRange light_marker;
   std::vector<Material> materials;
   std::vector<GLuint> material_normal;  // texture per material, 0 = none
+  std::vector<GLuint> material_base;    // base colour texture (sRGB) per material, 0 = none
+  // Bound to a material's unused texture units: every active sampler must see a complete
+  // float texture (Mesa rejects a draw whose sampler2D unit still holds, say, the GLES
+  // backend's RGBA32UI signals).
+  GLuint white = 0;
   std::vector<float> readback;
 };
 
@@ -146,9 +151,9 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   platform::assign_sampler_units(gl, m.ld_program,
                                  {"u_shadow", "u_sample_position", "u_sample_normal", "u_sample_albedo"});
   gl.glUseProgram(m.scene_program);
-  platform::assign_sampler_units(
-      gl, m.scene_program,
-      {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1", "u_vector2", "u_vector3"});
+  platform::assign_sampler_units(gl, m.scene_program,
+                                 {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",
+                                  "u_vector2", "u_vector3", "u_base_map"});
   gl.glUseProgram(m.tonemap_program);
   platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
   gl.glUseProgram(0);
@@ -209,6 +214,12 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   gl.glBindVertexArray(0);
 
   // ---- material textures (normal maps, mipmapped) ----
+  m.white = m.texture(GL_RGBA8, 1, 1);
+  {
+    const std::uint8_t white[4] = {255, 255, 255, 255};
+    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
+  }
   m.materials = scene.materials;
   std::vector<GLuint> image_texture(scene.images.size(), 0);
   for (std::size_t i = 0; i < scene.images.size(); ++i) {
@@ -234,6 +245,11 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
     image_texture[i] = t;
   }
+  for (const Material& mat : m.materials)
+    m.material_base.push_back(mat.base_color_texture >= 0 &&
+                                      std::size_t(mat.base_color_texture) < image_texture.size()
+                                  ? image_texture[std::size_t(mat.base_color_texture)]
+                                  : 0);
   for (const Material& mat : m.materials)
     m.material_normal.push_back(mat.normal_texture >= 0 &&
                                         std::size_t(mat.normal_texture) < image_texture.size()
@@ -495,11 +511,12 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   const GLint u_offset = m.loc(p, "u_offset"), u_base = m.loc(p, "u_base_color"),
               u_nm = m.loc(p, "u_has_normal_map"), u_scale = m.loc(p, "u_normal_scale"),
               u_vec = m.loc(p, "u_use_vector"), u_dyn = m.loc(p, "u_dynamic"),
-              u_emissive = m.loc(p, "u_emissive");
+              u_emissive = m.loc(p, "u_emissive"), u_base_tex = m.loc(p, "u_has_base_map");
   gl.glUniform1i(u_emissive, 0);
   for (const DrawRange& d : m.draws) {
     const Material& mat = m.materials[std::size_t(d.material)];
     const GLuint normal_map = m.material_normal[std::size_t(d.material)];
+    const GLuint base_map = m.material_base[std::size_t(d.material)];
     const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
     gl.glUniform3f(u_offset, o.x, o.y, o.z);
     gl.glUniform3f(u_base, mat.base_color.x, mat.base_color.y, mat.base_color.z);
@@ -507,7 +524,9 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     gl.glUniform1f(u_scale, mat.normal_scale);
     gl.glUniform1i(u_vec, vector && normal_map != 0 && !d.dynamic);
     gl.glUniform1i(u_dyn, d.dynamic);
-    bind_texture(gl, 1, GL_TEXTURE_2D, normal_map);
+    bind_texture(gl, 1, GL_TEXTURE_2D, normal_map ? normal_map : m.white);
+    bind_texture(gl, 7, GL_TEXTURE_2D, base_map ? base_map : m.white);
+    gl.glUniform1i(u_base_tex, base_map != 0);
     gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
   }
   // The light itself, a small bright sphere (scaled through the offset trick: radius 1 mesh).

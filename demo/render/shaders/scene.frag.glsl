@@ -5,6 +5,8 @@
 // dynamic meshes from the probe volume's SH9 (MRT §6.5). u_output: 0 combined, 1 direct,
 // 2 indirect.
 uniform vec3 u_base_color;
+uniform int u_has_base_map;
+uniform sampler2D u_base_map;  // sRGB-encoded RGBA8, multiplies u_base_color
 uniform int u_has_normal_map;
 uniform float u_normal_scale;
 uniform sampler2D u_normal_map;
@@ -83,5 +85,10 @@ void main() {
     indirect = max(bilinear(u_atlas, v_lightmap).rgb, vec3(0.0));
   }
   vec3 e = u_output == 1 ? direct : u_output == 2 ? indirect : direct + indirect;
-  o_color = vec4(u_base_color * e, 1.0);
+  vec3 albedo = u_base_color;
+  if (u_has_base_map != 0) {
+    vec3 c = texture(u_base_map, v_uv).rgb;
+    albedo *= mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c));
+  }
+  o_color = vec4(albedo * e, 1.0);
 }
