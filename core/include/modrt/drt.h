@@ -1,0 +1,138 @@
+// modrt — Delta Radiance Transfer (SPEC §6, [Loos et al. 2012] "DRT"): clutter objects
+// inside blocks, their delta operators and the scalar reference runtime that applies them.
+//
+// A clutter object is an oriented box in world space owned by one block. Each of its lit
+// faces carries a res x res texel grid (its clutter lightmap). The operators of one object:
+//   dUb  (DRT §4.1) rows = (level sample, source block) pairs, kb columns: the antiradiance
+//        of the clutter; the row's sample gets dUb_row . b(source block). The source block
+//        is the block whose Limp the occluded ray sampled, so shadows cast across a block
+//        boundary use the b that lit the hidden wall.
+//   Td_c (DRT §4.2) f x m: clutter direct light -> c, per-face constant basis (f lit faces).
+//   dUc  (DRT §4.2) affected samples x f: light reflected by the clutter onto the scene.
+//   Cb   (DRT §4.3) m x (kb * |Cb_blocks|) = Uc Vc, SVD-truncated: clutter texels' indirect
+//        light from the b of every block the clutter sees.
+// Objects are independent (each is traced against the walls and itself only), so moving one
+// rebuilds only its own operators; overlapping shadows of two objects add.
+//
+// Signals are RGB-interleaved as in level_runtime.h. Clutter-wide signals (clutter_ld,
+// clutter lightmap) concatenate the objects' texels in object order; c concatenates 3 f per
+// object. A level without clutter has an empty DrtOperators: nothing is allocated and the
+// runtime returns at once.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/mat3x3.hpp>
+#include <glm/vec3.hpp>
+
+#include "modrt/dictionary.h"
+#include "modrt/level.h"
+
+namespace modrt {
+
+inline constexpr int kClutterDefaultRes = 16;
+
+// Kinds of clutter geometry. Only boxes exist so far; a triangle mesh (lightmap by UV-atlas
+// rasterisation, DRT §5) would add a kind and a mesh payload without changing the operators.
+enum class ClutterKind : int { box = 0 };
+
+// World point of local box coordinates q in [0,1]^3: center + rotation * ((q - 0.5) * 2 *
+// half_extent). rotation's columns are the box axes in world space (orthonormal).
+struct ClutterBox {
+  glm::dvec3 center{0.5};
+  glm::dvec3 half_extent{0.1};
+  glm::dmat3 rotation{1.0};
+};
+
+struct ClutterObject {
+  ClutterKind kind = ClutterKind::box;
+  int block = 0;  // owning level block
+  ClutterBox box;
+  // Lit faces (cube.h numbering in the box's local frame); a face resting on a wall receives
+  // no light and can be left out, so it costs no texels.
+  FaceMask faces = kAllFaces;
+  glm::dvec3 albedo{0.5};
+  int res = kClutterDefaultRes;
+};
+
+// Texels of a clutter object: lit faces in ascending face order, then row j, then column i
+// (as SampleLayout). Face f's frame: p(u, v) = the unit cube's face_point(f, v, u) mapped
+// through the box, so that cross(u_axis, v_axis) is the outward normal.
+int clutter_face_count(const ClutterObject& object);
+int clutter_texel_count(const ClutterObject& object);
+glm::dvec3 clutter_to_world(const ClutterBox& box, const glm::dvec3& q);
+glm::dvec3 clutter_face_point(const ClutterBox& box, int face, double u, double v);
+glm::dvec3 clutter_face_normal(const ClutterBox& box, int face);  // unit, outward
+// Whether world point p lies inside the box grown by `margin` on every side.
+bool clutter_contains(const ClutterBox& box, const glm::dvec3& p, double margin);
+// Bounding sphere (centre = box centre).
+double clutter_bounding_radius(const ClutterBox& box);
+
+struct ClutterTexelGeometry {
+  std::vector<glm::dvec3> position;  // texel centres
+  std::vector<glm::dvec3> normal;    // outward
+  std::vector<int> face;             // box face per texel
+};
+ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object);
+
+// Checks the objects against the level: owning block exists, finite box with positive
+// extents and an orthonormal rotation, res >= 1, albedo in [0, 1], at least one lit face.
+Status validate_clutter(const Level& level, std::span<const ClutterObject> objects);
+
+struct DrtObjectOperators {
+  std::uint32_t texel_count = 0;  // m
+  std::uint32_t face_count = 0;   // f
+  // DRT §4.1 (and §5 inpainting): dUb row k applies to sample dUb_sample[k] with the b of
+  // block dUb_block[k]; rows sorted by (sample, block), at most one row per pair.
+  std::vector<std::uint32_t> dUb_sample;
+  std::vector<std::uint32_t> dUb_block;
+  Matrix dUb;                             // rows x kb
+  Matrix Td_c;                            // f x m (DRT §4.2)
+  std::vector<std::uint32_t> dUc_sample;  // sorted, unique
+  Matrix dUc;                             // |dUc_sample| x f (DRT §4.2)
+  // DRT §4.3: Cb = Uc Vc; Vc's columns are kb per block of Cb_blocks (in that order).
+  std::vector<std::uint32_t> Cb_blocks;
+  Matrix Uc;  // m x modes
+  Matrix Vc;  // modes x (kb * |Cb_blocks|)
+  // Of the uncompressed Cb: all singular values, and ||Cb - Uc Vc||_F / ||Cb||_F.
+  std::vector<float> Cb_sigma;
+  float Cb_truncation_error = 0.0f;
+
+  bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
+};
+
+struct DrtOperators {
+  std::uint32_t kb = 0;
+  std::vector<DrtObjectOperators> objects;
+
+  bool empty() const { return objects.empty(); }
+  // Bytes of the run-time operators (float32 matrices and uint32 indices; not the sigmas).
+  std::size_t storage_bytes() const;
+};
+
+struct DrtBufferSizes {
+  std::size_t clutter_texels = 0;  // sum of m
+  std::size_t clutter_ld = 0;      // 3 * clutter_texels
+  std::size_t clutter_lightmap = 0;
+  std::size_t c = 0;  // 3 * sum of f
+};
+DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt);
+
+// Every size and index the runtime relies on (kb, sample and block indices, Td_c / dUc / Uc
+// / Vc shapes, sorted rows, finite values). Backends call it once at creation.
+Status check_drt_operators(const Level& level, const DrtOperators& drt);
+
+// c = Td_c clutter_ld per object (validates clutter_ld: finite, non-negative).
+Status drt_compute_c(const DrtOperators& drt, std::span<const float> clutter_ld, std::span<float> c);
+// SPEC §5 step 7: lightmap += dUb b + dUc c, on the affected samples only. b as
+// level_compute_b (3 kb per block), c as drt_compute_c.
+void drt_apply(const Level& level, const DrtOperators& drt, std::span<const float> b,
+               std::span<const float> c, std::span<float> lightmap);
+// Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
+void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
+                          std::span<const float> clutter_direct, std::span<float> out);
+
+}  // namespace modrt

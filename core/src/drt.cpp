@@ -1,0 +1,243 @@
+#include "modrt/drt.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+
+#include "modrt/reference_runtime.h"
+
+namespace modrt {
+
+int clutter_face_count(const ClutterObject& object) { return face_count(object.faces); }
+
+int clutter_texel_count(const ClutterObject& object) {
+  return clutter_face_count(object) * object.res * object.res;
+}
+
+glm::dvec3 clutter_to_world(const ClutterBox& box, const glm::dvec3& q) {
+  return box.center + box.rotation * ((q - glm::dvec3(0.5)) * 2.0 * box.half_extent);
+}
+
+glm::dvec3 clutter_face_point(const ClutterBox& box, int face, double u, double v) {
+  // The cube's frames have inward normals; swapping u and v turns them outward.
+  return clutter_to_world(box, face_point(face, v, u));
+}
+
+glm::dvec3 clutter_face_normal(const ClutterBox& box, int face) {
+  return glm::normalize(box.rotation * (-face_frame(face).normal));
+}
+
+bool clutter_contains(const ClutterBox& box, const glm::dvec3& p, double margin) {
+  const glm::dvec3 local = glm::transpose(box.rotation) * (p - box.center);
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(local[a]) > box.half_extent[a] + margin) return false;
+  return true;
+}
+
+double clutter_bounding_radius(const ClutterBox& box) { return glm::length(box.half_extent); }
+
+ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object) {
+  ClutterTexelGeometry g;
+  const std::size_t m = std::size_t(clutter_texel_count(object));
+  g.position.reserve(m);
+  g.normal.reserve(m);
+  g.face.reserve(m);
+  const int res = object.res;
+  for (int f = 0; f < kFaceCount; ++f) {
+    if (!face_present(object.faces, f)) continue;
+    const glm::dvec3 n = clutter_face_normal(object.box, f);
+    for (int j = 0; j < res; ++j)
+      for (int i = 0; i < res; ++i) {
+        g.position.push_back(clutter_face_point(object.box, f, (i + 0.5) / res, (j + 0.5) / res));
+        g.normal.push_back(n);
+        g.face.push_back(f);
+      }
+  }
+  return g;
+}
+
+Status validate_clutter(const Level& level, std::span<const ClutterObject> objects) {
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    const ClutterObject& o = objects[k];
+    auto fail = [&](const std::string& what) {
+      return Status::error(ErrorCode::invalid_argument, "clutter object " + std::to_string(k) + ": " + what);
+    };
+    if (o.kind != ClutterKind::box) return fail("unknown kind");
+    if (o.block < 0 || std::size_t(o.block) >= level.blocks.size())
+      return fail("block " + std::to_string(o.block) + " is not a level block");
+    if (o.res < 1) return fail("res must be >= 1");
+    if ((o.faces & ~kAllFaces) != 0 || o.faces == 0) return fail("faces must name 1 to 6 faces");
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(o.box.center[a])) return fail("non-finite centre");
+      if (!std::isfinite(o.box.half_extent[a]) || o.box.half_extent[a] <= 0.0)
+        return fail("half extents must be finite and positive");
+      if (!std::isfinite(o.albedo[a]) || o.albedo[a] < 0.0 || o.albedo[a] > 1.0)
+        return fail("albedo outside [0, 1]");
+    }
+    const glm::dmat3 RtR = glm::transpose(o.box.rotation) * o.box.rotation;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        if (!(std::abs(RtR[c][r] - (r == c ? 1.0 : 0.0)) <= 1e-6)) return fail("rotation is not orthonormal");
+  }
+  return Status::success();
+}
+
+namespace {
+
+std::size_t matrix_bytes(const Matrix& m) { return m.data.size() * sizeof(float); }
+
+bool all_finite(const Matrix& m) {
+  return std::all_of(m.data.begin(), m.data.end(), [](float x) { return std::isfinite(x); });
+}
+
+}  // namespace
+
+std::size_t DrtOperators::storage_bytes() const {
+  std::size_t bytes = 0;
+  for (const DrtObjectOperators& o : objects) {
+    bytes += matrix_bytes(o.dUb) + matrix_bytes(o.Td_c) + matrix_bytes(o.dUc) + matrix_bytes(o.Uc) +
+             matrix_bytes(o.Vc);
+    bytes += (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size()) *
+             sizeof(std::uint32_t);
+  }
+  return bytes;
+}
+
+DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt) {
+  DrtBufferSizes s;
+  std::size_t faces = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    s.clutter_texels += o.texel_count;
+    faces += o.face_count;
+  }
+  s.clutter_ld = s.clutter_lightmap = 3 * s.clutter_texels;
+  s.c = 3 * faces;
+  return s;
+}
+
+Status check_drt_operators(const Level& level, const DrtOperators& drt) {
+  if (drt.empty()) return Status::success();
+  if (drt.kb != level.kb)
+    return Status::error(ErrorCode::invalid_argument, "DRT operators: kb " + std::to_string(drt.kb) +
+                                                          " does not match the level's kb " +
+                                                          std::to_string(level.kb));
+  for (std::size_t k = 0; k < drt.objects.size(); ++k) {
+    const DrtObjectOperators& o = drt.objects[k];
+    auto fail = [&](const std::string& what) {
+      return Status::error(ErrorCode::invalid_argument, "DRT object " + std::to_string(k) + ": " + what);
+    };
+    const std::size_t rows = o.dUb_sample.size();
+    if (o.dUb_block.size() != rows || o.dUb.rows != rows || (rows > 0 && o.dUb.cols != drt.kb))
+      return fail("dUb is not rows x kb with one sample and block per row");
+    for (std::size_t r = 0; r < rows; ++r) {
+      if (o.dUb_sample[r] >= level.sample_count) return fail("dUb sample index out of range");
+      if (o.dUb_block[r] >= level.blocks.size()) return fail("dUb block index out of range");
+      if (r > 0 && (o.dUb_sample[r] < o.dUb_sample[r - 1] ||
+                    (o.dUb_sample[r] == o.dUb_sample[r - 1] && o.dUb_block[r] <= o.dUb_block[r - 1])))
+        return fail("dUb rows not sorted by (sample, block)");
+    }
+    if (o.Td_c.rows != o.face_count || o.Td_c.cols != o.texel_count) return fail("Td_c is not f x m");
+    if (o.dUc.rows != o.dUc_sample.size() || (o.dUc.rows > 0 && o.dUc.cols != o.face_count))
+      return fail("dUc is not |dUc_sample| x f");
+    for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {
+      if (o.dUc_sample[r] >= level.sample_count) return fail("dUc sample index out of range");
+      if (r > 0 && o.dUc_sample[r] <= o.dUc_sample[r - 1]) return fail("dUc samples not sorted and unique");
+    }
+    for (std::uint32_t blk : o.Cb_blocks)
+      if (blk >= level.blocks.size()) return fail("Cb block index out of range");
+    if (!o.Uc.empty() || !o.Vc.empty()) {
+      if (o.Uc.rows != o.texel_count || o.Vc.rows != o.Uc.cols ||
+          o.Vc.cols != std::size_t(drt.kb) * o.Cb_blocks.size())
+        return fail("Uc / Vc are not m x modes and modes x (kb * |Cb_blocks|)");
+    }
+    if (!all_finite(o.dUb) || !all_finite(o.Td_c) || !all_finite(o.dUc) || !all_finite(o.Uc) ||
+        !all_finite(o.Vc))
+      return fail("non-finite operator value");
+  }
+  return Status::success();
+}
+
+Status drt_compute_c(const DrtOperators& drt, std::span<const float> clutter_ld, std::span<float> c) {
+  const DrtBufferSizes sizes = drt_buffer_sizes(drt);
+  if (clutter_ld.size() != sizes.clutter_ld)
+    return Status::error(ErrorCode::invalid_argument, "clutter_ld: wrong size");
+  if (c.size() != sizes.c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
+  if (Status s = validate_light_signal(clutter_ld, sizes.clutter_texels, "clutter_ld"); !s.ok()) return s;
+  std::size_t texel0 = 0, face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::uint32_t f = 0; f < o.face_count; ++f) {
+      double acc[3] = {0, 0, 0};
+      const std::span<const float> row = o.Td_c.row(f);
+      for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+        if (row[t] == 0.0f) continue;
+        for (int ch = 0; ch < 3; ++ch)
+          acc[ch] += double(row[t]) * clutter_ld[3 * (texel0 + t) + std::size_t(ch)];
+      }
+      for (int ch = 0; ch < 3; ++ch) c[3 * (face0 + f) + std::size_t(ch)] = float(acc[ch]);
+    }
+    texel0 += o.texel_count;
+    face0 += o.face_count;
+  }
+  return Status::success();
+}
+
+void drt_apply(const Level& level, const DrtOperators& drt, std::span<const float> b,
+               std::span<const float> c, std::span<float> lightmap) {
+  const std::size_t kb = level.kb;
+  std::size_t face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::size_t r = 0; r < o.dUb_sample.size(); ++r) {
+      const std::span<const float> row = o.dUb.row(std::uint32_t(r));
+      const float* bb = b.data() + 3 * kb * o.dUb_block[r];
+      double acc[3] = {0, 0, 0};
+      for (std::size_t k = 0; k < kb; ++k)
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[k]) * bb[3 * k + std::size_t(ch)];
+      for (int ch = 0; ch < 3; ++ch)
+        lightmap[3 * std::size_t(o.dUb_sample[r]) + std::size_t(ch)] += float(acc[ch]);
+    }
+    for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {
+      const std::span<const float> row = o.dUc.row(std::uint32_t(r));
+      double acc[3] = {0, 0, 0};
+      for (std::uint32_t f = 0; f < o.face_count; ++f)
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[f]) * c[3 * (face0 + f) + std::size_t(ch)];
+      for (int ch = 0; ch < 3; ++ch)
+        lightmap[3 * std::size_t(o.dUc_sample[r]) + std::size_t(ch)] += float(acc[ch]);
+    }
+    face0 += o.face_count;
+  }
+}
+
+void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
+                          std::span<const float> clutter_direct, std::span<float> out) {
+  const std::size_t kb = drt.kb;
+  std::size_t texel0 = 0;
+  std::vector<double> y;  // Vc b: one value per mode and channel
+  for (const DrtObjectOperators& o : drt.objects) {
+    const std::uint32_t modes = o.Uc.cols;
+    y.assign(3 * std::size_t(modes), 0.0);
+    for (std::uint32_t q = 0; q < modes; ++q) {
+      const std::span<const float> row = o.Vc.row(q);
+      for (std::size_t blk = 0; blk < o.Cb_blocks.size(); ++blk) {
+        const float* bb = b.data() + 3 * kb * o.Cb_blocks[blk];
+        for (std::size_t k = 0; k < kb; ++k)
+          for (int ch = 0; ch < 3; ++ch)
+            y[3 * q + std::size_t(ch)] += double(row[blk * kb + k]) * bb[3 * k + std::size_t(ch)];
+      }
+    }
+    for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+      double acc[3] = {0, 0, 0};
+      for (std::uint32_t q = 0; q < modes; ++q)
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += double(o.Uc(t, q)) * y[3 * q + std::size_t(ch)];
+      for (int ch = 0; ch < 3; ++ch) {
+        const std::size_t i = 3 * (texel0 + t) + std::size_t(ch);
+        out[i] = float(acc[ch]) + (clutter_direct.empty() ? 0.0f : clutter_direct[i]);
+      }
+    }
+    texel0 += o.texel_count;
+  }
+}
+
+}  // namespace modrt
