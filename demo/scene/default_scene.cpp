@@ -281,10 +281,13 @@ Result<DemoScene> default_scene() {
   scene.camera.target = centre + 1.2f * out + glm::vec3(0.0f, -0.12f, 0.0f);
   scene.camera.yfov = 1.2f;
   DemoLight light;
+  // Out through the opening and close to the far block's side wall (the green one in the
+  // default maze), so that its colour bleeds back into the first block, then back.
+  const glm::vec3 right = glm::cross(out, glm::vec3(0.0f, 1.0f, 0.0f));
   light.path = {centre + glm::vec3(0.0f, -0.05f, 0.0f) + 0.1f * out,
-                centre + 0.55f * out + glm::vec3(0.0f, -0.02f, 0.0f),
-                centre + 1.05f * out + glm::vec3(0.0f, 0.0f, 0.0f),
-                centre + 0.55f * out + glm::vec3(0.0f, 0.05f, 0.0f)};
+                centre + 0.55f * out + glm::vec3(0.0f, -0.02f, 0.0f) + 0.1f * right,
+                centre + 1.1f * out + glm::vec3(0.0f, -0.05f, 0.0f) + 0.3f * right,
+                centre + 0.55f * out + glm::vec3(0.0f, 0.05f, 0.0f) - 0.05f * right};
   light.period = 96;
   light.color = {1.0f, 0.9f, 0.75f};
   light.intensity = 0.6f;
