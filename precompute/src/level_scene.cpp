@@ -25,6 +25,8 @@ struct LevelScene::Impl {
   };
   std::vector<Cell> cells;  // per quad (primID / 2)
   int subdivisions = 1;
+  unsigned clutter_geometry = RTC_INVALID_GEOMETRY_ID;
+  std::vector<Cell> clutter_cells;  // per clutter quad: block = object, face = box face
 };
 
 namespace {
@@ -44,7 +46,13 @@ void front_faces_only(const RTCFilterFunctionNArguments* args) {
 }  // namespace
 
 LevelScene::LevelScene(const Level& level, int subdivisions)
-    : impl_(std::make_unique<Impl>()), level_(level), samples_(level_sample_geometry(level)) {
+    : LevelScene(level, subdivisions, std::span<const ClutterObject>{}) {}
+
+LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const ClutterObject> clutter)
+    : impl_(std::make_unique<Impl>()),
+      level_(level),
+      samples_(level_sample_geometry(level)),
+      clutter_(clutter.begin(), clutter.end()) {
   impl_->subdivisions = subdivisions;
   impl_->device = rtcNewDevice("threads=1,set_affinity=0");
   if (!impl_->device) throw std::runtime_error("Embree: rtcNewDevice failed");
@@ -83,6 +91,32 @@ LevelScene::LevelScene(const Level& level, int subdivisions)
   rtcCommitGeometry(geom);
   rtcAttachGeometry(impl_->scene, geom);
   rtcReleaseGeometry(geom);
+  if (!clutter_.empty()) {
+    std::vector<float> cv;
+    std::vector<unsigned> ci;
+    for (std::size_t k = 0; k < clutter_.size(); ++k)
+      for (int f = 0; f < kFaceCount; ++f) {
+        const unsigned base = unsigned(cv.size() / 3);
+        for (int j = 0; j <= 1; ++j)
+          for (int i = 0; i <= 1; ++i) {
+            const glm::dvec3 p = clutter_face_point(clutter_[k].box, f, double(i), double(j));
+            cv.insert(cv.end(), {float(p.x), float(p.y), float(p.z)});
+          }
+        ci.insert(ci.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
+        impl_->clutter_cells.push_back({int(k), f, 0, 0});
+      }
+    RTCGeometry cg = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* cvb = static_cast<float*>(rtcSetNewGeometryBuffer(cg, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                            3 * sizeof(float), cv.size() / 3));
+    auto* cib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(cg, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                               3 * sizeof(unsigned), ci.size() / 3));
+    if (!cvb || !cib) throw std::runtime_error("Embree: cannot allocate clutter geometry");
+    std::copy(cv.begin(), cv.end(), cvb);
+    std::copy(ci.begin(), ci.end(), cib);
+    rtcCommitGeometry(cg);
+    impl_->clutter_geometry = rtcAttachGeometry(impl_->scene, cg);
+    rtcReleaseGeometry(cg);
+  }
   rtcCommitScene(impl_->scene);
   if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw std::runtime_error("Embree: level scene build failed");
 }
@@ -96,7 +130,9 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
   const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, t_near);
   LevelHit hit;
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
-  const Impl::Cell& c = impl_->cells[rh.hit.primID / 2];
+  const bool on_clutter = rh.hit.geomID == impl_->clutter_geometry;
+  const Impl::Cell& c =
+      on_clutter ? impl_->clutter_cells[rh.hit.primID / 2] : impl_->cells[rh.hit.primID / 2];
   // Barycentrics of (v00, v10, v11) or (v00, v11, v01) -> position inside the cell.
   double s, t;
   if (rh.hit.primID % 2 == 0) {
@@ -106,6 +142,15 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
     s = rh.hit.u;
     t = rh.hit.u + rh.hit.v;
   }
+  if (on_clutter) {
+    hit.clutter = c.block;
+    hit.block = clutter_[std::size_t(c.block)].block;
+    hit.face = c.face;
+    hit.u = std::clamp(s, 0.0, 1.0);
+    hit.v = std::clamp(t, 0.0, 1.0);
+    hit.t = rh.ray.tfar;
+    return hit;
+  }
   const int m = impl_->subdivisions;
   hit.block = c.block;
   hit.face = c.face;
@@ -113,6 +158,11 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
   hit.v = std::clamp((c.j + t) / m, 0.0, 1.0);
   hit.t = rh.ray.tfar;
   return hit;
+}
+
+glm::dvec3 LevelScene::hit_normal(const LevelHit& hit) const {
+  if (hit.clutter >= 0) return clutter_face_normal(clutter_[std::size_t(hit.clutter)].box, hit.face);
+  return block_face_normal(level_.blocks[std::size_t(hit.block)], hit.face, hit.u, hit.v);
 }
 
 bool LevelScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
@@ -173,7 +223,8 @@ std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const flo
       double acc[3] = {0, 0, 0};
       for (const glm::dvec2& u : strata) {
         const LevelHit hit = scene.intersect(g.position[s], to_world(cosine_hemisphere(u), t, b, nrm));
-        if (hit.block < 0) continue;
+        // Clutter has no level ld: this reference sees it as black (DRT's dUc adds its light).
+        if (hit.block < 0 || hit.clutter >= 0) continue;
         const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
         const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
         const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);

@@ -44,6 +44,7 @@ DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescrip
 
 SurfaceAlbedo level_surface_albedo(const LevelScene& scene, const LevelDescription& description) {
   return [&scene, &description](const LevelHit& hit) {
+    if (hit.clutter >= 0) return scene.clutter()[std::size_t(hit.clutter)].albedo;
     const LevelBlock& b = scene.level().blocks[std::size_t(hit.block)];
     return description.blocks[std::size_t(hit.block)]
         .albedo[std::size_t(rotate_face(hit.face, b.quarter_turns))];
@@ -111,7 +112,6 @@ IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dv
   IndirectEstimate out;
   out.value.assign(3 * count, 0.0f);
   out.standard_error.assign(3 * count, 0.0f);
-  const Level& level = scene.level();
   const std::span<const glm::dvec3> sources = settings.light_vertex_sources;
   const int paths = std::max(1, settings.paths);
   auto surface_point = [&](const glm::dvec3& origin, const glm::dvec3& dir) {
@@ -119,7 +119,7 @@ IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dv
     p.hit = scene.intersect(origin, dir);
     if (p.hit.block < 0) return p;
     p.position = origin + p.hit.t * dir;
-    p.normal = block_face_normal(level.blocks[std::size_t(p.hit.block)], p.hit.face, p.hit.u, p.hit.v);
+    p.normal = scene.hit_normal(p.hit);
     return p;
   };
   // MIS weight of a point y seen from (x, nx), for either technique (balance heuristic,
@@ -213,8 +213,7 @@ CameraHits camera_hits(const LevelScene& scene, const glm::dvec3& eye, const glm
         cam.hit[k] = scene.intersect(eye, dir);
         if (cam.hit[k].block < 0) continue;
         cam.position[k] = eye + cam.hit[k].t * dir;
-        glm::dvec3 nrm = block_face_normal(scene.level().blocks[std::size_t(cam.hit[k].block)],
-                                           cam.hit[k].face, cam.hit[k].u, cam.hit[k].v);
+        glm::dvec3 nrm = scene.hit_normal(cam.hit[k]);
         cam.normal[k] = glm::dot(nrm, dir) > 0.0 ? -nrm : nrm;
       }
   });

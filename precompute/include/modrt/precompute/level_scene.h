@@ -7,6 +7,7 @@
 #include <span>
 #include <vector>
 
+#include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/level_description.h"
 #include "modrt/precompute/level_build.h"
@@ -17,6 +18,9 @@ struct LevelHit {
   int block = -1;  // -1: nothing hit (the ray left the level)
   int face = -1;   // canonical face of that block
   double u = 0, v = 0, t = 0;
+  // >= 0: the ray hit clutter object `clutter` (of LevelScene::clutter()); then `block` is
+  // its owning block, `face` the box face and (u, v) the clutter face coordinates (drt.h).
+  int clutter = -1;
 };
 
 class LevelScene {
@@ -24,6 +28,9 @@ class LevelScene {
   // Every present face is tessellated into `subdivisions`^2 bilinear cells (2 triangles
   // each) of its trilinear warp; throws std::runtime_error when Embree fails.
   LevelScene(const Level& level, int subdivisions);
+  // The same walls plus clutter boxes (DRT), two-sided so that points inside a box see its
+  // inside; with no objects this is the constructor above.
+  LevelScene(const Level& level, int subdivisions, std::span<const ClutterObject> clutter);
   ~LevelScene();
   LevelScene(const LevelScene&) = delete;
   LevelScene& operator=(const LevelScene&) = delete;
@@ -33,12 +40,16 @@ class LevelScene {
 
   const Level& level() const { return level_; }
   const LevelSampleGeometry& samples() const { return samples_; }
+  const std::vector<ClutterObject>& clutter() const { return clutter_; }
+  // Unit normal at a hit: the wall's inward normal or the clutter face's outward normal.
+  glm::dvec3 hit_normal(const LevelHit& hit) const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   const Level& level_;
   LevelSampleGeometry samples_;
+  std::vector<ClutterObject> clutter_;
 };
 
 // ld = albedo * E / pi at every level sample for the given lights (RGB, 3N), with shadow
