@@ -485,5 +485,48 @@ TEST(Drt, LowersTheErrorOfMrtAgainstThePathTracerOnAMazeBlockWithFourPillars) {
   EXPECT_LT(a.clutter, a.probes);
 }
 
+// Timing for docs/drt.md, not a test (run with --gtest_also_run_disabled_tests
+// --gtest_filter='*Timing*'): full build of the four pillars at the default settings
+// (1024 rays, 16 x 16 clutter texels, 5 Cb modes), the incremental rebuild of one moved
+// pillar, and the operators' storage; medians of 5 runs.
+TEST(Drt, DISABLED_Timing) {
+  ClutterScene s = maze_block_four_pillars();
+  const Level level = build_level(s.description, dict()).value();
+  const DrtBuilder builder(level, dict());
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  std::vector<double> full, incremental, scene_pass, clutter_pass;
+  DrtOperators drt;
+  for (int run = 0; run < 5; ++run) {
+    DrtBuildReport report;
+    const auto t0 = std::chrono::steady_clock::now();
+    drt = builder.build(s.clutter, &report).value();
+    full.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    scene_pass.push_back(report.scene_seconds);
+    clutter_pass.push_back(report.clutter_seconds);
+    s.clutter[1].box.center.x += run % 2 == 0 ? 0.05 : -0.05;
+    const auto t1 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(builder.rebuild_object(s.clutter, 1, drt).ok());
+    incremental.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+  }
+  std::size_t dUb = 0, dUc = 0, Td_c = 0, Cb = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    dUb += o.dUb.data.size() * 4 + o.dUb_sample.size() * 8;
+    dUc += o.dUc.data.size() * 4 + o.dUc_sample.size() * 4;
+    Td_c += o.Td_c.data.size() * 4;
+    Cb += (o.Uc.data.size() + o.Vc.data.size()) * 4 + o.Cb_blocks.size() * 4;
+  }
+  std::printf(
+      "four pillars (res %d level, kb %u, %u level samples): full build %.3f s (scene samples %.3f s, "
+      "clutter "
+      "texels %.3f s), incremental rebuild of one pillar %.3f s; storage %zu bytes (dUb %zu, dUc %zu, Td_c "
+      "%zu, "
+      "Cb %zu)\n",
+      level.res, level.kb, level.sample_count, median(full), median(scene_pass), median(clutter_pass),
+      median(incremental), drt.storage_bytes(), dUb, dUc, Td_c, Cb);
+}
+
 }  // namespace
 }  // namespace modrt::precompute

@@ -34,6 +34,9 @@ struct DrtBuildReport {
   std::size_t culled_samples = 0;  // scene samples skipped by the bounding sphere
   std::size_t inside_samples = 0;  // scene samples inside clutter
   std::size_t inpainted_samples = 0;
+  // Wall-clock seconds of the scene-sample pass (dUb, dUc, inpainting) and of the clutter
+  // texel pass (Cb and its SVD), summed over objects.
+  double scene_seconds = 0.0, clutter_seconds = 0.0;
 };
 
 class DrtBuilder {
