@@ -401,7 +401,7 @@ struct AccuracyResult {
 // clutter shaded by probes) and MRT + DRT (+ dUb b + dUc c; clutter Cb b) against the path
 // tracer on the real geometry with the clutter (same direct-light model; ld with the
 // clutter's direct shadows for both). Texels inside clutter are not visible and skipped.
-AccuracyResult accuracy(const ClutterScene& s, const char* name) {
+AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildSettings& settings = {}) {
   const Level level = build_level(s.description, dict()).value();
   const LevelScene scene(level, level.res, s.clutter);
   const std::vector<float> ld =
@@ -409,7 +409,7 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name) {
   const Frame f = evaluate_mrt(level, ld);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const DrtBuilder builder(level, dict());
+  const DrtBuilder builder(level, dict(), settings);
   const DrtOperators drt = builder.build(s.clutter).value();
   const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_TRUE(check_drt_operators(level, drt).ok());
@@ -490,42 +490,54 @@ TEST(Drt, LowersTheErrorOfMrtAgainstThePathTracerOnAMazeBlockWithFourPillars) {
 // (1024 rays, 16 x 16 clutter texels, 5 Cb modes), the incremental rebuild of one moved
 // pillar, and the operators' storage; medians of 5 runs.
 TEST(Drt, DISABLED_Timing) {
-  ClutterScene s = maze_block_four_pillars();
-  const Level level = build_level(s.description, dict()).value();
-  const DrtBuilder builder(level, dict());
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
-  std::vector<double> full, incremental, scene_pass, clutter_pass;
-  DrtOperators drt;
-  for (int run = 0; run < 5; ++run) {
-    DrtBuildReport report;
-    const auto t0 = std::chrono::steady_clock::now();
-    drt = builder.build(s.clutter, &report).value();
-    full.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    scene_pass.push_back(report.scene_seconds);
-    clutter_pass.push_back(report.clutter_seconds);
-    s.clutter[1].box.center.x += run % 2 == 0 ? 0.05 : -0.05;
-    const auto t1 = std::chrono::steady_clock::now();
-    ASSERT_TRUE(builder.rebuild_object(s.clutter, 1, drt).ok());
-    incremental.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+  for (int rays : {1024, 256}) {
+    ClutterScene s = maze_block_four_pillars();
+    const Level level = build_level(s.description, dict()).value();
+    DrtBuildSettings settings;
+    settings.rays = rays;
+    const DrtBuilder builder(level, dict(), settings);
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v[v.size() / 2];
+    };
+    std::vector<double> full, incremental, scene_pass, clutter_pass;
+    DrtOperators drt;
+    for (int run = 0; run < 5; ++run) {
+      DrtBuildReport report;
+      const auto t0 = std::chrono::steady_clock::now();
+      drt = builder.build(s.clutter, &report).value();
+      full.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      scene_pass.push_back(report.scene_seconds);
+      clutter_pass.push_back(report.clutter_seconds);
+      s.clutter[1].box.center.x += run % 2 == 0 ? 0.05 : -0.05;
+      const auto t1 = std::chrono::steady_clock::now();
+      ASSERT_TRUE(builder.rebuild_object(s.clutter, 1, drt).ok());
+      incremental.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+    }
+    std::size_t dUb = 0, dUc = 0, Td_c = 0, Cb = 0;
+    for (const DrtObjectOperators& o : drt.objects) {
+      dUb += o.dUb.data.size() * 4 + o.dUb_sample.size() * 8;
+      dUc += o.dUc.data.size() * 4 + o.dUc_sample.size() * 4;
+      Td_c += o.Td_c.data.size() * 4;
+      Cb += (o.Uc.data.size() + o.Vc.data.size()) * 4 + o.Cb_blocks.size() * 4;
+    }
+    std::printf(
+        "%d rays: four pillars (res %d level, kb %u, %u level samples): full build %.3f s (scene samples "
+        "%.3f s, "
+        "clutter "
+        "texels %.3f s), incremental rebuild of one pillar %.3f s; storage %zu bytes (dUb %zu, dUc %zu, Td_c "
+        "%zu, "
+        "Cb %zu)\n",
+        rays, level.res, level.kb, level.sample_count, median(full), median(scene_pass), median(clutter_pass),
+        median(incremental), drt.storage_bytes(), dUb, dUc, Td_c, Cb);
+    accuracy(s, "four pillars (moved pillar 1)", settings);
   }
-  std::size_t dUb = 0, dUc = 0, Td_c = 0, Cb = 0;
-  for (const DrtObjectOperators& o : drt.objects) {
-    dUb += o.dUb.data.size() * 4 + o.dUb_sample.size() * 8;
-    dUc += o.dUc.data.size() * 4 + o.dUc_sample.size() * 4;
-    Td_c += o.Td_c.data.size() * 4;
-    Cb += (o.Uc.data.size() + o.Vc.data.size()) * 4 + o.Cb_blocks.size() * 4;
+  for (int rays : {1024, 256}) {
+    DrtBuildSettings settings;
+    settings.rays = rays;
+    std::printf("%d rays: ", rays);
+    accuracy(box_room_two_boxes(), "box room, two boxes", settings);
   }
-  std::printf(
-      "four pillars (res %d level, kb %u, %u level samples): full build %.3f s (scene samples %.3f s, "
-      "clutter "
-      "texels %.3f s), incremental rebuild of one pillar %.3f s; storage %zu bytes (dUb %zu, dUc %zu, Td_c "
-      "%zu, "
-      "Cb %zu)\n",
-      level.res, level.kb, level.sample_count, median(full), median(scene_pass), median(clutter_pass),
-      median(incremental), drt.storage_bytes(), dUb, dUc, Td_c, Cb);
 }
 
 }  // namespace
