@@ -64,6 +64,12 @@ int main(int argc, char** argv) {
   app.add_option("--probe-grid", s.probe_grid, "volume probes per block axis (g^3)");
   app.add_option("--sh-rays", s.sh_rays, "rays per sample/probe for SH projections");
   app.add_option("--seed", s.seed, "sampling seed");
+  app.add_option("--lightfield-spatial", s.lightfield_spatial,
+                 "interface lightfield positions per edge (0: no interface operators, single blocks only)");
+  app.add_option("--lightfield-directional", s.lightfield_directional, "interface direction bins per edge");
+  app.add_option("--krlf", s.krlf, "reduced interface lightfield modes");
+  app.add_option("--kr", s.kr, "interface response modes");
+  app.add_option("--response-rays", s.response_rays, "gather rays per sample for the interface response");
   app.add_flag("--float16", float16, "store operators as float16");
   app.add_flag("--energy-table", energy_table, "also print the singular-value energy table (MRT Table 2)");
   app.add_flag("--energy-table-only", energy_table_only, "print the energy table and exit without baking");

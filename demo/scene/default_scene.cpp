@@ -196,7 +196,8 @@ Result<DemoScene> default_scene() {
   const int tiles = add_material(scene, "tiled floor", glm::vec3(b0.albedo[kFaceNegY]), 1);
   // Those two faces as their own normal-mapped meshes, just in front of the plain walls
   // (a millimetre inside, so the depth test picks them).
-  for (auto [face, material] : {std::pair{brick_face, bricks}, std::pair{int(kFaceNegY), tiles}}) {
+  for (auto [face_index, material] : {std::pair{brick_face, bricks}, std::pair{int(kFaceNegY), tiles}}) {
+    const int face = face_index;  // a structured binding cannot be captured (C++20, clang)
     Mesh m;
     m.name = scene.materials[std::size_t(material)].name;
     m.material = material;

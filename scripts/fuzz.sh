@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Build the libFuzzer harnesses with clang (build-fuzz/) and run each for a bounded time on
+# a copy of its seed corpus (tests/fuzz/corpus/<name>), printing libFuzzer's execution count.
+# A crash, leak or sanitizer report fails the script; the reproducer is left in
+# build-fuzz/artifacts/ (turn it into a regression test).
+#
+#   scripts/fuzz.sh [seconds per fuzzer, default 60]
+set -euo pipefail
+
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo_root"
+seconds="${1:-60}"
+
+scripts/install-deps.sh
+
+cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DMODRT_FUZZ=ON -DMODRT_BUILD_GLES=OFF -DMODRT_BUILD_TESTS=OFF -DMODRT_BUILD_DEMO=OFF -DMODRT_BUILD_BENCH=OFF
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_dictionary fuzz_level_json fuzz_gltf
+
+mkdir -p build-fuzz/artifacts
+for name in dictionary level_json gltf; do
+  corpus_name="$name"
+  [[ $name == level_json ]] && corpus_name=level
+  work="build-fuzz/corpus-$name"
+  rm -rf "$work"
+  cp -r "tests/fuzz/corpus/$corpus_name" "$work"
+  echo "=== fuzz_$name: ${seconds} s"
+  # rss_limit/malloc_limit: a parser must refuse a huge size before allocating it.
+  log="build-fuzz/fuzz_$name.log"
+  status=0
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    "build-fuzz/bin/fuzz_$name" -max_total_time="$seconds" -rss_limit_mb=2048 -malloc_limit_mb=1024 \
+    -timeout=10 -print_final_stats=1 -artifact_prefix="build-fuzz/artifacts/$name-" "$work" >"$log" 2>&1 ||
+    status=$?
+  grep -E "^stat::number_of_executed_units|^stat::peak_rss_mb|^INFO: seed corpus|^Done" "$log" || true
+  if [[ $status -ne 0 ]]; then
+    tail -60 "$log" >&2
+    echo "=== fuzz_$name: FAILED (exit $status), artifacts in build-fuzz/artifacts/" >&2
+    exit 1
+  fi
+done
+echo "=== fuzz: all harnesses ran ${seconds} s without a finding"
