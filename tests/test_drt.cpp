@@ -151,6 +151,33 @@ TEST(Drt, NoClutterMeansEmptyOperatorsAndABitIdenticalLightmap) {
   EXPECT_EQ(0, std::memcmp(lightmap.data(), f.lightmap.data(), lightmap.size() * sizeof(float)));
 }
 
+// The packet query the gathers use returns exactly the single-ray hits, clutter included.
+TEST(Drt, PacketIntersectionsEqualSingleRays) {
+  const ClutterScene s = box_room_two_boxes();
+  const Level level = build_level(s.description, dict()).value();
+  const LevelScene scene(level, level.res, s.clutter);
+  std::vector<glm::dvec3> dirs;
+  for (int i = 0; i < 203; ++i) {  // not a multiple of the packet width
+    const double z = 1.0 - 2.0 * (i + 0.5) / 203.0, phi = 2.399963 * i;
+    dirs.push_back(glm::dvec3(std::sqrt(1 - z * z) * std::cos(phi), z, std::sqrt(1 - z * z) * std::sin(phi)));
+  }
+  std::vector<LevelHit> hits(dirs.size());
+  const glm::dvec3 origin(0.45, 0.3, 0.5);
+  scene.intersect_many(origin, dirs, hits);
+  int on_clutter = 0;
+  for (std::size_t i = 0; i < dirs.size(); ++i) {
+    const LevelHit one = scene.intersect(origin, dirs[i]);
+    EXPECT_EQ(hits[i].block, one.block);
+    EXPECT_EQ(hits[i].face, one.face);
+    EXPECT_EQ(hits[i].clutter, one.clutter);
+    EXPECT_EQ(hits[i].u, one.u);
+    EXPECT_EQ(hits[i].v, one.v);
+    EXPECT_EQ(hits[i].t, one.t);
+    on_clutter += one.clutter >= 0;
+  }
+  EXPECT_GT(on_clutter, 0);
+}
+
 TEST(Drt, ValidationNamesTheProblem) {
   const ClutterScene s = box_room_two_boxes();
   const Level level = build_level(s.description, dict()).value();

@@ -291,24 +291,29 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
   const ClutterTexelGeometry cg = clutter_texel_geometry(object);
   const std::size_t m = cg.position.size();
   std::vector<BlockRows> gathered(m);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, m, 16), [&](const tbb::blocked_range<std::size_t>& range) {
-        std::vector<glm::dvec2> strata;
-        LimpGather gather(level_, dict_, g.block);
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          Rng rng(settings_.seed ^ 0x436200ull, i);
-          stratified_square(rays, rng, strata);
-          glm::dvec3 t, b;
-          tangent_frame(cg.normal[i], t, b);
-          // Off the face so that a float ray does not start behind it.
-          const glm::dvec3 x = cg.position[i] + 1e-6 * cg.normal[i];
-          for (const glm::dvec2& u : strata) {
-            const LevelHit wall = walls_.intersect(x, to_world(cosine_hemisphere(u), t, b, cg.normal[i]));
-            if (wall.block >= 0) gather.add(wall, 1.0 / rays);
-          }
-          gather.flush(gathered[i]);
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 16),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<glm::dvec2> strata;
+                      LimpGather gather(level_, dict_, g.block);
+                      std::vector<glm::dvec3> dirs;
+                      std::vector<LevelHit> hits;
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        Rng rng(settings_.seed ^ 0x436200ull, i);
+                        stratified_square(rays, rng, strata);
+                        glm::dvec3 t, b;
+                        tangent_frame(cg.normal[i], t, b);
+                        // Off the face so that a float ray does not start behind it.
+                        const glm::dvec3 x = cg.position[i] + 1e-6 * cg.normal[i];
+                        dirs.clear();
+                        for (const glm::dvec2& u : strata)
+                          dirs.push_back(to_world(cosine_hemisphere(u), t, b, cg.normal[i]));
+                        hits.resize(dirs.size());
+                        walls_.intersect_many(x, dirs, hits);
+                        for (const LevelHit& wall : hits)
+                          if (wall.block >= 0) gather.add(wall, 1.0 / rays);
+                        gather.flush(gathered[i]);
+                      }
+                    });
   std::map<std::uint32_t, std::size_t> column_of;
   for (const BlockRows& r : gathered)
     for (const auto& [blk, values] : r) column_of.emplace(blk, 0);

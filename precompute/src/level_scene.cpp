@@ -128,19 +128,53 @@ LevelScene::~LevelScene() {
 
 LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near) const {
   const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, t_near);
+  return make_hit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+}
+
+void LevelScene::intersect_many(const glm::dvec3& origin, std::span<const glm::dvec3> dirs,
+                                std::span<LevelHit> out, double t_near) const {
+  constexpr std::size_t W = 8;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  for (std::size_t base = 0; base < dirs.size(); base += W) {
+    alignas(32) RTCRayHit8 rh{};
+    alignas(32) int valid[W];
+    for (std::size_t k = 0; k < W; ++k) {
+      const std::size_t i = base + k;
+      valid[k] = i < dirs.size() ? -1 : 0;
+      const glm::dvec3 d = i < dirs.size() ? dirs[i] : glm::dvec3(0, 0, 1);
+      rh.ray.org_x[k] = float(origin.x);
+      rh.ray.org_y[k] = float(origin.y);
+      rh.ray.org_z[k] = float(origin.z);
+      rh.ray.dir_x[k] = float(d.x);
+      rh.ray.dir_y[k] = float(d.y);
+      rh.ray.dir_z[k] = float(d.z);
+      rh.ray.tnear[k] = float(t_near);
+      rh.ray.tfar[k] = 1e30f;
+      rh.ray.mask[k] = 0xFFFFFFFFu;
+      rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, impl_->scene, &context, &rh);
+    for (std::size_t k = 0; k < W && base + k < dirs.size(); ++k)
+      out[base + k] = make_hit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
+  }
+}
+
+LevelHit LevelScene::make_hit(unsigned geom_id, unsigned prim_id, float u, float v, float t_far) const {
   LevelHit hit;
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
-  const bool on_clutter = rh.hit.geomID == impl_->clutter_geometry;
-  const Impl::Cell& c =
-      on_clutter ? impl_->clutter_cells[rh.hit.primID / 2] : impl_->cells[rh.hit.primID / 2];
+  if (geom_id == RTC_INVALID_GEOMETRY_ID) return hit;
+  const bool on_clutter = geom_id == impl_->clutter_geometry;
+  const Impl::Cell& c = on_clutter ? impl_->clutter_cells[prim_id / 2] : impl_->cells[prim_id / 2];
   // Barycentrics of (v00, v10, v11) or (v00, v11, v01) -> position inside the cell.
   double s, t;
-  if (rh.hit.primID % 2 == 0) {
-    s = rh.hit.u + rh.hit.v;
-    t = rh.hit.v;
+  if (prim_id % 2 == 0) {
+    s = u + v;
+    t = v;
   } else {
-    s = rh.hit.u;
-    t = rh.hit.u + rh.hit.v;
+    s = u;
+    t = u + v;
   }
   if (on_clutter) {
     hit.clutter = c.block;
@@ -148,7 +182,7 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
     hit.face = c.face;
     hit.u = std::clamp(s, 0.0, 1.0);
     hit.v = std::clamp(t, 0.0, 1.0);
-    hit.t = rh.ray.tfar;
+    hit.t = t_far;
     return hit;
   }
   const int m = impl_->subdivisions;
@@ -156,7 +190,7 @@ LevelHit LevelScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, 
   hit.face = c.face;
   hit.u = std::clamp((c.i + s) / m, 0.0, 1.0);
   hit.v = std::clamp((c.j + t) / m, 0.0, 1.0);
-  hit.t = rh.ray.tfar;
+  hit.t = t_far;
   return hit;
 }
 

@@ -37,6 +37,10 @@ class LevelScene {
 
   LevelHit intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near = 1e-6) const;
   bool occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near = 1e-6) const;
+  // intersect() for many directions from one origin, traced as 8-wide coherent packets
+  // (the gathers of DRT trace 1024 rays per texel); out[i] is the hit of dirs[i].
+  void intersect_many(const glm::dvec3& origin, std::span<const glm::dvec3> dirs, std::span<LevelHit> out,
+                      double t_near = 1e-6) const;
 
   const Level& level() const { return level_; }
   const LevelSampleGeometry& samples() const { return samples_; }
@@ -46,6 +50,7 @@ class LevelScene {
 
  private:
   struct Impl;
+  LevelHit make_hit(unsigned geom_id, unsigned prim_id, float u, float v, float t_far) const;
   std::unique_ptr<Impl> impl_;
   const Level& level_;
   LevelSampleGeometry samples_;
