@@ -1,0 +1,196 @@
+// Numerical stress (issue 9): the runtime driven far outside comfortable inputs, through the
+// real dictionary, level build and SIMD CPU runtime (no mocks). Each test prints what it
+// measured; docs/robustness.md has the table.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "level_fixtures.h"
+#include "modrt/cpu/cpu_level_runtime.h"
+#include "modrt/cpu/direct_light.h"
+#include "modrt/level_runtime.h"
+
+namespace modrt::cpu {
+namespace {
+
+using test::test_level;
+using test::TestLevel;
+
+const Dictionary& dict() { return test::small_test_dictionary(); }
+
+double rel_l2(std::span<const float> a, std::span<const float> b, double scale_b = 1.0) {
+  double num = 0, den = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = double(a[i]) - scale_b * double(b[i]);
+    num += d * d;
+    den += scale_b * scale_b * double(b[i]) * b[i];
+  }
+  return den > 0 ? std::sqrt(num / den) : std::sqrt(num);
+}
+
+bool all_finite(std::span<const float> v) {
+  return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
+}
+
+// Multi-bounce feedback over 10 000 steps with uniform albedo 0, 0.99, 1.0 and 1.5: the
+// albedo is clamped to max_albedo = 0.95 and the fed-back lightmap to max(ld) / (1 - 0.95)
+// (SPEC §2, core's apply_feedback), so the iteration stays finite and bounded whatever the
+// spectral radius of the low-rank operator. That radius, rho(0.95 F) estimated by power
+// iteration on the linear part, is printed: below 1 the steps converge (checked), above 1
+// the clamp alone bounds them.
+TEST(Stress, MultiBounceStaysBoundedForAnyAlbedo) {
+  const TestLevel& t = test_level("maze11");
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
+  ASSERT_TRUE(rt.ok());
+  const std::size_t n = rt->sizes().lightmap;
+  // Spectral radius of L -> F(0.95 L), the feedback's linear part, by power iteration.
+  std::vector<float> x(n, 1.0f), y(n);
+  double radius = 0.0;
+  for (int it = 0; it < 60; ++it) {
+    for (float& v : x) v *= 0.95f;
+    ASSERT_TRUE(rt->evaluate(std::vector<float>(x.begin(), x.end()), y).ok());
+    double norm = 0, prev = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      norm += double(std::max(y[i], 0.0f)) * std::max(y[i], 0.0f), prev += double(x[i]) * x[i];
+    radius = std::sqrt(norm / prev);
+    const double scale = 1.0 / std::sqrt(norm / double(n));
+    for (std::size_t i = 0; i < n; ++i) x[i] = float(std::max(y[i], 0.0f) * scale);
+  }
+  // A physical one-bounce operator has radius <= 1 (a closed white box returns all light); the
+  // low-rank MRT operator can exceed it slightly, which is why the feedback is clamped.
+  std::printf(
+      "  spectral radius: one-bounce operator F %.4f, feedback 0.95 F %.6f (maze11, test dictionary)\n",
+      radius / 0.95, radius);
+  for (float albedo : {0.0f, 0.99f, 1.0f, 1.5f}) {
+    Result<CpuLevelRuntime> r = CpuLevelRuntime::create(t.level, dict());
+    ASSERT_TRUE(r.ok());
+    ASSERT_TRUE(r->set_albedo(std::vector<float>(n, albedo)).ok());
+    std::vector<float> lightmap(n), previous(n), one_bounce(n);
+    ASSERT_TRUE(r->evaluate(t.ld, one_bounce).ok());
+    lightmap = one_bounce;
+    const float ld_max = *std::max_element(t.ld.begin(), t.ld.end());
+    const float bound = ld_max / (1.0f - std::min(albedo, 0.95f));
+    bool clamped_ever = false;
+    double last_change = 0.0;
+    for (int step = 0; step < 10000; ++step) {
+      previous = lightmap;
+      bool clamped = false;
+      ASSERT_TRUE(r->multi_bounce_step(t.ld, lightmap, &clamped).ok()) << "step " << step;
+      clamped_ever |= clamped;
+      if (step % 1000 == 999) {
+        ASSERT_TRUE(all_finite(lightmap)) << "albedo " << albedo << " step " << step;
+      }
+      if (step == 9999) last_change = rel_l2(lightmap, previous);
+    }
+    const float lm_max = *std::max_element(lightmap.begin(), lightmap.end());
+    // The one-bounce operator applied to an ld bounded by `bound` per value.
+    const float one_max = *std::max_element(one_bounce.begin(), one_bounce.end());
+    EXPECT_TRUE(all_finite(lightmap));
+    EXPECT_LE(lm_max, one_max / ld_max * bound * 1.5f) << "albedo " << albedo;
+    if (albedo == 0.0f) {
+      EXPECT_EQ(lightmap, one_bounce);
+    }
+    if (radius < 0.99) {  // a contraction with margin converges well within 10 000 steps
+      EXPECT_LT(last_change, 1e-6) << "albedo " << albedo;
+    }
+    std::printf(
+        "  albedo %.2f: 10 000 steps, max %.4g (bound %.4g x one-bounce gain %.3f), last step change %.2e, "
+        "energy clamp %s\n",
+        albedo, lm_max, bound, one_max / ld_max, last_change, clamped_ever ? "hit" : "never hit");
+  }
+}
+
+// Light from 1e-8 to 1e8 times the fixture's: the lightmap scales with it (linear transport),
+// within float rounding, and stays finite. Beyond float's range the runtime's policy applies:
+// ld must be finite (rejected otherwise, naming the sample); finite ld as large as 1e30 gives
+// a finite lightmap.
+TEST(Stress, LightIntensityOverSixteenDecadesIsLinear) {
+  const TestLevel& t = test_level("maze41");
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
+  ASSERT_TRUE(rt.ok());
+  std::vector<float> reference(rt->sizes().lightmap), lightmap(reference.size());
+  ASSERT_TRUE(rt->evaluate(t.ld, reference).ok());
+  for (double scale : {1e-8, 1e-4, 1e4, 1e8, 1e20, 1e30}) {
+    std::vector<float> ld(t.ld);
+    for (float& v : ld) v = float(double(v) * scale);
+    ASSERT_TRUE(rt->evaluate(ld, lightmap).ok());
+    EXPECT_TRUE(all_finite(lightmap)) << scale;
+    const double e = rel_l2(lightmap, reference, scale);
+    EXPECT_LT(e, 1e-6) << scale;
+    std::printf("  ld x %.0e: lightmap vs scaled reference rel L2 %.2e\n", scale, e);
+  }
+  std::vector<float> ld(t.ld);
+  ld[5] = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(rt->evaluate(ld, lightmap).code(), ErrorCode::non_finite);
+}
+
+// Denormal ld (1e-40, below FLT_MIN): computed without error and finite; the lightmap keeps
+// the shape of the normal-range result where the products stay representable.
+TEST(Stress, DenormalLightStaysFinite) {
+  const TestLevel& t = test_level("maze11");
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
+  ASSERT_TRUE(rt.ok());
+  std::vector<float> reference(rt->sizes().lightmap), lightmap(reference.size());
+  ASSERT_TRUE(rt->evaluate(t.ld, reference).ok());
+  const float ld_max = *std::max_element(t.ld.begin(), t.ld.end());
+  std::vector<float> ld(t.ld);
+  for (float& v : ld) v = v / ld_max * 1e-40f;
+  ASSERT_TRUE(rt->evaluate(ld, lightmap).ok());
+  EXPECT_TRUE(all_finite(lightmap));
+  const float out_max = *std::max_element(lightmap.begin(), lightmap.end());
+  const float ref_max = *std::max_element(reference.begin(), reference.end());
+  // Denormals carry fewer significant bits: the shape is kept only roughly.
+  EXPECT_LT(rel_l2(lightmap, reference, double(out_max) / ref_max), 0.05);
+  std::printf("  ld at 1e-40: lightmap max %.3g, shape vs normal range rel L2 %.3f\n", out_max,
+              rel_l2(lightmap, reference, double(out_max) / ref_max));
+}
+
+// A long animated run: a point light circling through maze41 (CpuDirectLight, incremental),
+// the runtime with exact skipping against a full evaluation at checkpoints: bit-identical at
+// every checkpoint, so skipping does not drift. 20 000 frames here (about a minute);
+// MODRT_STRESS_FRAMES=100000 for the issue's full length.
+TEST(Stress, LongAnimatedRunDoesNotDrift) {
+  const TestLevel& t = test_level("maze41");
+  int frames = 20000;
+  if (const char* env = std::getenv("MODRT_STRESS_FRAMES")) frames = std::max(1, std::atoi(env));
+  Result<CpuDirectLight> direct = CpuDirectLight::create(t.level, t.albedo);
+  ASSERT_TRUE(direct.ok()) << direct.status().to_string();
+  CpuRuntimeOptions skip_options;
+  skip_options.skip.enabled = true;
+  Result<CpuLevelRuntime> skipping = CpuLevelRuntime::create(t.level, dict(), skip_options);
+  Result<CpuLevelRuntime> full = CpuLevelRuntime::create(t.level, dict());
+  ASSERT_TRUE(skipping.ok() && full.ok());
+  std::vector<float> ld(t.ld.size()), lm_skip(skipping->sizes().lightmap), lm_full(lm_skip.size());
+  const glm::vec3 centre(t.description.lights.at(0).position);
+  std::size_t checkpoints = 0, mismatches = 0, kept_blocks = 0;
+  for (int f = 0; f < frames; ++f) {
+    CpuLight light;
+    const float a = 0.01f * float(f);
+    light.position = centre + glm::vec3(0.3f * std::cos(a), 0.1f * std::sin(3.0f * a), 0.3f * std::sin(a));
+    light.intensity = 1.0f + 0.5f * std::sin(0.003f * float(f));
+    ASSERT_TRUE(direct->evaluate(std::span(&light, 1), ld).ok()) << "frame " << f;
+    ASSERT_TRUE(skipping->evaluate(ld, lm_skip).ok()) << "frame " << f;
+    kept_blocks += skipping->skip_stats().blocks_kept + skipping->skip_stats().blocks_dark;
+    if (f % 1000 == 999 || f == frames - 1) {
+      ASSERT_TRUE(full->evaluate(ld, lm_full).ok());
+      ++checkpoints;
+      mismatches += lm_skip != lm_full;
+    }
+  }
+  EXPECT_EQ(mismatches, 0u);
+  EXPECT_GT(kept_blocks, 0u);
+  std::printf(
+      "  %d frames, %zu checkpoints bit-identical to the full path: %s; blocks skipped (kept or dark) %zu of "
+      "%zu\n",
+      frames, checkpoints, mismatches == 0 ? "yes" : "NO", kept_blocks,
+      std::size_t(frames) * t.level.blocks.size());
+}
+
+}  // namespace
+}  // namespace modrt::cpu
