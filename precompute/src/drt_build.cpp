@@ -1,7 +1,6 @@
 #include "modrt/precompute/drt_build.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -9,6 +8,7 @@
 #include <string>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <Eigen/SVD>
 #include <glm/geometric.hpp>
@@ -158,11 +158,13 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
   // can see the box; a ray that reaches the box before any wall is light the box takes away
   // (the wall behind it, lit by Limp b of its block) and light the box sends (its face).
   const auto t0 = std::chrono::steady_clock::now();
+  // One gather per thread: each holds a weight per level sample, too large to make per task.
+  tbb::enumerable_thread_specific<LimpGather> gathers([&] { return LimpGather(level_, dict_, g.block); });
   std::vector<SampleResult> result(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       std::vector<glm::dvec2> strata;
-                      LimpGather gather(level_, dict_, g.block);
+                      LimpGather& gather = gathers.local();
                       for (std::size_t s = range.begin(); s != range.end(); ++s) {
                         const glm::dvec3 x = g.position[s], nrm = g.normal[s];
                         if (clutter_contains(box, x, 1e-6)) {
@@ -294,7 +296,7 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       std::vector<glm::dvec2> strata;
-                      LimpGather gather(level_, dict_, g.block);
+                      LimpGather& gather = gathers.local();
                       std::vector<glm::dvec3> dirs;
                       std::vector<LevelHit> hits;
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
