@@ -246,6 +246,18 @@ TEST(CpuKernels, FiniteNonnegativeFindsEveryBadValue) {
           EXPECT_FALSE(finite_nonnegative(isa, w.data(), n))
               << isa_name(isa) << " n " << n << " at " << at << " " << b;
         }
+      // With a ceiling (kMaxLightValue for ld): the ceiling itself passes, one value above fails.
+      v[0] = 0.5f;
+      EXPECT_TRUE(finite_nonnegative(isa, v.data(), n, 2.0f)) << isa_name(isa) << " " << n;
+      for (std::size_t at : {std::size_t(0), n / 2, n - 1}) {
+        std::vector<float> w = v;
+        w[at] = 2.0f;
+        EXPECT_TRUE(finite_nonnegative(isa, w.data(), n, 2.0f))
+            << isa_name(isa) << " n " << n << " at " << at;
+        w[at] = 2.0000002f;
+        EXPECT_FALSE(finite_nonnegative(isa, w.data(), n, 2.0f))
+            << isa_name(isa) << " n " << n << " at " << at;
+      }
     }
   }
 }

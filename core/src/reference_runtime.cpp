@@ -50,8 +50,8 @@ Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::sp
   return clamp;
 }
 
-bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct, std::span<const float> lightmap,
-                    std::span<float> ld) {
+bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct,
+                    std::span<const float> lightmap, std::span<float> ld) {
   bool clamped = false;
   for (std::size_t i = 0; i < ld.size(); ++i) {
     float l = std::max(lightmap[i], 0.0f);
@@ -75,7 +75,8 @@ bool feedback_converged(std::span<const float> b, std::span<const float> b_prev,
 
 Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what) {
   if (rgb.size() != 3 * samples)
-    return Status::error(ErrorCode::invalid_argument, std::string(what) + ": has " + std::to_string(rgb.size()) +
+    return Status::error(ErrorCode::invalid_argument, std::string(what) + ": has " +
+                                                          std::to_string(rgb.size()) +
                                                           " floats, expected 3 x " + std::to_string(samples));
   static constexpr const char* kChannel[3] = {"R", "G", "B"};
   for (std::size_t i = 0; i < rgb.size(); ++i) {
@@ -85,9 +86,15 @@ Status validate_light_signal(std::span<const float> rgb, std::size_t samples, co
                                                       " channel " + kChannel[i % 3] + " is " +
                                                       (std::isnan(v) ? "NaN" : "Inf"));
     if (v < 0.0f)
-      return Status::error(ErrorCode::invalid_argument, std::string(what) + ": sample " + std::to_string(i / 3) +
-                                                            " channel " + kChannel[i % 3] + " is negative (" +
-                                                            std::to_string(v) + ")");
+      return Status::error(ErrorCode::invalid_argument,
+                           std::string(what) + ": sample " + std::to_string(i / 3) + " channel " +
+                               kChannel[i % 3] + " is negative (" + std::to_string(v) + ")");
+    if (v > kMaxLightValue)
+      return Status::error(
+          ErrorCode::invalid_argument,
+          std::string(what) + ": sample " + std::to_string(i / 3) + " channel " + kChannel[i % 3] + " is " +
+              std::to_string(v) +
+              ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
   }
   return Status::success();
 }
@@ -95,8 +102,9 @@ Status validate_light_signal(std::span<const float> rgb, std::size_t samples, co
 Status compute_b(const ShapeOperators& op, std::span<const float> ld, std::span<float> b) {
   if (Status s = validate_light_signal(ld, op.Td_b.cols, "ld"); !s.ok()) return s;
   if (b.size() != 3 * std::size_t(op.Td_b.rows))
-    return Status::error(ErrorCode::invalid_argument, "b: has " + std::to_string(b.size()) + " floats, expected 3 x " +
-                                                          std::to_string(op.Td_b.rows));
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "b: has " + std::to_string(b.size()) + " floats, expected 3 x " + std::to_string(op.Td_b.rows));
   apply_rgb(op.Td_b, ld, b);
   return Status::success();
 }

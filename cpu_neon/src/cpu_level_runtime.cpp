@@ -346,7 +346,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
 Status CpuLevelRuntime::evaluate(std::span<const float> ld, std::span<float> lightmap) {
   const Level& level = *level_;
   // SIMD check first; core's validation (which names the bad value) only when it fails.
-  if (ld.size() != sizes_.ld || !finite_nonnegative(isa_, ld.data(), ld.size()))
+  if (ld.size() != sizes_.ld || !finite_nonnegative(isa_, ld.data(), ld.size(), kMaxLightValue))
     if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
   if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
 

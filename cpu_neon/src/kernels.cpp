@@ -156,9 +156,9 @@ SignalChange signal_change_scalar(const float* ld, const float* ref, std::size_t
   return acc;
 }
 
-bool finite_nonnegative_scalar(const float* v, std::size_t count) {
+bool finite_nonnegative_scalar(const float* v, std::size_t count, float max_value) {
   bool ok = true;
-  for (std::size_t i = 0; i < count; ++i) ok &= v[i] >= 0.0f && v[i] <= std::numeric_limits<float>::max();
+  for (std::size_t i = 0; i < count; ++i) ok &= v[i] >= 0.0f && v[i] <= max_value;
   return ok;
 }
 
@@ -423,8 +423,8 @@ MODRT_TARGET_AVX2 SignalChange signal_change_avx2(const float* ld, const float* 
   return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
 }
 
-MODRT_TARGET_AVX2 bool finite_nonnegative_avx2(const float* v, std::size_t count) {
-  const __m256 zero = _mm256_setzero_ps(), big = _mm256_set1_ps(std::numeric_limits<float>::max());
+MODRT_TARGET_AVX2 bool finite_nonnegative_avx2(const float* v, std::size_t count, float max_value) {
+  const __m256 zero = _mm256_setzero_ps(), big = _mm256_set1_ps(max_value);
   __m256 ok = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
   std::size_t i = 0;
   for (; i + 8 <= count; i += 8) {
@@ -432,7 +432,7 @@ MODRT_TARGET_AVX2 bool finite_nonnegative_avx2(const float* v, std::size_t count
     ok = _mm256_and_ps(ok,
                        _mm256_and_ps(_mm256_cmp_ps(x, zero, _CMP_GE_OQ), _mm256_cmp_ps(x, big, _CMP_LE_OQ)));
   }
-  return _mm256_movemask_ps(ok) == 0xff && finite_nonnegative_scalar(v + i, count - i);
+  return _mm256_movemask_ps(ok) == 0xff && finite_nonnegative_scalar(v + i, count - i, max_value);
 }
 
 MODRT_TARGET_SSE41 inline float hsum4_one_sse(__m128 a) {
@@ -468,15 +468,15 @@ MODRT_TARGET_SSE41 SignalChange signal_change_sse41(const float* ld, const float
   return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
 }
 
-MODRT_TARGET_SSE41 bool finite_nonnegative_sse41(const float* v, std::size_t count) {
-  const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(std::numeric_limits<float>::max());
+MODRT_TARGET_SSE41 bool finite_nonnegative_sse41(const float* v, std::size_t count, float max_value) {
+  const __m128 zero = _mm_setzero_ps(), big = _mm_set1_ps(max_value);
   __m128 ok = _mm_castsi128_ps(_mm_set1_epi32(-1));
   std::size_t i = 0;
   for (; i + 4 <= count; i += 4) {
     const __m128 x = _mm_loadu_ps(v + i);
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(x, zero), _mm_cmple_ps(x, big)));
   }
-  return _mm_movemask_ps(ok) == 0xf && finite_nonnegative_scalar(v + i, count - i);
+  return _mm_movemask_ps(ok) == 0xf && finite_nonnegative_scalar(v + i, count - i, max_value);
 }
 
 #endif  // MODRT_CPU_X86
@@ -600,15 +600,15 @@ SignalChange signal_change_neon(const float* ld, const float* ref, std::size_t c
   return signal_change_scalar(ld + kv, ref + kv, count - kv, out);
 }
 
-bool finite_nonnegative_neon(const float* v, std::size_t count) {
-  const float32x4_t zero = vdupq_n_f32(0.0f), big = vdupq_n_f32(std::numeric_limits<float>::max());
+bool finite_nonnegative_neon(const float* v, std::size_t count, float max_value) {
+  const float32x4_t zero = vdupq_n_f32(0.0f), big = vdupq_n_f32(max_value);
   uint32x4_t ok = vdupq_n_u32(0xffffffffu);
   std::size_t i = 0;
   for (; i + 4 <= count; i += 4) {
     const float32x4_t x = vld1q_f32(v + i);  // ordered compares: NaN fails both
     ok = vandq_u32(ok, vandq_u32(vcgeq_f32(x, zero), vcleq_f32(x, big)));
   }
-  return vminvq_u32(ok) == 0xffffffffu && finite_nonnegative_scalar(v + i, count - i);
+  return vminvq_u32(ok) == 0xffffffffu && finite_nonnegative_scalar(v + i, count - i, max_value);
 }
 
 #endif  // MODRT_CPU_NEON
@@ -721,16 +721,16 @@ SignalChange signal_change(Isa isa, const float* ld, const float* ref, std::size
   return c;
 }
 
-bool finite_nonnegative(Isa isa, const float* v, std::size_t count) {
+bool finite_nonnegative(Isa isa, const float* v, std::size_t count, float max_value) {
   switch (isa_supported(isa) ? isa : Isa::scalar) {
 #if MODRT_CPU_X86
-    case Isa::avx2: return finite_nonnegative_avx2(v, count);
-    case Isa::sse41: return finite_nonnegative_sse41(v, count);
+    case Isa::avx2: return finite_nonnegative_avx2(v, count, max_value);
+    case Isa::sse41: return finite_nonnegative_sse41(v, count, max_value);
 #endif
 #if MODRT_CPU_NEON
-    case Isa::neon: return finite_nonnegative_neon(v, count);
+    case Isa::neon: return finite_nonnegative_neon(v, count, max_value);
 #endif
-    default: return finite_nonnegative_scalar(v, count);
+    default: return finite_nonnegative_scalar(v, count, max_value);
   }
 }
 

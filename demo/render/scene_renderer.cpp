@@ -10,6 +10,7 @@
 
 #include "modrt/level_geometry.h"
 #include "modrt/platform/gl_program.h"
+#include "modrt/reference_runtime.h"
 
 namespace modrt::demo {
 
@@ -436,7 +437,7 @@ Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
   for (std::size_t s = 0; s < m.samples; ++s)
     for (std::size_t c = 0; c < 3; ++c) {
       const float v = m.readback[4 * s + c];
-      ld[3 * s + c] = v > 0.0f && v < 3.0e38f ? v : 0.0f;
+      ld[3 * s + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;  // NaN and negatives -> 0
     }
   return Status::success();
 }

@@ -128,6 +128,12 @@ TEST(Stress, LightIntensityOverSixteenDecadesIsLinear) {
   std::vector<float> ld(t.ld);
   ld[5] = std::numeric_limits<float>::infinity();
   EXPECT_EQ(rt->evaluate(ld, lightmap).code(), ErrorCode::non_finite);
+  // Finite but beyond kMaxLightValue, where transport could overflow: refused, naming it.
+  ld = t.ld;
+  for (float& v : ld) v *= 1e31f;
+  const Status s = rt->evaluate(ld, lightmap);
+  EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(s.message().find("largest light value"), std::string::npos) << s.message();
 }
 
 // Denormal ld (1e-40, below FLT_MIN): computed without error and finite; the lightmap keeps

@@ -14,8 +14,14 @@
 
 namespace modrt {
 
-// Fails with non_finite (NaN/Inf) or invalid_argument (negative, wrong size), naming the
-// first offending sample and channel. `what` prefixes the message (e.g. "ld").
+// The largest light value (ld, albedo) any runtime accepts. Transport multiplies ld by
+// operators with entries up to ~1e3 and multi-bounce amplifies it by up to 1 / (1 - 0.95), so
+// 1e30 keeps every intermediate far below float's 3.4e38: a lightmap never overflows to Inf
+// (and Inf - Inf to NaN) from finite input. Brighter scenes are rescaled by the caller.
+inline constexpr float kMaxLightValue = 1e30f;
+
+// Fails with non_finite (NaN/Inf) or invalid_argument (negative, above kMaxLightValue, wrong
+// size), naming the first offending sample and channel. `what` prefixes the message (e.g. "ld").
 Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what);
 
 // b = Td_b ld (MRT eq. 3). ld: 3n, b: 3kb. Validates ld.
@@ -48,16 +54,16 @@ void reference_gemv_rgb(const Matrix& A, const float* in, float* out, bool accum
 
 // The clamps of multi-bounce feedback, prepared once per solve.
 struct FeedbackClamp {
-  std::vector<float> rho;    // albedo clamped to settings.max_albedo
-  float energy_bound = 0.0f; // max(ld_direct) / (1 - max rho)
+  std::vector<float> rho;     // albedo clamped to settings.max_albedo
+  float energy_bound = 0.0f;  // max(ld_direct) / (1 - max rho)
   bool albedo_clamped = false;
 };
 // Validates ld_direct and albedo (3 * samples each) and the settings.
 Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::span<const float> albedo,
                                        std::size_t samples, const MultiBounceSettings& settings);
 // ld = ld_direct + rho * min(max(lightmap, 0), energy_bound); true when the bound clamped.
-bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct, std::span<const float> lightmap,
-                    std::span<float> ld);
+bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct,
+                    std::span<const float> lightmap, std::span<float> ld);
 // max |b - b_prev| <= tolerance * max |b|.
 bool feedback_converged(std::span<const float> b, std::span<const float> b_prev, float tolerance);
 

@@ -21,6 +21,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 
 #include "modrt/cpu/isa.h"
@@ -110,9 +111,11 @@ struct SignalChange {
 };
 SignalChange signal_change(Isa isa, const float* ld, const float* ref, std::size_t count);
 
-// True when all `count` floats are finite and >= 0 (-0 included): the fast path of light
-// signal validation; a false answer is then explained by core's validate_light_signal.
-bool finite_nonnegative(Isa isa, const float* v, std::size_t count);
+// True when all `count` floats are in [0, max_value] (-0 included; NaN and Inf fail): the
+// fast path of light signal validation (max_value = kMaxLightValue); a false answer is then
+// explained by core's validate_light_signal.
+bool finite_nonnegative(Isa isa, const float* v, std::size_t count,
+                        float max_value = std::numeric_limits<float>::max());
 
 // Atlas padding (SPEC §5 step 6): atlas[3 dst + c] = atlas[3 src + c], records applied in
 // order (corner records read texels written by earlier edge records). Scalar on every ISA:
