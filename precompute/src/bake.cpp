@@ -1,7 +1,9 @@
 #include "modrt/precompute/bake.h"
 
 #include <chrono>
+#include <cstdio>
 #include <exception>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -108,8 +110,31 @@ ShapeOperators to_operators(const ShapeBake& bake) {
   return op;
 }
 
-Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress) {
+std::uint64_t estimate_bake_bytes(const DictionarySettings& s) {
+  const double n = 6.0 * double(s.res) * s.res, n_dead = 5.0 * double(s.res) * s.res;
+  const double F = 8.0 * n * n;
+  const double lightfield = s.lightfield_spatial > 0
+                                ? 8.0 * n_dead * double(s.lightfield_spatial) * s.lightfield_spatial *
+                                      double(s.lightfield_directional) * s.lightfield_directional
+                                : 0.0;
+  const double total = 2.0 * (F + lightfield);
+  return total >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : std::uint64_t(total);
+}
+
+Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress,
+                                   std::uint64_t memory_budget) {
   if (Status s = validate_settings(settings); !s.ok()) return s;
+  if (const std::uint64_t need = estimate_bake_bytes(settings); need > memory_budget) {
+    char text[256];
+    std::snprintf(
+        text, sizeof text,
+        "bake: res %u with a %u x %u x %u^2 interface lightfield needs about %.1f GiB, over the memory "
+        "budget of %.1f GiB: lower res, lightfield_spatial or lightfield_directional, or raise the budget",
+        settings.res, settings.lightfield_spatial, settings.lightfield_spatial,
+        settings.lightfield_directional, double(need) / double(1u << 30),
+        double(memory_budget) / double(1u << 30));
+    return Status::error(ErrorCode::resource_limit, text);
+  }
   try {
     Dictionary dict;
     dict.settings = settings;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -185,8 +187,35 @@ Matrix turned_vector_response(const Matrix& Ur_vec, int res, int face) {
 
 }  // namespace
 
+std::uint64_t estimate_level_bytes(const LevelDescription& description, const Dictionary& dict,
+                                   const LevelBuildSettings& settings) {
+  const double res = dict.settings.res, kb = dict.settings.kb, kr = dict.interfaces.Ur.cols;
+  double samples = 0.0, slots = 0.0;
+  for (const BlockDescription& b : description.blocks) {
+    samples += double(face_count(b.faces)) * res * res;
+    for (int f : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ}) slots += face_present(b.faces, f) ? 0.0 : 1.0;
+  }
+  // Blocks within dmax interfaces of a slot in a 2D grid: at most 2 dmax^2 + 2 dmax + 1.
+  const double d = std::max(settings.dmax, 0);
+  const double sources = std::min(double(description.blocks.size()), 2.0 * d * d + 2.0 * d + 1.0);
+  const double bytes = samples * 4.0 * 12.0 + slots * sources * kr * kb * 4.0;
+  return bytes >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : std::uint64_t(bytes);
+}
+
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
                           const LevelBuildSettings& settings) {
+  if (const std::uint64_t need = estimate_level_bytes(description, dict, settings);
+      need > settings.memory_budget_bytes) {
+    char text[256];
+    std::snprintf(
+        text, sizeof text,
+        "build_level: %zu blocks at res %u would need up to %.1f GiB (run-time signals and Tb->r "
+        "records within dmax %d), over the memory budget of %.1f GiB: split the level, lower res or "
+        "dmax, or raise LevelBuildSettings::memory_budget_bytes",
+        description.blocks.size(), dict.settings.res, double(need) / double(1u << 30), settings.dmax,
+        double(settings.memory_budget_bytes) / double(1u << 30));
+    return Status::error(ErrorCode::resource_limit, text);
+  }
   Result<LevelConnectivity> connectivity = validate_level(description);
   if (!connectivity.ok()) return connectivity.status();
   if (dict.interfaces.empty())

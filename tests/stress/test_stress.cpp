@@ -15,6 +15,7 @@
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/level_runtime.h"
+#include "modrt/precompute/bake.h"
 
 namespace modrt::cpu {
 namespace {
@@ -196,6 +197,49 @@ TEST(Stress, LongAnimatedRunDoesNotDrift) {
       "%zu\n",
       frames, checkpoints, mismatches == 0 ? "yes" : "NO", kept_blocks,
       std::size_t(frames) * t.level.blocks.size());
+}
+
+// Resource limits: a bake or a level that would need more memory than its budget is refused
+// up front, with the estimate in the message, instead of failing (or swapping) half-way.
+TEST(Stress, OversizedBakesAndLevelsAreRefusedUpFront) {
+  DictionarySettings huge;
+  huge.res = 64;  // F alone is 24 576^2 doubles
+  Result<Dictionary> d = precompute::bake_dictionary(huge);
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.status().code(), ErrorCode::resource_limit);
+  EXPECT_NE(d.status().message().find("memory budget"), std::string::npos) << d.status().message();
+  const std::uint64_t default_need = precompute::estimate_bake_bytes(DictionarySettings{});
+  EXPECT_LT(default_need, precompute::kDefaultBakeMemoryBudget);
+  std::printf("  bake estimate: default settings %.2f GiB, res 64 %.1f GiB (budget %.0f GiB)\n",
+              double(default_need) / double(1u << 30),
+              double(precompute::estimate_bake_bytes(huge)) / double(1u << 30),
+              double(precompute::kDefaultBakeMemoryBudget) / double(1u << 30));
+
+  // A 250 000-block corridor at res 8: the estimate refuses it before validating a block.
+  LevelDescription corridor;
+  corridor.blocks.resize(250000);
+  for (std::size_t i = 0; i < corridor.blocks.size(); ++i) {
+    BlockDescription& b = corridor.blocks[i];
+    b.cell = glm::ivec3(int(i), 0, 0);
+    b.faces = kAllFaces;
+    if (i > 0) b.faces &= FaceMask(~(1u << kFaceNegX));
+    if (i + 1 < corridor.blocks.size()) b.faces &= FaceMask(~(1u << kFacePosX));
+    b.albedo.fill(glm::dvec3(0.5));
+  }
+  precompute::LevelBuildSettings settings;
+  Result<Level> level = precompute::build_level(corridor, dict(), settings);
+  ASSERT_FALSE(level.ok());
+  EXPECT_EQ(level.status().code(), ErrorCode::resource_limit);
+  EXPECT_NE(level.status().message().find("250000 blocks"), std::string::npos) << level.status().message();
+  // The same budget lets the test mazes through; a tiny one refuses maze41.
+  const TestLevel& t = test_level("maze41");
+  EXPECT_LT(precompute::estimate_level_bytes(t.description, dict()), settings.memory_budget_bytes);
+  settings.memory_budget_bytes = 1 << 20;
+  EXPECT_EQ(precompute::build_level(t.description, dict(), settings).status().code(),
+            ErrorCode::resource_limit);
+  std::printf("  level estimate: maze41 %.1f MiB, 250 000-block corridor %.1f GiB (budget 4 GiB)\n",
+              double(precompute::estimate_level_bytes(t.description, dict())) / double(1u << 20),
+              double(precompute::estimate_level_bytes(corridor, dict())) / double(1u << 30));
 }
 
 }  // namespace

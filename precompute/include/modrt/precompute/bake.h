@@ -3,6 +3,8 @@
 // probes; then the float Dictionary the run time loads.
 #pragma once
 
+#include <cstdint>
+
 #include <functional>
 #include <string>
 
@@ -17,14 +19,14 @@ namespace modrt::precompute {
 struct ShapeBake {
   FaceMask mask = kAllFaces;
   SampleLayout layout;
-  RowMatrixXd F;           // n x n one-bounce operator
-  MatrixXd Ld;             // n x m prior lighting patterns (unit columns)
-  LightPrior prior;        // final prior (after enrichment)
-  LightPrior raw_prior;    // prior before enrichment
-  ReducedTransfer transfer;  // final Ub, Td_b, Limp
+  RowMatrixXd F;                 // n x n one-bounce operator
+  MatrixXd Ld;                   // n x m prior lighting patterns (unit columns)
+  LightPrior prior;              // final prior (after enrichment)
+  LightPrior raw_prior;          // prior before enrichment
+  ReducedTransfer transfer;      // final Ub, Td_b, Limp
   ReducedTransfer raw_transfer;  // before enrichment
-  MatrixXd Ub_vec;         // 4n x kb OHLSH vector irradiance
-  MatrixXd Ubvol;          // 9 g^3 x kb probe SH
+  MatrixXd Ub_vec;               // 4n x kb OHLSH vector irradiance
+  MatrixXd Ubvol;                // 9 g^3 x kb probe SH
 };
 
 struct BakeProgress {
@@ -46,6 +48,15 @@ InterfaceSettings interface_settings(const DictionarySettings& settings);
 
 // Bakes the six-shape 2D cube dictionary and, unless settings.lightfield_spatial == 0, the
 // interface operators (shape index -1 in progress reports). Never throws: errors come back as a Status.
-Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress = {});
+// The bake's peak memory, estimated up front from the settings (bytes, double precision):
+// each shape's one-bounce operator F (n x n, n = 6 res^2) and, with interfaces, the dead
+// end's lightfield response (n_dead x S^2 D^2), each counted twice for the SVD's working copy.
+std::uint64_t estimate_bake_bytes(const DictionarySettings& settings);
+inline constexpr std::uint64_t kDefaultBakeMemoryBudget = std::uint64_t(8) << 30;  // 8 GiB
+
+// Fails with resource_limit, before allocating anything, when estimate_bake_bytes exceeds
+// `memory_budget` (the message gives both and the settings to lower).
+Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress = {},
+                                   std::uint64_t memory_budget = kDefaultBakeMemoryBudget);
 
 }  // namespace modrt::precompute

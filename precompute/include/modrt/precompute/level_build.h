@@ -3,6 +3,8 @@
 // lightmap atlas with its padding records.
 #pragma once
 
+#include <cstdint>
+
 #include <vector>
 
 #include "modrt/dictionary.h"
@@ -14,7 +16,15 @@ namespace modrt::precompute {
 
 struct LevelBuildSettings {
   int dmax = 8;  // maximum number of interfaces a path crosses (MRT §6.3)
+  // build_level refuses (resource_limit), before building, a level whose estimated size
+  // exceeds this: per sample its run-time signals (ld, lightmap, albedo, atlas texel), per
+  // response slot an upper bound on its Tb->r records (one per block within dmax interfaces).
+  std::uint64_t memory_budget_bytes = std::uint64_t(4) << 30;  // 4 GiB
 };
+
+// The estimate build_level compares with memory_budget_bytes (bytes).
+std::uint64_t estimate_level_bytes(const LevelDescription& description, const Dictionary& dict,
+                                   const LevelBuildSettings& settings = {});
 
 // Fails when the level does not validate or the dictionary has no interface operators.
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
