@@ -366,6 +366,55 @@ TEST(Drt, CbTruncationErrorIsReportedAndBounded) {
   EXPECT_LT(five.Cb_truncation_error, 0.15f);
 }
 
+// Dropping small dUb rows (storage) stays within its stated bound |row|_2 |b|_2 per sample
+// and channel, and the accuracy figure barely moves (printed).
+TEST(Drt, DroppedDUbRowsStayWithinTheirBound) {
+  const ClutterScene s = maze_block_four_pillars();
+  const Level level = build_level(s.description, dict()).value();
+  DrtBuildSettings settings;
+  settings.rays = 256;
+  const DrtOperators all = DrtBuilder(level, dict(), settings).build(s.clutter).value();
+  settings.drop_tolerance = 0.03;
+  DrtBuildReport report;
+  const DrtOperators kept = DrtBuilder(level, dict(), settings).build(s.clutter, &report).value();
+  const LevelScene scene(level, level.res, s.clutter);
+  const Frame f = evaluate_mrt(
+      level, level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8));
+  std::vector<float> c(drt_buffer_sizes(all).c, 0.0f), a = f.lightmap, k = f.lightmap;
+  drt_apply(level, all, f.b, c, a);
+  drt_apply(level, kept, f.b, c, k);
+  std::vector<double> bound(level.sample_count, 0.0);
+  std::size_t rows_all = 0, rows_kept = 0;
+  for (std::size_t o = 0; o < all.objects.size(); ++o) {
+    const DrtObjectOperators& A = all.objects[o];
+    const DrtObjectOperators& K = kept.objects[o];
+    rows_all += A.dUb.rows;
+    rows_kept += K.dUb.rows;
+    std::size_t j = 0;
+    for (std::uint32_t r = 0; r < A.dUb.rows; ++r) {
+      if (j < K.dUb_sample.size() && K.dUb_sample[j] == A.dUb_sample[r] && K.dUb_block[j] == A.dUb_block[r]) {
+        ++j;
+        continue;
+      }
+      double row2 = 0.0, b2 = 0.0;
+      for (float v : A.dUb.row(r)) row2 += double(v) * v;
+      for (std::uint32_t q = 0; q < level.kb; ++q)
+        for (int ch = 0; ch < 3; ++ch) {
+          const double bv = f.b[3 * (std::size_t(level.kb) * A.dUb_block[r] + q) + std::size_t(ch)];
+          b2 += bv * bv;  // all channels: bounds each channel's norm
+        }
+      bound[A.dUb_sample[r]] += std::sqrt(row2) * std::sqrt(b2);
+    }
+    EXPECT_EQ(j, K.dUb_sample.size());  // kept rows are a subsequence of all rows
+  }
+  EXPECT_EQ(rows_all - rows_kept, report.dropped_rows);
+  EXPECT_GT(report.dropped_rows, 0u);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    ASSERT_LE(std::abs(double(a[i]) - k[i]), bound[i / 3] + 1e-6) << "sample " << i / 3;
+  std::printf("drop tolerance 0.03: %zu of %zu dUb rows dropped, storage %zu -> %zu bytes\n",
+              report.dropped_rows, rows_all, all.storage_bytes(), kept.storage_bytes());
+}
+
 TEST(Drt, IncrementalRebuildOfAMovedObjectEqualsAFullBuild) {
   ClutterScene s = maze_block_four_pillars();
   const Level level = build_level(s.description, dict()).value();
@@ -564,6 +613,14 @@ TEST(Drt, DISABLED_Timing) {
     settings.rays = rays;
     std::printf("%d rays: ", rays);
     accuracy(box_room_two_boxes(), "box room, two boxes", settings);
+  }
+  for (double tolerance : {0.01, 0.03}) {
+    DrtBuildSettings settings;
+    settings.drop_tolerance = tolerance;
+    std::printf("1024 rays, dUb drop tolerance %.2f: ", tolerance);
+    accuracy(box_room_two_boxes(), "box room, two boxes", settings);
+    std::printf("1024 rays, dUb drop tolerance %.2f: ", tolerance);
+    accuracy(maze_block_four_pillars(), "four pillars", settings);
   }
 }
 

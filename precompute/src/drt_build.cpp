@@ -254,6 +254,21 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
     }
   }
 
+  std::size_t dropped = 0;
+  if (settings_.drop_tolerance > 0.0) {
+    auto norm = [](const std::vector<double>& row) {
+      double n2 = 0.0;
+      for (double v : row) n2 += v * v;
+      return std::sqrt(n2);
+    };
+    double largest = 0.0;
+    for (const SampleResult& r : result)
+      for (const auto& [blk, row] : r.dUb) largest = std::max(largest, norm(row));
+    for (SampleResult& r : result)
+      dropped += std::erase_if(
+          r.dUb, [&](const auto& entry) { return norm(entry.second) < settings_.drop_tolerance * largest; });
+  }
+
   const auto t1 = std::chrono::steady_clock::now();
   DrtObjectOperators op;
   op.texel_count = std::uint32_t(clutter_texel_count(object));
@@ -357,6 +372,7 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
       report->inside_samples += r.state == SampleResult::inside;
     }
     report->inpainted_samples += inpainted;
+    report->dropped_rows += dropped;
   }
   return op;
 }

@@ -26,6 +26,10 @@ struct DrtBuildSettings {
   int cb_modes = 5;     // modes kept of Cb's SVD (DRT §5: "5 x 16^2 values per clutter face")
   bool inpaint = true;  // DRT §5: samples inside clutter take their neighbours' shadowed Ub
   bool cull = true;     // bounding-sphere culling (exact; off only to test that it is)
+  // dUb rows whose L2 norm is below this fraction of the object's largest row norm are
+  // dropped (storage); a dropped row changes its sample by at most |row|_2 |b(block)|_2 per
+  // channel. 0 keeps every row.
+  double drop_tolerance = 0.0;
   std::uint64_t seed = 0x647274ull;
 };
 
@@ -34,6 +38,7 @@ struct DrtBuildReport {
   std::size_t culled_samples = 0;  // scene samples skipped by the bounding sphere
   std::size_t inside_samples = 0;  // scene samples inside clutter
   std::size_t inpainted_samples = 0;
+  std::size_t dropped_rows = 0;  // dUb rows under drop_tolerance
   // Wall-clock seconds of the scene-sample pass (dUb, dUc, inpainting) and of the clutter
   // texel pass (Cb and its SVD), summed over objects.
   double scene_seconds = 0.0, clutter_seconds = 0.0;
