@@ -1,0 +1,61 @@
+// modrt::cpu — the DRT stages on the SIMD CPU path (SPEC §5 step 7, [Loos et al. 2012] §5):
+// c = Td_c clutter_ld, lightmap += dUb b + dUc c, clutter lightmap = Uc (Vc b) + direct, with
+// the GEMV kernels of kernels.h. Equal to core's drt_compute_c / drt_apply /
+// drt_clutter_lightmap within 1e-5 relative (tests/test_cpu_drt.cpp).
+//
+// Layout chosen at creation: each object's dUb rows are regrouped by the block whose b they
+// read (one dense GEMV per group, scattered onto its samples), instead of core's per-row
+// (sample, block) order. A scene without clutter (empty operators) costs nothing.
+// b is the CpuLevelRuntime's (interleaved, 3 kb per block). Nothing is allocated per call.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "modrt/cpu/isa.h"
+#include "modrt/drt.h"
+#include "modrt/level.h"
+#include "modrt/status.h"
+
+namespace modrt::cpu {
+
+class CpuDrtRuntime {
+ public:
+  // Checks the operators against the level (check_drt_operators). `level` and `drt` are
+  // borrowed for the runtime's life. isa: none = active_isa().
+  static Result<CpuDrtRuntime> create(const Level& level, const DrtOperators& drt,
+                                      std::optional<Isa> isa = {});
+
+  const DrtBufferSizes& sizes() const { return sizes_; }
+  // c (3 per clutter face) from the clutter's direct light (3 per clutter texel).
+  Status compute_c(std::span<const float> clutter_ld, std::span<float> c);
+  // lightmap (3 per level sample) += dUb b + dUc c.
+  Status apply(std::span<const float> b, std::span<const float> c, std::span<float> lightmap);
+  // out (3 per clutter texel) = Uc (Vc b) + clutter_direct (empty: none).
+  Status clutter_lightmap(std::span<const float> b, std::span<const float> clutter_direct,
+                          std::span<float> out);
+
+ private:
+  CpuDrtRuntime() = default;
+  struct BlockGroup {  // the dUb rows of one object that read one block's b
+    std::uint32_t block = 0;
+    Matrix rows;                       // rows x kb
+    std::vector<std::int32_t> sample;  // level sample of each row
+  };
+  struct Object {
+    std::vector<BlockGroup> groups;
+    std::vector<std::int32_t> dUc_sample;
+    std::size_t texel0 = 0, face0 = 0;
+  };
+  const Level* level_ = nullptr;
+  const DrtOperators* drt_ = nullptr;
+  Isa isa_ = Isa::scalar;
+  DrtBufferSizes sizes_;
+  std::size_t lightmap_size_ = 0;
+  std::vector<Object> objects_;
+  std::vector<float> planar_, modes_;  // scratch: the largest planar input, Vc b per mode
+};
+
+}  // namespace modrt::cpu

@@ -1,0 +1,138 @@
+#include "modrt/cpu/cpu_drt.h"
+
+#include <algorithm>
+#include <map>
+#include <string>
+
+#include "modrt/cpu/kernels.h"
+#include "modrt/reference_runtime.h"
+
+namespace modrt::cpu {
+namespace {
+
+Status wrong_size(const char* what, std::size_t got, std::size_t expected) {
+  return Status::error(ErrorCode::invalid_argument, std::string("cpu drt: ") + what + ": has " +
+                                                        std::to_string(got) + " floats, expected " +
+                                                        std::to_string(expected));
+}
+
+}  // namespace
+
+Result<CpuDrtRuntime> CpuDrtRuntime::create(const Level& level, const DrtOperators& drt,
+                                            std::optional<Isa> isa) {
+  const Isa chosen = isa.value_or(active_isa());
+  if (!isa_supported(chosen))
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string("cpu drt: ISA ") + isa_name(chosen) + " is not supported here");
+  if (Status s = check_drt_operators(level, drt); !s.ok()) return s;
+  CpuDrtRuntime rt;
+  rt.level_ = &level;
+  rt.drt_ = &drt;
+  rt.isa_ = chosen;
+  rt.sizes_ = drt_buffer_sizes(drt);
+  rt.lightmap_size_ = 3 * std::size_t(level.sample_count);
+  const std::size_t kb = level.kb;
+  std::size_t scratch = 3 * kb, modes = 0, texel0 = 0, face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    Object obj;
+    obj.texel0 = texel0;
+    obj.face0 = face0;
+    // dUb rows regrouped by source block, each group a dense matrix (DRT §4.1).
+    std::map<std::uint32_t, std::vector<std::size_t>> by_block;
+    for (std::size_t r = 0; r < o.dUb_block.size(); ++r) by_block[o.dUb_block[r]].push_back(r);
+    for (const auto& [block, rows] : by_block) {
+      BlockGroup g;
+      g.block = block;
+      g.rows = Matrix(std::uint32_t(rows.size()), std::uint32_t(kb));
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const std::span<const float> src = o.dUb.row(std::uint32_t(rows[i]));
+        std::copy(src.begin(), src.end(), g.rows.data.begin() + std::ptrdiff_t(i * kb));
+        g.sample.push_back(std::int32_t(o.dUb_sample[rows[i]]));
+      }
+      obj.groups.push_back(std::move(g));
+    }
+    obj.dUc_sample.assign(o.dUc_sample.begin(), o.dUc_sample.end());
+    scratch = std::max({scratch, 3 * std::size_t(o.texel_count), 3 * std::size_t(o.face_count),
+                        3 * kb * o.Cb_blocks.size(), 3 * std::size_t(o.Uc.cols)});
+    modes = std::max<std::size_t>(modes, o.Uc.cols);
+    texel0 += o.texel_count;
+    face0 += o.face_count;
+    rt.objects_.push_back(std::move(obj));
+  }
+  rt.planar_.assign(scratch, 0.0f);
+  rt.modes_.assign(3 * std::max<std::size_t>(modes, 1), 0.0f);
+  return rt;
+}
+
+Status CpuDrtRuntime::compute_c(std::span<const float> clutter_ld, std::span<float> c) {
+  if (clutter_ld.size() != sizes_.clutter_ld)
+    return wrong_size("clutter_ld", clutter_ld.size(), sizes_.clutter_ld);
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (!finite_nonnegative(isa_, clutter_ld.data(), clutter_ld.size(), kMaxLightValue))
+    if (Status s = validate_light_signal(clutter_ld, sizes_.clutter_texels, "clutter_ld"); !s.ok()) return s;
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    const std::size_t m = o.texel_count;
+    deinterleave_rgb(clutter_ld.data() + 3 * objects_[i].texel0, m, planar_.data(), m);
+    gemv_rgb(isa_, o.Td_c.data.data(), o.face_count, m, m, planar_.data(), m,
+             c.data() + 3 * objects_[i].face0, false);
+  }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::apply(std::span<const float> b, std::span<const float> c, std::span<float> lightmap) {
+  const std::size_t kb = level_->kb;
+  if (b.size() != 3 * kb * level_->blocks.size())
+    return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (lightmap.size() != lightmap_size_) return wrong_size("lightmap", lightmap.size(), lightmap_size_);
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const Object& obj = objects_[i];
+    for (const BlockGroup& g : obj.groups) {
+      deinterleave_rgb(b.data() + 3 * kb * g.block, kb, planar_.data(), kb);
+      gemv_rgb_scatter(isa_, g.rows.data.data(), g.rows.rows, kb, kb, g.sample.data(), planar_.data(), kb,
+                       lightmap.data());
+    }
+    const DrtObjectOperators& o = drt_->objects[i];
+    if (!obj.dUc_sample.empty()) {  // DRT §4.2
+      const std::size_t f = o.face_count;
+      deinterleave_rgb(c.data() + 3 * obj.face0, f, planar_.data(), f);
+      gemv_rgb_scatter(isa_, o.dUc.data.data(), o.dUc.rows, f, f, obj.dUc_sample.data(), planar_.data(), f,
+                       lightmap.data());
+    }
+  }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::clutter_lightmap(std::span<const float> b, std::span<const float> clutter_direct,
+                                       std::span<float> out) {
+  const std::size_t kb = level_->kb;
+  if (b.size() != 3 * kb * level_->blocks.size())
+    return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
+  if (out.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
+  if (!clutter_direct.empty() && clutter_direct.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter direct light", clutter_direct.size(), sizes_.clutter_lightmap);
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    const std::size_t m = o.texel_count, modes = o.Uc.cols, cols = kb * o.Cb_blocks.size();
+    float* dst = out.data() + 3 * objects_[i].texel0;
+    if (modes == 0 || cols == 0) {
+      std::fill(dst, dst + 3 * m, 0.0f);
+    } else {
+      // DRT §4.3: Vc b over the blocks the clutter sees (b concatenated planar), then Uc.
+      for (std::size_t k = 0; k < o.Cb_blocks.size(); ++k)
+        for (std::size_t j = 0; j < kb; ++j)
+          for (std::size_t ch = 0; ch < 3; ++ch)
+            planar_[ch * cols + k * kb + j] = b[3 * kb * o.Cb_blocks[k] + 3 * j + ch];
+      gemv_rgb(isa_, o.Vc.data.data(), modes, cols, cols, planar_.data(), cols, modes_.data(), false);
+      deinterleave_rgb(modes_.data(), modes, planar_.data(), modes);
+      gemv_rgb(isa_, o.Uc.data.data(), m, modes, modes, planar_.data(), modes, dst, false);
+    }
+    if (!clutter_direct.empty())
+      for (std::size_t k = 0; k < 3 * m; ++k) dst[k] += clutter_direct[3 * objects_[i].texel0 + k];
+  }
+  return Status::success();
+}
+
+}  // namespace modrt::cpu

@@ -1,0 +1,130 @@
+// DRT on the SIMD CPU path (cpu_neon/cpu_drt.h) against core's scalar reference (drt.h):
+// c = Td_c clutter_ld, lightmap += dUb b + dUc c and the clutter lightmap Uc Vc b + direct,
+// every ISA this CPU (or qemu) supports, within 1e-5 relative L2; no clutter costs nothing.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "cpu_test_support.h"
+#include "modrt/cpu/cpu_drt.h"
+#include "modrt/level_runtime.h"
+#include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/level_scene.h"
+#include "test_support.h"
+
+namespace modrt::cpu {
+namespace {
+
+using namespace cpu_test;
+
+const Dictionary& dict() { return test::small_test_dictionary(); }
+
+// Three blocks in a row, a box on the first block's floor and a rotated pillar in the
+// middle one (its shadows reach the neighbours through the openings).
+struct DrtFixture {
+  LevelDescription description;
+  Level level;
+  std::vector<ClutterObject> clutter;
+  DrtOperators drt;
+};
+
+const DrtFixture& fixture() {
+  static const DrtFixture f = [] {
+    DrtFixture s;
+    for (int x = 0; x < 3; ++x) {
+      BlockDescription b;
+      b.cell = glm::ivec3(x, 0, 0);
+      b.faces = kAllFaces;
+      if (x > 0) b.faces &= FaceMask(~(1u << kFaceNegX));
+      if (x < 2) b.faces &= FaceMask(~(1u << kFacePosX));
+      for (auto& a : b.albedo) a = glm::dvec3(0.6);
+      s.description.blocks.push_back(b);
+    }
+    s.level = precompute::build_level(s.description, dict()).value();
+    ClutterObject box;
+    box.block = 0;
+    box.box.center = glm::dvec3(0.4, 0.15, 0.45);
+    box.box.half_extent = glm::dvec3(0.12, 0.15, 0.1);
+    box.albedo = glm::dvec3(0.8, 0.7, 0.3);
+    box.res = 8;
+    ClutterObject pillar;
+    pillar.block = 1;
+    pillar.box.center = glm::dvec3(1.5, 0.5, 0.5);
+    pillar.box.half_extent = glm::dvec3(0.08, 0.5, 0.05);
+    const double a = 0.4;
+    pillar.box.rotation = glm::dmat3(std::cos(a), 0, -std::sin(a), 0, 1, 0, std::sin(a), 0, std::cos(a));
+    pillar.res = 8;
+    s.clutter = {box, pillar};
+    precompute::DrtBuildSettings settings;
+    settings.rays = 128;
+    Result<DrtOperators> drt = precompute::DrtBuilder(s.level, dict(), settings).build(s.clutter);
+    if (!drt.ok()) {
+      std::fprintf(stderr, "drt build: %s\n", drt.status().to_string().c_str());
+      std::abort();
+    }
+    s.drt = std::move(drt).value();
+    return s;
+  }();
+  return f;
+}
+
+TEST(CpuDrt, MatchesScalarReferenceForEveryIsa) {
+  const DrtFixture& f = fixture();
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  ASSERT_GT(sizes.c, 0u);
+  std::mt19937 rng(11);
+  const std::vector<float> b =
+      random_vector(rng, 3 * std::size_t(f.level.kb) * f.level.blocks.size(), -1.0f, 1.0f);
+  const std::vector<float> clutter_ld = random_vector(rng, sizes.clutter_ld, 0.0f, 1.0f);
+  const std::vector<float> direct = random_vector(rng, sizes.clutter_lightmap, 0.0f, 0.5f);
+  const std::vector<float> base = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
+  std::vector<float> c_ref(sizes.c), lm_ref(base), cl_ref(sizes.clutter_lightmap);
+  ASSERT_TRUE(drt_compute_c(f.drt, clutter_ld, c_ref).ok());
+  drt_apply(f.level, f.drt, b, c_ref, lm_ref);
+  drt_clutter_lightmap(f.drt, b, direct, cl_ref);
+  std::vector<float> delta_ref(lm_ref.size());  // the DRT part alone, for a strict comparison
+  for (std::size_t i = 0; i < delta_ref.size(); ++i) delta_ref[i] = lm_ref[i] - base[i];
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> c(sizes.c), lm(base), cl(sizes.clutter_lightmap), delta(lm.size());
+    ASSERT_TRUE(rt->compute_c(clutter_ld, c).ok());
+    ASSERT_TRUE(rt->apply(b, c, lm).ok());
+    ASSERT_TRUE(rt->clutter_lightmap(b, direct, cl).ok());
+    for (std::size_t i = 0; i < delta.size(); ++i) delta[i] = lm[i] - base[i];
+    Worst wc, wd, wl;
+    expect_close(c, c_ref, std::string("c ") + isa_name(isa), &wc);
+    const Error e = compare(delta, delta_ref);
+    EXPECT_LE(e.rel_l2, 1e-5) << isa_name(isa);
+    wd.add(e);
+    expect_close(cl, cl_ref, std::string("clutter lightmap ") + isa_name(isa), &wl);
+    wc.print("c", isa), wd.print("dUb b + dUc c", isa), wl.print("clutter lightmap", isa);
+  }
+}
+
+TEST(CpuDrt, NoClutterCostsNothingAndBadSizesAreRefused) {
+  const DrtFixture& f = fixture();
+  const DrtOperators none;
+  Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, none);
+  ASSERT_TRUE(rt.ok());
+  std::vector<float> b(3 * std::size_t(f.level.kb) * f.level.blocks.size(), 1.0f);
+  std::vector<float> lm(3 * std::size_t(f.level.sample_count), 0.25f);
+  const std::vector<float> before = lm;
+  ASSERT_TRUE(rt->apply(b, {}, lm).ok());
+  EXPECT_EQ(lm, before);
+  Result<CpuDrtRuntime> full = CpuDrtRuntime::create(f.level, f.drt);
+  ASSERT_TRUE(full.ok());
+  std::vector<float> c(full->sizes().c + 1);
+  EXPECT_EQ(full->apply(b, c, lm).code(), ErrorCode::invalid_argument);
+  std::vector<float> clutter_ld(full->sizes().clutter_ld, 1.0f);
+  clutter_ld[4] = std::nanf("");
+  c.pop_back();
+  EXPECT_EQ(full->compute_c(clutter_ld, c).code(), ErrorCode::non_finite);
+}
+
+}  // namespace
+}  // namespace modrt::cpu
