@@ -22,12 +22,6 @@
 namespace modrt::precompute {
 namespace {
 
-void tangent_frame(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
-  const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-  t = glm::normalize(glm::cross(helper, n));
-  b = glm::cross(n, t);
-}
-
 // Entry distance and entered face of the ray into the box, from outside (slab test).
 struct BoxEntry {
   bool hit = false;

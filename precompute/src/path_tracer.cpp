@@ -12,15 +12,6 @@
 #include "modrt/precompute/sampling.h"
 
 namespace modrt::precompute {
-namespace {
-
-void tangent_frame(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
-  const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-  t = glm::normalize(glm::cross(helper, n));
-  b = glm::cross(n, t);
-}
-
-}  // namespace
 
 DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescription& description,
                                      int light_samples) {

@@ -2,9 +2,11 @@
 // square samples, and the maps from the square to the disk, hemisphere and sphere.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -35,6 +37,14 @@ glm::dvec3 cosine_hemisphere(const glm::dvec2& s);
 // Uniform hemisphere around +z (pdf = 1 / (2 pi)) and uniform sphere (pdf = 1 / (4 pi)).
 glm::dvec3 uniform_hemisphere(const glm::dvec2& s);
 glm::dvec3 uniform_sphere(const glm::dvec2& s);
+
+// A tangent t and bitangent b completing the unit normal n to an orthonormal frame (any
+// rotation about n: the hemisphere samplers are symmetric about +z).
+inline void tangent_frame(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
+  const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+  t = glm::normalize(glm::cross(helper, n));
+  b = glm::cross(n, t);
+}
 
 // Direction given in a local frame (x = tangent, y = bitangent, z = normal) to world.
 inline glm::dvec3 to_world(const glm::dvec3& local, const glm::dvec3& t, const glm::dvec3& b,
