@@ -74,6 +74,35 @@ struct SceneRenderer::Impl {
     return t;
   }
   GLint loc(GLuint program, const char* name) const { return gl.glGetUniformLocation(program, name); }
+  // Uniform locations, looked up once at creation (lighting.glsl's for each program using it).
+  struct Lighting {
+    GLint position = -1, rgb = -1, radius = -1, spot_direction = -1, spot_cos = -1;
+  };
+  Lighting lighting(GLuint program) const {
+    return {loc(program, "u_light_position"), loc(program, "u_light_rgb"), loc(program, "u_light_radius"),
+            loc(program, "u_spot_direction"), loc(program, "u_spot_cos")};
+  }
+  Lighting ld_lighting, scene_lighting;
+  void set_lighting(const Lighting& u, const FrameState& l) const {
+    gl.glUniform3f(u.position, l.light_position.x, l.light_position.y, l.light_position.z);
+    gl.glUniform3f(u.rgb, l.light_rgb.x, l.light_rgb.y, l.light_rgb.z);
+    gl.glUniform1f(u.radius, l.light_radius);
+    const glm::vec3 d =
+        glm::length(l.spot_direction) > 0.0f ? glm::normalize(l.spot_direction) : glm::vec3(0, -1, 0);
+    gl.glUniform3f(u.spot_direction, d.x, d.y, d.z);
+    // cos of the cones; a point light (outer cone >= pi) gets -2, below every cosine.
+    const float cos_outer = l.spot_outer >= 3.14159f ? -2.0f : std::cos(l.spot_outer);
+    const float cos_inner =
+        std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
+    gl.glUniform3f(u.spot_cos, cos_outer, cos_inner, 0.0f);
+  }
+
+  GLint shadow_view_proj = -1, shadow_offset = -1, tonemap_exposure = -1;
+  struct SceneUniforms {
+    GLint view_proj = -1, output = -1, probe_sh = -1, to_canonical = -1, offset = -1, base_color = -1,
+          has_normal_map = -1, normal_scale = -1, use_vector = -1, dynamic = -1, emissive = -1,
+          has_base_map = -1;
+  } su;
 
   std::vector<GLuint> programs, framebuffers, textures, buffers;
   GLuint vao = 0, empty_vao = 0, vbo = 0;
@@ -92,10 +121,6 @@ struct SceneRenderer::Impl {
   std::vector<Material> materials;
   std::vector<GLuint> material_normal;  // texture per material, 0 = none
   std::vector<GLuint> material_base;    // base colour texture (sRGB) per material, 0 = none
-  // Bound to a material's unused texture units: every active sampler must see a complete
-  // float texture (Mesa rejects a draw whose sampler2D unit still holds, say, the GLES
-  // backend's RGBA32UI signals).
-  GLuint white = 0;
   std::vector<float> readback;
 };
 
@@ -157,6 +182,18 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
                                   "u_vector2", "u_vector3", "u_base_map"});
   gl.glUseProgram(m.tonemap_program);
   platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
+  m.ld_lighting = m.lighting(m.ld_program);
+  m.scene_lighting = m.lighting(m.scene_program);
+  m.shadow_view_proj = m.loc(m.shadow_program, "u_view_proj");
+  m.shadow_offset = m.loc(m.shadow_program, "u_offset");
+  m.tonemap_exposure = m.loc(m.tonemap_program, "u_exposure");
+  {
+    const GLuint p = m.scene_program;
+    m.su = {m.loc(p, "u_view_proj"),      m.loc(p, "u_output"),       m.loc(p, "u_probe_sh"),
+            m.loc(p, "u_to_canonical"),   m.loc(p, "u_offset"),       m.loc(p, "u_base_color"),
+            m.loc(p, "u_has_normal_map"), m.loc(p, "u_normal_scale"), m.loc(p, "u_use_vector"),
+            m.loc(p, "u_dynamic"),        m.loc(p, "u_emissive"),     m.loc(p, "u_has_base_map")};
+  }
   gl.glUseProgram(0);
 
   // ---- geometry ----
@@ -215,12 +252,6 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   gl.glBindVertexArray(0);
 
   // ---- material textures (normal maps, mipmapped) ----
-  m.white = m.texture(GL_RGBA8, 1, 1);
-  {
-    const std::uint8_t white[4] = {255, 255, 255, 255};
-    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
-  }
   m.materials = scene.materials;
   std::vector<GLuint> image_texture(scene.images.size(), 0);
   for (std::size_t i = 0; i < scene.images.size(); ++i) {
@@ -288,6 +319,9 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   // ---- geometry images of the proxy samples, ld target ----
   const LevelSampleGeometry geometry = level_sample_geometry(level);
   m.samples = level.sample_count;
+  gl.glUseProgram(m.ld_program);
+  gl.glUniform1i(m.loc(m.ld_program, "u_count"), GLint(m.samples));
+  gl.glUseProgram(0);
   m.ld_rows = int(std::max<std::size_t>(1, (m.samples + kLdWidth - 1) / kLdWidth));
   std::vector<float> pos(4 * std::size_t(kLdWidth) * std::size_t(m.ld_rows), 0.0f), nrm(pos.size(), 0.0f),
       alb(pos.size(), 0.0f);
@@ -340,22 +374,6 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
 
 namespace {
 
-void set_lighting(const platform::GlFunctions& gl, GLuint program, const FrameState& l) {
-  gl.glUniform3f(gl.glGetUniformLocation(program, "u_light_position"), l.light_position.x, l.light_position.y,
-                 l.light_position.z);
-  gl.glUniform3f(gl.glGetUniformLocation(program, "u_light_rgb"), l.light_rgb.x, l.light_rgb.y,
-                 l.light_rgb.z);
-  gl.glUniform1f(gl.glGetUniformLocation(program, "u_light_radius"), l.light_radius);
-  const glm::vec3 d =
-      glm::length(l.spot_direction) > 0.0f ? glm::normalize(l.spot_direction) : glm::vec3(0, -1, 0);
-  gl.glUniform3f(gl.glGetUniformLocation(program, "u_spot_direction"), d.x, d.y, d.z);
-  // cos of the cones; a point light (outer cone >= pi) gets -2, below every cosine.
-  const float cos_outer = l.spot_outer >= 3.14159f ? -2.0f : std::cos(l.spot_outer);
-  const float cos_inner =
-      std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
-  gl.glUniform3f(gl.glGetUniformLocation(program, "u_spot_cos"), cos_outer, cos_inner, 0.0f);
-}
-
 void bind_texture(const platform::GlFunctions& gl, int unit, GLenum target, GLuint texture) {
   gl.glActiveTexture(GLenum(GL_TEXTURE0 + unit));
   gl.glBindTexture(target, texture);
@@ -386,7 +404,7 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   gl.glEnable(GL_POLYGON_OFFSET_FILL);
   gl.glPolygonOffset(1.5f, 2.0f);
   gl.glViewport(0, 0, m.shadow_size, m.shadow_size);
-  const GLint vp = m.loc(m.shadow_program, "u_view_proj"), off = m.loc(m.shadow_program, "u_offset");
+  const GLint vp = m.shadow_view_proj, off = m.shadow_offset;
   for (int f = 0; f < 6; ++f) {
     gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbo[std::size_t(f)]);
     gl.glClearDepthf(1.0f);
@@ -418,8 +436,7 @@ Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
   gl.glBindFramebuffer(GL_FRAMEBUFFER, m.ld_fbo);
   gl.glViewport(0, 0, kLdWidth, m.ld_rows);
   gl.glUseProgram(m.ld_program);
-  set_lighting(gl, m.ld_program, frame);
-  gl.glUniform1i(m.loc(m.ld_program, "u_count"), GLint(m.samples));
+  m.set_lighting(m.ld_lighting, frame);
   bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
   bind_texture(gl, 1, GL_TEXTURE_2D, m.sample_position);
   bind_texture(gl, 2, GL_TEXTURE_2D, m.sample_normal);
@@ -492,27 +509,26 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const GLuint p = m.scene_program;
   gl.glUseProgram(p);
-  set_lighting(gl, p, frame);
-  gl.glUniformMatrix4fv(m.loc(p, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(view_proj));
-  gl.glUniform1i(m.loc(p, "u_output"), int(frame.output == OutputMode::combined ? 0
-                                           : frame.output == OutputMode::direct ? 1
-                                                                                : 2));
+  m.set_lighting(m.scene_lighting, frame);
+  gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
+  gl.glUniform1i(m.su.output, int(frame.output == OutputMode::combined ? 0
+                                  : frame.output == OutputMode::direct ? 1
+                                                                       : 2));
   const bool vector =
       std::all_of(frame.vector_atlas.begin(), frame.vector_atlas.end(), [](GLuint t) { return t != 0; });
   float sh[27];
   for (int k = 0; k < 9; ++k)
     for (int c = 0; c < 3; ++c) sh[3 * k + c] = frame.probe_sh[std::size_t(k)][c];
-  gl.glUniform3fv(m.loc(p, "u_probe_sh"), 9, sh);
-  gl.glUniformMatrix3fv(m.loc(p, "u_to_canonical"), 1, GL_FALSE, glm::value_ptr(frame.to_canonical));
+  gl.glUniform3fv(m.su.probe_sh, 9, sh);
+  gl.glUniformMatrix3fv(m.su.to_canonical, 1, GL_FALSE, glm::value_ptr(frame.to_canonical));
   bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
   bind_texture(gl, 2, GL_TEXTURE_2D, frame.atlas);
   for (int i = 0; i < 4; ++i)
     bind_texture(gl, 3 + i, GL_TEXTURE_2D, vector ? frame.vector_atlas[std::size_t(i)] : frame.atlas);
   gl.glBindVertexArray(m.vao);
-  const GLint u_offset = m.loc(p, "u_offset"), u_base = m.loc(p, "u_base_color"),
-              u_nm = m.loc(p, "u_has_normal_map"), u_scale = m.loc(p, "u_normal_scale"),
-              u_vec = m.loc(p, "u_use_vector"), u_dyn = m.loc(p, "u_dynamic"),
-              u_emissive = m.loc(p, "u_emissive"), u_base_tex = m.loc(p, "u_has_base_map");
+  const GLint u_offset = m.su.offset, u_base = m.su.base_color, u_nm = m.su.has_normal_map,
+              u_scale = m.su.normal_scale, u_vec = m.su.use_vector, u_dyn = m.su.dynamic,
+              u_emissive = m.su.emissive, u_base_tex = m.su.has_base_map;
   gl.glUniform1i(u_emissive, 0);
   for (const DrawRange& d : m.draws) {
     const Material& mat = m.materials[std::size_t(d.material)];
@@ -525,8 +541,10 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     gl.glUniform1f(u_scale, mat.normal_scale);
     gl.glUniform1i(u_vec, vector && normal_map != 0 && !d.dynamic);
     gl.glUniform1i(u_dyn, d.dynamic);
-    bind_texture(gl, 1, GL_TEXTURE_2D, normal_map ? normal_map : m.white);
-    bind_texture(gl, 7, GL_TEXTURE_2D, base_map ? base_map : m.white);
+    // Always rebound (0 when absent, never sampled then): a unit must not keep a texture of
+    // another type from an earlier pass, such as the GLES backend's RGBA32UI signals.
+    bind_texture(gl, 1, GL_TEXTURE_2D, normal_map);
+    bind_texture(gl, 7, GL_TEXTURE_2D, base_map);
     gl.glUniform1i(u_base_tex, base_map != 0);
     gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
   }
@@ -534,7 +552,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glUniform1i(u_emissive, 1);
   const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), frame.light_position) *
                            glm::scale(glm::mat4(1.0f), glm::vec3(std::max(frame.light_radius, 0.01f)));
-  gl.glUniformMatrix4fv(m.loc(p, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(marker));
+  gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(marker));
   gl.glUniform3f(u_offset, 0.0f, 0.0f, 0.0f);
   gl.glDrawArrays(GL_TRIANGLES, m.light_marker.first, m.light_marker.count);
   gl.glBindVertexArray(0);
@@ -550,7 +568,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glDisable(GL_DEPTH_TEST);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, m.display_fbo);
   gl.glUseProgram(m.tonemap_program);
-  gl.glUniform1f(m.loc(m.tonemap_program, "u_exposure"), frame.exposure);
+  gl.glUniform1f(m.tonemap_exposure, frame.exposure);
   bind_texture(gl, 0, GL_TEXTURE_2D, m.color);
   gl.glBindVertexArray(m.empty_vao);
   gl.glDrawArrays(GL_TRIANGLES, 0, 3);

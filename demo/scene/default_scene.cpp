@@ -132,14 +132,12 @@ void add_wall_meshes(DemoScene& scene, int subdivisions) {
                 .first;
       Mesh& m = meshes[it->second];
       m.material = it->second;
-      const FaceFrame& fr = face_frame(f);
       auto at = [&](double u, double v) { return glm::vec3(trilinear(corners, face_point(f, u, v))); };
       for (int j = 0; j < k; ++j)
         for (int i = 0; i < k; ++i) {
           const double u0 = double(i) / k, v0 = double(j) / k, u1 = double(i + 1) / k, v1 = double(j + 1) / k;
           const glm::vec3 p[4] = {at(u0, v0), at(u1, v0), at(u1, v1), at(u0, v1)};
-          const glm::vec3 n =
-              glm::normalize(glm::cross(p[2] - p[0], p[3] - p[1]));
+          const glm::vec3 n = glm::normalize(glm::cross(p[2] - p[0], p[3] - p[1]));
           const std::uint32_t base = std::uint32_t(m.position.size());
           const glm::vec2 uv[4] = {{u0, v0}, {u1, v0}, {u1, v1}, {u0, v1}};
           for (int q = 0; q < 4; ++q) {
@@ -149,7 +147,6 @@ void add_wall_meshes(DemoScene& scene, int subdivisions) {
             m.uv.push_back(uv[q]);
           }
           for (std::uint32_t q : {0u, 1u, 2u, 0u, 2u, 3u}) m.indices.push_back(base + q);
-          (void)fr;
         }
     }
   }
