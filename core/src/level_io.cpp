@@ -1,0 +1,414 @@
+#include "modrt/level_io.h"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include "modrt/file_io.h"
+
+namespace modrt {
+namespace {
+
+constexpr std::size_t kHeaderCrcOffset = 60;
+constexpr std::uint32_t kMaxMatrixDimension = 1u << 24;
+
+// --- writing: little-endian, independent of the host byte order ---
+
+class Writer {
+ public:
+  void u32(std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) bytes.push_back(std::byte((v >> (8 * i)) & 0xFFu));
+  }
+  void i32(std::int32_t v) { u32(std::uint32_t(v)); }
+  void u64(std::uint64_t v) {
+    for (int i = 0; i < 8; ++i) bytes.push_back(std::byte((v >> (8 * i)) & 0xFFu));
+  }
+  void f32(float v) { u32(std::bit_cast<std::uint32_t>(v)); }
+  void f64(double v) { u64(std::bit_cast<std::uint64_t>(v)); }
+  void matrix(const Matrix& m) {
+    u32(m.rows);
+    u32(m.cols);
+    for (float v : m.data) f32(v);
+  }
+  std::vector<std::byte> bytes;
+};
+
+// --- reading: every read is bounds-checked; the first failure sticks and names the field ---
+
+class Reader {
+ public:
+  Reader(std::span<const std::byte> bytes, const std::string& what) : bytes_(bytes), what_(what) {}
+
+  bool ok() const { return status_.ok(); }
+  const Status& status() const { return status_; }
+  std::size_t left() const { return bytes_.size() - at_; }
+
+  void fail(const std::string& field, const std::string& problem) {
+    if (status_.ok()) status_ = Status::error(ErrorCode::format_error, what_ + ": " + field + ": " + problem);
+  }
+  // Whether `count` items of `item_bytes` each still fit; a failure names the field.
+  bool fits(const std::string& field, std::uint64_t count, std::uint64_t item_bytes) {
+    if (!ok()) return false;
+    if (item_bytes != 0 && count > left() / item_bytes) {
+      fail(field, "count " + std::to_string(count) + " needs more bytes than the " + std::to_string(left()) +
+                      " left in the file (truncated or corrupt)");
+      return false;
+    }
+    return true;
+  }
+
+  std::uint32_t u32(const std::string& field) {
+    if (!fits(field, 1, 4)) return 0;
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v |= std::to_integer<std::uint32_t>(bytes_[at_ + i]) << (8 * i);
+    at_ += 4;
+    return v;
+  }
+  std::int32_t i32(const std::string& field) { return std::int32_t(u32(field)); }
+  std::uint64_t u64(const std::string& field) {
+    const std::uint64_t lo = u32(field), hi = u32(field);
+    return lo | (hi << 32);
+  }
+  float f32(const std::string& field) { return std::bit_cast<float>(u32(field)); }
+  double f64(const std::string& field) { return std::bit_cast<double>(u64(field)); }
+
+  Matrix matrix(const std::string& field) {
+    const std::uint32_t rows = u32(field + " rows"), cols = u32(field + " cols");
+    if (!ok()) return {};
+    if (rows > kMaxMatrixDimension || cols > kMaxMatrixDimension) {
+      fail(field, "dimensions " + std::to_string(rows) + "x" + std::to_string(cols) + " are out of range");
+      return {};
+    }
+    if ((rows == 0) != (cols == 0)) {
+      fail(field, "dimensions " + std::to_string(rows) + "x" + std::to_string(cols) + " are inconsistent");
+      return {};
+    }
+    if (!fits(field + " values", std::uint64_t(rows) * cols, 4)) return {};
+    Matrix m(rows, cols);
+    for (float& v : m.data) v = f32(field);
+    return m;
+  }
+
+ private:
+  std::span<const std::byte> bytes_;
+  std::string what_;
+  std::size_t at_ = 0;
+  Status status_;
+};
+
+std::uint32_t header_u32(std::span<const std::byte> b, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) v |= std::to_integer<std::uint32_t>(b[at + i]) << (8 * i);
+  return v;
+}
+
+// --- consistency of a Level on its own (no dictionary) ---
+
+bool finite_matrix(const Matrix& m) {
+  for (float v : m.data)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+Status invalid(ErrorCode code, const std::string& what, const std::string& problem) {
+  return Status::error(code, what + ": " + problem);
+}
+
+Status check_level_structure(const Level& level, const std::string& what, ErrorCode code) {
+  if (level.res == 0 && !level.blocks.empty()) return invalid(code, what, "res is 0");
+  const std::size_t blocks = level.blocks.size();
+  std::uint64_t offset = 0;
+  for (std::size_t i = 0; i < blocks; ++i) {
+    const LevelBlock& blk = level.blocks[i];
+    const std::string name = "block " + std::to_string(i);
+    if (blk.shape < 0 || blk.shape >= kDictionaryShapeCount)
+      return invalid(code, what,
+                     name + ": shape " + std::to_string(blk.shape) + " is not 0.." +
+                         std::to_string(kDictionaryShapeCount - 1));
+    if (blk.quarter_turns < 0 || blk.quarter_turns > 3)
+      return invalid(code, what,
+                     name + ": quarter_turns " + std::to_string(blk.quarter_turns) + " is not 0..3");
+    for (int f = 0; f < kFaceCount; ++f)
+      if (blk.neighbour[std::size_t(f)] < -1 || blk.neighbour[std::size_t(f)] >= std::int64_t(blocks))
+        return invalid(code, what, name + ": neighbour of face " + std::to_string(f) + " is out of range");
+    for (const glm::dvec3& c : blk.corners)
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
+        return invalid(ErrorCode::non_finite, what, name + ": a corner is not finite");
+    if (blk.sample_offset != offset) return invalid(code, what, name + ": sample offsets are not contiguous");
+    offset += blk.sample_count;
+  }
+  if (offset != level.sample_count)
+    return invalid(code, what,
+                   "block sample counts add up to " + std::to_string(offset) + ", the level has " +
+                       std::to_string(level.sample_count));
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    const std::string name = "slot " + std::to_string(s);
+    if (slot.block >= blocks)
+      return invalid(code, what, name + ": block " + std::to_string(slot.block) + " out of range");
+    if (slot.entry_face < 0 || slot.entry_face >= kFaceCount)
+      return invalid(code, what, name + ": bad entry face");
+    const std::int64_t n = level.blocks[slot.block].sample_count;
+    for (std::int32_t m : slot.ur_row_to_sample)
+      if (m < -1 || m >= n) return invalid(code, what, name + ": Ur row maps past the block's samples");
+  }
+  for (std::size_t i = 0; i < level.records.size(); ++i) {
+    const ResponseRecord& rec = level.records[i];
+    const std::string name = "record " + std::to_string(i);
+    if (rec.source_block >= blocks || rec.slot >= level.slots.size())
+      return invalid(code, what, name + ": source block or slot out of range");
+    if (i > 0 && rec.slot < level.records[i - 1].slot)
+      return invalid(code, what, name + ": records are not sorted by slot");
+    if (rec.T.rows != level.kr || rec.T.cols != level.kb)
+      return invalid(code, what,
+                     name + ": T is " + std::to_string(rec.T.rows) + "x" + std::to_string(rec.T.cols) +
+                         ", not kr x kb = " + std::to_string(level.kr) + "x" + std::to_string(level.kb));
+    if (!finite_matrix(rec.T)) return invalid(ErrorCode::non_finite, what, name + ": T has NaN or Inf");
+  }
+  for (int f = 0; f < kFaceCount; ++f) {
+    if (!finite_matrix(level.probe_response[std::size_t(f)]))
+      return invalid(ErrorCode::non_finite, what, "probe_response " + std::to_string(f) + " has NaN or Inf");
+    if (!finite_matrix(level.vector_response[std::size_t(f)]))
+      return invalid(ErrorCode::non_finite, what, "vector_response " + std::to_string(f) + " has NaN or Inf");
+  }
+  const LightmapAtlas& atlas = level.atlas;
+  if (atlas.width < 0 || atlas.height < 0 || atlas.tile < 0 || atlas.width > (1 << 16) ||
+      atlas.height > (1 << 16))
+    return invalid(code, what,
+                   "atlas size " + std::to_string(atlas.width) + "x" + std::to_string(atlas.height) +
+                       " is out of range");
+  const std::uint64_t texels = std::uint64_t(atlas.width) * std::uint64_t(atlas.height);
+  if (!atlas.sample_texel.empty() && atlas.sample_texel.size() != level.sample_count)
+    return invalid(code, what, "atlas sample_texel does not cover the level's samples");
+  for (std::uint32_t t : atlas.sample_texel)
+    if (t >= texels)
+      return invalid(code, what, "atlas sample texel " + std::to_string(t) + " is outside the atlas");
+  for (const PaddingRecord& p : atlas.padding)
+    if (p.dst >= texels || p.src >= texels) return invalid(code, what, "atlas padding record out of range");
+  const bool has_tiles = !atlas.tile_origin_x.empty() || !atlas.tile_origin_y.empty();
+  if (has_tiles && (atlas.tile_origin_x.size() != blocks || atlas.tile_origin_y.size() != blocks))
+    return invalid(code, what, "atlas tile origins do not have one entry per block");
+  for (std::size_t i = 0; has_tiles && i < blocks; ++i)
+    for (int f = 0; f < kFaceCount; ++f) {
+      const std::int32_t x = atlas.tile_origin_x[i][std::size_t(f)],
+                         y = atlas.tile_origin_y[i][std::size_t(f)];
+      if ((x < 0) != (y < 0) || x < -1 || y < -1 ||
+          (x >= 0 && (x + atlas.tile > atlas.width || y + atlas.tile > atlas.height)))
+        return invalid(code, what,
+                       "atlas tile of block " + std::to_string(i) + " face " + std::to_string(f) +
+                           " lies outside the atlas");
+    }
+  return Status::success();
+}
+
+}  // namespace
+
+Result<std::vector<std::byte>> serialize_level(const Level& level) {
+  if (Status s = check_level_structure(level, "level", ErrorCode::invalid_argument); !s.ok()) return s;
+
+  Writer body;
+  for (const LevelBlock& blk : level.blocks) {
+    body.i32(blk.shape);
+    body.i32(blk.quarter_turns);
+    body.i32(blk.cell.x);
+    body.i32(blk.cell.y);
+    body.i32(blk.cell.z);
+    for (const glm::dvec3& c : blk.corners) {
+      body.f64(c.x);
+      body.f64(c.y);
+      body.f64(c.z);
+    }
+    for (std::int32_t n : blk.neighbour) body.i32(n);
+    body.u32(blk.sample_offset);
+    body.u32(blk.sample_count);
+  }
+  for (const ResponseSlot& slot : level.slots) {
+    body.u32(slot.block);
+    body.i32(slot.entry_face);
+    body.u32(std::uint32_t(slot.ur_row_to_sample.size()));
+    for (std::int32_t m : slot.ur_row_to_sample) body.i32(m);
+  }
+  for (const ResponseRecord& rec : level.records) {
+    body.u32(rec.source_block);
+    body.u32(rec.slot);
+    body.matrix(rec.T);
+  }
+  for (const Matrix& m : level.probe_response) body.matrix(m);
+  for (const Matrix& m : level.vector_response) body.matrix(m);
+  const LightmapAtlas& atlas = level.atlas;
+  body.i32(atlas.width);
+  body.i32(atlas.height);
+  body.i32(atlas.tile);
+  body.u32(std::uint32_t(atlas.sample_texel.size()));
+  for (std::uint32_t t : atlas.sample_texel) body.u32(t);
+  body.u32(atlas.tile_origin_x.empty() ? 0u : 1u);
+  for (std::size_t i = 0; i < atlas.tile_origin_x.size(); ++i) {
+    for (std::int32_t x : atlas.tile_origin_x[i]) body.i32(x);
+    for (std::int32_t y : atlas.tile_origin_y[i]) body.i32(y);
+  }
+  body.u32(std::uint32_t(atlas.padding.size()));
+  for (const PaddingRecord& p : atlas.padding) {
+    body.u32(p.dst);
+    body.u32(p.src);
+  }
+
+  const std::uint64_t file_bytes = kLevelFileHeaderBytes + body.bytes.size();
+  if (file_bytes > kMaxLevelFileBytes)
+    return Status::error(ErrorCode::resource_limit, "level: the file would be " + std::to_string(file_bytes) +
+                                                        " bytes, more than the limit of " +
+                                                        std::to_string(kMaxLevelFileBytes));
+  Writer out;
+  out.bytes.reserve(file_bytes);
+  for (char c : kLevelFileMagic) out.bytes.push_back(std::byte(c));
+  out.u32(kLevelFileVersion);
+  out.u32(std::uint32_t(kLevelFileHeaderBytes));
+  out.u32(std::uint32_t(level.res));
+  out.u32(level.kb);
+  out.u32(level.kr);
+  out.u32(std::uint32_t(level.blocks.size()));
+  out.u32(level.sample_count);
+  out.u32(std::uint32_t(level.slots.size()));
+  out.u32(std::uint32_t(level.records.size()));
+  out.u32(0);
+  out.u64(body.bytes.size());
+  out.u32(crc32(body.bytes));
+  out.u32(crc32(std::span<const std::byte>(out.bytes).first(kHeaderCrcOffset)));
+  out.bytes.insert(out.bytes.end(), body.bytes.begin(), body.bytes.end());
+  return std::move(out.bytes);
+}
+
+Status save_level(const std::string& path, const Level& level) {
+  Result<std::vector<std::byte>> bytes = serialize_level(level);
+  if (!bytes.ok()) return Status::error(bytes.status().code(), path + ": " + bytes.status().message());
+  return write_file_atomic(path, bytes.value());
+}
+
+Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& what) {
+  auto error = [&](ErrorCode code, const std::string& problem) {
+    return Status::error(code, what + ": " + problem);
+  };
+  if (bytes.size() < kLevelFileHeaderBytes)
+    return error(ErrorCode::format_error, "file is " + std::to_string(bytes.size()) +
+                                              " bytes, shorter than the " +
+                                              std::to_string(kLevelFileHeaderBytes) + "-byte header");
+  if (std::memcmp(bytes.data(), kLevelFileMagic, sizeof kLevelFileMagic) != 0)
+    return error(ErrorCode::format_error, "not a modrt level file (bad magic; expected \"MODRTLVL\")");
+  const std::uint32_t version = header_u32(bytes, 8);
+  if (version != kLevelFileVersion)
+    return error(ErrorCode::version_mismatch, "format version " + std::to_string(version) +
+                                                  ", this build reads " + std::to_string(kLevelFileVersion) +
+                                                  ": rebuild the level");
+  if (header_u32(bytes, 12) != kLevelFileHeaderBytes)
+    return error(ErrorCode::format_error, "header size " + std::to_string(header_u32(bytes, 12)) +
+                                              " is not " + std::to_string(kLevelFileHeaderBytes));
+  if (crc32(bytes.first(kHeaderCrcOffset)) != header_u32(bytes, kHeaderCrcOffset))
+    return error(ErrorCode::checksum_mismatch, "header checksum mismatch");
+  const std::uint64_t body_bytes =
+      std::uint64_t(header_u32(bytes, 48)) | (std::uint64_t(header_u32(bytes, 52)) << 32);
+  if (body_bytes != bytes.size() - kLevelFileHeaderBytes)
+    return error(ErrorCode::format_error,
+                 "header says the body is " + std::to_string(body_bytes) + " bytes, the file holds " +
+                     std::to_string(bytes.size() - kLevelFileHeaderBytes) + " (truncated?)");
+  const std::span<const std::byte> body_span = bytes.subspan(kLevelFileHeaderBytes);
+  if (crc32(body_span) != header_u32(bytes, 56))
+    return error(ErrorCode::checksum_mismatch, "body checksum mismatch");
+
+  Level level;
+  level.res = int(header_u32(bytes, 16));
+  level.kb = header_u32(bytes, 20);
+  level.kr = header_u32(bytes, 24);
+  const std::uint32_t block_count = header_u32(bytes, 28);
+  level.sample_count = header_u32(bytes, 32);
+  const std::uint32_t slot_count = header_u32(bytes, 36);
+  const std::uint32_t record_count = header_u32(bytes, 40);
+  if (level.res > 4096 || level.kb > kMaxMatrixDimension || level.kr > kMaxMatrixDimension)
+    return error(ErrorCode::format_error, "res " + std::to_string(level.res) + ", kb " +
+                                              std::to_string(level.kb) + " or kr " +
+                                              std::to_string(level.kr) + " is out of range");
+
+  Reader in(body_span, what);
+  // Smallest encoded sizes bound the counts before anything is allocated.
+  constexpr std::uint64_t kBlockBytes = 4 * 5 + 8 * 24 + 4 * kFaceCount + 8;
+  if (in.fits("blocks", block_count, kBlockBytes)) level.blocks.resize(block_count);
+  for (std::uint32_t i = 0; i < block_count && in.ok(); ++i) {
+    LevelBlock& blk = level.blocks[i];
+    const std::string f = "block " + std::to_string(i);
+    blk.shape = in.i32(f + " shape");
+    blk.quarter_turns = in.i32(f + " quarter_turns");
+    blk.cell.x = in.i32(f + " cell");
+    blk.cell.y = in.i32(f + " cell");
+    blk.cell.z = in.i32(f + " cell");
+    for (glm::dvec3& c : blk.corners) {
+      c.x = in.f64(f + " corners");
+      c.y = in.f64(f + " corners");
+      c.z = in.f64(f + " corners");
+    }
+    for (std::int32_t& n : blk.neighbour) n = in.i32(f + " neighbour");
+    blk.sample_offset = in.u32(f + " sample_offset");
+    blk.sample_count = in.u32(f + " sample_count");
+  }
+  if (in.fits("slots", slot_count, 12)) level.slots.resize(slot_count);
+  for (std::uint32_t s = 0; s < slot_count && in.ok(); ++s) {
+    ResponseSlot& slot = level.slots[s];
+    const std::string f = "slot " + std::to_string(s);
+    slot.block = in.u32(f + " block");
+    slot.entry_face = in.i32(f + " entry_face");
+    const std::uint32_t n = in.u32(f + " ur_row_to_sample count");
+    if (!in.fits(f + " ur_row_to_sample", n, 4)) break;
+    slot.ur_row_to_sample.resize(n);
+    for (std::int32_t& m : slot.ur_row_to_sample) m = in.i32(f + " ur_row_to_sample");
+  }
+  if (in.fits("records", record_count, 16)) level.records.resize(record_count);
+  for (std::uint32_t r = 0; r < record_count && in.ok(); ++r) {
+    ResponseRecord& rec = level.records[r];
+    const std::string f = "record " + std::to_string(r);
+    rec.source_block = in.u32(f + " source_block");
+    rec.slot = in.u32(f + " slot");
+    rec.T = in.matrix(f + " T");
+  }
+  for (int e = 0; e < kFaceCount; ++e)
+    level.probe_response[std::size_t(e)] = in.matrix("probe_response " + std::to_string(e));
+  for (int e = 0; e < kFaceCount; ++e)
+    level.vector_response[std::size_t(e)] = in.matrix("vector_response " + std::to_string(e));
+  LightmapAtlas& atlas = level.atlas;
+  atlas.width = in.i32("atlas width");
+  atlas.height = in.i32("atlas height");
+  atlas.tile = in.i32("atlas tile");
+  const std::uint32_t texel_count = in.u32("atlas sample_texel count");
+  if (in.fits("atlas sample_texel", texel_count, 4)) {
+    atlas.sample_texel.resize(texel_count);
+    for (std::uint32_t& t : atlas.sample_texel) t = in.u32("atlas sample_texel");
+  }
+  const std::uint32_t has_tiles = in.u32("atlas tile origins flag");
+  if (in.ok() && has_tiles > 1)
+    in.fail("atlas tile origins flag", std::to_string(has_tiles) + " is not 0 or 1");
+  if (has_tiles == 1 && in.fits("atlas tile origins", block_count, 8 * kFaceCount)) {
+    atlas.tile_origin_x.resize(block_count);
+    atlas.tile_origin_y.resize(block_count);
+    for (std::uint32_t i = 0; i < block_count && in.ok(); ++i) {
+      for (std::int32_t& x : atlas.tile_origin_x[i]) x = in.i32("atlas tile_origin_x");
+      for (std::int32_t& y : atlas.tile_origin_y[i]) y = in.i32("atlas tile_origin_y");
+    }
+  }
+  const std::uint32_t padding_count = in.u32("atlas padding count");
+  if (in.fits("atlas padding", padding_count, 8)) {
+    atlas.padding.resize(padding_count);
+    for (PaddingRecord& p : atlas.padding) {
+      p.dst = in.u32("atlas padding dst");
+      p.src = in.u32("atlas padding src");
+    }
+  }
+  if (!in.ok()) return in.status();
+  if (in.left() != 0)
+    return error(ErrorCode::format_error, std::to_string(in.left()) + " trailing bytes after the atlas");
+  if (Status s = check_level_structure(level, what, ErrorCode::format_error); !s.ok()) return s;
+  return level;
+}
+
+Result<Level> load_level(const std::string& path) {
+  Result<std::vector<std::byte>> bytes = read_file(path, kMaxLevelFileBytes);
+  if (!bytes.ok()) return bytes.status();
+  return parse_level(bytes.value(), path);
+}
+
+}  // namespace modrt
