@@ -15,6 +15,7 @@
 
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
@@ -26,7 +27,7 @@ namespace {
 
 using namespace modrt;
 
-Result<LevelDescription> load_level(const std::string& name) {
+Result<LevelDescription> load_description(const std::string& name) {
   if (name == "corridor") return precompute::corridor_level();
   if (name == "l_corner") return precompute::l_corner_level();
   if (name.rfind("maze", 0) == 0 && name.find('.') == std::string::npos) {
@@ -97,6 +98,7 @@ Status write(const std::string& path, int w, int h, const std::vector<float>& rg
 int main(int argc, char** argv) {
   CLI::App app{"modrt-level: relight a level (MRT scalar reference runtime) and write floor maps and the atlas"};
   std::string level_name = "maze11", out_dir = "out", dictionary_path, cache_dir = precompute::default_cache_dir();
+  std::string save_path;
   int bounces = 8, dmax = 8;
   app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
   app.add_option("--out", out_dir, "output directory");
@@ -104,9 +106,12 @@ int main(int argc, char** argv) {
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
   app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
   app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")->check(CLI::Range(0, 64));
+  app.add_option(
+      "--save", save_path,
+      "also write the built level to this .modrtlevel file (core/level_io.h), the form an app loads");
   CLI11_PARSE(app, argc, argv);
 
-  Result<LevelDescription> desc = load_level(level_name);
+  Result<LevelDescription> desc = load_description(level_name);
   if (!desc.ok()) {
     std::fprintf(stderr, "modrt-level: %s\n", desc.status().to_string().c_str());
     return 1;
@@ -129,6 +134,13 @@ int main(int argc, char** argv) {
     return 1;
   }
   const double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (!save_path.empty()) {
+    if (Status s = save_level(save_path, level.value()); !s.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", s.to_string().c_str());
+      return 1;
+    }
+    std::printf("wrote %s\n", save_path.c_str());
+  }
 
   std::vector<float> albedo, ld;
   try {
