@@ -184,6 +184,71 @@ TEST(ClutterMesh, ThinTriangleGetsATexelAndPaddingRingsTheCharts) {
     }
 }
 
+// Reference: entry into the box from outside by the slab test, in the box's frame.
+ClutterMeshShape::Entry slab_entry(const ClutterBox& box, const glm::dvec3& origin, const glm::dvec3& dir) {
+  const glm::dmat3 Rt = glm::transpose(box.rotation);
+  const glm::dvec3 o = Rt * (origin - box.center), d = Rt * dir;
+  double t_min = -INFINITY, t_max = INFINITY;
+  int face = -1;
+  for (int a = 0; a < 3; ++a) {
+    double t1 = (-box.half_extent[a] - o[a]) / d[a], t2 = (box.half_extent[a] - o[a]) / d[a];
+    if (t1 > t2) std::swap(t1, t2);
+    if (t1 > t_min) t_min = t1, face = 2 * a + (d[a] > 0.0 ? 0 : 1);
+    t_max = std::min(t_max, t2);
+  }
+  if (t_min > t_max || t_min <= 0.0) return {};
+  return {true, t_min, face};
+}
+
+TEST(ClutterMesh, ShapeRayEntryAndInsideAgreeWithTheAnalyticBox) {
+  const ClutterBox box = rotated_box();
+  const ClutterMesh mesh = box_mesh(box, 8, 32);
+  const std::vector<int> charts = clutter_mesh_charts(mesh);
+  Result<ClutterMeshShape> shape = ClutterMeshShape::create(mesh, charts, "box mesh");
+  ASSERT_TRUE(shape.ok()) << shape.status().to_string();
+  // Face f's two triangles form chart f (faces are listed in order).
+  for (std::size_t t = 0; t < charts.size(); ++t) EXPECT_EQ(charts[t], int(t / 2));
+  EXPECT_LE(glm::length(shape->bounding_center() - box.center), 1e-12);
+  EXPECT_NEAR(shape->bounding_radius(), glm::length(box.half_extent), 1e-12);
+
+  std::uint64_t state = 12345;
+  auto uniform = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return double(state >> 11) * 0x1.0p-53;
+  };
+  int hits = 0, inside = 0, compared = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const glm::dvec3 origin{uniform(), uniform(), uniform()};
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5));
+    const glm::dvec3 local = glm::transpose(box.rotation) * (origin - box.center);
+    const glm::dvec3 margin = glm::abs(local) - box.half_extent;
+    // Points within 1e-4 of the surface are left out: float geometry inside Embree.
+    if (std::abs(std::max({margin.x, margin.y, margin.z})) < 1e-4) continue;
+    ++compared;
+    const bool in = clutter_contains(box, origin, 0.0);
+    EXPECT_EQ(shape->contains(origin), in) << k;
+    inside += in;
+    const ClutterMeshShape::Entry want = slab_entry(box, origin, dir), got = shape->enter(origin, dir);
+    // Rays grazing an edge within float precision may go either way.
+    if (want.hit != got.hit) {
+      const glm::dvec3 p = origin + want.t * dir;
+      const glm::dvec3 m = glm::abs(glm::transpose(box.rotation) * (p - box.center)) - box.half_extent;
+      const double sorted[3] = {m.x, m.y, m.z};
+      int near_edges = 0;
+      for (double v : sorted) near_edges += std::abs(v) < 1e-5;
+      EXPECT_GE(near_edges, 2) << "ray " << k;
+      continue;
+    }
+    if (!want.hit) continue;
+    ++hits;
+    EXPECT_NEAR(got.t, want.t, 1e-5) << k;
+    EXPECT_EQ(got.chart, want.chart) << k;
+  }
+  EXPECT_GT(compared, 19000);
+  EXPECT_GT(hits, 500);
+  EXPECT_GT(inside, 100);
+}
+
 TEST(ClutterMesh, BadMeshesAreRefusedWithNamedErrors) {
   const ClutterMesh good = box_mesh(rotated_box(), 8, 32);
   auto expect_refused = [](const ClutterMesh& m, int res, const std::string& part) {

@@ -6,7 +6,10 @@
 #include <map>
 #include <numeric>
 
+#include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
+
+#include "embree_rays.h"
 
 namespace modrt::precompute {
 namespace {
@@ -88,58 +91,63 @@ Status bad(const std::string& what, const std::string& problem) {
   return Status::error(ErrorCode::invalid_argument, what + ": " + problem);
 }
 
-}  // namespace
-
-Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res, const std::string& what) {
-  if (res < 1 || res > 1024) return bad(what, "res " + std::to_string(res) + " is not 1..1024");
-  if (mesh.uvs.size() != mesh.positions.size())
+// Sizes, indices, finite values (and UVs in [0, 1] when the mesh needs them), non-degenerate
+// triangles.
+Status check_mesh(const ClutterMesh& mesh, bool uvs, const std::string& what) {
+  if (uvs && mesh.uvs.size() != mesh.positions.size())
     return bad(what, std::to_string(mesh.positions.size()) + " positions but " +
                          std::to_string(mesh.uvs.size()) + " lightmap UVs (one per position needed)");
   if (mesh.indices.empty() || mesh.indices.size() % 3 != 0)
     return bad(what, std::to_string(mesh.indices.size()) + " indices is not a positive multiple of 3");
   for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
     const glm::dvec3& p = mesh.positions[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      return bad(what, "vertex " + std::to_string(v) + " has a NaN or Inf position");
+    if (!uvs) continue;
     const glm::dvec2& uv = mesh.uvs[v];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(uv.x) ||
-        !std::isfinite(uv.y))
-      return bad(what, "vertex " + std::to_string(v) + " has a NaN or Inf position or UV");
+    if (!std::isfinite(uv.x) || !std::isfinite(uv.y))
+      return bad(what, "vertex " + std::to_string(v) + " has a NaN or Inf UV");
     if (uv.x < 0 || uv.x > 1 || uv.y < 0 || uv.y > 1)
       return bad(what, "vertex " + std::to_string(v) + ": UV (" + std::to_string(uv.x) + ", " +
                            std::to_string(uv.y) + ") is outside [0, 1]");
   }
-  const std::size_t triangle_count = mesh.indices.size() / 3;
-  std::vector<Triangle> tris(triangle_count);
-  for (std::size_t t = 0; t < triangle_count; ++t) {
-    Triangle& tri = tris[t];
-    for (std::size_t k = 0; k < 3; ++k) {
-      const std::uint32_t v = mesh.indices[3 * t + k];
-      if (v >= mesh.positions.size())
-        return bad(what, "triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) +
-                             ", the mesh has " + std::to_string(mesh.positions.size()));
-      tri.uv[k] = mesh.uvs[v];
-      tri.p[k] = mesh.positions[v];
+  for (std::size_t t = 0; t < mesh.indices.size() / 3; ++t) {
+    for (std::size_t k = 0; k < 3; ++k)
+      if (mesh.indices[3 * t + k] >= mesh.positions.size())
+        return bad(what, "triangle " + std::to_string(t) + " uses vertex " +
+                             std::to_string(mesh.indices[3 * t + k]) + ", the mesh has " +
+                             std::to_string(mesh.positions.size()));
+    const glm::dvec3 &p0 = mesh.positions[mesh.indices[3 * t]], &p1 = mesh.positions[mesh.indices[3 * t + 1]],
+                     &p2 = mesh.positions[mesh.indices[3 * t + 2]];
+    double uv_area2 = 1.0;
+    if (uvs) {
+      const glm::dvec2 &a = mesh.uvs[mesh.indices[3 * t]], &b = mesh.uvs[mesh.indices[3 * t + 1]],
+                       &c = mesh.uvs[mesh.indices[3 * t + 2]];
+      uv_area2 = cross2(b - a, c - a);
     }
-    const glm::dvec3 n = glm::cross(tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
-    const double world_area = 0.5 * glm::length(n);
-    tri.uv_area2 = cross2(tri.uv[1] - tri.uv[0], tri.uv[2] - tri.uv[0]);
     // A texel of a 1024^2 grid has UV area ~1e-6; triangles far below that are degenerate.
-    if (!(world_area > 1e-14) || !(std::abs(tri.uv_area2) > 1e-14))
+    if (!(0.5 * glm::length(glm::cross(p1 - p0, p2 - p0)) > 1e-14) || !(std::abs(uv_area2) > 1e-14))
       return bad(what, "triangle " + std::to_string(t) + " has zero world or UV area");
-    tri.world_per_uv = world_area / (0.5 * std::abs(tri.uv_area2));
-    tri.normal = n / (2.0 * world_area);
   }
+  return Status::success();
+}
 
-  // Charts: triangles joined by an edge with the same UVs at both ends.
+}  // namespace
+
+std::vector<int> clutter_mesh_charts(const ClutterMesh& mesh) {
+  const std::size_t triangle_count = mesh.indices.size() / 3;
   std::vector<int> parent(triangle_count);
   std::iota(parent.begin(), parent.end(), 0);
-  {
+  if (mesh.uvs.size() == mesh.positions.size()) {
     auto key = [](const glm::dvec2& a) {
       return std::pair{std::llround(a.x * 1048576.0), std::llround(a.y * 1048576.0)};
     };
     std::map<std::pair<std::pair<long long, long long>, std::pair<long long, long long>>, int> edges;
     for (std::size_t t = 0; t < triangle_count; ++t)
       for (std::size_t e = 0; e < 3; ++e) {
-        auto a = key(tris[t].uv[e]), b = key(tris[t].uv[(e + 1) % 3]);
+        const std::uint32_t i0 = mesh.indices[3 * t + e], i1 = mesh.indices[3 * t + (e + 1) % 3];
+        if (i0 >= mesh.uvs.size() || i1 >= mesh.uvs.size()) continue;
+        auto a = key(mesh.uvs[i0]), b = key(mesh.uvs[i1]);
         if (b < a) std::swap(a, b);
         auto [it, inserted] = edges.emplace(std::pair{a, b}, int(t));
         if (!inserted) parent[std::size_t(find_root(parent, int(t)))] = find_root(parent, it->second);
@@ -148,10 +156,33 @@ Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res
   std::vector<int> chart_of(triangle_count, -1);
   std::map<int, int> chart_index;
   for (std::size_t t = 0; t < triangle_count; ++t) {
-    const int root = find_root(parent, int(t));
-    auto [it, inserted] = chart_index.emplace(root, int(chart_index.size()));
+    auto [it, inserted] = chart_index.emplace(find_root(parent, int(t)), int(chart_index.size()));
     chart_of[t] = it->second;
   }
+  return chart_of;
+}
+
+Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res, const std::string& what) {
+  if (res < 1 || res > 1024) return bad(what, "res " + std::to_string(res) + " is not 1..1024");
+  if (Status st = check_mesh(mesh, true, what); !st.ok()) return st;
+  const std::size_t triangle_count = mesh.indices.size() / 3;
+  std::vector<Triangle> tris(triangle_count);
+  for (std::size_t t = 0; t < triangle_count; ++t) {
+    Triangle& tri = tris[t];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint32_t v = mesh.indices[3 * t + k];
+      tri.uv[k] = mesh.uvs[v];
+      tri.p[k] = mesh.positions[v];
+    }
+    const glm::dvec3 n = glm::cross(tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
+    const double world_area = 0.5 * glm::length(n);
+    tri.uv_area2 = cross2(tri.uv[1] - tri.uv[0], tri.uv[2] - tri.uv[0]);
+    tri.world_per_uv = world_area / (0.5 * std::abs(tri.uv_area2));
+    tri.normal = n / (2.0 * world_area);
+  }
+
+  const std::vector<int> chart_of = clutter_mesh_charts(mesh);
+  const int chart_count = chart_of.empty() ? 0 : *std::max_element(chart_of.begin(), chart_of.end()) + 1;
 
   const std::size_t cells = std::size_t(res) * std::size_t(res);
   const double cell = 1.0 / res;
@@ -195,7 +226,7 @@ Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res
 
   ClutterMeshAtlas atlas;
   atlas.res = res;
-  atlas.chart_count = int(chart_index.size());
+  atlas.chart_count = chart_count;
   atlas.cell_texel.assign(cells, -1);
   for (std::size_t c = 0; c < cells; ++c) {
     const std::int32_t t = owner[c] >= 0 ? owner[c] : fallback[c];
@@ -230,6 +261,100 @@ Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res
       }
     }
   return atlas;
+}
+
+// ---- ClutterMeshShape ----
+
+struct ClutterMeshShape::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::vector<glm::dvec3> normal;  // per triangle, outward (counter-clockwise seen from outside)
+  std::vector<int> chart;          // per triangle
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+ClutterMeshShape::~ClutterMeshShape() = default;
+ClutterMeshShape::ClutterMeshShape(ClutterMeshShape&&) noexcept = default;
+ClutterMeshShape& ClutterMeshShape::operator=(ClutterMeshShape&&) noexcept = default;
+
+Result<ClutterMeshShape> ClutterMeshShape::create(const ClutterMesh& mesh, std::vector<int> chart_of_triangle,
+                                                  const std::string& what) {
+  if (Status st = check_mesh(mesh, false, what); !st.ok()) return st;
+  const std::size_t triangle_count = mesh.indices.size() / 3;
+  if (chart_of_triangle.size() != triangle_count)
+    return bad(what, std::to_string(chart_of_triangle.size()) + " chart indices for " +
+                         std::to_string(triangle_count) + " triangles");
+  ClutterMeshShape shape;
+  shape.impl_ = std::make_unique<Impl>();
+  Impl& impl = *shape.impl_;
+  impl.chart = std::move(chart_of_triangle);
+  impl.device = rtcNewDevice("threads=1,set_affinity=0");
+  if (!impl.device) return Status::error(ErrorCode::internal_error, what + ": Embree: rtcNewDevice failed");
+  impl.scene = rtcNewScene(impl.device);
+  RTCGeometry geom = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof(float), mesh.positions.size()));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), triangle_count));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    return Status::error(ErrorCode::internal_error, what + ": Embree: cannot allocate the mesh buffers");
+  }
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    const glm::dvec3& p = mesh.positions[v];
+    vb[3 * v] = float(p.x), vb[3 * v + 1] = float(p.y), vb[3 * v + 2] = float(p.z);
+    lo = glm::min(lo, p), hi = glm::max(hi, p);
+  }
+  std::copy(mesh.indices.begin(), mesh.indices.end(), ib);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(impl.scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(impl.scene);
+  if (rtcGetDeviceError(impl.device) != RTC_ERROR_NONE)
+    return Status::error(ErrorCode::internal_error, what + ": Embree: scene build failed");
+  impl.normal.resize(triangle_count);
+  for (std::size_t t = 0; t < triangle_count; ++t) {
+    const glm::dvec3 &p0 = mesh.positions[mesh.indices[3 * t]], &p1 = mesh.positions[mesh.indices[3 * t + 1]],
+                     &p2 = mesh.positions[mesh.indices[3 * t + 2]];
+    impl.normal[t] = glm::normalize(glm::cross(p1 - p0, p2 - p0));
+  }
+  shape.center_ = 0.5 * (lo + hi);
+  for (const glm::dvec3& p : mesh.positions)
+    shape.radius_ = std::max(shape.radius_, glm::length(p - shape.center_));
+  return shape;
+}
+
+ClutterMeshShape::Entry ClutterMeshShape::enter(const glm::dvec3& origin, const glm::dvec3& dir) const {
+  const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, 0.0);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || !(rh.ray.tfar > 0.0f)) return {};
+  if (glm::dot(dir, impl_->normal[rh.hit.primID]) >= 0.0) return {};  // leaving: the origin is inside
+  return {true, double(rh.ray.tfar), impl_->chart[rh.hit.primID]};
+}
+
+bool ClutterMeshShape::contains(const glm::dvec3& p) const {
+  // Irrational-looking directions, so that axis-aligned meshes' edges are not grazed.
+  static const glm::dvec3 kDirs[3] = {glm::normalize(glm::dvec3(0.5773, 0.6123, 0.5402)),
+                                      glm::normalize(glm::dvec3(-0.3311, 0.8715, -0.3617)),
+                                      glm::normalize(glm::dvec3(0.7071, -0.2113, -0.6748))};
+  int inside_votes = 0;
+  for (const glm::dvec3& d : kDirs) {
+    int crossings = 0;
+    double t_near = 0.0;
+    // Each crossing restarts just past the hit; a closed mesh is crossed a finite number of
+    // times, and the cap guards against a degenerate one.
+    for (int k = 0; k < 1024; ++k) {
+      const RTCRayHit rh = embree_intersect(impl_->scene, p, d, t_near);
+      if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) break;
+      ++crossings;
+      t_near = std::nextafter(rh.ray.tfar, INFINITY) + 1e-7 * radius_;
+    }
+    inside_votes += crossings % 2;
+  }
+  return inside_votes >= 2;
 }
 
 }  // namespace modrt::precompute

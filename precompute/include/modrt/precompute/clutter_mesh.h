@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -53,5 +54,46 @@ struct ClutterMeshAtlas {
 // world or UV area, overlapping UV triangles (two triangles claiming the same texel centre),
 // or res outside 1..1024.
 Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res, const std::string& what);
+
+// The ray queries the DRT build asks of a clutter object, for a closed triangle mesh (the
+// box's analytic slab test in drt_build.cpp answers the same for boxes): where a ray from
+// outside enters the object and through which chart, and whether a point lies inside. One
+// Embree scene of the mesh; thread-safe for queries after create().
+class ClutterMeshShape {
+ public:
+  // Fails like rasterize_clutter_mesh on bad geometry (UVs are not needed here), and with
+  // internal_error when Embree cannot build the scene.
+  static Result<ClutterMeshShape> create(const ClutterMesh& mesh, std::vector<int> chart_of_triangle,
+                                         const std::string& what);
+  ~ClutterMeshShape();
+  ClutterMeshShape(ClutterMeshShape&&) noexcept;
+  ClutterMeshShape& operator=(ClutterMeshShape&&) noexcept;
+
+  struct Entry {
+    bool hit = false;
+    double t = 0.0;
+    int chart = -1;
+  };
+  // The first surface the ray crosses in front of its origin, when that crossing enters the
+  // mesh (against the outward normal). A ray that starts inside (first crossing leaves) or
+  // misses enters nothing.
+  Entry enter(const glm::dvec3& origin, const glm::dvec3& dir) const;
+  // Inside by crossing parity along three fixed directions (majority), so a ray grazing an
+  // edge cannot flip the answer alone.
+  bool contains(const glm::dvec3& p) const;
+  glm::dvec3 bounding_center() const { return center_; }
+  double bounding_radius() const { return radius_; }
+
+ private:
+  ClutterMeshShape() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  glm::dvec3 center_{0.0};
+  double radius_ = 0.0;
+};
+
+// Charts of a mesh (triangles joined through edges with equal lightmap UVs), as
+// ClutterMeshAtlas::texels.face numbers them; one entry per triangle.
+std::vector<int> clutter_mesh_charts(const ClutterMesh& mesh);
 
 }  // namespace modrt::precompute
