@@ -1,0 +1,84 @@
+// modrt-bench-drt — Google Benchmark timings of the DRT operator build (SPEC §6,
+// [Loos et al. 2012] §4–5) on the four-pillar corridor of tests/drt_scenes.h, with the small
+// test dictionary (res 8, kb 32; tests/test_support.h, baked into the test cache on first use).
+//
+//   BM_DrtBuildFourPillars/<rays>     DrtBuilder::build of the four pillars (1024 rays is the
+//                                     paper's setting); counters: scene pass and clutter pass
+//                                     seconds, storage bytes of the operators
+//   BM_DrtRebuildOnePillar/<rays>     rebuild_object after one pillar moved (alternately
+//                                     +-0.05 in x), everything it affects included
+//
+// The DrtBuilder (its Embree scene of the walls) is made once per benchmark, outside the
+// timing, as an editor would keep it while clutter moves.
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "drt_scenes.h"
+#include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/level_build.h"
+#include "test_support.h"
+
+namespace {
+
+using namespace modrt;
+using namespace modrt::precompute;
+
+const Level& four_pillar_level() {
+  static const Level level = [] {
+    Result<Level> l = build_level(test::maze_block_four_pillars().description, test::small_test_dictionary());
+    if (!l.ok()) {
+      std::fprintf(stderr, "bench_drt: %s\n", l.status().to_string().c_str());
+      std::abort();
+    }
+    return std::move(l).value();
+  }();
+  return level;
+}
+
+void BM_DrtBuildFourPillars(benchmark::State& state) {
+  const test::ClutterScene s = test::maze_block_four_pillars();
+  DrtBuildSettings settings;
+  settings.rays = int(state.range(0));
+  const DrtBuilder builder(four_pillar_level(), test::small_test_dictionary(), settings);
+  DrtBuildReport report;
+  std::size_t storage = 0;
+  for (auto _ : state) {
+    Result<DrtOperators> drt = builder.build(s.clutter, &report);
+    if (!drt.ok()) {
+      state.SkipWithError(drt.status().to_string().c_str());
+      return;
+    }
+    storage = drt.value().storage_bytes();
+    benchmark::DoNotOptimize(drt);
+  }
+  const double n = double(state.iterations());
+  state.counters["scene_s"] = report.scene_seconds / n;
+  state.counters["clutter_s"] = report.clutter_seconds / n;
+  state.counters["bytes"] = double(storage);
+}
+BENCHMARK(BM_DrtBuildFourPillars)->Arg(1024)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_DrtRebuildOnePillar(benchmark::State& state) {
+  test::ClutterScene s = test::maze_block_four_pillars();
+  DrtBuildSettings settings;
+  settings.rays = int(state.range(0));
+  const DrtBuilder builder(four_pillar_level(), test::small_test_dictionary(), settings);
+  DrtOperators drt = builder.build(s.clutter).value();
+  int step = 0;
+  for (auto _ : state) {
+    s.clutter[1].box.center.x += (step++ % 2 == 0) ? 0.05 : -0.05;
+    if (Status st = builder.rebuild_object(s.clutter, 1, drt); !st.ok()) {
+      state.SkipWithError(st.to_string().c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(drt);
+  }
+  state.counters["bytes"] = double(drt.storage_bytes());
+}
+BENCHMARK(BM_DrtRebuildOnePillar)->Arg(1024)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
