@@ -54,7 +54,11 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
       samples_(level_sample_geometry(level)),
       clutter_(clutter.begin(), clutter.end()) {
   impl_->subdivisions = subdivisions;
-  impl_->device = rtcNewDevice("threads=1,set_affinity=0");
+  // No "threads=N": with Embree's TBB tasking, threads=N installs a process-wide
+  // tbb::global_control(max_allowed_parallelism, N) for the device's lifetime, so threads=1
+  // made every parallel_for that runs while a LevelScene exists (the DRT build, the path
+  // tracer) single-threaded.
+  impl_->device = rtcNewDevice("set_affinity=0");
   if (!impl_->device) throw std::runtime_error("Embree: rtcNewDevice failed");
   impl_->scene = rtcNewScene(impl_->device);
   std::vector<float> vertices;
