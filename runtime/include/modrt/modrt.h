@@ -1,0 +1,277 @@
+/* modrt — the embeddable runtime's C API (libmodrt_runtime; docs/embedding.md is the tour).
+ *
+ * An app ships a dictionary (.modrt, from modrt-bake) and a built level (.modrtlevel, from
+ * modrt-level --save) in its bundle, loads both from memory or from a file, creates a CPU or
+ * OpenGL ES context for the level, and every frame sets the light (point / spot / directional
+ * lights, or a raw ld signal), calls modrt_context_update, and reads the result: the GL texture
+ * name of the lightmap atlas (GLES), the atlas / lightmap floats (CPU or GLES), and SH9 probes
+ * at any position.
+ *
+ * Errors. Every function that can fail returns a modrt_status; MODRT_OK is 0. On failure the
+ * message naming the problem (file, field, index, value) is kept per thread and returned by
+ * modrt_last_error() until the next failing call on that thread. No C++ exception leaves
+ * the library (std::bad_alloc becomes MODRT_ERROR_OUT_OF_MEMORY). A failed call changes
+ * nothing (outputs are written only on success).
+ *
+ * Thread safety.
+ *   - modrt_dictionary and modrt_level are immutable after loading: any number of contexts
+ *     on any threads may use them at once. Their reference counts are atomic, so destroying
+ *     a handle on one thread while a context created from it lives on another is safe (the
+ *     data lives until the last context using it is destroyed).
+ *   - A modrt_context is not thread-safe: use it from one thread at a time. Different
+ *     contexts may run on different threads at the same time.
+ *   - A GLES context must be used (created, updated, queried, destroyed) with the same GL
+ *     context current on the calling thread as at its creation.
+ *   - modrt_last_error() is per thread.
+ *
+ * Memory. Loading and context creation allocate; the per-frame calls (set_lights, set_ld,
+ * update, the queries and reads) do not allocate (outside an error message on failure). The
+ * allocator passed at creation receives the allocations the runtime layer makes for the
+ * handle (see modrt_allocator for the exact extent).
+ */
+#ifndef MODRT_MODRT_H
+#define MODRT_MODRT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(_WIN32)
+#define MODRT_API __declspec(dllexport)
+#elif defined(__GNUC__)
+#define MODRT_API __attribute__((visibility("default")))
+#else
+#define MODRT_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MODRT_VERSION_MAJOR 0
+#define MODRT_VERSION_MINOR 1
+#define MODRT_VERSION_PATCH 0
+/* The header's version as one number; compare with modrt_version() at run time. */
+#define MODRT_VERSION ((MODRT_VERSION_MAJOR << 16) | (MODRT_VERSION_MINOR << 8) | MODRT_VERSION_PATCH)
+
+typedef enum modrt_status {
+  MODRT_OK = 0,
+  MODRT_ERROR_INVALID_ARGUMENT = 1, /* null handle or pointer, wrong count, bad option or light */
+  MODRT_ERROR_IO = 2,               /* a file could not be opened or read */
+  MODRT_ERROR_FORMAT = 3,           /* malformed bytes: bad magic, truncated, inconsistent sizes */
+  MODRT_ERROR_VERSION_MISMATCH = 4, /* written by another format version: re-bake / rebuild */
+  MODRT_ERROR_CHECKSUM_MISMATCH = 5,
+  MODRT_ERROR_NON_FINITE = 6,     /* NaN or Inf (in a file or in ld) */
+  MODRT_ERROR_RESOURCE_LIMIT = 7, /* larger than a size limit */
+  MODRT_ERROR_OUT_OF_MEMORY = 8,  /* the allocator (or operator new) failed */
+  MODRT_ERROR_UNSUPPORTED = 9,    /* not available: no probes, CPU context asked for a texture,
+                                     GLES not built, no GL loader ... */
+  MODRT_ERROR_MISMATCH = 10,      /* the level was not built against this dictionary */
+  MODRT_ERROR_GL = 11,            /* the GL context failed: missing entry points, shader, GL error */
+  MODRT_ERROR_INTERNAL = 12,
+  MODRT_STATUS_MAX_ENUM = 0x7fffffff /* 32-bit enums; values other libraries may add stay valid */
+} modrt_status;
+
+/* "MODRT_OK", "MODRT_ERROR_FORMAT", ...; "MODRT_ERROR_UNKNOWN" for other values. */
+MODRT_API const char* modrt_status_name(modrt_status status);
+/* The message of the last failed call on this thread ("" when none failed yet). Valid until
+ * the next failing call on this thread. Never null. */
+MODRT_API const char* modrt_last_error(void);
+/* MODRT_VERSION of the library; "0.1.0". */
+MODRT_API uint32_t modrt_version(void);
+MODRT_API const char* modrt_version_string(void);
+
+/* The allocator hook. alloc returns memory aligned to `alignment` (a power of two <= 64) or
+ * null (the call then fails with MODRT_ERROR_OUT_OF_MEMORY); free receives the pointer and the
+ * size that alloc was asked for. Passing null for the allocator uses malloc/free.
+ *
+ * Extent (honest): the hook receives every allocation the runtime layer makes itself: the
+ * handle objects, the file image read by *_load_file (freed before it returns), and a context's frame buffers
+ * (ld, lightmap, atlas, probes, the light list and albedo). The decoded operators of a dictionary or level
+ * and the backends' own state (core / cpu / gles C++ objects, GL objects) are allocated with the global
+ * operator new of the process. docs/embedding.md lists the byte split for a sample level. */
+typedef struct modrt_allocator {
+  void* (*alloc)(size_t size, size_t alignment, void* user);
+  void (*free)(void* ptr, size_t size, void* user);
+  void* user;
+} modrt_allocator;
+
+/* ------------------------------------------------------------------------------------------
+ * Dictionary and level. Both are parsed and fully validated at load (checksums, sizes, finite
+ * values); `name` (may be null) starts every error message, e.g. the asset's name. The bytes
+ * are not referenced after the call returns. */
+typedef struct modrt_dictionary modrt_dictionary;
+typedef struct modrt_level modrt_level;
+
+MODRT_API modrt_status modrt_dictionary_load_memory(const void* data, size_t size, const char* name,
+                                                    const modrt_allocator* allocator, modrt_dictionary** out);
+MODRT_API modrt_status modrt_dictionary_load_file(const char* path, const modrt_allocator* allocator,
+                                                  modrt_dictionary** out);
+/* Releases the caller's reference (contexts keep their own). Null is ignored. */
+MODRT_API void modrt_dictionary_destroy(modrt_dictionary* dictionary);
+
+MODRT_API modrt_status modrt_level_load_memory(const void* data, size_t size, const char* name,
+                                               const modrt_allocator* allocator, modrt_level** out);
+MODRT_API modrt_status modrt_level_load_file(const char* path, const modrt_allocator* allocator,
+                                             modrt_level** out);
+MODRT_API void modrt_level_destroy(modrt_level* level);
+
+typedef struct modrt_level_info {
+  uint32_t block_count;
+  uint32_t sample_count; /* lightmap samples; ld and lightmap hold 3 * sample_count floats */
+  uint32_t res;          /* samples per face edge */
+  uint32_t atlas_width, atlas_height;
+  float bounds_min[3], bounds_max[3]; /* world box of every block corner */
+} modrt_level_info;
+MODRT_API modrt_status modrt_level_get_info(const modrt_level* level, modrt_level_info* out);
+
+/* ------------------------------------------------------------------------------------------
+ * Context: one level evaluated by one backend. */
+typedef struct modrt_context modrt_context;
+
+typedef enum modrt_backend {
+  MODRT_BACKEND_CPU = 0,
+  MODRT_BACKEND_GLES = 1,
+  MODRT_BACKEND_MAX_ENUM = 0x7fffffff
+} modrt_backend;
+
+/* Returns the address of GL entry point `name`, or null (eglGetProcAddress, or dlsym on iOS). */
+typedef void* (*modrt_gl_loader)(const char* name, void* user);
+
+typedef struct modrt_context_options {
+  uint32_t struct_size; /* sizeof(modrt_context_options): set by modrt_context_options_init */
+  modrt_backend backend;
+  int threads;         /* CPU: threads working on a frame, the caller's included (1 to 256) */
+  int probes;          /* nonzero: update() also evaluates the volume probes (needs Ubvol) */
+  int timing;          /* nonzero: per-stage timings (GLES: GPU timer queries where available) */
+  int skip_unchanged;  /* nonzero: exact skipping of unchanged blocks, slots and tiles */
+  uint32_t max_lights; /* modrt_context_set_lights accepts up to this many (1 to 4096) */
+  int shadows;         /* nonzero: lights cast shadows against the level's walls */
+  /* GLES only: loader for the caller's current context. Null: eglGetProcAddress (when the
+   * library was built with EGL, else MODRT_ERROR_UNSUPPORTED). */
+  modrt_gl_loader gl_loader;
+  void* gl_loader_user;
+} modrt_context_options;
+
+/* Defaults: CPU, 1 thread, probes on, timing off, skipping on, 8 lights, shadows on. */
+MODRT_API void modrt_context_options_init(modrt_context_options* options);
+
+/* Checks that the level was built against the dictionary (MODRT_ERROR_MISMATCH otherwise),
+ * then allocates every buffer. A GLES context is created on the GL context current on the
+ * calling thread (OpenGL ES 3.0, or desktop GL 4.3+ with ES3 compatibility); the app owns that
+ * context (EGL / EAGL) and its surface. options may be null (defaults). The context keeps a
+ * reference to the level and the dictionary. */
+MODRT_API modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* level,
+                                            const modrt_context_options* options,
+                                            const modrt_allocator* allocator, modrt_context** out);
+/* GLES: the creating GL context must be current. Null is ignored. */
+MODRT_API void modrt_context_destroy(modrt_context* context);
+
+typedef struct modrt_sizes {
+  size_t ld;       /* floats: 3 * samples (RGB interleaved) */
+  size_t lightmap; /* floats: 3 * samples */
+  size_t atlas;    /* floats: 3 * atlas_width * atlas_height, row-major, row 0 first */
+  size_t probes;   /* floats: 27 * probes per block * blocks (0 without probes) */
+  uint32_t atlas_width, atlas_height;
+  uint32_t probe_grid; /* g: g^3 probes per block (0 without probes) */
+} modrt_sizes;
+MODRT_API modrt_status modrt_context_get_sizes(const modrt_context* context, modrt_sizes* out);
+/* "cpu avx2", "gles float32 targets, float32 operators", ... Never null for a valid context. */
+MODRT_API const char* modrt_context_description(const modrt_context* context);
+
+/* Per-sample albedo (3 * samples floats, RGB, finite, >= 0) that the lights are reflected
+ * with: ld = albedo * E / pi. Needed before modrt_context_set_lights. Allocates (the shadow
+ * walls and light tables are built here), so call it at load time, not per frame. */
+MODRT_API modrt_status modrt_context_set_albedo(modrt_context* context, const float* albedo, size_t count);
+
+typedef enum modrt_light_type {
+  MODRT_LIGHT_POINT = 0,
+  MODRT_LIGHT_SPOT = 1,
+  MODRT_LIGHT_DIRECTIONAL = 2,
+  MODRT_LIGHT_MAX_ENUM = 0x7fffffff
+} modrt_light_type;
+
+/* modrt::cpu::CpuLight (cpu_neon/include/modrt/cpu/direct_light.h has the light models). */
+typedef struct modrt_light {
+  modrt_light_type type;
+  float position[3];              /* point, spot: world position */
+  float direction[3];             /* spot: cone axis; directional: the direction the light travels */
+  float color[3];                 /* linear RGB, >= 0 */
+  float intensity;                /* point, spot: W/sr; directional: irradiance; >= 0 */
+  float radius;                   /* point, spot: clamps 1/d^2 near the light; >= 0 */
+  float inner_angle, outer_angle; /* spot: half-angles in radians, 0 <= inner <= outer <= pi */
+  int shadows;                    /* nonzero: casts shadows (when the context has shadows on) */
+} modrt_light;
+
+/* Evaluates ld from the lights on the CPU (only blocks a changed light reaches are redone)
+ * for the next update. Fails naming the light index and field for a bad light. */
+MODRT_API modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light* lights,
+                                                size_t count);
+/* Sets ld directly (count = sizes.ld floats, finite, >= 0; the first bad sample is named). */
+MODRT_API modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_t count);
+
+/* Evaluates the level for the current ld: b, r, lightmap, padded atlas (and probes when on).
+ * On failure the previous results stay. */
+MODRT_API modrt_status modrt_context_update(modrt_context* context);
+
+/* GLES: the GL texture name of the padded lightmap atlas (GL_TEXTURE_2D, RGB in .rgb;
+ * *format receives 0 for RGBA32F, 1 for RGBA16F, 2 for RGBA32UI holding float bits, which
+ * must be fetched with texelFetch). CPU contexts: MODRT_ERROR_UNSUPPORTED. format may be null. */
+MODRT_API modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint32_t* texture,
+                                                       int* format);
+/* CPU: the context's own atlas after the last update (sizes.atlas floats), valid until the
+ * next update or destroy; no copy. GLES: MODRT_ERROR_UNSUPPORTED (use read_atlas). */
+MODRT_API modrt_status modrt_context_get_atlas_data(const modrt_context* context, const float** data,
+                                                    size_t* count);
+/* Copies of the last update's lightmap (sizes.lightmap floats) and atlas (sizes.atlas floats).
+ * GLES: reads back from the GPU (waits for it). */
+MODRT_API modrt_status modrt_context_read_lightmap(modrt_context* context, float* out, size_t count);
+MODRT_API modrt_status modrt_context_read_atlas(modrt_context* context, float* out, size_t count);
+
+typedef enum modrt_probe_kind {
+  MODRT_PROBE_RADIANCE = 0,           /* SH9 of incident radiance */
+  MODRT_PROBE_IRRADIANCE_OVER_PI = 1, /* SH9 of E / pi: shade a diffuse surface by its normal */
+  MODRT_PROBE_MAX_ENUM = 0x7fffffff
+} modrt_probe_kind;
+/* SH9 at world position `position` from the last update's probe volume (needs probes on):
+ * trilinear between the g^3 probes of the block containing the point, rotated into the world
+ * frame. out[3 * k + c]: coefficient k (sh.h order: 1, y, z, x, xy, yz, 3z^2 - 1, xz,
+ * x^2 - y^2), channel c. A point outside every block by more than 1% of a block is an error.
+ * GLES: the first query after an update reads the probes back from the GPU. */
+MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const float position[3],
+                                              modrt_probe_kind kind, float out[27]);
+
+/* Wall-clock / GPU nanoseconds of the stages of the last set_lights and update (timing on;
+ * otherwise only light_ns and update_ns). CPU: b, r and the lightmap run fused, so b_ns and
+ * r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
+ * the atlas, so lightmap_ns is 0 and atlas_ns covers it. */
+typedef struct modrt_timings {
+  uint64_t light_ns;  /* set_lights: the CPU direct-light evaluation */
+  uint64_t upload_ns; /* GLES: ld upload */
+  uint64_t b_ns, r_ns, lightmap_ns, atlas_ns, probes_ns;
+  uint64_t update_ns; /* the whole modrt_context_update call, CPU clock */
+} modrt_timings;
+MODRT_API modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timings* out);
+
+/* Work skipped, summed over every update since creation. A block's b is kept when its ld did
+ * not change, a slot's r when none of its sources' b changed, a tile when its b and incoming r
+ * did not change (exact: results are bit-identical to recomputing). light_blocks_*: blocks
+ * whose ld set_lights recomputed or kept (only blocks a changed light reaches are redone). */
+typedef struct modrt_skip_stats {
+  uint64_t frames;          /* successful updates */
+  uint64_t frames_skipped;  /* GLES: ld identical to the last update, nothing ran */
+  uint64_t blocks_computed; /* b evaluated */
+  uint64_t blocks_kept;
+  uint64_t slots_computed; /* slots whose r was evaluated */
+  uint64_t slots_kept;     /* slots whose r was reused */
+  uint64_t tiles_written;  /* blocks whose lightmap tiles were rewritten */
+  uint64_t tiles_kept;     /* blocks whose tiles were left as they were */
+  uint64_t light_blocks_recomputed;
+  uint64_t light_blocks_kept;
+} modrt_skip_stats;
+MODRT_API modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* MODRT_MODRT_H */

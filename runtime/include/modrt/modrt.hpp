@@ -1,0 +1,149 @@
+// modrt — a thin C++ wrapper over the C API (modrt.h): move-only owners of the handles, and
+// calls that return a modrt::rt::Error (code + message) instead of a bare status. Header-only
+// and exception-free, so an app built with -fno-exceptions can use it; nothing here is part
+// of the library's ABI.
+//
+//   modrt::rt::Dictionary dict;
+//   if (modrt::rt::Error e = modrt::rt::Dictionary::load_file("dict.modrt", dict)) { log(e.message); }
+//   modrt::rt::Level level;  ... Level::load_memory(bytes, size, "level", level)
+//   modrt::rt::Context ctx;  ... Context::create(dict, level, options, ctx)
+//   ctx.set_lights(lights, n); ctx.update(); GLuint tex = ctx.atlas_texture();
+#pragma once
+
+#include <string>
+#include <utility>
+
+#include "modrt/modrt.h"
+
+namespace modrt::rt {
+
+struct Error {
+  modrt_status code = MODRT_OK;
+  std::string message;  // modrt_last_error() at the time of the failure
+  explicit operator bool() const { return code != MODRT_OK; }  // true on failure
+};
+
+inline Error check(modrt_status s) {
+  if (s == MODRT_OK) return {};
+  return {s, modrt_last_error()};
+}
+
+// Owner of one handle type H, destroyed by D.
+template <class H, void (*D)(H*)>
+class Handle {
+ public:
+  Handle() = default;
+  explicit Handle(H* h) : h_(h) {}
+  Handle(Handle&& o) noexcept : h_(std::exchange(o.h_, nullptr)) {}
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) reset(std::exchange(o.h_, nullptr));
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+  void reset(H* h = nullptr) {
+    if (h_) D(h_);
+    h_ = h;
+  }
+  H* get() const { return h_; }
+  explicit operator bool() const { return h_ != nullptr; }
+
+ protected:
+  H* h_ = nullptr;
+};
+
+class Dictionary : public Handle<modrt_dictionary, modrt_dictionary_destroy> {
+ public:
+  static Error load_file(const char* path, Dictionary& out, const modrt_allocator* allocator = nullptr) {
+    modrt_dictionary* h = nullptr;
+    Error e = check(modrt_dictionary_load_file(path, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  static Error load_memory(const void* data, size_t size, const char* name, Dictionary& out,
+                           const modrt_allocator* allocator = nullptr) {
+    modrt_dictionary* h = nullptr;
+    Error e = check(modrt_dictionary_load_memory(data, size, name, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+};
+
+class Level : public Handle<modrt_level, modrt_level_destroy> {
+ public:
+  static Error load_file(const char* path, Level& out, const modrt_allocator* allocator = nullptr) {
+    modrt_level* h = nullptr;
+    Error e = check(modrt_level_load_file(path, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  static Error load_memory(const void* data, size_t size, const char* name, Level& out,
+                           const modrt_allocator* allocator = nullptr) {
+    modrt_level* h = nullptr;
+    Error e = check(modrt_level_load_memory(data, size, name, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  modrt_level_info info() const {
+    modrt_level_info i{};
+    modrt_level_get_info(h_, &i);
+    return i;
+  }
+};
+
+inline modrt_context_options default_options(modrt_backend backend = MODRT_BACKEND_CPU) {
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  return o;
+}
+
+class Context : public Handle<modrt_context, modrt_context_destroy> {
+ public:
+  // A GLES context is created on the GL context current on this thread (see modrt.h).
+  static Error create(const Dictionary& dict, const Level& level, const modrt_context_options& options,
+                      Context& out, const modrt_allocator* allocator = nullptr) {
+    modrt_context* h = nullptr;
+    Error e = check(modrt_context_create(dict.get(), level.get(), &options, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  modrt_sizes sizes() const {
+    modrt_sizes s{};
+    modrt_context_get_sizes(h_, &s);
+    return s;
+  }
+  const char* description() const { return modrt_context_description(h_); }
+  Error set_albedo(const float* albedo, size_t count) {
+    return check(modrt_context_set_albedo(h_, albedo, count));
+  }
+  Error set_lights(const modrt_light* lights, size_t count) {
+    return check(modrt_context_set_lights(h_, lights, count));
+  }
+  Error set_ld(const float* ld, size_t count) { return check(modrt_context_set_ld(h_, ld, count)); }
+  Error update() { return check(modrt_context_update(h_)); }
+  // 0 for a CPU context.
+  uint32_t atlas_texture(int* format = nullptr) const {
+    uint32_t t = 0;
+    return modrt_context_get_atlas_texture(h_, &t, format) == MODRT_OK ? t : 0;
+  }
+  Error read_atlas(float* out, size_t count) { return check(modrt_context_read_atlas(h_, out, count)); }
+  Error read_lightmap(float* out, size_t count) { return check(modrt_context_read_lightmap(h_, out, count)); }
+  Error probe_sh(const float position[3], float out[27],
+                 modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
+    return check(modrt_context_probe_sh(h_, position, kind, out));
+  }
+  modrt_timings timings() const {
+    modrt_timings t{};
+    modrt_context_get_timings(h_, &t);
+    return t;
+  }
+  modrt_skip_stats skip_stats() const {
+    modrt_skip_stats s{};
+    modrt_context_get_skip_stats(h_, &s);
+    return s;
+  }
+};
+
+}  // namespace modrt::rt

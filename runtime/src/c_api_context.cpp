@@ -1,0 +1,566 @@
+// modrt_context: one level evaluated by the CPU runtime or the GLES runtime, with the CPU
+// direct-light evaluator in front and the probe sampler behind.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "c_api_internal.h"
+#include "modrt/cpu/cpu_level_runtime.h"
+#include "modrt/cpu/direct_light.h"
+#include "modrt/level_runtime.h"
+#include "probe_sampler.h"
+#if MODRT_RUNTIME_GLES
+#include "modrt/gles/gles_level_runtime.h"
+#include "modrt/platform/gl_functions.h"
+#endif
+
+namespace modrt::capi {
+#if MODRT_RUNTIME_GLES
+void* default_gl_loader(const char* name, void* user);  // gl_loader_egl.cpp, or null there
+bool has_default_gl_loader();
+#endif
+}  // namespace modrt::capi
+
+using namespace modrt;
+using namespace modrt::capi;
+
+struct modrt_context {
+  Allocator alloc;
+  modrt_dictionary* dictionary = nullptr;
+  modrt_level* level = nullptr;
+  modrt_context_options options{};
+  std::string description;
+  LevelBufferSizes sizes;
+  int probe_grid = 0;
+  bool probes_on = false;
+
+  std::optional<cpu::CpuLevelRuntime> cpu;
+#if MODRT_RUNTIME_GLES
+  platform::GlFunctions gl;  // before gles: the runtime keeps a reference to it
+  std::unique_ptr<gles::GlesLevelRuntime> gles;
+#endif
+  std::optional<cpu::CpuDirectLight> direct;
+  ProbeSampler sampler;
+
+  // Frame buffers, from the hook. lightmap and atlas only for the CPU backend.
+  HookVector<float> ld, lightmap, atlas, probes;
+  HookVector<cpu::CpuLight> lights;  // capacity max_lights
+  bool probes_current = false;       // GLES: probes read back since the last update
+
+  modrt_timings timings{};
+  modrt_skip_stats skip{};
+
+  modrt_context(const Allocator& a, modrt_dictionary* d, modrt_level* l)
+      : alloc(a),
+        dictionary(d),
+        level(l),
+        ld(HookAllocator<float>(&alloc)),
+        lightmap(HookAllocator<float>(&alloc)),
+        atlas(HookAllocator<float>(&alloc)),
+        probes(HookAllocator<float>(&alloc)),
+        lights(HookAllocator<cpu::CpuLight>(&alloc)) {
+    retain(d);
+    retain(l);
+  }
+  ~modrt_context() {
+#if MODRT_RUNTIME_GLES
+    gles.reset();
+#endif
+    cpu.reset();
+    release(dictionary);
+    release(level);
+  }
+  const Level& lv() const { return level->level; }
+  const Dictionary& dict() const { return dictionary->dict; }
+  bool is_gles() const { return options.backend == MODRT_BACKEND_GLES; }
+};
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+std::uint64_t ns_since(Clock::time_point t) {
+  return std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t).count());
+}
+
+// Without std::string: also used outside guarded(), where nothing may throw.
+modrt_status null_arg(const char* function, const char* what) {
+  char text[160];
+  std::snprintf(text, sizeof text, "%s: %s is null", function, what);
+  return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
+}
+
+modrt_status check_count(const char* function, const char* what, size_t count, size_t expected) {
+  if (count == expected) return MODRT_OK;
+  return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(function) + ": " + what + " has " +
+                                                std::to_string(count) + " floats, the level needs " +
+                                                std::to_string(expected));
+}
+
+#if MODRT_RUNTIME_GLES
+// The app's GL state that the passes change and a renderer relies on: restored after every
+// call that runs passes.
+struct GlStateGuard {
+  const platform::GlFunctions& gl;
+  GLint framebuffer = 0, viewport[4] = {0, 0, 0, 0}, program = 0, vao = 0, texture_unit = 0;
+  explicit GlStateGuard(const platform::GlFunctions& g) : gl(g) {
+    gl.glGetIntegerv(GL_FRAMEBUFFER_BINDING, &framebuffer);
+    gl.glGetIntegerv(GL_VIEWPORT, viewport);
+    gl.glGetIntegerv(GL_CURRENT_PROGRAM, &program);
+    gl.glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vao);
+    gl.glGetIntegerv(GL_ACTIVE_TEXTURE, &texture_unit);
+  }
+  ~GlStateGuard() {
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, GLuint(framebuffer));
+    gl.glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+    gl.glUseProgram(GLuint(program));
+    gl.glBindVertexArray(GLuint(vao));
+    gl.glActiveTexture(GLenum(texture_unit));
+  }
+};
+
+modrt_status create_gles(modrt_context* c) {
+  modrt_gl_loader loader = c->options.gl_loader;
+  void* user = c->options.gl_loader_user;
+  if (!loader) {
+    if (!has_default_gl_loader())
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  "modrt_context_create: this library was built without EGL: pass options.gl_loader");
+    loader = default_gl_loader;
+  }
+  if (Status s = platform::load_gl_functions(loader, user, &c->gl); !s.ok())
+    return fail(MODRT_ERROR_GL, "modrt_context_create: the current GL context: " + s.message());
+  const char* version = reinterpret_cast<const char*>(c->gl.glGetString(GL_VERSION));
+  if (!version)
+    return fail(MODRT_ERROR_GL,
+                "modrt_context_create: glGetString(GL_VERSION) returned null: is a GL "
+                "context current on this thread?");
+  const bool gles_context = std::strncmp(version, "OpenGL ES", 9) == 0;
+  gles::GlesRuntimeOptions go;
+  go.probes = c->options.probes != 0;
+  go.skip_unchanged = c->options.skip_unchanged != 0;
+  GlStateGuard state(c->gl);
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
+      gles::GlesLevelRuntime::create(c->gl, gles_context, c->lv(), c->dict(), go);
+  if (!rt.ok()) {
+    const modrt_status code = rt.status().code() == ErrorCode::internal_error
+                                  ? MODRT_ERROR_GL
+                                  : from_error_code(rt.status().code());
+    return fail(code, "modrt_context_create: " + rt.status().message());
+  }
+  c->gles = std::move(rt).value();
+  c->gles->set_timing(c->options.timing != 0);
+  c->description = c->gles->description();
+  c->probes_on = go.probes && c->sizes.probes > 0;
+  return MODRT_OK;
+}
+#endif
+
+modrt_status create_cpu(modrt_context* c) {
+  cpu::CpuRuntimeOptions co;
+  co.threads = c->options.threads;
+  co.skip.enabled = c->options.skip_unchanged != 0;  // every epsilon 0: exact
+  Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(c->lv(), c->dict(), co);
+  if (!rt.ok())
+    return fail(from_error_code(rt.status().code()), "modrt_context_create: " + rt.status().message());
+  c->cpu.emplace(std::move(rt).value());
+  c->description = std::string("cpu ") + cpu::isa_name(c->cpu->isa());
+  c->lightmap.assign(c->sizes.lightmap, 0.0f);
+  c->atlas.assign(c->sizes.atlas, 0.0f);
+  c->probes_on = c->options.probes != 0 && c->sizes.probes > 0;
+  return MODRT_OK;
+}
+
+}  // namespace
+
+extern "C" {
+
+void modrt_context_options_init(modrt_context_options* options) {
+  if (!options) return;
+  *options = modrt_context_options{};
+  options->struct_size = sizeof(modrt_context_options);
+  options->backend = MODRT_BACKEND_CPU;
+  options->threads = 1;
+  options->probes = 1;
+  options->timing = 0;
+  options->skip_unchanged = 1;
+  options->max_lights = 8;
+  options->shadows = 1;
+}
+
+modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* level,
+                                  const modrt_context_options* options, const modrt_allocator* allocator,
+                                  modrt_context** out) {
+  return guarded("modrt_context_create", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_create";
+    if (!out) return null_arg(fn, "out");
+    *out = nullptr;
+    if (!dictionary) return null_arg(fn, "dictionary");
+    if (!level) return null_arg(fn, "level");
+    modrt_context_options o;
+    modrt_context_options_init(&o);
+    if (options) {
+      if (options->struct_size != sizeof(modrt_context_options))
+        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.struct_size is " +
+                                                      std::to_string(options->struct_size) + ", expected " +
+                                                      std::to_string(sizeof(modrt_context_options)) +
+                                                      " (call modrt_context_options_init)");
+      o = *options;
+    }
+    if (o.backend != MODRT_BACKEND_CPU && o.backend != MODRT_BACKEND_GLES)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.backend " +
+                                                    std::to_string(int(o.backend)) + " is not a backend");
+    if (o.threads < 1 || o.threads > 256)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": options.threads " + std::to_string(o.threads) + " is not in 1..256");
+    if (o.max_lights < 1 || o.max_lights > 4096)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_lights " +
+                                                    std::to_string(o.max_lights) + " is not in 1..4096");
+    if (Status s = check_level_matches(level->level, dictionary->dict); !s.ok())
+      return fail(MODRT_ERROR_MISMATCH, std::string(fn) + ": " + s.message());
+#if !MODRT_RUNTIME_GLES
+    if (o.backend == MODRT_BACKEND_GLES)
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  std::string(fn) + ": this library was built without the GLES backend");
+#endif
+    const Allocator a = Allocator::from(allocator);
+    modrt_context* c = make_handle<modrt_context>(a, dictionary, level);
+    struct Undo {
+      modrt_context* c;
+      ~Undo() {
+        if (c) destroy_handle(c);
+      }
+    } undo{c};
+    c->options = o;
+    c->sizes = level_buffer_sizes(c->lv(), c->dict());
+    c->probe_grid = c->sizes.probes > 0 ? int(c->dict().settings.probe_grid) : 0;
+    c->ld.assign(c->sizes.ld, 0.0f);
+    c->lights.reserve(o.max_lights);
+    modrt_status st = MODRT_OK;
+#if MODRT_RUNTIME_GLES
+    st = o.backend == MODRT_BACKEND_GLES ? create_gles(c) : create_cpu(c);
+#else
+    st = create_cpu(c);
+#endif
+    if (st != MODRT_OK) return st;
+    if (c->probes_on) {
+      c->probes.assign(c->sizes.probes, 0.0f);
+      c->sampler = ProbeSampler(c->lv(), c->probe_grid);
+    }
+    *out = c;
+    undo.c = nullptr;
+    return MODRT_OK;
+  });
+}
+
+void modrt_context_destroy(modrt_context* context) {
+  if (context) destroy_handle(context);
+}
+
+modrt_status modrt_context_get_sizes(const modrt_context* context, modrt_sizes* out) {
+  if (!context) return null_arg("modrt_context_get_sizes", "context");
+  if (!out) return null_arg("modrt_context_get_sizes", "out");
+  modrt_sizes s{};
+  s.ld = context->sizes.ld;
+  s.lightmap = context->sizes.lightmap;
+  s.atlas = context->sizes.atlas;
+  s.probes = context->probes_on ? context->sizes.probes : 0;
+  s.atlas_width = std::uint32_t(context->lv().atlas.width);
+  s.atlas_height = std::uint32_t(context->lv().atlas.height);
+  s.probe_grid = context->probes_on ? std::uint32_t(context->probe_grid) : 0;
+  *out = s;
+  return MODRT_OK;
+}
+
+const char* modrt_context_description(const modrt_context* context) {
+  return context ? context->description.c_str() : "";
+}
+
+modrt_status modrt_context_set_albedo(modrt_context* context, const float* albedo, size_t count) {
+  return guarded("modrt_context_set_albedo", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_albedo";
+    if (!context) return null_arg(fn, "context");
+    if (!albedo) return null_arg(fn, "albedo");
+    if (modrt_status s = check_count(fn, "albedo", count, context->sizes.ld); s != MODRT_OK) return s;
+    const std::span<const float> a(albedo, count);
+    if (context->direct) {
+      if (Status s = context->direct->set_albedo(a); !s.ok())
+        return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+      return MODRT_OK;
+    }
+    cpu::CpuDirectLightOptions lo;
+    lo.max_lights = context->options.max_lights;
+    lo.shadows = context->options.shadows != 0;
+    Result<cpu::CpuDirectLight> d = cpu::CpuDirectLight::create(context->lv(), a, lo);
+    if (!d.ok())
+      return fail(from_error_code(d.status().code()), std::string(fn) + ": " + d.status().message());
+    context->direct.emplace(std::move(d).value());
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light* lights, size_t count) {
+  return guarded("modrt_context_set_lights", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_lights";
+    if (!context) return null_arg(fn, "context");
+    if (!lights && count > 0) return null_arg(fn, "lights");
+    if (!context->direct)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": no albedo: call modrt_context_set_albedo once before setting lights");
+    if (count > context->lights.capacity())
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + std::to_string(count) +
+                                                    " lights, more than options.max_lights = " +
+                                                    std::to_string(context->lights.capacity()));
+    context->lights.clear();  // keeps the capacity: no allocation
+    for (size_t i = 0; i < count; ++i) {
+      const modrt_light& in = lights[i];
+      cpu::CpuLight l;
+      // An unknown type is passed on as such: the evaluator names it.
+      l.type = cpu::LightType(std::uint8_t(in.type));
+      if (in.type != MODRT_LIGHT_POINT && in.type != MODRT_LIGHT_SPOT && in.type != MODRT_LIGHT_DIRECTIONAL)
+        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": light " + std::to_string(i) +
+                                                      ": unknown type " + std::to_string(int(in.type)));
+      l.position = glm::vec3(in.position[0], in.position[1], in.position[2]);
+      l.direction = glm::vec3(in.direction[0], in.direction[1], in.direction[2]);
+      l.color = glm::vec3(in.color[0], in.color[1], in.color[2]);
+      l.intensity = in.intensity;
+      l.radius = in.radius;
+      l.inner_angle = in.inner_angle;
+      l.outer_angle = in.outer_angle;
+      l.shadows = in.shadows != 0;
+      context->lights.push_back(l);
+    }
+    const Clock::time_point t0 = Clock::now();
+    if (Status s = context->direct->evaluate({context->lights.data(), context->lights.size()}, context->ld);
+        !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    context->timings.light_ns = ns_since(t0);
+    const cpu::CpuDirectLightStats& st = context->direct->stats();
+    context->skip.light_blocks_recomputed += st.blocks_recomputed;
+    context->skip.light_blocks_kept += st.blocks_kept;
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_t count) {
+  return guarded("modrt_context_set_ld", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_ld";
+    if (!context) return null_arg(fn, "context");
+    if (!ld) return null_arg(fn, "ld");
+    if (modrt_status s = check_count(fn, "ld", count, context->sizes.ld); s != MODRT_OK) return s;
+    // Checked here, so that a bad ld leaves the previous one in place.
+    for (size_t i = 0; i < count; ++i) {
+      const float v = ld[i];
+      if (!std::isfinite(v) || v < 0.0f) {
+        char text[200];
+        std::snprintf(text, sizeof text, "%s: ld sample %zu channel %zu is %g: ld must be finite and >= 0",
+                      fn, i / 3, i % 3, double(v));
+        return fail(std::isfinite(v) ? MODRT_ERROR_INVALID_ARGUMENT : MODRT_ERROR_NON_FINITE, text);
+      }
+    }
+    std::copy(ld, ld + count, context->ld.begin());
+    if (context->direct) context->direct->invalidate();  // its incremental update assumed its own ld
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_update(modrt_context* context) {
+  return guarded("modrt_context_update", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_update";
+    if (!context) return null_arg(fn, "context");
+    const Clock::time_point t0 = Clock::now();
+    modrt_timings& t = context->timings;
+    modrt_skip_stats& k = context->skip;
+    const std::size_t blocks = context->lv().blocks.size(), slots = context->lv().slots.size();
+#if MODRT_RUNTIME_GLES
+    if (context->gles) {
+      gles::GlesLevelRuntime& rt = *context->gles;
+      const gles::GlesSkipStats before = rt.skip_stats();
+      {
+        GlStateGuard state(context->gl);
+        if (Status s = rt.update(context->ld); !s.ok())
+          return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
+                      std::string(fn) + ": " + s.message());
+      }
+      const gles::GlesSkipStats& after = rt.skip_stats();
+      const std::uint64_t frames = after.frames - before.frames;
+      const std::uint64_t b = after.blocks_b - before.blocks_b, r = after.slots_r - before.slots_r,
+                          tiles = after.blocks_redrawn - before.blocks_redrawn;
+      k.frames += frames;
+      k.frames_skipped += after.frames_skipped - before.frames_skipped;
+      k.blocks_computed += b;
+      k.blocks_kept += frames * blocks - b;
+      k.slots_computed += r;
+      k.slots_kept += frames * slots - r;
+      k.tiles_written += tiles;
+      k.tiles_kept += frames * blocks - tiles;
+      const gles::GlesPassTimes& p = rt.pass_times();
+      t.upload_ns = p.upload, t.b_ns = p.b, t.r_ns = p.r, t.lightmap_ns = 0, t.atlas_ns = p.atlas,
+      t.probes_ns = p.probes;
+      context->probes_current = false;
+      t.update_ns = ns_since(t0);
+      return MODRT_OK;
+    }
+#endif
+    cpu::CpuLevelRuntime& rt = *context->cpu;
+    const bool timing = context->options.timing != 0;
+    if (Status s = rt.evaluate(context->ld, context->lightmap); !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    const Clock::time_point t1 = Clock::now();
+    if (Status s = rt.fill_atlas(context->lightmap, context->atlas); !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    const Clock::time_point t2 = Clock::now();
+    if (context->probes_on)
+      if (Status s = rt.compute_probes(context->probes); !s.ok())
+        return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    const Clock::time_point t3 = Clock::now();
+    t.upload_ns = t.b_ns = t.r_ns = 0;
+    if (timing) {
+      t.lightmap_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+      t.atlas_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count());
+      t.probes_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t3 - t2).count());
+    } else {
+      t.lightmap_ns = t.atlas_ns = t.probes_ns = 0;
+    }
+    k.frames += 1;
+    if (rt.skip_options().enabled) {
+      const cpu::CpuSkipStats& s = rt.skip_stats();
+      k.blocks_computed += s.blocks_computed + s.blocks_dark;
+      k.blocks_kept += s.blocks_kept;
+      k.slots_computed += slots - s.slots_kept;
+      k.slots_kept += s.slots_kept;
+      k.tiles_written += s.tiles_written;
+      k.tiles_kept += s.tiles_skipped;
+    } else {
+      k.blocks_computed += blocks;
+      k.slots_computed += slots;
+      k.tiles_written += blocks;
+    }
+    context->probes_current = true;
+    t.update_ns = ns_since(t0);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint32_t* texture, int* format) {
+  constexpr const char* fn = "modrt_context_get_atlas_texture";
+  if (!context) return null_arg(fn, "context");
+  if (!texture) return null_arg(fn, "texture");
+#if MODRT_RUNTIME_GLES
+  if (context->gles) {
+    *texture = context->gles->atlas_texture();
+    if (format) *format = int(context->gles->target_format());
+    return MODRT_OK;
+  }
+#endif
+  return fail(MODRT_ERROR_UNSUPPORTED,
+              static_cast<const char*>("modrt_context_get_atlas_texture: a CPU context has no GL texture: "
+                                       "use modrt_context_get_atlas_data"));
+}
+
+modrt_status modrt_context_get_atlas_data(const modrt_context* context, const float** data, size_t* count) {
+  constexpr const char* fn = "modrt_context_get_atlas_data";
+  if (!context) return null_arg(fn, "context");
+  if (!data) return null_arg(fn, "data");
+  if (!count) return null_arg(fn, "count");
+  if (context->is_gles())
+    return fail(MODRT_ERROR_UNSUPPORTED,
+                static_cast<const char*>(
+                    "modrt_context_get_atlas_data: a GLES context keeps the atlas on the GPU: use "
+                    "modrt_context_get_atlas_texture or modrt_context_read_atlas"));
+  *data = context->atlas.data();
+  *count = context->atlas.size();
+  return MODRT_OK;
+}
+
+modrt_status modrt_context_read_lightmap(modrt_context* context, float* out, size_t count) {
+  return guarded("modrt_context_read_lightmap", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_lightmap";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = check_count(fn, "out", count, context->sizes.lightmap); s != MODRT_OK) return s;
+#if MODRT_RUNTIME_GLES
+    if (context->gles) {
+      GlStateGuard state(context->gl);
+      if (Status s = context->gles->read_lightmap({out, count}); !s.ok())
+        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+      return MODRT_OK;
+    }
+#endif
+    std::copy(context->lightmap.begin(), context->lightmap.end(), out);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_read_atlas(modrt_context* context, float* out, size_t count) {
+  return guarded("modrt_context_read_atlas", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_atlas";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = check_count(fn, "out", count, context->sizes.atlas); s != MODRT_OK) return s;
+#if MODRT_RUNTIME_GLES
+    if (context->gles) {
+      GlStateGuard state(context->gl);
+      if (Status s = context->gles->read_atlas({out, count}); !s.ok())
+        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+      return MODRT_OK;
+    }
+#endif
+    std::copy(context->atlas.begin(), context->atlas.end(), out);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_probe_sh(modrt_context* context, const float position[3], modrt_probe_kind kind,
+                                    float out[27]) {
+  return guarded("modrt_context_probe_sh", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_probe_sh";
+    if (!context) return null_arg(fn, "context");
+    if (!position) return null_arg(fn, "position");
+    if (!out) return null_arg(fn, "out");
+    if (kind != MODRT_PROBE_RADIANCE && kind != MODRT_PROBE_IRRADIANCE_OVER_PI)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": unknown probe kind " + std::to_string(int(kind)));
+    if (!context->probes_on)
+      return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
+                                               ": no probes: the dictionary has no volume probes or "
+                                               "options.probes was 0");
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(position[a]))
+        return fail(MODRT_ERROR_NON_FINITE,
+                    std::string(fn) + ": position[" + std::to_string(a) + "] is not finite");
+#if MODRT_RUNTIME_GLES
+    if (context->gles && !context->probes_current) {
+      GlStateGuard state(context->gl);
+      if (Status s = context->gles->read_probes(context->probes); !s.ok())
+        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+      context->probes_current = true;
+    }
+#endif
+    if (Status s = context->sampler.sample(context->probes, glm::dvec3(position[0], position[1], position[2]),
+                                           kind == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
+        !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timings* out) {
+  if (!context) return null_arg("modrt_context_get_timings", "context");
+  if (!out) return null_arg("modrt_context_get_timings", "out");
+  *out = context->timings;
+  return MODRT_OK;
+}
+
+modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out) {
+  if (!context) return null_arg("modrt_context_get_skip_stats", "context");
+  if (!out) return null_arg("modrt_context_get_skip_stats", "out");
+  *out = context->skip;
+  return MODRT_OK;
+}
+
+}  // extern "C"

@@ -1,0 +1,119 @@
+// The C API's shared plumbing: the allocator hook as an STL allocator, handle allocation,
+// the per-thread error message, Status -> modrt_status, and the boundary that keeps every
+// exception inside the library.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <exception>
+#include <new>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "modrt/dictionary.h"
+#include "modrt/level.h"
+#include "modrt/modrt.h"
+#include "modrt/status.h"
+
+namespace modrt::capi {
+
+// The hook as given, or malloc/free. Copied into every handle, so the caller's struct need
+// not outlive the call.
+struct Allocator {
+  modrt_allocator hook{};
+  bool custom = false;
+
+  static Allocator from(const modrt_allocator* a);
+  void* allocate(std::size_t size, std::size_t alignment) const;  // null on failure
+  void release(void* p, std::size_t size) const;
+};
+
+// std::allocator replacement that routes through the hook (throws std::bad_alloc on failure,
+// which the API boundary turns into MODRT_ERROR_OUT_OF_MEMORY).
+template <class T>
+struct HookAllocator {
+  using value_type = T;
+  const Allocator* owner = nullptr;
+
+  explicit HookAllocator(const Allocator* a) : owner(a) {}
+  template <class U>
+  HookAllocator(const HookAllocator<U>& o) : owner(o.owner) {}  // NOLINT: rebinding
+  T* allocate(std::size_t n) {
+    if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
+    void* p = owner->allocate(n * sizeof(T), alignof(T) < 16 ? 16 : alignof(T));
+    if (!p) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  void deallocate(T* p, std::size_t n) { owner->release(p, n * sizeof(T)); }
+  template <class U>
+  bool operator==(const HookAllocator<U>& o) const {
+    return owner == o.owner;
+  }
+};
+template <class T>
+using HookVector = std::vector<T, HookAllocator<T>>;
+
+// Constructs a T in memory from the hook (T's first member must be an Allocator named
+// `alloc`, which the handle frees itself with). Throws std::bad_alloc.
+template <class T, class... Args>
+T* make_handle(const Allocator& a, Args&&... args) {
+  void* p = a.allocate(sizeof(T), alignof(T));
+  if (!p) throw std::bad_alloc();
+  try {
+    return new (p) T(a, std::forward<Args>(args)...);
+  } catch (...) {
+    a.release(p, sizeof(T));
+    throw;
+  }
+}
+template <class T>
+void destroy_handle(T* h) {
+  const Allocator a = h->alloc;
+  h->~T();
+  a.release(h, sizeof(T));
+}
+
+// Per-thread message of the last failure: a fixed buffer, so that recording an error does
+// not allocate either.
+modrt_status fail(modrt_status code, const char* message);
+modrt_status fail(modrt_status code, const std::string& message);
+modrt_status fail(const Status& status);  // maps the ErrorCode
+modrt_status from_error_code(ErrorCode code);
+
+// Runs f() (returning modrt_status) with every exception turned into a status.
+template <class F>
+modrt_status guarded(const char* function, F&& f) noexcept {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+    return fail(MODRT_ERROR_OUT_OF_MEMORY, std::string(function) + ": out of memory");
+  } catch (const std::exception& e) {
+    return fail(MODRT_ERROR_INTERNAL, std::string(function) + ": " + e.what());
+  } catch (...) {
+    return fail(MODRT_ERROR_INTERNAL, std::string(function) + ": unknown exception");
+  }
+}
+
+}  // namespace modrt::capi
+
+// The handles: refcounted so that a context keeps its dictionary and level alive.
+struct modrt_dictionary {
+  modrt::capi::Allocator alloc;
+  std::atomic<int> refs{1};
+  modrt::Dictionary dict;
+  modrt_dictionary(const modrt::capi::Allocator& a, modrt::Dictionary d) : alloc(a), dict(std::move(d)) {}
+};
+struct modrt_level {
+  modrt::capi::Allocator alloc;
+  std::atomic<int> refs{1};
+  modrt::Level level;
+  modrt_level(const modrt::capi::Allocator& a, modrt::Level l) : alloc(a), level(std::move(l)) {}
+};
+
+namespace modrt::capi {
+void retain(modrt_dictionary* d);
+void release(modrt_dictionary* d);
+void retain(modrt_level* l);
+void release(modrt_level* l);
+}  // namespace modrt::capi

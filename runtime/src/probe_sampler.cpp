@@ -1,0 +1,146 @@
+#include "probe_sampler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <glm/mat3x3.hpp>
+
+#include "modrt/cube.h"
+#include "modrt/level_geometry.h"
+#include "modrt/sh.h"
+
+namespace modrt::capi {
+namespace {
+
+// How far canonical p lies outside [0,1]^3 (0 inside).
+double outside(const glm::dvec3& p) {
+  double d = 0.0;
+  for (int a = 0; a < 3; ++a) d = std::max({d, -p[a], p[a] - 1.0});
+  return d;
+}
+
+// M with sum_k (M c)_k Y_k(d) = sum_k c_k Y_k(R^-1 d) for every d, R = rotate_direction(., turns):
+// least squares over 26 directions (exact: SH9 is closed under rotation), normal equations
+// solved by Gauss-Jordan in double.
+std::array<double, 81> sh9_rotation(int turns) {
+  std::array<double, 81> ata{}, atb{};
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k) {
+        if (i == 0 && j == 0 && k == 0) continue;
+        const glm::dvec3 d = glm::normalize(glm::dvec3(i, j + 0.25 * i, k - 0.5 * j));
+        double y[9], yr[9];
+        sh9_eval(d, y);
+        sh9_eval(glm::normalize(rotate_direction(d, -turns)), yr);
+        for (int r = 0; r < 9; ++r)
+          for (int c = 0; c < 9; ++c) {
+            ata[std::size_t(9 * r + c)] += y[r] * y[c];
+            atb[std::size_t(9 * r + c)] += y[r] * yr[c];
+          }
+      }
+  for (int col = 0; col < 9; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < 9; ++r)
+      if (std::abs(ata[std::size_t(9 * r + col)]) > std::abs(ata[std::size_t(9 * pivot + col)])) pivot = r;
+    for (int c = 0; c < 9; ++c) {
+      std::swap(ata[std::size_t(9 * col + c)], ata[std::size_t(9 * pivot + c)]);
+      std::swap(atb[std::size_t(9 * col + c)], atb[std::size_t(9 * pivot + c)]);
+    }
+    const double inv = 1.0 / ata[std::size_t(9 * col + col)];
+    for (int c = 0; c < 9; ++c) ata[std::size_t(9 * col + c)] *= inv, atb[std::size_t(9 * col + c)] *= inv;
+    for (int r = 0; r < 9; ++r) {
+      if (r == col) continue;
+      const double f = ata[std::size_t(9 * r + col)];
+      for (int c = 0; c < 9; ++c) {
+        ata[std::size_t(9 * r + c)] -= f * ata[std::size_t(9 * col + c)];
+        atb[std::size_t(9 * r + c)] -= f * atb[std::size_t(9 * col + c)];
+      }
+    }
+  }
+  return atb;
+}
+
+}  // namespace
+
+ProbeSampler::ProbeSampler(const Level& level, int grid) : level_(&level), grid_(grid) {
+  box_lo_.resize(level.blocks.size());
+  box_hi_.resize(level.blocks.size());
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    glm::dvec3 lo = level.blocks[i].corners[0], hi = lo;
+    for (const glm::dvec3& c : level.blocks[i].corners) lo = glm::min(lo, c), hi = glm::max(hi, c);
+    const glm::dvec3 grow = 0.01 * (hi - lo) + 1e-9;
+    box_lo_[i] = lo - grow;
+    box_hi_[i] = hi + grow;
+  }
+  for (int t = 0; t < 4; ++t) rotation_[std::size_t(t)] = sh9_rotation(t);
+}
+
+glm::dvec3 ProbeSampler::world_to_block(std::size_t block, const glm::dvec3& x) const {
+  const LevelBlock& b = level_->blocks[block];
+  glm::dvec3 p(0.5);
+  for (int it = 0; it < 16; ++it) {
+    const glm::dvec3 f = block_to_world(b, p) - x;
+    if (glm::dot(f, f) < 1e-24) break;
+    // The trilinear map is linear along each axis: central differences are exact.
+    const double h = 1e-3;
+    glm::dmat3 J;
+    for (int a = 0; a < 3; ++a) {
+      glm::dvec3 e(0.0);
+      e[a] = h;
+      J[a] = (block_to_world(b, p + e) - block_to_world(b, p - e)) / (2 * h);
+    }
+    if (std::abs(glm::determinant(J)) < 1e-12) break;
+    p -= glm::inverse(J) * f;
+  }
+  return p;
+}
+
+Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance,
+                            float out[27]) const {
+  std::size_t block = 0;
+  double best = 1e30;
+  glm::dvec3 p(0.5);
+  for (std::size_t i = 0; i < box_lo_.size() && best > 0.0; ++i) {
+    if (glm::any(glm::lessThan(x, box_lo_[i])) || glm::any(glm::greaterThan(x, box_hi_[i]))) continue;
+    const glm::dvec3 q = world_to_block(i, x);
+    const double o = outside(q);
+    if (o < best) best = o, block = i, p = q;
+  }
+  if (best > 0.01) {
+    char text[160];
+    std::snprintf(text, sizeof text, "probe position (%g, %g, %g) lies outside every block of the level", x.x,
+                  x.y, x.z);
+    return Status::error(ErrorCode::invalid_argument, text);
+  }
+  const int g = grid_;
+  const std::size_t per_block = 27 * std::size_t(g) * std::size_t(g) * std::size_t(g);
+  const float* base = probes.data() + per_block * block;
+  double sh[27] = {};
+  // Probe centres sit at (i + 0.5) / g; outside the outermost centres the value is held.
+  const glm::dvec3 gc = glm::clamp(p * double(g) - 0.5, glm::dvec3(0.0), glm::dvec3(g - 1));
+  const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(gc)), glm::ivec3(std::max(g - 2, 0)));
+  const glm::dvec3 f = g > 1 ? gc - glm::dvec3(i0) : glm::dvec3(0.0);
+  for (int c = 0; c < 8; ++c) {
+    const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    const glm::ivec3 q = glm::min(i0 + o, glm::ivec3(g - 1));
+    const double w = (o.x ? f.x : 1 - f.x) * (o.y ? f.y : 1 - f.y) * (o.z ? f.z : 1 - f.z);
+    if (w == 0.0) continue;
+    const float* probe = base + 27 * std::size_t(q.x + g * (q.y + g * q.z));
+    for (int k = 0; k < 27; ++k) sh[k] += w * double(probe[k]);
+  }
+  const std::array<double, 81>& m = rotation(level_->blocks[block].quarter_turns);
+  for (int k = 0; k < 9; ++k) {
+    // Radiance -> E/pi: band l scaled by A_l / pi (sh.h, irradiance_from_radiance_sh9).
+    const double scale = !irradiance ? 1.0 : (k == 0 ? 1.0 : k < 4 ? 2.0 / 3.0 : 0.25);
+    for (int c = 0; c < 3; ++c) {
+      double v = 0.0;
+      for (int j = 0; j < 9; ++j) v += m[std::size_t(9 * k + j)] * sh[3 * j + c];
+      out[3 * k + c] = float(scale * v);
+    }
+  }
+  return Status::success();
+}
+
+}  // namespace modrt::capi

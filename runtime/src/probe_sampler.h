@@ -1,0 +1,42 @@
+// Sampling the level's probe volume at a world point (SPEC §5 step 9, MRT §6.5): the block
+// containing the point, its canonical coordinates (Newton on the trilinear warp), trilinear
+// weights of the g^3 probes, and the SH9 rotation from the block's canonical frame into the
+// world. Everything is prepared at creation; sample() does not allocate.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "modrt/level.h"
+#include "modrt/status.h"
+
+namespace modrt::capi {
+
+class ProbeSampler {
+ public:
+  ProbeSampler() = default;
+  ProbeSampler(const Level& level, int grid);
+
+  // out[3 k + c], world frame; `irradiance`: E/pi (bands scaled by A_l / pi = 1, 2/3, 1/4).
+  // Fails (invalid_argument) for a point outside every block by more than 1% of a block.
+  Status sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance, float out[27]) const;
+
+  // Canonical block coordinates of world point x in block `block`.
+  glm::dvec3 world_to_block(std::size_t block, const glm::dvec3& x) const;
+  // c_world = M c_canonical for a block turned by `quarter_turns` (0..3).
+  const std::array<double, 81>& rotation(int quarter_turns) const {
+    return rotation_[std::size_t(quarter_turns & 3)];
+  }
+
+ private:
+  const Level* level_ = nullptr;
+  int grid_ = 0;
+  std::vector<glm::dvec3> box_lo_, box_hi_;  // per block, corners' box grown by 1%
+  std::array<std::array<double, 81>, 4> rotation_{};
+};
+
+}  // namespace modrt::capi

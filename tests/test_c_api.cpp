@@ -1,0 +1,812 @@
+// The embeddable runtime's C API (runtime/include/modrt/modrt.h): loading from memory and
+// files, CPU and GLES contexts against the C++ backends and core's reference, probes against
+// the reference probes rotated into the world, lights against CpuDirectLight, the allocator
+// hook, no allocation per frame, and every error path returning a code and a message naming
+// the problem.
+//
+// Tolerances (relative L2 over all values): CPU context against create_cpu_backend 0 (the
+// same runtime, same ISA: bit-identical), against core's reference 1e-5 (float sums in
+// another order, as test_cpu_backend); GLES context against the reference 1e-4 (float32
+// targets, as test_gles_backend). Probe SH in the world frame: evaluated along 64 directions,
+// within 1e-5 of the canonical probe evaluated along the turned directions (relative to the
+// probe's largest coefficient).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "counting_allocator.h"
+#include "level_fixtures.h"
+#include "modrt/cpu/cpu_backend.h"
+#include "modrt/cpu/direct_light.h"
+#include "modrt/cube.h"
+#include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
+#include "modrt/level_geometry.h"
+#include "modrt/level_io.h"
+#include "modrt/modrt.h"
+#include "modrt/modrt.hpp"
+#include "modrt/platform/gl_context.h"
+#include "modrt/sh.h"
+#include "test_support.h"
+
+namespace modrt {
+namespace {
+
+using test::level_reference;
+using test::small_test_dictionary;
+using test::test_level;
+
+double rel_l2(std::span<const float> got, std::span<const float> ref) {
+  EXPECT_EQ(got.size(), ref.size());
+  double num = 0.0, den = 0.0;
+  for (std::size_t i = 0; i < ref.size() && i < got.size(); ++i) {
+    const double d = double(got[i]) - double(ref[i]);
+    num += d * d;
+    den += double(ref[i]) * ref[i];
+  }
+  if (!std::isfinite(num)) return std::numeric_limits<double>::infinity();
+  return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
+}
+
+struct Assets {
+  std::vector<std::byte> dictionary, level;
+};
+const Assets& assets(const std::string& name = "maze11") {
+  static std::map<std::string, Assets> cache;
+  auto it = cache.find(name);
+  if (it == cache.end()) {
+    Assets a;
+    a.dictionary = serialize_dictionary(small_test_dictionary()).value();
+    a.level = serialize_level(test_level(name).level).value();
+    it = cache.emplace(name, std::move(a)).first;
+  }
+  return it->second;
+}
+
+modrt_dictionary* load_dictionary_handle() {
+  modrt_dictionary* d = nullptr;
+  EXPECT_EQ(modrt_dictionary_load_memory(assets().dictionary.data(), assets().dictionary.size(), "dict",
+                                         nullptr, &d),
+            MODRT_OK)
+      << modrt_last_error();
+  return d;
+}
+modrt_level* load_level_handle(const std::string& name = "maze11") {
+  modrt_level* l = nullptr;
+  EXPECT_EQ(modrt_level_load_memory(assets(name).level.data(), assets(name).level.size(), name.c_str(),
+                                    nullptr, &l),
+            MODRT_OK)
+      << modrt_last_error();
+  return l;
+}
+
+// Expects `status` to be `code` and the message to contain every one of `words`.
+void expect_error(modrt_status status, modrt_status code, std::initializer_list<const char*> words) {
+  EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
+  const std::string message = modrt_last_error();
+  for (const char* w : words)
+    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
+}
+
+std::vector<float> read_lightmap(modrt_context* c) {
+  modrt_sizes s;
+  EXPECT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  std::vector<float> out(s.lightmap);
+  EXPECT_EQ(modrt_context_read_lightmap(c, out.data(), out.size()), MODRT_OK) << modrt_last_error();
+  return out;
+}
+std::vector<float> read_atlas(modrt_context* c) {
+  modrt_sizes s;
+  EXPECT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  std::vector<float> out(s.atlas);
+  EXPECT_EQ(modrt_context_read_atlas(c, out.data(), out.size()), MODRT_OK) << modrt_last_error();
+  return out;
+}
+
+TEST(CApi, VersionAndStatusNames) {
+  EXPECT_EQ(modrt_version(), std::uint32_t(MODRT_VERSION));
+  EXPECT_STREQ(modrt_version_string(), "0.1.0");
+  EXPECT_STREQ(modrt_status_name(MODRT_ERROR_FORMAT), "MODRT_ERROR_FORMAT");
+  EXPECT_STREQ(modrt_status_name(modrt_status(99)), "MODRT_ERROR_UNKNOWN");
+}
+
+TEST(CApi, LoadsFromMemoryAndFileAlike) {
+  const std::filesystem::path dir = std::filesystem::path(MODRT_TEST_CACHE_DIR) / "c_api";
+  std::filesystem::create_directories(dir);
+  const std::string dict_path = (dir / "dict.modrt").string(),
+                    level_path = (dir / "maze11.modrtlevel").string();
+  ASSERT_TRUE(write_file_atomic(dict_path, assets().dictionary).ok());
+  ASSERT_TRUE(write_file_atomic(level_path, assets().level).ok());
+
+  modrt_dictionary* d = nullptr;
+  modrt_level* l = nullptr;
+  ASSERT_EQ(modrt_dictionary_load_file(dict_path.c_str(), nullptr, &d), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_level_load_file(level_path.c_str(), nullptr, &l), MODRT_OK) << modrt_last_error();
+  modrt_level_info info;
+  ASSERT_EQ(modrt_level_get_info(l, &info), MODRT_OK);
+  const Level& ref = test_level("maze11").level;
+  EXPECT_EQ(info.block_count, ref.blocks.size());
+  EXPECT_EQ(info.sample_count, ref.sample_count);
+  EXPECT_EQ(info.atlas_width, std::uint32_t(ref.atlas.width));
+  EXPECT_EQ(info.atlas_height, std::uint32_t(ref.atlas.height));
+  EXPECT_LT(info.bounds_min[0], info.bounds_max[0]);
+
+  // The file and memory paths give the same results.
+  modrt_dictionary* dm = load_dictionary_handle();
+  modrt_level* lm = load_level_handle();
+  modrt_context *cf = nullptr, *cm = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &cf), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_create(dm, lm, nullptr, nullptr, &cm), MODRT_OK) << modrt_last_error();
+  const std::vector<float>& ld = test_level("maze11").ld;
+  for (modrt_context* c : {cf, cm}) {
+    ASSERT_EQ(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  }
+  EXPECT_EQ(read_lightmap(cf), read_lightmap(cm));
+  // Contexts hold references: the handles can go first.
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(dm);
+  modrt_level_destroy(lm);
+  ASSERT_EQ(modrt_context_update(cf), MODRT_OK) << modrt_last_error();
+  modrt_context_destroy(cf);
+  modrt_context_destroy(cm);
+}
+
+TEST(CApi, CpuContextEqualsTheCpuBackendAndTheReference) {
+  for (const char* name : {"single", "corridor", "maze11"}) {
+    SCOPED_TRACE(name);
+    const test::TestLevel& t = test_level(name);
+    modrt_dictionary* d = load_dictionary_handle();
+    modrt_level* l = load_level_handle(name);
+    modrt_context_options o;
+    modrt_context_options_init(&o);
+    o.skip_unchanged = 0;
+    modrt_context* c = nullptr;
+    ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+    EXPECT_EQ(std::string(modrt_context_description(c)).rfind("cpu ", 0), 0u);
+    ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+    ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+
+    std::unique_ptr<Backend> be = cpu::create_cpu_backend(t.level, small_test_dictionary()).value();
+    ASSERT_TRUE(be->update(t.ld).ok());
+    std::vector<float> lightmap(be->sizes().lightmap), atlas(be->sizes().atlas);
+    ASSERT_TRUE(be->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(be->read_atlas(atlas).ok());
+    EXPECT_EQ(read_lightmap(c), lightmap);
+    const float* data = nullptr;
+    size_t count = 0;
+    ASSERT_EQ(modrt_context_get_atlas_data(c, &data, &count), MODRT_OK);
+    EXPECT_EQ(std::vector<float>(data, data + count), atlas);
+    EXPECT_EQ(read_atlas(c), atlas);
+
+    const test::LevelReference ref = level_reference(t.level, t.ld);
+    EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5);
+    EXPECT_LT(rel_l2(atlas, ref.atlas), 1e-5);
+    modrt_context_destroy(c);
+    modrt_dictionary_destroy(d);
+    modrt_level_destroy(l);
+  }
+}
+
+// Probe SH at each probe centre is that probe, rotated into the world frame.
+void check_probes_at_centres(modrt_context* c, const Level& level, std::span<const float> ref_probes) {
+  modrt_sizes s;
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  const int g = int(s.probe_grid);
+  ASSERT_GT(g, 0);
+  ASSERT_EQ(s.probes, ref_probes.size());
+  double worst = 0.0;
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& blk = level.blocks[bi];
+    for (int iz = 0; iz < g; ++iz)
+      for (int iy = 0; iy < g; ++iy)
+        for (int ix = 0; ix < g; ++ix) {
+          const glm::dvec3 p((ix + 0.5) / g, (iy + 0.5) / g, (iz + 0.5) / g);
+          const glm::dvec3 x = block_to_world(blk, p);
+          const float pos[3] = {float(x.x), float(x.y), float(x.z)};
+          float world[27];
+          ASSERT_EQ(modrt_context_probe_sh(c, pos, MODRT_PROBE_RADIANCE, world), MODRT_OK)
+              << modrt_last_error();
+          const float* canonical =
+              ref_probes.data() + 27 * (std::size_t(ix + g * (iy + g * iz)) + std::size_t(g * g * g) * bi);
+          double scale = 1e-12;
+          for (int k = 0; k < 27; ++k) scale = std::max(scale, double(std::abs(canonical[k])));
+          for (int j = 0; j < 64; ++j) {
+            const double z = 1.0 - (j + 0.5) / 32.0, r = std::sqrt(1.0 - z * z), phi = 2.399963 * j;
+            const glm::dvec3 dir(r * std::cos(phi), r * std::sin(phi), z);
+            double yw[9], yc[9];
+            sh9_eval(dir, yw);
+            sh9_eval(rotate_direction(dir, -blk.quarter_turns), yc);
+            for (int ch = 0; ch < 3; ++ch) {
+              double vw = 0.0, vc = 0.0;
+              for (int k = 0; k < 9; ++k)
+                vw += yw[k] * world[3 * k + ch], vc += yc[k] * canonical[3 * k + ch];
+              worst = std::max(worst, std::abs(vw - vc) / scale);
+            }
+          }
+        }
+  }
+  EXPECT_LT(worst, 1e-5);
+}
+
+TEST(CApi, ProbesAreTheReferenceProbesInTheWorldFrame) {
+  const test::TestLevel& t = test_level("maze11");
+  bool turned = false;
+  for (const LevelBlock& b : t.level.blocks) turned |= (b.quarter_turns & 3) != 0;
+  EXPECT_TRUE(turned) << "the maze should hold turned blocks, or the rotation is untested";
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  const test::LevelReference ref = level_reference(t.level, t.ld);
+  check_probes_at_centres(c, t.level, ref.probes);
+
+  // Between two probe centres along x the value is their average (trilinear); E/pi scales the
+  // bands by 1, 2/3, 1/4.
+  const LevelBlock& blk = t.level.blocks[0];
+  const glm::dvec3 a = block_to_world(blk, glm::dvec3(0.25, 0.25, 0.25)),
+                   b = block_to_world(blk, glm::dvec3(0.75, 0.25, 0.25)),
+                   m = block_to_world(blk, glm::dvec3(0.5, 0.25, 0.25));
+  float sa[27], sb[27], sm[27], em[27];
+  const float pa[3] = {float(a.x), float(a.y), float(a.z)}, pb[3] = {float(b.x), float(b.y), float(b.z)},
+              pm[3] = {float(m.x), float(m.y), float(m.z)};
+  ASSERT_EQ(modrt_context_probe_sh(c, pa, MODRT_PROBE_RADIANCE, sa), MODRT_OK);
+  ASSERT_EQ(modrt_context_probe_sh(c, pb, MODRT_PROBE_RADIANCE, sb), MODRT_OK);
+  ASSERT_EQ(modrt_context_probe_sh(c, pm, MODRT_PROBE_RADIANCE, sm), MODRT_OK);
+  ASSERT_EQ(modrt_context_probe_sh(c, pm, MODRT_PROBE_IRRADIANCE_OVER_PI, em), MODRT_OK);
+  for (int k = 0; k < 27; ++k) {
+    const double tol = 1e-5 * (std::abs(sa[k]) + std::abs(sb[k]) + 1e-6);
+    EXPECT_NEAR(sm[k], 0.5 * (sa[k] + sb[k]), tol) << k;
+    const int band = k / 3 == 0 ? 0 : k / 3 < 4 ? 1 : 2;
+    EXPECT_NEAR(em[k],
+                sm[k] * (band == 0   ? 1.0
+                         : band == 1 ? 2.0 / 3.0
+                                     : 0.25),
+                1e-6 * (std::abs(sm[k]) + 1e-6));
+  }
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+modrt_light to_c(const cpu::CpuLight& l) {
+  modrt_light c{};
+  c.type = modrt_light_type(int(l.type));
+  for (int a = 0; a < 3; ++a) {
+    c.position[a] = l.position[a];
+    c.direction[a] = l.direction[a];
+    c.color[a] = l.color[a];
+  }
+  c.intensity = l.intensity;
+  c.radius = l.radius;
+  c.inner_angle = l.inner_angle;
+  c.outer_angle = l.outer_angle;
+  c.shadows = l.shadows;
+  return c;
+}
+
+std::vector<cpu::CpuLight> frame_lights(const Level& level, int frame) {
+  glm::dvec3 lo(1e30), hi(-1e30);
+  for (const LevelBlock& b : level.blocks)
+    for (const glm::dvec3& c : b.corners) lo = glm::min(lo, c), hi = glm::max(hi, c);
+  const glm::vec3 centre = glm::vec3(0.5 * (lo + hi));
+  cpu::CpuLight point;
+  point.position = level.blocks.empty()
+                       ? centre
+                       : glm::vec3(block_to_world(level.blocks[std::size_t(frame) % level.blocks.size()],
+                                                  glm::dvec3(0.5, 0.6, 0.45)));
+  point.color = glm::vec3(1.0f, 0.8f, 0.6f);
+  point.intensity = 2.0f;
+  cpu::CpuLight spot;
+  spot.type = cpu::LightType::spot;
+  spot.position = glm::vec3(block_to_world(level.blocks[0], glm::dvec3(0.4, 0.9, 0.5)));
+  spot.direction = glm::vec3(0.1f * float(frame), -1.0f, 0.2f);
+  spot.intensity = 3.0f;
+  cpu::CpuLight sun;
+  sun.type = cpu::LightType::directional;
+  sun.direction = glm::vec3(0.3f, -1.0f, 0.2f);
+  sun.intensity = 0.5f;
+  return {point, spot, sun};
+}
+
+TEST(CApi, LightsGiveTheDirectLightEvaluatorsLd) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_albedo(c, t.albedo.data(), t.albedo.size()), MODRT_OK) << modrt_last_error();
+  cpu::CpuDirectLight direct = cpu::CpuDirectLight::create(t.level, t.albedo).value();
+  std::vector<float> ld(t.ld.size());
+  for (int frame = 0; frame < 3; ++frame) {
+    const std::vector<cpu::CpuLight> lights = frame_lights(t.level, frame);
+    std::vector<modrt_light> cl;
+    for (const cpu::CpuLight& x : lights) cl.push_back(to_c(x));
+    ASSERT_EQ(modrt_context_set_lights(c, cl.data(), cl.size()), MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+    ASSERT_TRUE(direct.evaluate(lights, ld).ok());
+    const test::LevelReference ref = level_reference(t.level, ld);
+    EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5) << frame;
+  }
+  modrt_skip_stats k;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_EQ(k.frames, 3u);
+  EXPECT_GT(k.light_blocks_recomputed, 0u);
+  // Frames 1 and 2 move the point and the spot only: some blocks keep their ld.
+  EXPECT_GT(k.light_blocks_kept, 0u);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+TEST(CApi, SkipCountersAndTimings) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.timing = 1;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  const std::vector<float> first = read_lightmap(c);
+  // Only block 0's ld changes: every other block keeps its b.
+  std::vector<float> ld = t.ld;
+  const LevelBlock& b0 = t.level.blocks[0];
+  for (std::uint32_t i = 0; i < 3 * b0.sample_count; ++i) ld[3 * b0.sample_offset + i] *= 2.0f;
+  ASSERT_EQ(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  modrt_skip_stats k;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  const std::size_t blocks = t.level.blocks.size();
+  // Blocks with an all-zero ld count as computed (b = 0 without a GEMV) every frame.
+  std::size_t dark = 0;
+  for (const LevelBlock& b : t.level.blocks)
+    dark += std::all_of(ld.begin() + 3 * b.sample_offset, ld.begin() + 3 * (b.sample_offset + b.sample_count),
+                        [](float v) { return v == 0.0f; });
+  ASSERT_LT(dark + 1, blocks);
+  EXPECT_EQ(k.frames, 2u);
+  EXPECT_EQ(k.blocks_computed + k.blocks_kept, 2 * blocks);
+  EXPECT_EQ(k.blocks_kept, blocks - 1 - dark);
+  // The same ld again: every tile is kept.
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  modrt_skip_stats k3;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k3), MODRT_OK);
+  EXPECT_EQ(k3.tiles_kept - k.tiles_kept, blocks);
+  EXPECT_EQ(k3.blocks_kept - k.blocks_kept, blocks - dark);
+  EXPECT_EQ(k3.slots_kept - k.slots_kept, t.level.slots.size());
+  // Exact: the skipping result equals the full evaluation.
+  const test::LevelReference ref = level_reference(t.level, ld);
+  EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5);
+  modrt_timings tm;
+  ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
+  EXPECT_GT(tm.update_ns, 0u);
+  EXPECT_GT(tm.lightmap_ns, 0u);
+  EXPECT_GE(tm.update_ns, tm.lightmap_ns + tm.atlas_ns + tm.probes_ns);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+TEST(CApi, NoAllocationPerFrame) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.timing = 1;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_albedo(c, t.albedo.data(), t.albedo.size()), MODRT_OK);
+  std::vector<std::vector<modrt_light>> frames;
+  for (int f = 0; f < 4; ++f) {
+    frames.emplace_back();
+    for (const cpu::CpuLight& x : frame_lights(t.level, f)) frames.back().push_back(to_c(x));
+  }
+  modrt_sizes s;
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  std::vector<float> lightmap(s.lightmap), atlas(s.atlas);
+  const glm::dvec3 x = block_to_world(t.level.blocks[1], glm::dvec3(0.5));
+  const float pos[3] = {float(x.x), float(x.y), float(x.z)};
+  float sh[27];
+  bool ok = true;
+  g_allocations = 0;
+  g_count_allocations = true;
+  for (const auto& lights : frames) {
+    ok &= modrt_context_set_lights(c, lights.data(), lights.size()) == MODRT_OK;
+    ok &= modrt_context_update(c) == MODRT_OK;
+    ok &= modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()) == MODRT_OK;
+    ok &= modrt_context_read_atlas(c, atlas.data(), atlas.size()) == MODRT_OK;
+    ok &= modrt_context_probe_sh(c, pos, MODRT_PROBE_IRRADIANCE_OVER_PI, sh) == MODRT_OK;
+    modrt_timings tm;
+    modrt_skip_stats k;
+    ok &= modrt_context_get_timings(c, &tm) == MODRT_OK && modrt_context_get_skip_stats(c, &k) == MODRT_OK;
+  }
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ok &= modrt_context_update(c) == MODRT_OK;
+  g_count_allocations = false;
+  EXPECT_TRUE(ok) << modrt_last_error();
+  EXPECT_EQ(g_allocations.load(), 0);
+  // The counter sees the API's allocations: loading allocates.
+  g_allocations = 0;
+  g_count_allocations = true;
+  modrt_level* l2 = load_level_handle();
+  g_count_allocations = false;
+  EXPECT_GT(g_allocations.load(), 0);
+  modrt_level_destroy(l2);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+struct HookCounter {
+  long allocations = 0, frees = 0;
+  std::size_t live_bytes = 0, peak_bytes = 0;
+  long fail_after = -1;  // >= 0: refuse allocations after this many
+};
+void* hook_alloc(size_t size, size_t alignment, void* user) {
+  HookCounter* h = static_cast<HookCounter*>(user);
+  if (h->fail_after >= 0 && h->allocations >= h->fail_after) return nullptr;
+  ++h->allocations;
+  h->live_bytes += size;
+  h->peak_bytes = std::max(h->peak_bytes, h->live_bytes);
+  const size_t rounded = (size + alignment - 1) / alignment * alignment;
+  return std::aligned_alloc(alignment, rounded == 0 ? alignment : rounded);
+}
+void hook_free(void* p, size_t size, void* user) {
+  HookCounter* h = static_cast<HookCounter*>(user);
+  ++h->frees;
+  h->live_bytes -= size;
+  std::free(p);
+}
+
+TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
+  const test::TestLevel& t = test_level("maze11");
+  const std::filesystem::path dir = std::filesystem::path(MODRT_TEST_CACHE_DIR) / "c_api";
+  std::filesystem::create_directories(dir);
+  const std::string level_path = (dir / "maze11_hook.modrtlevel").string();
+  ASSERT_TRUE(write_file_atomic(level_path, assets().level).ok());
+  HookCounter counter;
+  const modrt_allocator hook{hook_alloc, hook_free, &counter};
+  modrt_dictionary* d = nullptr;
+  ASSERT_EQ(
+      modrt_dictionary_load_memory(assets().dictionary.data(), assets().dictionary.size(), "dict", &hook, &d),
+      MODRT_OK);
+  modrt_level* l = nullptr;
+  ASSERT_EQ(modrt_level_load_file(level_path.c_str(), &hook, &l), MODRT_OK) << modrt_last_error();
+  // The file image passed through the hook.
+  EXPECT_GE(counter.peak_bytes, assets().level.size());
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, &hook, &c), MODRT_OK) << modrt_last_error();
+  modrt_sizes s;
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  // The frame buffers (ld, lightmap, atlas, probes) live in the hook's memory.
+  EXPECT_GE(counter.live_bytes, sizeof(float) * (s.ld + s.lightmap + s.atlas + s.probes));
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+  EXPECT_GT(counter.allocations, 0);
+  EXPECT_EQ(counter.allocations, counter.frees);
+  EXPECT_EQ(counter.live_bytes, 0u);
+
+  // A hook that refuses memory: OUT_OF_MEMORY with a message, nothing leaked, at every point.
+  for (long fail_after = 0; fail_after < 12; ++fail_after) {
+    HookCounter failing;
+    failing.fail_after = fail_after;
+    const modrt_allocator bad{hook_alloc, hook_free, &failing};
+    modrt_dictionary* fd = load_dictionary_handle();
+    modrt_level* fl = load_level_handle();
+    modrt_context* fc = nullptr;
+    const modrt_status st = modrt_context_create(fd, fl, nullptr, &bad, &fc);
+    if (st == MODRT_OK) {
+      modrt_context_destroy(fc);
+    } else {
+      expect_error(st, MODRT_ERROR_OUT_OF_MEMORY, {"modrt_context_create", "memory"});
+      EXPECT_EQ(fc, nullptr);
+    }
+    EXPECT_EQ(failing.allocations, failing.frees) << fail_after;
+    modrt_dictionary_destroy(fd);
+    modrt_level_destroy(fl);
+  }
+  HookCounter none;
+  none.fail_after = 0;
+  const modrt_allocator refuse{hook_alloc, hook_free, &none};
+  modrt_level* fl = nullptr;
+  expect_error(modrt_level_load_file(level_path.c_str(), &refuse, &fl), MODRT_ERROR_OUT_OF_MEMORY,
+               {level_path.c_str(), "allocator refused"});
+}
+
+TEST(CApi, BadFilesReturnNamedErrors) {
+  modrt_level* l = nullptr;
+  modrt_dictionary* d = nullptr;
+  std::vector<std::byte> bytes = assets().level;
+  bytes[bytes.size() / 2] ^= std::byte{0x40};
+  expect_error(modrt_level_load_memory(bytes.data(), bytes.size(), "bundle/level.modrtlevel", nullptr, &l),
+               MODRT_ERROR_CHECKSUM_MISMATCH, {"bundle/level.modrtlevel"});
+  EXPECT_EQ(l, nullptr);
+  expect_error(modrt_level_load_memory(assets().level.data(), 40, "short.modrtlevel", nullptr, &l),
+               MODRT_ERROR_FORMAT, {"short.modrtlevel"});
+  bytes = assets().level;
+  bytes[0] = std::byte{'X'};
+  expect_error(modrt_level_load_memory(bytes.data(), bytes.size(), "magic.modrtlevel", nullptr, &l),
+               MODRT_ERROR_FORMAT, {"magic.modrtlevel"});
+  // A dictionary is not a level and the other way round.
+  expect_error(modrt_level_load_memory(assets().dictionary.data(), assets().dictionary.size(),
+                                       "dict-as-level", nullptr, &l),
+               MODRT_ERROR_FORMAT, {"dict-as-level"});
+  expect_error(modrt_dictionary_load_memory(assets().level.data(), assets().level.size(), "level-as-dict",
+                                            nullptr, &d),
+               MODRT_ERROR_FORMAT, {"level-as-dict"});
+  std::vector<std::byte> dict = assets().dictionary;
+  dict[dict.size() - 5] ^= std::byte{1};
+  expect_error(modrt_dictionary_load_memory(dict.data(), dict.size(), "flipped.modrt", nullptr, &d),
+               MODRT_ERROR_CHECKSUM_MISMATCH, {"flipped.modrt"});
+  EXPECT_EQ(d, nullptr);
+  expect_error(modrt_dictionary_load_file("/nonexistent/dir/x.modrt", nullptr, &d), MODRT_ERROR_IO,
+               {"/nonexistent/dir/x.modrt", "cannot open"});
+  expect_error(modrt_level_load_file("/nonexistent/l.modrtlevel", nullptr, &l), MODRT_ERROR_IO,
+               {"/nonexistent/l.modrtlevel"});
+  expect_error(modrt_level_load_memory(nullptr, 10, "x", nullptr, &l), MODRT_ERROR_INVALID_ARGUMENT,
+               {"data is null"});
+  expect_error(modrt_level_load_memory(assets().level.data(), assets().level.size(), "x", nullptr, nullptr),
+               MODRT_ERROR_INVALID_ARGUMENT, {"out is null"});
+  expect_error(modrt_dictionary_load_file(nullptr, nullptr, &d), MODRT_ERROR_INVALID_ARGUMENT,
+               {"path is null"});
+}
+
+TEST(CApi, BadCallsReturnNamedErrors) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context* c = nullptr;
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.struct_size = 4;
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT, {"struct_size"});
+  modrt_context_options_init(&o);
+  o.threads = 0;
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT, {"threads"});
+  modrt_context_options_init(&o);
+  o.backend = modrt_backend(7);
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT, {"backend"});
+  expect_error(modrt_context_create(nullptr, l, nullptr, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"dictionary is null"});
+  expect_error(modrt_context_create(d, nullptr, nullptr, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"level is null"});
+  // A level built against another dictionary (res changed consistently is not possible
+  // without a rebuild, so a level whose kb differs from the dictionary's).
+  {
+    Level other = t.level;
+    other.kb += 1;
+    for (ResponseRecord& r : other.records) {
+      Matrix T(r.T.rows, r.T.cols + 1);
+      for (std::uint32_t i = 0; i < r.T.rows; ++i)
+        for (std::uint32_t j = 0; j < r.T.cols; ++j) T.data[i * T.cols + j] = r.T.data[i * r.T.cols + j];
+      r.T = std::move(T);
+    }
+    Result<std::vector<std::byte>> bytes = serialize_level(other);
+    if (bytes.ok()) {
+      modrt_level* lo = nullptr;
+      ASSERT_EQ(modrt_level_load_memory(bytes->data(), bytes->size(), "other", nullptr, &lo), MODRT_OK)
+          << modrt_last_error();
+      expect_error(modrt_context_create(d, lo, nullptr, nullptr, &c), MODRT_ERROR_MISMATCH, {"kb"});
+      modrt_level_destroy(lo);
+    } else {
+      ADD_FAILURE() << "could not build the mismatched level: " << bytes.status().to_string();
+    }
+  }
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+
+  std::vector<float> ld = t.ld;
+  expect_error(modrt_context_set_ld(c, ld.data(), ld.size() - 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"ld", std::to_string(ld.size() - 1).c_str(), std::to_string(ld.size()).c_str()});
+  ld[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
+  expect_error(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_ERROR_NON_FINITE,
+               {"sample 7", "channel 1"});
+  ld = t.ld;
+  ld[3 * 5 + 2] = -1.0f;
+  expect_error(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"sample 5", "channel 2"});
+  expect_error(modrt_context_set_ld(c, nullptr, ld.size()), MODRT_ERROR_INVALID_ARGUMENT, {"ld is null"});
+
+  modrt_light light{};
+  light.type = MODRT_LIGHT_POINT;
+  light.color[0] = light.color[1] = light.color[2] = 1.0f;
+  light.intensity = 1.0f;
+  expect_error(modrt_context_set_lights(c, &light, 1), MODRT_ERROR_INVALID_ARGUMENT, {"albedo"});
+  std::vector<float> albedo = t.albedo;
+  albedo[4] = std::numeric_limits<float>::infinity();
+  EXPECT_NE(modrt_context_set_albedo(c, albedo.data(), albedo.size()), MODRT_OK);
+  EXPECT_NE(std::string(modrt_last_error()).find("modrt_context_set_albedo"), std::string::npos);
+  expect_error(modrt_context_set_albedo(c, t.albedo.data(), 3), MODRT_ERROR_INVALID_ARGUMENT, {"albedo"});
+  ASSERT_EQ(modrt_context_set_albedo(c, t.albedo.data(), t.albedo.size()), MODRT_OK) << modrt_last_error();
+  light.intensity = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_NE(modrt_context_set_lights(c, &light, 1), MODRT_OK);
+  EXPECT_NE(std::string(modrt_last_error()).find("light 0"), std::string::npos) << modrt_last_error();
+  light.intensity = 1.0f;
+  light.type = modrt_light_type(9);
+  expect_error(modrt_context_set_lights(c, &light, 1), MODRT_ERROR_INVALID_ARGUMENT, {"light 0", "type"});
+  std::vector<modrt_light> many(9, light);
+  expect_error(modrt_context_set_lights(c, many.data(), many.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"max_lights"});
+
+  // A failed set_ld left the previous (zero) ld: update works, the lightmap is dark.
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  for (float v : read_lightmap(c)) ASSERT_EQ(v, 0.0f);
+
+  uint32_t tex = 0;
+  expect_error(modrt_context_get_atlas_texture(c, &tex, nullptr), MODRT_ERROR_UNSUPPORTED, {"CPU"});
+  std::vector<float> small(3);
+  expect_error(modrt_context_read_atlas(c, small.data(), small.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"out"});
+  expect_error(modrt_context_read_lightmap(c, small.data(), small.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"out"});
+  const float far[3] = {1e4f, 1e4f, 1e4f};
+  float sh[27];
+  expect_error(modrt_context_probe_sh(c, far, MODRT_PROBE_RADIANCE, sh), MODRT_ERROR_INVALID_ARGUMENT,
+               {"outside every block"});
+  const float nan_pos[3] = {0.0f, std::numeric_limits<float>::quiet_NaN(), 0.0f};
+  expect_error(modrt_context_probe_sh(c, nan_pos, MODRT_PROBE_RADIANCE, sh), MODRT_ERROR_NON_FINITE,
+               {"position[1]"});
+
+  // Null handles, everywhere.
+  modrt_sizes s;
+  modrt_timings tm;
+  modrt_skip_stats k;
+  const float* data = nullptr;
+  size_t count = 0;
+  expect_error(modrt_context_update(nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
+  expect_error(modrt_context_get_sizes(nullptr, &s), MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
+  expect_error(modrt_context_get_sizes(c, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"out is null"});
+  expect_error(modrt_context_set_ld(nullptr, t.ld.data(), t.ld.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_context_set_lights(nullptr, &light, 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_context_set_albedo(nullptr, t.albedo.data(), t.albedo.size()),
+               MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
+  expect_error(modrt_context_get_timings(nullptr, &tm), MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
+  expect_error(modrt_context_get_skip_stats(nullptr, &k), MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
+  expect_error(modrt_context_get_atlas_data(nullptr, &data, &count), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_context_get_atlas_texture(nullptr, &tex, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_context_probe_sh(nullptr, far, MODRT_PROBE_RADIANCE, sh), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_context_read_atlas(nullptr, small.data(), 3), MODRT_ERROR_INVALID_ARGUMENT,
+               {"context is null"});
+  expect_error(modrt_level_get_info(nullptr, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"null"});
+  modrt_context_destroy(nullptr);
+  modrt_level_destroy(nullptr);
+  modrt_dictionary_destroy(nullptr);
+  EXPECT_STREQ(modrt_context_description(nullptr), "");
+
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+TEST(CApi, CppWrapper) {
+  const test::TestLevel& t = test_level("corridor");
+  rt::Dictionary dict;
+  ASSERT_FALSE(
+      rt::Dictionary::load_memory(assets().dictionary.data(), assets().dictionary.size(), "dict", dict));
+  rt::Level level;
+  rt::Error e = rt::Level::load_memory(assets().level.data(), 3, "tiny", level);
+  EXPECT_TRUE(e);
+  EXPECT_EQ(e.code, MODRT_ERROR_FORMAT);
+  EXPECT_NE(e.message.find("tiny"), std::string::npos);
+  ASSERT_FALSE(rt::Level::load_memory(assets("corridor").level.data(), assets("corridor").level.size(),
+                                      "corridor", level));
+  EXPECT_EQ(level.info().sample_count, t.level.sample_count);
+  rt::Context ctx;
+  ASSERT_FALSE(rt::Context::create(dict, level, rt::default_options(), ctx));
+  ASSERT_FALSE(ctx.set_ld(t.ld.data(), t.ld.size()));
+  ASSERT_FALSE(ctx.update());
+  std::vector<float> lightmap(ctx.sizes().lightmap);
+  ASSERT_FALSE(ctx.read_lightmap(lightmap.data(), lightmap.size()));
+  EXPECT_LT(rel_l2(lightmap, level_reference(t.level, t.ld).lightmap), 1e-5);
+  EXPECT_EQ(ctx.atlas_texture(), 0u);
+}
+
+// GLES through the C API on a context the test creates itself (EGL surfaceless, as an app
+// owns its EGL context); modrt loads the entry points with eglGetProcAddress.
+TEST(CApiGles, ContextOnTheCallersEglContext) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.timing = 1;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(std::string(modrt_context_description(c)).rfind("gles", 0), 0u) << modrt_context_description(c);
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  uint32_t tex = 0;
+  int format = -1;
+  ASSERT_EQ(modrt_context_get_atlas_texture(c, &tex, &format), MODRT_OK) << modrt_last_error();
+  EXPECT_NE(tex, 0u);
+  EXPECT_GE(format, 0);
+  const test::LevelReference ref = level_reference(t.level, t.ld);
+  if (format != 1) {  // float16 targets are held to 1e-3 elsewhere; llvmpipe gives float32
+    EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-4);
+    EXPECT_LT(rel_l2(read_atlas(c), ref.atlas), 1e-4);
+    check_probes_at_centres(c, t.level, ref.probes);
+  }
+  const float* data = nullptr;
+  size_t count = 0;
+  expect_error(modrt_context_get_atlas_data(c, &data, &count), MODRT_ERROR_UNSUPPORTED, {"GPU"});
+
+  // Identical ld: the frame is skipped; no allocation per frame.
+  modrt_sizes s;
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  std::vector<float> ld = t.ld, atlas(s.atlas);
+  bool ok = true;
+  g_allocations = 0;
+  g_count_allocations = true;
+  ok &= modrt_context_set_ld(c, ld.data(), ld.size()) == MODRT_OK;
+  ok &= modrt_context_update(c) == MODRT_OK;
+  for (float& v : ld) v *= 0.5f;
+  ok &= modrt_context_set_ld(c, ld.data(), ld.size()) == MODRT_OK;
+  ok &= modrt_context_update(c) == MODRT_OK;
+  ok &= modrt_context_read_atlas(c, atlas.data(), atlas.size()) == MODRT_OK;
+  g_count_allocations = false;
+  EXPECT_TRUE(ok) << modrt_last_error();
+  EXPECT_EQ(g_allocations.load(), 0);
+  modrt_skip_stats k;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_EQ(k.frames, 3u);
+  EXPECT_EQ(k.frames_skipped, 1u);
+  EXPECT_LT(rel_l2(atlas, level_reference(t.level, ld).atlas), 1e-4);
+  modrt_timings tm;
+  ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
+  EXPECT_GT(tm.update_ns, 0u);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+TEST(CApiGles, NoCurrentContextIsANamedError) {
+  // Without any current GL context (a fresh thread), creation fails with a GL error.
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_status st = MODRT_OK;
+  std::string message;
+  std::thread([&] {
+    modrt_context_options o;
+    modrt_context_options_init(&o);
+    o.backend = MODRT_BACKEND_GLES;
+    modrt_context* c = nullptr;
+    st = modrt_context_create(d, l, &o, nullptr, &c);
+    message = modrt_last_error();
+    if (c) modrt_context_destroy(c);
+  }).join();
+  EXPECT_EQ(st, MODRT_ERROR_GL) << modrt_status_name(st) << ": " << message;
+  EXPECT_NE(message.find("modrt_context_create"), std::string::npos) << message;
+  // The message is per thread: this thread's last error is not that one.
+  EXPECT_EQ(std::string(modrt_last_error()).find("GL_VERSION"), std::string::npos);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+}  // namespace
+}  // namespace modrt
