@@ -85,10 +85,11 @@ MODRT_API const char* modrt_version_string(void);
  * size that alloc was asked for. Passing null for the allocator uses malloc/free.
  *
  * Extent (honest): the hook receives every allocation the runtime layer makes itself: the
- * handle objects, the file image read by *_load_file (freed before it returns), and a context's frame buffers
- * (ld, lightmap, atlas, probes, the light list and albedo). The decoded operators of a dictionary or level
- * and the backends' own state (core / cpu / gles C++ objects, GL objects) are allocated with the global
- * operator new of the process. docs/embedding.md lists the byte split for a sample level. */
+ * handle objects, the file image read by *_load_file (freed before it returns), and a
+ * context's frame buffers (ld, lightmap, atlas, probes) and light list. The decoded operators
+ * of a dictionary or level and the backends' own state (core / cpu / gles C++ objects, the
+ * direct-light evaluator, GL objects) are allocated with the global operator new of the
+ * process. docs/embedding.md lists the byte split for a sample level. */
 typedef struct modrt_allocator {
   void* (*alloc)(size_t size, size_t alignment, void* user);
   void (*free)(void* ptr, size_t size, void* user);

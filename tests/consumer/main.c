@@ -1,0 +1,111 @@
+/* An out-of-tree consumer of the installed modrt runtime (scripts/test-install.sh): plain C,
+ * built against the installed package (find_package(modrt) or pkg-config), checks the version,
+ * an error path, and, given a dictionary and a level, loads the level from memory (as an app
+ * does from its bundle), lights it on the CPU and checks the atlas.
+ *
+ *   modrt_consumer [dictionary.modrt level.modrtlevel]
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include <modrt/modrt.h>
+
+#define CHECK(call)                                                                              \
+  do {                                                                                           \
+    modrt_status s_ = (call);                                                                    \
+    if (s_ != MODRT_OK) {                                                                        \
+      fprintf(stderr, "%s failed: %s: %s\n", #call, modrt_status_name(s_), modrt_last_error()); \
+      return 1;                                                                                  \
+    }                                                                                            \
+  } while (0)
+
+static unsigned char* read_all(const char* path, size_t* size) {
+  FILE* f = fopen(path, "rb");
+  if (!f) return NULL;
+  fseek(f, 0, SEEK_END);
+  long n = ftell(f);
+  rewind(f);
+  unsigned char* data = n > 0 ? malloc((size_t)n) : NULL;
+  if (data && fread(data, 1, (size_t)n, f) != (size_t)n) {
+    free(data);
+    data = NULL;
+  }
+  fclose(f);
+  *size = (size_t)n;
+  return data;
+}
+
+int main(int argc, char** argv) {
+  printf("modrt %s\n", modrt_version_string());
+  if (modrt_version() != MODRT_VERSION) {
+    fprintf(stderr, "header version %d, library version %u\n", MODRT_VERSION, modrt_version());
+    return 1;
+  }
+  /* Bad bytes are a named error, not a crash. */
+  const unsigned char junk[16] = {'n', 'o', 't', ' ', 'a', ' ', 'l', 'e', 'v', 'e', 'l'};
+  modrt_level* bad = NULL;
+  modrt_status s = modrt_level_load_memory(junk, sizeof junk, "junk.modrtlevel", NULL, &bad);
+  if (s != MODRT_ERROR_FORMAT || bad != NULL || modrt_last_error()[0] == '\0') {
+    fprintf(stderr, "junk level: expected MODRT_ERROR_FORMAT, got %s (%s)\n", modrt_status_name(s),
+            modrt_last_error());
+    return 1;
+  }
+  printf("junk level refused: %s\n", modrt_last_error());
+  if (argc < 3) return 0;
+
+  modrt_dictionary* dict = NULL;
+  CHECK(modrt_dictionary_load_file(argv[1], NULL, &dict));
+  size_t size = 0;
+  unsigned char* bytes = read_all(argv[2], &size);
+  if (!bytes) {
+    fprintf(stderr, "cannot read %s\n", argv[2]);
+    return 1;
+  }
+  modrt_level* level = NULL;
+  CHECK(modrt_level_load_memory(bytes, size, argv[2], NULL, &level));
+  free(bytes); /* the level keeps no reference to the bytes */
+  modrt_level_info info;
+  CHECK(modrt_level_get_info(level, &info));
+
+  modrt_context_options options;
+  modrt_context_options_init(&options);
+  options.shadows = 0;
+  modrt_context* ctx = NULL;
+  CHECK(modrt_context_create(dict, level, &options, NULL, &ctx));
+  modrt_sizes sizes;
+  CHECK(modrt_context_get_sizes(ctx, &sizes));
+  float* albedo = malloc(sizes.ld * sizeof(float));
+  for (size_t i = 0; i < sizes.ld; ++i) albedo[i] = 0.6f;
+  CHECK(modrt_context_set_albedo(ctx, albedo, sizes.ld));
+  free(albedo);
+  modrt_light sun = {0};
+  sun.type = MODRT_LIGHT_DIRECTIONAL;
+  sun.direction[0] = 0.3f, sun.direction[1] = -1.0f, sun.direction[2] = 0.2f;
+  sun.color[0] = sun.color[1] = sun.color[2] = 1.0f;
+  sun.intensity = 2.0f;
+  CHECK(modrt_context_set_lights(ctx, &sun, 1));
+  CHECK(modrt_context_update(ctx));
+  const float* atlas = NULL;
+  size_t count = 0;
+  CHECK(modrt_context_get_atlas_data(ctx, &atlas, &count));
+  double sum = 0.0;
+  for (size_t i = 0; i < count; ++i) {
+    if (!isfinite(atlas[i])) {
+      fprintf(stderr, "atlas value %zu is not finite\n", i);
+      return 1;
+    }
+    sum += atlas[i];
+  }
+  printf("%s: %u blocks, %u samples, atlas %ux%u, mean atlas value %g (%s)\n", argv[2], info.block_count,
+         info.sample_count, sizes.atlas_width, sizes.atlas_height, sum / (double)count,
+         modrt_context_description(ctx));
+  if (!(sum > 0.0)) {
+    fprintf(stderr, "the lit atlas is black\n");
+    return 1;
+  }
+  modrt_context_destroy(ctx);
+  modrt_level_destroy(level);
+  modrt_dictionary_destroy(dict);
+  return 0;
+}
