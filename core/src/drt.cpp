@@ -7,6 +7,7 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "modrt/level_runtime.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt {
@@ -238,6 +239,33 @@ void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
     }
     texel0 += o.texel_count;
   }
+}
+
+Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict, const DrtOperators& drt,
+                                           std::span<const float> ld_direct, std::span<const float> albedo,
+                                           std::span<const float> c, const MultiBounceSettings& settings,
+                                           std::span<float> b, std::span<float> r, std::span<float> lightmap) {
+  if (c.size() != drt_buffer_sizes(drt).c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
+  Result<FeedbackClamp> clamp = prepare_feedback(ld_direct, albedo, level.sample_count, settings);
+  if (!clamp.ok()) return clamp.status();
+  MultiBounceReport report;
+  report.albedo_clamped = clamp->albedo_clamped;
+  report.energy_bound = clamp->energy_bound;
+  std::vector<float> ld(ld_direct.begin(), ld_direct.end()), b_prev(b.size());
+  if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
+  drt_apply(level, drt, b, c, lightmap);
+  for (int it = 1; it <= settings.max_iterations; ++it) {
+    report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
+    std::copy(b.begin(), b.end(), b_prev.begin());
+    if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
+    drt_apply(level, drt, b, c, lightmap);
+    report.iterations = it;
+    if (feedback_converged(b, b_prev, settings.tolerance)) {
+      report.converged = true;
+      break;
+    }
+  }
+  return report;
 }
 
 }  // namespace modrt

@@ -1,35 +1,67 @@
 #include "modrt/cpu/cpu_backend.h"
 
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "modrt/cpu/cpu_drt.h"
+#include "modrt/cpu/kernels.h"
 
 namespace modrt::cpu {
 namespace {
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(CpuLevelRuntime runtime)
-      : rt_(std::move(runtime)),
+  CpuBackend(const Level& level, CpuLevelRuntime runtime)
+      : level_(level),
+        rt_(std::move(runtime)),
         description_(std::string("cpu ") + isa_name(rt_.isa())),
         lightmap_(rt_.sizes().lightmap, 0.0f),
         atlas_(rt_.sizes().atlas, 0.0f),
-        probes_(rt_.sizes().probes, 0.0f) {}
+        probes_(rt_.sizes().probes, 0.0f),
+        rho_(rt_.sizes().ld, 0.0f) {}
 
   BackendKind kind() const override { return BackendKind::cpu; }
   const char* description() const override { return description_.c_str(); }
   const LevelBufferSizes& sizes() const override { return rt_.sizes(); }
 
   Status update(std::span<const float> ld) override {
+    if (drt_) {
+      if (Status s = rt_.evaluate(ld, base_); !s.ok()) return s;
+      return finish_drt();
+    }
     if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
     return finish();
   }
   Status set_albedo(std::span<const float> albedo, float max_albedo) override {
-    return rt_.set_albedo(albedo, max_albedo);
+    if (Status s = rt_.set_albedo(albedo, max_albedo); !s.ok()) return s;
+    // The clutter path runs the feedback itself (see multi_bounce_step), so it keeps the same
+    // clamped albedo as the level runtime.
+    rho_max_ = 0.0f;
+    for (std::size_t i = 0; i < albedo.size(); ++i) {
+      rho_[i] = std::min(albedo[i], max_albedo);
+      rho_max_ = std::max(rho_max_, rho_[i]);
+    }
+    has_albedo_ = true;
+    return Status::success();
   }
   Status multi_bounce_step(std::span<const float> ld_direct) override {
     if (!updated_)
       return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call update first");
+    if (drt_) {
+      // The feedback reads the lightmap with the DRT delta, but the level runtime must write
+      // the MRT part into base_: with skipping on it keeps unchanged tiles in place, and
+      // lightmap_'s would carry last frame's delta. Same kernel as CpuLevelRuntime's step.
+      if (!has_albedo_)
+        return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call set_albedo first");
+      if (Status s = validate_light_signal(ld_direct, lightmap_.size() / 3, "ld_direct"); !s.ok()) return s;
+      const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
+      feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(), ld_max / (1.0f - rho_max_),
+                   ld_feedback_.data(), ld_direct.size());
+      if (Status s = rt_.evaluate(ld_feedback_, base_); !s.ok()) return s;
+      return finish_drt();
+    }
     if (Status s = rt_.multi_bounce_step(ld_direct, lightmap_); !s.ok()) return s;
     return finish();
   }
@@ -46,11 +78,62 @@ class CpuBackend final : public Backend {
     return rt_.compute_vector_irradiance(out);
   }
 
+  Status set_clutter(const DrtOperators* drt) override {
+    if (!drt || drt->empty()) {
+      drt_.reset();
+      drt_sizes_ = {};
+      base_ = {}, c_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {}, ld_feedback_ = {};
+      updated_ = false;
+      return Status::success();
+    }
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level_, *drt, rt_.isa());
+    if (!rt.ok()) return rt.status();
+    drt_.emplace(std::move(rt).value());
+    drt_sizes_ = drt_->sizes();
+    base_.assign(lightmap_.size(), 0.0f);
+    ld_feedback_.assign(lightmap_.size(), 0.0f);
+    c_.assign(drt_sizes_.c, 0.0f);
+    clutter_ld_.assign(drt_sizes_.clutter_ld, 0.0f);
+    clutter_direct_.clear();
+    clutter_lightmap_.assign(drt_sizes_.clutter_lightmap, 0.0f);
+    updated_ = false;  // the results on hand are without this clutter
+    return Status::success();
+  }
+  Status set_clutter_light(std::span<const float> clutter_ld,
+                           std::span<const float> clutter_direct) override {
+    if (!drt_) return Status::error(ErrorCode::invalid_argument, "cpu: set_clutter_light: no clutter set");
+    const std::size_t n = drt_sizes_.clutter_ld;
+    if (clutter_ld.size() != n || (!clutter_direct.empty() && clutter_direct.size() != n))
+      return Status::error(ErrorCode::invalid_argument,
+                           "cpu: set_clutter_light: clutter_ld has " + std::to_string(clutter_ld.size()) +
+                               " floats and clutter_direct " + std::to_string(clutter_direct.size()) +
+                               ", expected " + std::to_string(n) + " (clutter_direct may be empty)");
+    if (Status s = validate_light_signal(clutter_ld, n / 3, "clutter_ld"); !s.ok()) return s;
+    if (!clutter_direct.empty())
+      if (Status s = validate_light_signal(clutter_direct, n / 3, "clutter_direct"); !s.ok()) return s;
+    clutter_ld_.assign(clutter_ld.begin(), clutter_ld.end());
+    clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
+    return drt_->compute_c(clutter_ld_, c_);
+  }
+  const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
+  Status read_clutter_lightmap(std::span<float> out) override {
+    if (!drt_)
+      return Status::error(ErrorCode::invalid_argument, "cpu: read_clutter_lightmap: no clutter set");
+    return copy("clutter lightmap", clutter_lightmap_, out);
+  }
+
  private:
   Status finish() {
     updated_ = true;
     if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
     return probes_.empty() ? Status::success() : rt_.compute_probes(probes_);
+  }
+  // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap.
+  Status finish_drt() {
+    std::copy(base_.begin(), base_.end(), lightmap_.begin());
+    if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
+    if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
+    return finish();
   }
   Status copy(const char* what, const std::vector<float>& from, std::span<float> to) const {
     if (to.size() != from.size())
@@ -62,10 +145,19 @@ class CpuBackend final : public Backend {
     return Status::success();
   }
 
+  const Level& level_;
   CpuLevelRuntime rt_;
   std::string description_;
   std::vector<float> lightmap_, atlas_, probes_;
   bool updated_ = false;
+  // DRT (only with clutter): the MRT lightmap the level runtime writes, c, the clutter's light
+  // and lightmap, the feedback ld; the albedo as clamped by set_albedo.
+  std::optional<CpuDrtRuntime> drt_;
+  DrtBufferSizes drt_sizes_;
+  std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_, ld_feedback_;
+  std::vector<float> rho_;
+  float rho_max_ = 0.0f;
+  bool has_albedo_ = false;
 };
 
 }  // namespace
@@ -74,7 +166,7 @@ Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Di
                                                     const CpuRuntimeOptions& options) {
   Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict, options);
   if (!rt.ok()) return rt.status();
-  return std::unique_ptr<Backend>(new CpuBackend(std::move(rt).value()));
+  return std::unique_ptr<Backend>(new CpuBackend(level, std::move(rt).value()));
 }
 
 }  // namespace modrt::cpu

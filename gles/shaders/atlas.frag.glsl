@@ -12,6 +12,9 @@ uniform isampler2D u_sample_rows;   // per sample: the Ur row of each of those s
 uniform isampler2D u_block_info;    // per block: (shape, sample_offset, sample_count, 0)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
+#if DRT
+uniform usampler2D u_delta;  // per sample: dUb b + dUc c (drt_delta.frag), RGB
+#endif
 layout(location = 0) out OUTPUT_TYPE o_color;
 
 void main() {
@@ -28,6 +31,9 @@ void main() {
       if (slots[k] < 0) break;
       acc += dot_rgb(u_ur, rows[k] * R_GROUPS, u_r_red, u_r_green, u_r_blue, slots[k] * R_GROUPS, R_GROUPS);
     }
+#if DRT
+    acc += load_signal(u_delta, s).rgb;  // SPEC §5 step 7, after steps 3 and 5 as in core
+#endif
   }
   o_color = store_output(vec4(acc, 1.0));
 }

@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "gl_objects.h"
+#include "gles_drt.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt::gles {
@@ -42,7 +43,7 @@ namespace {
 constexpr int kBChunk = 64;
 
 // Timer scopes, one per pass.
-enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kVector, kScopeCount };
+enum Scope { kUpload, kFeedback, kB, kR, kAtlas, kProbes, kVector, kDrt, kClutter, kScopeCount };
 
 int groups_of(std::size_t modes) { return int((modes + 3) / 4); }
 
@@ -81,6 +82,7 @@ GlesLevelRuntime::GlesLevelRuntime(const platform::GlFunctions& gl) : gl_(gl) {}
 
 GlesLevelRuntime::~GlesLevelRuntime() {
   timer_.reset();
+  drt_.reset();
   for (GLuint p : programs_) gl_.glDeleteProgram(p);
   if (!framebuffers_.empty()) gl_.glDeleteFramebuffers(GLsizei(framebuffers_.size()), framebuffers_.data());
   if (!textures_.empty()) gl_.glDeleteTextures(GLsizei(textures_.size()), textures_.data());
@@ -148,6 +150,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   }
   const GLenum output_format = output_internal_format(target_);
   const GLenum op_format = options.operators == OperatorFormat::float16 ? GL_RGBA16F : GL_RGBA32F;
+  output_format_ = output_format;
+  operator_format_ = op_format;
   description_ = std::string("gles ") + target_format_name(target_) + " targets, " +
                  operator_format_name(options.operators) + " operators" +
                  (has_vector_ ? ", vector irradiance" : "");
@@ -420,6 +424,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define VECTOR_ROWS " +
       std::to_string(vector_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) + "\n#define B_CHUNKS " +
       std::to_string(b_chunks_) + "\n";
+  defines_ = defines;
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
   auto program = [&](const char* name, const std::string& head, const char* fragment,
@@ -450,7 +455,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   assign_sampler_units(gl_, prog_r_.id,
                        {"u_t", "u_slot_info", "u_record_block", "u_b_red", "u_b_green", "u_b_blue"});
   set_int(gl_, prog_r_.id, "u_count", int(slots) * r_groups_ * groups_);
-  if (Status s = program("atlas.frag", defines, kAtlasFrag, prog_atlas_); !s.ok()) return s;
+  if (Status s = program("atlas.frag", defines + "#define DRT 0\n", kAtlasFrag, prog_atlas_); !s.ok())
+    return s;
   assign_sampler_units(
       gl_, prog_atlas_.id,
       {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
@@ -612,6 +618,13 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   end_pass(kR);
   if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
 
+  if (drt_) {  // SPEC §5 step 7: the delta the atlas pass adds
+    begin_pass(kDrt);
+    drt_->run_scene(b_.textures);
+    end_pass(kDrt);
+    if (Status s = check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)"); !s.ok()) return s;
+  }
+
   begin_pass(kAtlas);
   if (partial.atlas) {
     rects_.clear();
@@ -620,10 +633,16 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
         rects_.insert(rects_.end(), tile_rects_.begin() + block_tile_begin_[i],
                       tile_rects_.begin() + block_tile_begin_[i + 1]);
   }
-  draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
-       {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
-        b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-       partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+  if (drt_)
+    draw(prog_atlas_drt_, atlas_.framebuffer, atlas_.width, atlas_.height,
+         {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
+          b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2],
+          drt_->delta_texture()});
+  else
+    draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
+         {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
+          b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
+         partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   end_pass(kAtlas);
   if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
 
@@ -647,6 +666,12 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     end_pass(kProbes);
     if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
   }
+  if (drt_) {  // DRT §4.3
+    begin_pass(kClutter);
+    drt_->run_clutter(b_.textures);
+    end_pass(kClutter);
+    if (Status s = check("clutter atlas pass (Uc Vc b + direct)"); !s.ok()) return s;
+  }
   gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   gl_.glUseProgram(0);
   gl_.glBindVertexArray(0);
@@ -659,6 +684,8 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     times_.atlas = timer_->elapsed_ns(kAtlas);
     times_.probes = has_probes_ ? timer_->elapsed_ns(kProbes) : 0;
     times_.vector = has_vector_ ? timer_->elapsed_ns(kVector) : 0;
+    times_.drt = drt_ ? timer_->elapsed_ns(kDrt) : 0;
+    times_.clutter = drt_ ? timer_->elapsed_ns(kClutter) : 0;
     timer_->reset();
   }
   return Status::success();
@@ -667,7 +694,8 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
 Status GlesLevelRuntime::update(std::span<const float> ld) {
   if (Status s = validate_light_signal(ld, level_->sample_count, "ld"); !s.ok()) return s;
   const Level& level = *level_;
-  const bool full = force_full_ || !options_.skip_unchanged;
+  // A new clutter light changes c (and so the delta) whatever ld does.
+  const bool full = force_full_ || !options_.skip_unchanged || drt_light_changed_;
   std::size_t dirty = 0;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
@@ -702,7 +730,9 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   Partial pass;
   pass.b = partial;
   pass.r = partial && double(count(dirty_slot_)) <= fraction * double(level.slots.size());
-  pass.atlas = partial && double(count(dirty_atlas_)) <= fraction * double(level.blocks.size());
+  // With clutter the delta of a sample reads other blocks' b (shadows across openings): the
+  // atlas is redrawn whole.
+  pass.atlas = partial && !drt_ && double(count(dirty_atlas_)) <= fraction * double(level.blocks.size());
   if (!pass.r) std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
   if (!pass.atlas) std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
 
@@ -722,6 +752,7 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   if (Status s = check("uploading ld"); !s.ok()) return s;
   if (Status s = run_passes(false, pass); !s.ok()) return s;
   force_full_ = false;
+  drt_light_changed_ = false;
   ++stats_.frames;
   stats_.frames_partial += partial;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
@@ -865,6 +896,66 @@ Status GlesLevelRuntime::read_vector_lightmap(std::span<float> vector_lightmap) 
         vector_lightmap[3 * (4 * s + std::size_t(i)) + c] = readback_[4 * std::size_t(texel[s]) + c];
   }
   return Status::success();
+}
+
+Status GlesLevelRuntime::set_clutter(const DrtOperators* drt) {
+  if (!drt || drt->empty()) {
+    drt_.reset();
+    drt_sizes_ = {};
+    force_full_ = true;
+    updated_ = false;  // the results on hand include the old clutter
+    return Status::success();
+  }
+  if (Status s = check_drt_operators(*level_, *drt); !s.ok()) return s;
+  if (!prog_atlas_drt_.id) {
+    const std::string head = defines_ + "#define DRT 1\n";
+    Result<GLuint> p = build_program(gl_, "atlas.frag (DRT)", {"#version 300 es\n", kFullscreenVert},
+                                     {head.c_str(), kCommon, kAtlasFrag});
+    if (!p.ok()) return p.status();
+    prog_atlas_drt_.id = p.value();
+    programs_.push_back(p.value());
+    gl_.glUseProgram(p.value());
+    assign_sampler_units(
+        gl_, p.value(),
+        {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
+         "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue", "u_delta"});
+    gl_.glUseProgram(0);
+  }
+  GlesDrtSetup setup;
+  setup.defines = &defines_;
+  setup.operator_format = operator_format_;
+  setup.output_format = output_format_;
+  setup.output_format_name = target_format_name(target_);
+  setup.output_bits = target_ == TargetFormat::bits32;
+  setup.max_texture_size = max_texture_size_;
+  Result<std::unique_ptr<GlesDrt>> created = GlesDrt::create(gl_, *level_, *drt, setup);
+  if (!created.ok()) return created.status();
+  drt_ = std::move(created).value();
+  drt_sizes_ = drt_->sizes();
+  force_full_ = true;
+  updated_ = false;
+  return check("creating the DRT passes");
+}
+
+Status GlesLevelRuntime::set_clutter_light(std::span<const float> clutter_ld,
+                                           std::span<const float> clutter_direct) {
+  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: set_clutter_light: no clutter set");
+  if (Status s = drt_->set_light(clutter_ld, clutter_direct); !s.ok()) return s;
+  drt_light_changed_ = true;
+  return check("uploading the clutter light");
+}
+
+Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap) {
+  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_lightmap: no clutter set");
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  if (Status s = drt_->read_clutter_lightmap(clutter_lightmap); !s.ok()) return s;
+  return check("reading back the clutter atlas");
+}
+
+GLuint GlesLevelRuntime::clutter_texture() const { return drt_ ? drt_->clutter_texture() : 0; }
+
+std::array<int, 2> GlesLevelRuntime::clutter_atlas_texel(std::size_t object, std::uint32_t t) const {
+  return drt_ ? drt_->clutter_texel(object, t) : std::array<int, 2>{-1, -1};
 }
 
 }  // namespace modrt::gles

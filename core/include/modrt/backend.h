@@ -13,6 +13,7 @@
 
 #include <span>
 
+#include "modrt/drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/status.h"
 
@@ -53,6 +54,28 @@ class Backend {
   // floats): four OHLSH coefficients x RGB per sample, for normal-mapped surfaces. Fails when
   // the dictionary has no vector operators or the backend was created without them.
   virtual Status read_vector_lightmap(std::span<float> vector_lightmap) = 0;
+
+  // DRT (SPEC §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
+  // set_clutter() checks the operators against the level (check_drt_operators) and borrows
+  // them until the next set_clutter() or the backend's end; nullptr or empty operators remove
+  // the clutter, and a backend without clutter (the default) runs no DRT work and allocates
+  // nothing for it. With clutter, every update() and multi_bounce_step() also computes
+  //   c = Td_c clutter_ld, lightmap += dUb b + dUc c (atlas and padding included),
+  //   clutter lightmap = Cb b + clutter_direct,
+  // and the multi-bounce feedback reads the lightmap with the delta (core's drt_multi_bounce;
+  // c is not fed back). The vector irradiance and the probes get no DRT term.
+  virtual Status set_clutter(const DrtOperators* drt) = 0;
+  // The clutter's light for the following updates (3 floats per clutter texel, clutter_sizes()
+  // .clutter_ld): clutter_ld is what Td_c reads (drt_compute_c), clutter_direct what the clutter
+  // lightmap adds (empty: nothing). Zero until set. Rejects NaN, Inf, negative values and
+  // wrong sizes; then nothing changes. Takes effect at the next update().
+  virtual Status set_clutter_light(std::span<const float> clutter_ld,
+                                   std::span<const float> clutter_direct) = 0;
+  // drt_buffer_sizes of the current clutter (all zero without).
+  virtual const DrtBufferSizes& clutter_sizes() const = 0;
+  // The clutter lightmap of the last update (clutter_sizes().clutter_lightmap floats, core's
+  // drt_clutter_lightmap layout). Fails without clutter.
+  virtual Status read_clutter_lightmap(std::span<float> clutter_lightmap) = 0;
 
  protected:
   Backend() = default;

@@ -30,6 +30,7 @@
 
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
+#include "modrt/reference_runtime.h"
 
 namespace modrt {
 
@@ -134,5 +135,15 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
 void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
                           std::span<const float> clutter_direct, std::span<float> out);
+
+// Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
+// evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT
+// delta (shadows and clutter light bounce on). c stays that of the clutter's direct light
+// (drt_compute_c): the clutter's indirect light is not fed back. The oracle for the backends'
+// multi_bounce_step with clutter; allocates per call.
+Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict, const DrtOperators& drt,
+                                           std::span<const float> ld_direct, std::span<const float> albedo,
+                                           std::span<const float> c, const MultiBounceSettings& settings,
+                                           std::span<float> b, std::span<float> r, std::span<float> lightmap);
 
 }  // namespace modrt

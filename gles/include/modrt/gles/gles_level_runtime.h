@@ -12,6 +12,9 @@
 //   vector.frag Ub_vec b + turned Ur_vec r into four atlas-sized targets, one OHLSH
 //               coefficient each (GlesRuntimeOptions::vector_irradiance)
 //   feedback.frag ld = ld_direct + rho min(max(atlas, 0), bound) (multi_bounce_step only)
+//   drt_*.frag  with clutter only (set_clutter; gles_drt.h): c = Td_c clutter_ld and the
+//               per-sample delta dUb b + dUc c before the atlas pass, which adds it; the
+//               clutter atlas Uc (Vc b) + clutter direct light after it
 // Shaders are strictly "#version 300 es" with no extension required.
 //
 // Intermediate signals (b, r, feedback ld) are RGBA32UI render targets holding float bit
@@ -85,7 +88,10 @@ struct GlesSkipStats {
 // Per-pass time of the last update()/multi_bounce_step(), nanoseconds, when timing is on.
 struct GlesPassTimes {
   std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0, vector = 0;
+  std::uint64_t drt = 0, clutter = 0;  // c + delta passes, clutter atlas passes (with clutter only)
 };
+
+class GlesDrt;
 
 class GlesLevelRuntime final : public Backend {
  public:
@@ -111,6 +117,19 @@ class GlesLevelRuntime final : public Backend {
   Status read_atlas(std::span<float> atlas) override;
   Status read_probes(std::span<float> probes) override;
   Status read_vector_lightmap(std::span<float> vector_lightmap) override;
+  // DRT (Backend::set_clutter). With clutter, the atlas pass adds the delta and the atlas is
+  // always redrawn whole (a delta can change where ld did not); a change of the clutter's
+  // light alone is not a skipped frame.
+  Status set_clutter(const DrtOperators* drt) override;
+  Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
+  const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
+  Status read_clutter_lightmap(std::span<float> clutter_lightmap) override;
+  // The clutter atlas (the atlas's format; RGB in .rgb), 0 without clutter. Object k's texels
+  // fill a band of rows: with m = f res^2 (boxes) its f faces side by side, res x res each,
+  // texel (i, j) of its n-th lit face at (n res + i, y_k + j); otherwise rows of 256 texels.
+  // clutter_atlas_texel gives the position of texel t of object k.
+  GLuint clutter_texture() const;
+  std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const;
 
   TargetFormat target_format() const { return target_; }
   // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
@@ -175,6 +194,12 @@ class GlesLevelRuntime final : public Backend {
 
   const platform::GlFunctions& gl_;
   const Level* level_ = nullptr;
+  // DRT: null without clutter. The atlas program with the delta is built on first use.
+  std::unique_ptr<GlesDrt> drt_;
+  DrtBufferSizes drt_sizes_;
+  bool drt_light_changed_ = false;
+  std::string defines_;
+  GLenum operator_format_ = 0, output_format_ = 0;
   const Dictionary* dict_ = nullptr;
   LevelBufferSizes sizes_;
   TargetFormat target_ = TargetFormat::float32;
@@ -200,7 +225,7 @@ class GlesLevelRuntime final : public Backend {
   float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
-      prog_probes_, prog_vector_;
+      prog_probes_, prog_vector_, prog_atlas_drt_;
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
   // creation; rects_ has capacity for every item so that no frame allocates.

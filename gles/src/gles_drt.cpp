@@ -1,0 +1,330 @@
+#include "gles_drt.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "gl_objects.h"
+#include "modrt/reference_runtime.h"
+
+namespace modrt::gles {
+
+// Shader sources, generated from gles/shaders/*.glsl by cmake/EmbedShaders.cmake.
+extern const char* const kCommon;
+extern const char* const kFullscreenVert;
+extern const char* const kDrtCFrag;
+extern const char* const kDrtDeltaFrag;
+extern const char* const kDrtVcFrag;
+extern const char* const kDrtClutterFrag;
+
+namespace {
+
+std::size_t quads(std::size_t n) { return (n + 3) / 4; }
+
+Status wrong_size(const char* what, std::size_t got, std::size_t expected) {
+  return Status::error(ErrorCode::invalid_argument, std::string("gles drt: ") + what + ": has " +
+                                                        std::to_string(got) + " floats, expected " +
+                                                        std::to_string(expected));
+}
+
+// Clutter atlas rows of an object whose texels are not res x res faces: rows this wide.
+constexpr int kRowTexels = 256;
+
+}  // namespace
+
+GlesDrt::~GlesDrt() {
+  for (GLuint p : programs_) gl_.glDeleteProgram(p);
+  if (!framebuffers_.empty()) gl_.glDeleteFramebuffers(GLsizei(framebuffers_.size()), framebuffers_.data());
+  if (!textures_.empty()) gl_.glDeleteTextures(GLsizei(textures_.size()), textures_.data());
+}
+
+std::array<int, 2> GlesDrt::clutter_texel(std::size_t object, std::uint32_t t) const {
+  const Placement& p = placement_[object];
+  if (p.tiles) {
+    const std::uint32_t r = std::uint32_t(p.res), face = t / (r * r), rest = t % (r * r);
+    return {int(face * r + rest % r), p.y + int(rest / r)};
+  }
+  return {int(t % std::uint32_t(p.width)), p.y + int(t / std::uint32_t(p.width))};
+}
+
+Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl, const Level& level,
+                                                 const DrtOperators& drt, const GlesDrtSetup& setup) {
+  std::unique_ptr<GlesDrt> d(new GlesDrt(gl));
+  d->drt_ = &drt;
+  d->sizes_ = drt_buffer_sizes(drt);
+  d->output_bits_ = setup.output_bits;
+  const std::size_t kb = level.kb, G = quads(kb), samples = level.sample_count;
+
+  // ---- operators and tables (layouts: gles/README.md, "DRT") ----
+  std::vector<float> td_c, dub, duc, vc, uc;
+  std::vector<std::int32_t> face_info, mode_info, cb_blocks;
+  struct Entry {
+    std::uint32_t sample;
+    std::array<std::int32_t, 4> value;
+  };
+  std::vector<Entry> entries;
+  std::vector<std::array<std::int32_t, 4>> texel_values;  // per clutter texel: the map's value
+  std::size_t texel0 = 0, face0 = 0, mode0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    const std::size_t m = o.texel_count, f = o.face_count, modes = o.Uc.cols;
+    d->texel0_.push_back(texel0);
+    for (std::size_t r = 0; r < f; ++r) {  // DRT §4.2
+      const std::size_t base = td_c.size() / 4;
+      td_c.resize(td_c.size() + 4 * quads(m), 0.0f);
+      for (std::size_t t = 0; t < m; ++t) td_c[4 * base + t] = o.Td_c(std::uint32_t(r), std::uint32_t(t));
+      face_info.insert(face_info.end(), {std::int32_t(base), std::int32_t(texel0), std::int32_t(m), 0});
+    }
+    for (std::size_t r = 0; r < o.dUb_sample.size(); ++r) {  // DRT §4.1
+      const std::size_t base = dub.size() / 4;
+      dub.resize(dub.size() + 4 * G, 0.0f);
+      for (std::size_t k = 0; k < kb; ++k) dub[4 * base + k] = o.dUb(std::uint32_t(r), std::uint32_t(k));
+      entries.push_back({o.dUb_sample[r], {std::int32_t(base), std::int32_t(o.dUb_block[r]), 0, 0}});
+    }
+    for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {  // DRT §4.2
+      const std::size_t base = duc.size() / 4;
+      duc.resize(duc.size() + 4 * quads(f), 0.0f);
+      for (std::size_t k = 0; k < f; ++k) duc[4 * base + k] = o.dUc(std::uint32_t(r), std::uint32_t(k));
+      entries.push_back({o.dUc_sample[r], {std::int32_t(base), std::int32_t(face0), std::int32_t(f), 1}});
+    }
+    const std::size_t nb = o.Cb_blocks.size(), cb0 = cb_blocks.size() / 4;
+    for (std::uint32_t blk : o.Cb_blocks) cb_blocks.insert(cb_blocks.end(), {std::int32_t(blk), 0, 0, 0});
+    for (std::size_t q = 0; q < modes; ++q) {  // DRT §4.3
+      const std::size_t base = vc.size() / 4;
+      vc.resize(vc.size() + 4 * nb * G, 0.0f);
+      for (std::size_t blk = 0; blk < nb; ++blk)
+        for (std::size_t k = 0; k < kb; ++k)
+          vc[4 * (base + blk * G) + k] = o.Vc(std::uint32_t(q), std::uint32_t(blk * kb + k));
+      mode_info.insert(mode_info.end(), {std::int32_t(base), std::int32_t(cb0), std::int32_t(nb), 0});
+    }
+    for (std::size_t t = 0; t < m; ++t) {
+      const std::size_t base = uc.size() / 4;
+      uc.resize(uc.size() + 4 * quads(modes), 0.0f);
+      for (std::size_t q = 0; q < modes; ++q) uc[4 * base + q] = o.Uc(std::uint32_t(t), std::uint32_t(q));
+      texel_values.push_back(
+          {std::int32_t(texel0 + t), std::int32_t(base), std::int32_t(mode0), std::int32_t(modes)});
+    }
+    texel0 += m;
+    face0 += f;
+    mode0 += modes;
+  }
+  d->faces_ = int(face0);
+  d->modes_ = int(mode0);
+  // Entries grouped by sample (stable: the objects' order), one range per sample.
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const Entry& a, const Entry& b) { return a.sample < b.sample; });
+  std::vector<std::int32_t> sample_entries(4 * std::max<std::size_t>(samples, 1), 0), entry_table;
+  for (std::size_t e = 0; e < entries.size(); ++e) {
+    std::int32_t* range = &sample_entries[4 * std::size_t(entries[e].sample)];
+    if (range[1]++ == 0) range[0] = std::int32_t(e);
+    entry_table.insert(entry_table.end(), entries[e].value.begin(), entries[e].value.end());
+  }
+
+  // ---- clutter atlas placement: an object per band of rows ----
+  int atlas_w = 1, atlas_h = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    Placement p;
+    p.y = atlas_h;
+    const std::size_t m = o.texel_count, f = o.face_count;
+    const int res = f > 0 ? int(std::lround(std::sqrt(double(m) / double(f)))) : 0;
+    p.tiles = res > 0 && std::size_t(res) * std::size_t(res) * f == m;
+    p.res = res;
+    p.width = p.tiles ? int(f) * res : int(std::clamp<std::size_t>(m, 1, kRowTexels));
+    const int height = p.tiles ? res : int((m + std::size_t(p.width) - 1) / std::size_t(p.width));
+    atlas_w = std::max(atlas_w, p.width);
+    atlas_h += height;
+    d->placement_.push_back(p);
+  }
+  atlas_h = std::max(atlas_h, 1);
+  if (atlas_w > setup.max_texture_size || atlas_h > setup.max_texture_size)
+    return Status::error(ErrorCode::resource_limit,
+                         "gles drt: the clutter atlas (" + std::to_string(atlas_w) + " x " +
+                             std::to_string(atlas_h) + ") exceeds GL_MAX_TEXTURE_SIZE " +
+                             std::to_string(setup.max_texture_size) + ": too much clutter for one texture");
+  std::vector<std::int32_t> texel_map(4 * std::size_t(atlas_w) * std::size_t(atlas_h), -1);
+  for (std::size_t i = 0, t = 0; i < drt.objects.size(); ++i)
+    for (std::uint32_t k = 0; k < drt.objects[i].texel_count; ++k, ++t) {
+      const std::array<int, 2> xy = d->clutter_texel(i, k);
+      std::copy(texel_values[t].begin(), texel_values[t].end(),
+                texel_map.begin() + 4 * (std::ptrdiff_t(xy[1]) * atlas_w + xy[0]));
+    }
+
+  // ---- textures ----
+  Status limit;
+  auto linear_texture = [&](const char* name, GLenum format, std::size_t texels) -> GLuint {
+    const int rows = linear_rows(texels);
+    if (rows > setup.max_texture_size && limit.ok())
+      limit = Status::error(ErrorCode::resource_limit,
+                            std::string("gles drt: ") + name + " needs " + std::to_string(rows) +
+                                " rows, over GL_MAX_TEXTURE_SIZE " + std::to_string(setup.max_texture_size));
+    const GLuint tex =
+        create_texture(gl, format, kLinearWidth, std::min(rows, std::max(setup.max_texture_size, 1)));
+    d->textures_.push_back(tex);
+    return tex;
+  };
+  auto float_table = [&](const char* name, std::vector<float>& data) {
+    if (data.empty()) data.assign(4, 0.0f);
+    const GLuint tex = linear_texture(name, setup.operator_format, data.size() / 4);
+    if (limit.ok()) upload_linear(gl, tex, GL_RGBA, GL_FLOAT, 4, data.data(), data.size() / 4, sizeof(float));
+    return tex;
+  };
+  auto int_table = [&](const char* name, std::vector<std::int32_t>& data) {
+    if (data.empty()) data.assign(4, 0);
+    const GLuint tex = linear_texture(name, GL_RGBA32I, data.size() / 4);
+    if (limit.ok())
+      upload_linear(gl, tex, GL_RGBA_INTEGER, GL_INT, 4, data.data(), data.size() / 4, sizeof(std::int32_t));
+    return tex;
+  };
+  d->td_c_ = float_table("Td_c", td_c);
+  d->dub_ = float_table("dUb", dub);
+  d->duc_ = float_table("dUc", duc);
+  d->vc_ = float_table("Vc", vc);
+  d->uc_ = float_table("Uc", uc);
+  d->face_info_ = int_table("clutter face table", face_info);
+  d->sample_entries_ = int_table("DRT sample table", sample_entries);
+  d->entries_ = int_table("DRT row table", entry_table);
+  d->mode_info_ = int_table("Cb mode table", mode_info);
+  d->cb_blocks_ = int_table("Cb block list", cb_blocks);
+  d->clutter_ld_ = linear_texture("clutter_ld", GL_RGB32F, d->sizes_.clutter_texels);
+  d->clutter_direct_ = linear_texture("clutter direct light", GL_RGB32F, d->sizes_.clutter_texels);
+  if (!limit.ok()) return limit;
+  d->texel_map_ = create_texture(gl, GL_RGBA32I, atlas_w, atlas_h);
+  d->textures_.push_back(d->texel_map_);
+  gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas_w, atlas_h, GL_RGBA_INTEGER, GL_INT, texel_map.data());
+  // Zero light until set_light (Backend: "zero until set").
+  d->zeros_.assign(d->sizes_.clutter_ld, 0.0f);
+  upload_linear(gl, d->clutter_ld_, GL_RGB, GL_FLOAT, 3, d->zeros_.data(), d->sizes_.clutter_texels,
+                sizeof(float));
+  upload_linear(gl, d->clutter_direct_, GL_RGB, GL_FLOAT, 3, d->zeros_.data(), d->sizes_.clutter_texels,
+                sizeof(float));
+
+  // ---- targets ----
+  auto target = [&](const char* name, int width, int height, GLenum format, const char* format_name,
+                    Target& out) -> Status {
+    if (height > setup.max_texture_size)
+      return Status::error(ErrorCode::resource_limit,
+                           std::string("gles drt: ") + name + " exceeds GL_MAX_TEXTURE_SIZE");
+    out.width = width;
+    out.height = height;
+    out.texture = create_texture(gl, format, width, height);
+    d->textures_.push_back(out.texture);
+    Result<GLuint> fb = create_framebuffer(gl, name, {out.texture}, format_name);
+    if (!fb.ok()) return fb.status();
+    out.framebuffer = fb.value();
+    d->framebuffers_.push_back(fb.value());
+    return Status::success();
+  };
+  if (Status s = target("c", kLinearWidth, linear_rows(face0), GL_RGBA32UI, "RGBA32UI", d->c_); !s.ok())
+    return s;
+  if (Status s = target("DRT delta", kLinearWidth, linear_rows(samples), GL_RGBA32UI, "RGBA32UI", d->delta_);
+      !s.ok())
+    return s;
+  if (Status s = target("Vc b", kLinearWidth, linear_rows(mode0), GL_RGBA32UI, "RGBA32UI", d->y_); !s.ok())
+    return s;
+  if (Status s = target("clutter atlas", atlas_w, atlas_h, setup.output_format, setup.output_format_name,
+                        d->clutter_);
+      !s.ok())
+    return s;
+  d->readback_.assign(4 * std::size_t(atlas_w) * std::size_t(atlas_h), 0.0f);
+
+  // ---- programs ----
+  auto program = [&](const char* name, const char* fragment, GLuint& out,
+                     std::initializer_list<const char*> samplers, int count) -> Status {
+    Result<GLuint> p = build_program(gl, name, {"#version 300 es\n", kFullscreenVert},
+                                     {setup.defines->c_str(), kCommon, fragment});
+    if (!p.ok()) return p.status();
+    out = p.value();
+    d->programs_.push_back(out);
+    gl.glUseProgram(out);
+    assign_sampler_units(gl, out, samplers);
+    if (count >= 0) set_int(gl, out, "u_count", count);
+    return Status::success();
+  };
+  if (Status s =
+          program("drt_c.frag", kDrtCFrag, d->prog_c_, {"u_td_c", "u_face_info", "u_clutter_ld"}, int(face0));
+      !s.ok())
+    return s;
+  if (Status s = program(
+          "drt_delta.frag", kDrtDeltaFrag, d->prog_delta_,
+          {"u_dub", "u_duc", "u_sample_entries", "u_entries", "u_b_red", "u_b_green", "u_b_blue", "u_c"},
+          int(samples));
+      !s.ok())
+    return s;
+  if (Status s =
+          program("drt_vc.frag", kDrtVcFrag, d->prog_vc_,
+                  {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"}, int(mode0));
+      !s.ok())
+    return s;
+  if (Status s = program("drt_clutter.frag", kDrtClutterFrag, d->prog_clutter_,
+                         {"u_texel_map", "u_uc", "u_y", "u_direct"}, -1);
+      !s.ok())
+    return s;
+  gl.glUseProgram(0);
+  return d;
+}
+
+void GlesDrt::draw(GLuint program, const Target& target, std::initializer_list<GLuint> textures) {
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer);
+  gl_.glViewport(0, 0, target.width, target.height);
+  gl_.glUseProgram(program);
+  GLenum unit = GL_TEXTURE0;
+  for (GLuint t : textures) {
+    gl_.glActiveTexture(unit++);
+    gl_.glBindTexture(GL_TEXTURE_2D, t);
+  }
+  gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+Status GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) {
+  const std::size_t n = sizes_.clutter_ld;
+  if (clutter_ld.size() != n) return wrong_size("clutter_ld", clutter_ld.size(), n);
+  if (!clutter_direct.empty() && clutter_direct.size() != n)
+    return wrong_size("clutter_direct (may be empty)", clutter_direct.size(), n);
+  if (Status s = validate_light_signal(clutter_ld, sizes_.clutter_texels, "clutter_ld"); !s.ok()) return s;
+  if (!clutter_direct.empty())
+    if (Status s = validate_light_signal(clutter_direct, sizes_.clutter_texels, "clutter_direct"); !s.ok())
+      return s;
+  upload_linear(gl_, clutter_ld_, GL_RGB, GL_FLOAT, 3, clutter_ld.data(), sizes_.clutter_texels,
+                sizeof(float));
+  upload_linear(gl_, clutter_direct_, GL_RGB, GL_FLOAT, 3,
+                clutter_direct.empty() ? zeros_.data() : clutter_direct.data(), sizes_.clutter_texels,
+                sizeof(float));
+  light_changed_ = true;
+  return Status::success();
+}
+
+void GlesDrt::run_scene(const std::array<GLuint, 3>& b) {
+  if (light_changed_) {  // c depends on the clutter's light only
+    draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_});
+    light_changed_ = false;
+  }
+  draw(prog_delta_, delta_, {dub_, duc_, sample_entries_, entries_, b[0], b[1], b[2], c_.texture});
+}
+
+void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {
+  draw(prog_vc_, y_, {vc_, mode_info_, cb_blocks_, b[0], b[1], b[2]});
+  draw(prog_clutter_, clutter_, {texel_map_, uc_, y_.texture, clutter_direct_});
+}
+
+Status GlesDrt::read_clutter_lightmap(std::span<float> out) {
+  if (out.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, clutter_.framebuffer);
+  gl_.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl_.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  // RGBA32UI holds float bit patterns: read as unsigned ints into float storage, exactly.
+  if (output_bits_)
+    gl_.glReadPixels(0, 0, clutter_.width, clutter_.height, GL_RGBA_INTEGER, GL_UNSIGNED_INT,
+                     readback_.data());
+  else
+    gl_.glReadPixels(0, 0, clutter_.width, clutter_.height, GL_RGBA, GL_FLOAT, readback_.data());
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  for (std::size_t i = 0; i < drt_->objects.size(); ++i)
+    for (std::uint32_t t = 0; t < drt_->objects[i].texel_count; ++t) {
+      const std::array<int, 2> xy = clutter_texel(i, t);
+      const std::size_t src = 4 * (std::size_t(xy[1]) * std::size_t(clutter_.width) + std::size_t(xy[0]));
+      for (std::size_t ch = 0; ch < 3; ++ch) out[3 * (texel0_[i] + t) + ch] = readback_[src + ch];
+    }
+  return Status::success();
+}
+
+}  // namespace modrt::gles

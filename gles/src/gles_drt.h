@@ -1,0 +1,91 @@
+// The DRT passes of the GLES runtime (SPEC §5 step 7, [Loos et al. 2012] §4): operators in
+// textures, fragment-shader passes, as the level passes. Private to modrt::gles; owned by
+// GlesLevelRuntime, which creates one only when a level has clutter.
+//
+//   drt_c.frag        c = Td_c clutter_ld, one fragment per clutter face
+//   drt_delta.frag    dUb b + dUc c per level sample (0 where no clutter reaches); atlas.frag
+//                     built with DRT 1 adds it, so padding texels get it too
+//   drt_vc.frag       y = Vc b per (object, mode)
+//   drt_clutter.frag  clutter atlas = Uc y + clutter direct light
+// Layouts: gles/README.md, "DRT".
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "modrt/drt.h"
+#include "modrt/level.h"
+#include "modrt/platform/gl_functions.h"
+#include "modrt/status.h"
+
+namespace modrt::gles {
+
+struct GlesDrtSetup {
+  const std::string* defines = nullptr;  // the runtime's "#version 300 es" and size defines
+  GLenum operator_format = 0;            // GL_RGBA32F or GL_RGBA16F
+  GLenum output_format = 0;              // the atlas's internal format
+  const char* output_format_name = "";   // for framebuffer errors
+  bool output_bits = false;              // RGBA32UI float bits (TargetFormat::bits32)
+  int max_texture_size = 0;
+};
+
+class GlesDrt {
+ public:
+  // Packs and uploads the operators (checked by the caller with check_drt_operators),
+  // allocates the targets and compiles the four programs.
+  static Result<std::unique_ptr<GlesDrt>> create(const platform::GlFunctions& gl, const Level& level,
+                                                 const DrtOperators& drt, const GlesDrtSetup& setup);
+  ~GlesDrt();
+  GlesDrt(const GlesDrt&) = delete;
+  GlesDrt& operator=(const GlesDrt&) = delete;
+
+  const DrtBufferSizes& sizes() const { return sizes_; }
+  // Validates and uploads the clutter's light (see Backend::set_clutter_light).
+  Status set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
+  // c (when the light changed since the last call) and the per-sample delta, from b's planes.
+  void run_scene(const std::array<GLuint, 3>& b);
+  // The clutter atlas from b's planes.
+  void run_clutter(const std::array<GLuint, 3>& b);
+  // Per-sample delta (RGBA32UI float bits, linear layout), read by atlas.frag.
+  GLuint delta_texture() const { return delta_.texture; }
+  GLuint clutter_texture() const { return clutter_.texture; }
+  int clutter_width() const { return clutter_.width; }
+  int clutter_height() const { return clutter_.height; }
+  // Atlas texel (x, y) of clutter texel t of object `object` (see gles/README.md).
+  std::array<int, 2> clutter_texel(std::size_t object, std::uint32_t t) const;
+  // Copies the clutter atlas into core's layout (3 floats per clutter texel).
+  Status read_clutter_lightmap(std::span<float> out);
+
+ private:
+  struct Target {
+    GLuint texture = 0, framebuffer = 0;
+    int width = 0, height = 0;
+  };
+  struct Placement {  // an object's rectangle in the clutter atlas
+    int y = 0, res = 0, width = 0;
+    bool tiles = false;  // m = f res^2: faces side by side; else rows of `width` texels
+  };
+  explicit GlesDrt(const platform::GlFunctions& gl) : gl_(gl) {}
+  void draw(GLuint program, const Target& target, std::initializer_list<GLuint> textures);
+
+  const platform::GlFunctions& gl_;
+  const DrtOperators* drt_ = nullptr;
+  DrtBufferSizes sizes_;
+  bool output_bits_ = false, light_changed_ = true;
+  int faces_ = 0, modes_ = 0;
+  std::vector<Placement> placement_;
+  std::vector<std::size_t> texel0_;
+  GLuint td_c_ = 0, dub_ = 0, duc_ = 0, vc_ = 0, uc_ = 0;
+  GLuint face_info_ = 0, sample_entries_ = 0, entries_ = 0, mode_info_ = 0, cb_blocks_ = 0, texel_map_ = 0;
+  GLuint clutter_ld_ = 0, clutter_direct_ = 0;
+  Target c_, delta_, y_, clutter_;
+  GLuint prog_c_ = 0, prog_delta_ = 0, prog_vc_ = 0, prog_clutter_ = 0;
+  std::vector<GLuint> textures_, framebuffers_, programs_;
+  std::vector<float> zeros_, readback_;
+};
+
+}  // namespace modrt::gles
