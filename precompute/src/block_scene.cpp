@@ -29,7 +29,10 @@ void embree_error(void*, RTCError code, const char* message) {
 }  // namespace
 
 BlockScene::BlockScene(FaceMask mask) : impl_(std::make_unique<Impl>()), mask_(mask) {
-  impl_->device = rtcNewDevice("threads=1,set_affinity=0");
+  // No "threads=N": with Embree's TBB tasking it installs a process-wide
+  // tbb::global_control(max_allowed_parallelism, N) while the device lives, which would
+  // serialize every parallel_for of the bake (see level_scene.cpp).
+  impl_->device = rtcNewDevice("set_affinity=0");
   if (!impl_->device)
     throw std::runtime_error("Embree: rtcNewDevice failed (error " +
                              std::to_string(int(rtcGetDeviceError(nullptr))) + ")");

@@ -291,7 +291,8 @@ Result<ClutterMeshShape> ClutterMeshShape::create(const ClutterMesh& mesh, std::
   shape.impl_ = std::make_unique<Impl>();
   Impl& impl = *shape.impl_;
   impl.chart = std::move(chart_of_triangle);
-  impl.device = rtcNewDevice("threads=1,set_affinity=0");
+  // No "threads=N": it would cap every TBB parallel_for while the shape lives (level_scene.cpp).
+  impl.device = rtcNewDevice("set_affinity=0");
   if (!impl.device) return Status::error(ErrorCode::internal_error, what + ": Embree: rtcNewDevice failed");
   impl.scene = rtcNewScene(impl.device);
   RTCGeometry geom = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);

@@ -75,10 +75,12 @@ glm::dvec3 frame_point(const LightfieldFrame& f, double u, double v) {
 
 // A^T B for tall A, B (same rows), summed over row chunks in parallel: Eigen's own
 // products are single-threaded without OpenMP, and these are the bake's largest products.
+// The deterministic reduce splits the chunks the same way every run and on any thread
+// count, so the sum (and the dictionary) is bit-identical run to run.
 MatrixXd parallel_at_b(const MatrixXd& A, const MatrixXd& B) {
   constexpr Eigen::Index kChunk = 2048;
   const Eigen::Index chunks = (A.rows() + kChunk - 1) / kChunk;
-  return tbb::parallel_reduce(
+  return tbb::parallel_deterministic_reduce(
       tbb::blocked_range<Eigen::Index>(0, chunks), MatrixXd(MatrixXd::Zero(A.cols(), B.cols())),
       [&](const tbb::blocked_range<Eigen::Index>& r, MatrixXd acc) {
         for (Eigen::Index c = r.begin(); c != r.end(); ++c) {
