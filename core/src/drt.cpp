@@ -101,7 +101,9 @@ std::size_t DrtOperators::storage_bytes() const {
   for (const DrtObjectOperators& o : objects) {
     bytes += matrix_bytes(o.dUb) + matrix_bytes(o.Td_c) + matrix_bytes(o.dUc) + matrix_bytes(o.Uc) +
              matrix_bytes(o.Vc);
-    bytes += (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size()) *
+    bytes += matrix_bytes(o.Cc);
+    bytes += (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size() +
+              o.Cc_objects.size()) *
              sizeof(std::uint32_t);
   }
   return bytes;
@@ -154,8 +156,17 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
           o.Vc.cols != std::size_t(drt.kb) * o.Cb_blocks.size())
         return fail("Uc / Vc are not m x modes and modes x (kb * |Cb_blocks|)");
     }
+    std::size_t cc_cols = 0;
+    for (std::size_t j = 0; j < o.Cc_objects.size(); ++j) {
+      const std::uint32_t src = o.Cc_objects[j];
+      if (src >= drt.objects.size() || src == k) return fail("Cc source object out of range or itself");
+      if (j > 0 && src <= o.Cc_objects[j - 1]) return fail("Cc source objects not sorted and unique");
+      cc_cols += drt.objects[src].face_count;
+    }
+    if ((!o.Cc_objects.empty() || !o.Cc.empty()) && (o.Cc.rows != o.texel_count || o.Cc.cols != cc_cols))
+      return fail("Cc is not m x (faces of its source objects)");
     if (!all_finite(o.dUb) || !all_finite(o.Td_c) || !all_finite(o.dUc) || !all_finite(o.Uc) ||
-        !all_finite(o.Vc))
+        !all_finite(o.Vc) || !all_finite(o.Cc))
       return fail("non-finite operator value");
   }
   return Status::success();
@@ -208,6 +219,27 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
         lightmap[3 * std::size_t(o.dUc_sample[r]) + std::size_t(ch)] += float(acc[ch]);
     }
     face0 += o.face_count;
+  }
+}
+
+void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out) {
+  std::vector<std::size_t> face0(drt.objects.size() + 1, 0);
+  for (std::size_t k = 0; k < drt.objects.size(); ++k) face0[k + 1] = face0[k] + drt.objects[k].face_count;
+  std::size_t texel0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    if (!o.Cc.empty()) {
+      for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+        const std::span<const float> row = o.Cc.row(t);
+        double acc[3] = {0, 0, 0};
+        std::size_t col = 0;
+        for (std::uint32_t src : o.Cc_objects)
+          for (std::uint32_t f = 0; f < drt.objects[src].face_count; ++f, ++col)
+            for (int ch = 0; ch < 3; ++ch)
+              acc[ch] += double(row[col]) * c[3 * (face0[src] + f) + std::size_t(ch)];
+        for (int ch = 0; ch < 3; ++ch) out[3 * (texel0 + t) + std::size_t(ch)] += float(acc[ch]);
+      }
+    }
+    texel0 += o.texel_count;
   }
 }
 

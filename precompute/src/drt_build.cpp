@@ -1,6 +1,7 @@
 #include "modrt/precompute/drt_build.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -23,79 +24,130 @@
 namespace modrt::precompute {
 namespace {
 
-// Entry distance and entered face of the ray into the box, from outside (slab test).
+constexpr int kDirectionSets = 32;
+
+// Entry distance and entered face of a ray into a box, from outside.
 struct BoxEntry {
   bool hit = false;
   double t = 0.0;
   int face = -1;
 };
-BoxEntry enter_box(const ClutterBox& box, const glm::dvec3& origin, const glm::dvec3& dir) {
-  const glm::dmat3 Rt = glm::transpose(box.rotation);
-  const glm::dvec3 o = Rt * (origin - box.center), d = Rt * dir;
-  double t_min = -std::numeric_limits<double>::infinity(), t_max = std::numeric_limits<double>::infinity();
-  int face = -1;
-  for (int a = 0; a < 3; ++a) {
-    const double h = box.half_extent[a];
-    if (std::abs(d[a]) < 1e-300) {
-      if (std::abs(o[a]) > h) return {};
-      continue;
-    }
-    double t1 = (-h - o[a]) / d[a], t2 = (h - o[a]) / d[a];
-    if (t1 > t2) std::swap(t1, t2);
-    if (t1 > t_min) {
-      t_min = t1;
-      face = 2 * a + (d[a] > 0.0 ? 0 : 1);
-    }
-    t_max = std::min(t_max, t2);
-  }
-  if (t_min > t_max || t_min <= 0.0 || face < 0) return {};
-  return {true, t_min, face};
-}
 
-bool ray_hits_sphere(const glm::dvec3& origin, const glm::dvec3& dir, const glm::dvec3& c, double r) {
-  const glm::dvec3 oc = c - origin;
-  const double along = glm::dot(oc, dir);
-  const double d2 = glm::dot(oc, oc) - along * along;
-  if (d2 > r * r) return false;
-  return along + r > 0.0;
-}
+// A clutter box prepared for many ray queries from one origin: the origin in the box frame
+// is computed once per origin, a ray then costs a rotation and the slab test.
+struct BoxQuery {
+  glm::dvec3 center, half;
+  glm::dmat3 Rt;  // world -> box frame
+  double radius;
+  explicit BoxQuery(const ClutterBox& box)
+      : center(box.center),
+        half(box.half_extent),
+        Rt(glm::transpose(box.rotation)),
+        radius(clutter_bounding_radius(box)) {}
+  // Exact culling: no ray from x into the hemisphere of n can reach the box when all its
+  // corners lie strictly behind the tangent plane (tighter than the bounding sphere, whose
+  // radius is half a floor-to-ceiling pillar's height).
+  bool in_front(const glm::dvec3& x, const glm::dvec3& n) const {
+    const glm::dvec3 nl = Rt * n;
+    return glm::dot(n, center - x) + half.x * std::abs(nl.x) + half.y * std::abs(nl.y) +
+               half.z * std::abs(nl.z) >=
+           0.0;
+  }
+  glm::dvec3 local(const glm::dvec3& origin) const { return Rt * (origin - center); }
+  // Slab test with the origin already in the box frame (o = local(origin)).
+  BoxEntry enter(const glm::dvec3& o, const glm::dvec3& dir) const {
+    const glm::dvec3 d = Rt * dir;
+    double t_min = -std::numeric_limits<double>::infinity(), t_max = std::numeric_limits<double>::infinity();
+    int face = -1;
+    for (int a = 0; a < 3; ++a) {
+      const double h = half[a];
+      if (std::abs(d[a]) < 1e-300) {
+        if (std::abs(o[a]) > h) return {};
+        continue;
+      }
+      double t1 = (-h - o[a]) / d[a], t2 = (h - o[a]) / d[a];
+      if (t1 > t2) std::swap(t1, t2);
+      if (t1 > t_min) {
+        t_min = t1;
+        face = 2 * a + (d[a] > 0.0 ? 0 : 1);
+      }
+      t_max = std::min(t_max, t2);
+    }
+    if (t_min > t_max || t_min <= 0.0 || face < 0) return {};
+    return {true, t_min, face};
+  }
+};
+
+// The objects a sample or texel tests (those whose sphere is in front of it), with its
+// origin in each box frame; the nearest entry over them, ties to the lower object index.
+// Before the slab test, the bounding-sphere test (a ray that misses the sphere misses the
+// box) with its per-origin terms computed once; skipped for an origin well inside the
+// sphere, where it always passes.
+struct Candidates {
+  struct Entry {
+    std::uint32_t object;
+    glm::dvec3 origin_local, oc;
+    double oc2;
+    bool in_sphere;
+  };
+  std::vector<Entry> entries;
+  void clear() { entries.clear(); }
+  bool empty() const { return entries.empty(); }
+  void add(std::uint32_t object, const BoxQuery& box, const glm::dvec3& origin) {
+    const glm::dvec3 oc = box.center - origin;
+    const double oc2 = glm::dot(oc, oc);
+    entries.push_back({object, box.local(origin), oc, oc2, oc2 < box.radius * box.radius * (1.0 - 1e-9)});
+  }
+  struct Nearest {
+    int object = -1;
+    BoxEntry entry;
+  };
+  Nearest nearest(const std::vector<BoxQuery>& boxes, const glm::dvec3& dir) const {
+    Nearest best;
+    for (const Entry& c : entries) {
+      const BoxQuery& box = boxes[c.object];
+      if (!c.in_sphere) {
+        const double along = glm::dot(c.oc, dir);
+        if (c.oc2 - along * along > box.radius * box.radius || !(along + box.radius > 0.0)) continue;
+      }
+      const BoxEntry e = box.enter(c.origin_local, dir);
+      if (e.hit && (best.object < 0 || e.t < best.entry.t)) best = {int(c.object), e};
+    }
+    return best;
+  }
+};
 
 // Cosine-weighted stratified direction sets in a local frame (z = normal), made once per
-// build and shared by all texels: a texel takes one of kSets sets and a random rotation about
-// its normal. Its rays stay stratified and each is cosine-distributed (an unbiased gather),
-// neighbouring texels' noise stays independent, and a ray costs a frame change instead of
-// the sin, cos and sqrt of the square-to-hemisphere map (a third of the build's time).
-class DirectionSets {
- public:
-  static constexpr int kSets = 32;
-  DirectionSets(int rays, std::uint64_t seed) : rays_(rays) {
-    std::vector<glm::dvec2> strata;
-    local_.reserve(std::size_t(kSets) * std::size_t(rays));
-    for (int k = 0; k < kSets; ++k) {
-      Rng rng(seed, std::uint64_t(k));
-      stratified_square(rays, rng, strata);
-      for (const glm::dvec2& u : strata) local_.push_back(cosine_hemisphere(u));
-    }
+// builder and shared by all texels: a texel takes one of kDirectionSets sets and a random
+// rotation about its normal. Its rays stay stratified and each is cosine-distributed (an
+// unbiased gather), neighbouring texels' noise stays independent, and a ray costs a frame
+// change instead of the sin, cos and sqrt of the square-to-hemisphere map.
+std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed) {
+  std::vector<glm::dvec3> local;
+  std::vector<glm::dvec2> strata;
+  local.reserve(std::size_t(kDirectionSets) * std::size_t(rays));
+  for (int k = 0; k < kDirectionSets; ++k) {
+    Rng rng(seed, std::uint64_t(k));
+    stratified_square(rays, rng, strata);
+    for (const glm::dvec2& u : strata) local.push_back(cosine_hemisphere(u));
   }
-  int rays() const { return rays_; }
-  // The world directions of work item `stream` (its own set and rotation) about unit normal n.
-  void directions(std::uint64_t seed, std::uint64_t stream, const glm::dvec3& n,
-                  std::vector<glm::dvec3>& out) const {
-    Rng rng(seed, stream);
-    const std::size_t set = std::size_t(rng.next_u64() % kSets);
-    const double phi = 2.0 * std::numbers::pi * rng.next_double();
-    glm::dvec3 t0, b0;
-    tangent_frame(n, t0, b0);
-    const glm::dvec3 t = std::cos(phi) * t0 + std::sin(phi) * b0, b = glm::cross(n, t);
-    out.resize(std::size_t(rays_));
-    const glm::dvec3* local = local_.data() + set * std::size_t(rays_);
-    for (std::size_t r = 0; r < out.size(); ++r) out[r] = to_world(local[r], t, b, n);
-  }
+  return local;
+}
 
- private:
-  int rays_;
-  std::vector<glm::dvec3> local_;
-};
+// The world directions of work item `stream` (its own set and rotation) about unit normal n.
+void texel_directions(std::span<const glm::dvec3> sets, std::uint64_t seed, std::uint64_t stream,
+                      const glm::dvec3& n, std::vector<glm::dvec3>& out) {
+  const std::size_t rays = sets.size() / kDirectionSets;
+  Rng rng(seed, stream);
+  const std::size_t set = std::size_t(rng.next_u64() % kDirectionSets);
+  const double phi = 2.0 * std::numbers::pi * rng.next_double();
+  glm::dvec3 t0, b0;
+  tangent_frame(n, t0, b0);
+  const glm::dvec3 t = std::cos(phi) * t0 + std::sin(phi) * b0, b = glm::cross(n, t);
+  out.resize(rays);
+  const glm::dvec3* local = sets.data() + set * rays;
+  for (std::size_t r = 0; r < rays; ++r) out[r] = to_world(local[r], t, b, n);
+}
 
 // Per source block, the kb-wide accumulation of Limp rows (DRT §4.1, §4.3).
 using BlockRows = std::map<std::uint32_t, std::vector<double>>;
@@ -155,271 +207,611 @@ class LimpGather {
   std::vector<std::size_t> touched_;
 };
 
+// One object's share of a scene sample's rays (DRT §4.1, §4.2).
+struct ObjectRows {
+  std::uint32_t object = 0;
+  BlockRows dUb;
+  std::vector<double> dUc;  // face_count of the object; empty when no ray entered it
+};
+
 struct SampleResult {
   enum State : std::uint8_t { culled, traced, inside };
   State state = culled;
-  BlockRows dUb;
-  std::vector<double> dUc;  // f, empty when no ray hit the box
+  int inside_of = -1;            // the first object containing the sample
+  std::vector<ObjectRows> rows;  // ascending object
+
+  ObjectRows& rows_of(std::uint32_t object) {
+    auto it = std::lower_bound(rows.begin(), rows.end(), object,
+                               [](const ObjectRows& r, std::uint32_t o) { return r.object < o; });
+    if (it == rows.end() || it->object != object) it = rows.insert(it, ObjectRows{object, {}, {}});
+    return *it;
+  }
+  const ObjectRows* find(std::uint32_t object) const {
+    for (const ObjectRows& r : rows)
+      if (r.object == object) return &r;
+    return nullptr;
+  }
 };
+
+// One clutter texel's gather (DRT §4.3 and clutter-to-clutter light).
+struct TexelResult {
+  BlockRows cb;  // Limp sums of the walls its rays reach, per block
+  // (source object, face slot) -> weight of the rays that enter that face first, ascending.
+  std::vector<std::pair<std::uint64_t, double>> cc;
+};
+std::uint64_t cc_key(std::uint32_t object, int slot) {
+  return (std::uint64_t(object) << 8) | std::uint64_t(slot);
+}
+
+bool same_object(const ClutterObject& a, const ClutterObject& b) {
+  return a.kind == b.kind && a.block == b.block && a.box.center == b.box.center &&
+         a.box.half_extent == b.box.half_extent && a.box.rotation == b.box.rotation && a.faces == b.faces &&
+         a.albedo == b.albedo && a.res == b.res;
+}
+
+std::array<int, kFaceCount> face_slots(const ClutterObject& object) {
+  std::array<int, kFaceCount> slot{};
+  for (int f = 0, s = 0; f < kFaceCount; ++f) slot[std::size_t(f)] = face_present(object.faces, f) ? s++ : -1;
+  return slot;
+}
 
 }  // namespace
 
-DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuildSettings& settings)
-    : level_(level), dict_(dict), settings_(settings), walls_(level, level.res) {}
+struct DrtBuildState::Impl {
+  std::vector<ClutterObject> objects;
+  std::vector<SampleResult> samples;             // scene pass, before inpainting
+  std::vector<std::vector<TexelResult>> texels;  // clutter pass, per object
+  std::vector<ClutterTexelGeometry> geometry;    // per object
+};
 
-Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
-                                                    DrtBuildReport* report) const {
-  if (Status s = validate_clutter(level_, std::span<const ClutterObject>(&object, 1)); !s.ok()) return s;
-  for (const LevelBlock& b : level_.blocks) {
-    const ShapeOperators& op = dict_.shapes[std::size_t(b.shape)];
-    if (op.Limp.rows != b.sample_count || op.Limp.cols != level_.kb || op.Ub.cols != level_.kb)
+DrtBuildState::DrtBuildState() = default;
+DrtBuildState::~DrtBuildState() = default;
+DrtBuildState::DrtBuildState(DrtBuildState&&) noexcept = default;
+DrtBuildState& DrtBuildState::operator=(DrtBuildState&&) noexcept = default;
+bool DrtBuildState::empty() const { return !impl_; }
+
+// One build or rebuild over a fixed list of objects.
+struct DrtBuilder::Pass {
+  const DrtBuilder& b;
+  std::span<const ClutterObject> objects;
+  std::vector<BoxQuery> boxes;
+  std::vector<std::array<int, kFaceCount>> slots;
+  tbb::enumerable_thread_specific<LimpGather> gathers;
+
+  Pass(const DrtBuilder& builder, std::span<const ClutterObject> objs)
+      : b(builder),
+        objects(objs),
+        gathers([this] { return LimpGather(b.level_, b.dict_, b.walls_.samples().block); }) {
+    for (const ClutterObject& o : objects) {
+      boxes.emplace_back(o.box);
+      slots.push_back(face_slots(o));
+    }
+  }
+
+  std::span<const glm::dvec3> sets() const { return b.direction_sets_; }
+  int rays() const { return int(b.direction_sets_.size() / kDirectionSets); }
+
+  // dUb and dUc (DRT §4.1, §4.2) of every object at scene sample s: cosine-weighted gather
+  // rays; a ray that enters an object before any wall is light that object takes away (the
+  // wall behind it, lit by Limp b of its block) and light it sends (its face).
+  SampleResult trace_sample(std::size_t s, LimpGather& gather, Candidates& cand,
+                            std::vector<glm::dvec3>& dirs, std::vector<glm::dvec3>& hit_dirs,
+                            std::vector<LevelHit>& walls, std::vector<Candidates::Nearest>& nearest) const {
+    SampleResult result;
+    const LevelSampleGeometry& g = b.walls_.samples();
+    const glm::dvec3 x = g.position[s], nrm = g.normal[s];
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (clutter_contains(objects[k].box, x, 1e-6)) {
+        result.state = SampleResult::inside;
+        result.inside_of = int(k);
+        return result;
+      }
+    cand.clear();
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (!b.settings_.cull || boxes[k].in_front(x, nrm)) cand.add(std::uint32_t(k), boxes[k], x);
+    if (cand.empty()) return result;
+    result.state = SampleResult::traced;
+    texel_directions(sets(), b.settings_.seed, s, nrm, dirs);
+    hit_dirs.clear();
+    nearest.clear();
+    for (const glm::dvec3& dir : dirs) {
+      const Candidates::Nearest n = cand.nearest(boxes, dir);
+      if (n.object < 0) continue;
+      hit_dirs.push_back(dir);
+      nearest.push_back(n);
+    }
+    if (hit_dirs.empty()) return result;
+    walls.resize(hit_dirs.size());
+    b.walls_.intersect_many(x, hit_dirs, walls);
+    const double w = 1.0 / rays();
+    // Object by object (ascending) so that each object's gather is flushed on its own.
+    for (const Candidates::Entry& e : cand.entries) {
+      const std::uint32_t k = e.object;
+      ObjectRows* rows = nullptr;
+      for (std::size_t r = 0; r < hit_dirs.size(); ++r) {
+        if (nearest[r].object != int(k)) continue;
+        const LevelHit& wall = walls[r];
+        if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
+        if (!rows) rows = &result.rows_of(k);
+        if (wall.block >= 0) gather.add(wall, -w);
+        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        if (slot >= 0) {
+          rows->dUc.resize(std::size_t(clutter_face_count(objects[k])), 0.0);
+          rows->dUc[std::size_t(slot)] += w;
+        }
+      }
+      if (rows) gather.flush(rows->dUb);
+    }
+    return result;
+  }
+
+  // Cb (DRT §4.3) and Cc of texel i of object k: gather rays from the texel average the Limp
+  // rows of the walls they reach (per hit block); a ray that enters another object first
+  // brings that object's face instead; misses bring nothing. A texel inside another object
+  // is hidden and gathers nothing.
+  TexelResult trace_texel(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg, LimpGather& gather,
+                          Candidates& cand, std::vector<glm::dvec3>& dirs,
+                          std::vector<LevelHit>& walls) const {
+    TexelResult result;
+    const glm::dvec3 p = cg.position[i], n = cg.normal[i];
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if (j != k && clutter_contains(objects[j].box, p, 1e-6)) return result;
+    // Off the face so that a float ray does not start behind it.
+    const glm::dvec3 x = p + 1e-6 * n;
+    cand.clear();
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if (j != k && (!b.settings_.cull || boxes[j].in_front(p, n))) cand.add(std::uint32_t(j), boxes[j], x);
+    texel_directions(sets(), b.settings_.seed ^ 0x436200ull, texel_stream(k, i), n, dirs);
+    walls.resize(dirs.size());
+    b.walls_.intersect_many(x, dirs, walls);
+    const double w = 1.0 / rays();
+    for (std::size_t r = 0; r < dirs.size(); ++r) {
+      const LevelHit& wall = walls[r];
+      if (!cand.empty()) {
+        const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+        if (hit.object >= 0 && !(wall.block >= 0 && wall.t < hit.entry.t)) {
+          const int slot = slots[std::size_t(hit.object)][std::size_t(hit.entry.face)];
+          if (slot < 0) continue;  // an unlit face (resting on a wall) sends nothing
+          const std::uint64_t key = cc_key(std::uint32_t(hit.object), slot);
+          auto it =
+              std::find_if(result.cc.begin(), result.cc.end(), [&](const auto& e) { return e.first == key; });
+          if (it == result.cc.end()) {
+            result.cc.emplace_back(key, w);
+          } else {
+            it->second += w;
+          }
+          continue;
+        }
+      }
+      if (wall.block >= 0) gather.add(wall, w);
+    }
+    gather.flush(result.cb);
+    std::sort(result.cc.begin(), result.cc.end());
+    return result;
+  }
+
+  // Whether the result of a work item (rays from origin about n) can depend on `box`: the
+  // origin lies in it (inside test of the trace) or one of its rays enters it (the only
+  // rays whose nearest object can change). Exact: an item for which this is false for a
+  // box's old and new place gives the same result before and after the move.
+  bool depends_on(const BoxQuery& box, const ClutterBox& shape, const glm::dvec3& p, const glm::dvec3& origin,
+                  const glm::dvec3& n, std::uint64_t seed, std::uint64_t stream,
+                  std::vector<glm::dvec3>& dirs) const {
+    if (clutter_contains(shape, p, 1e-6)) return true;
+    if (b.settings_.cull && !box.in_front(p, n)) return false;
+    texel_directions(sets(), seed, stream, n, dirs);
+    const std::vector<BoxQuery> one{box};
+    Candidates cand;
+    cand.add(0, box, origin);
+    for (const glm::dvec3& dir : dirs)
+      if (cand.nearest(one, dir).object >= 0) return true;
+    return false;
+  }
+  bool sample_depends_on(std::size_t s, const BoxQuery& box, const ClutterBox& shape,
+                         std::vector<glm::dvec3>& dirs) const {
+    const LevelSampleGeometry& g = b.walls_.samples();
+    return depends_on(box, shape, g.position[s], g.position[s], g.normal[s], b.settings_.seed, s, dirs);
+  }
+  bool texel_depends_on(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg, const BoxQuery& box,
+                        const ClutterBox& shape, std::vector<glm::dvec3>& dirs) const {
+    return depends_on(box, shape, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i],
+                      b.settings_.seed ^ 0x436200ull, texel_stream(k, i), dirs);
+  }
+  static std::uint64_t texel_stream(std::size_t k, std::size_t i) {
+    return (std::uint64_t(k) << 32) | std::uint64_t(i);
+  }
+
+  // Traces the scene samples with retrace[s] != 0 (all when empty) into `samples`.
+  void scene_pass(std::vector<SampleResult>& samples, const std::vector<std::uint8_t>& retrace) {
+    const std::size_t n = samples.size();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        LimpGather& gather = gathers.local();
+                        Candidates cand;
+                        std::vector<glm::dvec3> dirs, hit_dirs;
+                        std::vector<LevelHit> walls;
+                        std::vector<Candidates::Nearest> nearest;
+                        for (std::size_t s = range.begin(); s != range.end(); ++s)
+                          if (retrace.empty() || retrace[s])
+                            samples[s] = trace_sample(s, gather, cand, dirs, hit_dirs, walls, nearest);
+                      });
+  }
+
+  // Traces the texels listed in `work` (object, texel) into `texels`.
+  void clutter_pass(std::vector<std::vector<TexelResult>>& texels,
+                    const std::vector<ClutterTexelGeometry>& geometry,
+                    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& work) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work.size(), 16),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        LimpGather& gather = gathers.local();
+                        Candidates cand;
+                        std::vector<glm::dvec3> dirs;
+                        std::vector<LevelHit> walls;
+                        for (std::size_t w = range.begin(); w != range.end(); ++w) {
+                          const auto [k, i] = work[w];
+                          texels[k][i] = trace_texel(k, i, geometry[k], gather, cand, dirs, walls);
+                        }
+                      });
+  }
+
+  // Inpainting (DRT §5), dropping and assembly of every object's dUb and dUc from the traced
+  // samples (which are not changed).
+  void assemble_scene(const std::vector<SampleResult>& traced, DrtOperators& drt,
+                      DrtBuildReport* report) const {
+    const Level& level = b.level_;
+    const Dictionary& dict = b.dict_;
+    const LevelSampleGeometry& g = b.walls_.samples();
+    const std::size_t n = traced.size();
+    std::vector<SampleResult> result = traced;
+    // A sample inside clutter takes the mean shadowed transport Ub + sum of dUb of its valid
+    // face neighbours, minus its own Ub (charged to the object containing it), and their
+    // mean dUc; Jacobi passes fill samples deep inside from the rim inwards, independent of
+    // the order.
+    std::size_t inpainted = 0;
+    if (b.settings_.inpaint) {
+      std::vector<std::uint8_t> valid(n);
+      for (std::size_t s = 0; s < n; ++s) valid[s] = result[s].state != SampleResult::inside;
+      for (bool progress = true; progress;) {
+        progress = false;
+        std::vector<std::pair<std::size_t, SampleResult>> fills;
+        for (std::size_t s = 0; s < n; ++s) {
+          if (valid[s]) continue;
+          const int blk = g.block[s];
+          const LevelBlock& lb = level.blocks[std::size_t(blk)];
+          const ShapeOperators& op = dict.shapes[std::size_t(lb.shape)];
+          const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(lb.shape), level.res);
+          const int local = int(s - lb.sample_offset), face = layout.face_of(local);
+          const int within = local - layout.slot[std::size_t(face)] * level.res * level.res;
+          const int i0 = within % level.res, j0 = within / level.res;
+          std::vector<std::size_t> nbrs;
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const int i = i0 + di, j = j0 + dj;
+              if ((di == 0 && dj == 0) || i < 0 || j < 0 || i >= level.res || j >= level.res) continue;
+              const std::size_t q = lb.sample_offset + std::size_t(layout.index(face, i, j));
+              if (valid[q]) nbrs.push_back(q);
+            }
+          if (nbrs.empty()) continue;
+          SampleResult fill;
+          fill.state = SampleResult::inside;
+          fill.inside_of = result[s].inside_of;
+          const double w = 1.0 / double(nbrs.size());
+          {
+            std::vector<double>& own = fill.rows_of(std::uint32_t(fill.inside_of)).dUb[std::uint32_t(blk)];
+            own.assign(level.kb, 0.0);
+            for (std::uint32_t c = 0; c < level.kb; ++c) own[c] = -double(op.Ub(std::uint32_t(local), c));
+            for (std::size_t q : nbrs) {
+              const std::span<const float> ub = op.Ub.row(std::uint32_t(q - lb.sample_offset));
+              for (std::uint32_t c = 0; c < level.kb; ++c) own[c] += w * double(ub[c]);
+            }
+          }
+          for (std::size_t q : nbrs)
+            for (const ObjectRows& src : result[q].rows) {
+              ObjectRows& dst = fill.rows_of(src.object);
+              for (const auto& [from, row] : src.dUb) {
+                std::vector<double>& d = dst.dUb[from];
+                d.resize(level.kb, 0.0);
+                for (std::uint32_t c = 0; c < level.kb; ++c) d[c] += w * row[c];
+              }
+              if (!src.dUc.empty()) {
+                dst.dUc.resize(src.dUc.size(), 0.0);
+                for (std::size_t f = 0; f < src.dUc.size(); ++f) dst.dUc[f] += w * src.dUc[f];
+              }
+            }
+          fills.emplace_back(s, std::move(fill));
+        }
+        for (auto& [s, fill] : fills) {
+          result[s] = std::move(fill);
+          valid[s] = 1;
+          ++inpainted;
+          progress = true;
+        }
+      }
+    }
+
+    std::size_t dropped = 0;
+    if (b.settings_.drop_tolerance > 0.0) {
+      auto norm = [](const std::vector<double>& row) {
+        double n2 = 0.0;
+        for (double v : row) n2 += v * v;
+        return std::sqrt(n2);
+      };
+      std::vector<double> largest(objects.size(), 0.0);
+      for (const SampleResult& r : result)
+        for (const ObjectRows& o : r.rows)
+          for (const auto& [blk, row] : o.dUb) largest[o.object] = std::max(largest[o.object], norm(row));
+      for (SampleResult& r : result)
+        for (ObjectRows& o : r.rows)
+          dropped += std::erase_if(o.dUb, [&](const auto& entry) {
+            return norm(entry.second) < b.settings_.drop_tolerance * largest[o.object];
+          });
+    }
+
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      DrtObjectOperators& op = drt.objects[k];
+      const std::uint32_t f_count = std::uint32_t(clutter_face_count(objects[k]));
+      std::size_t rows = 0, uc_rows = 0;
+      for (const SampleResult& r : result)
+        if (const ObjectRows* o = r.find(std::uint32_t(k))) {
+          rows += o->dUb.size();
+          uc_rows += o->dUc.empty() ? 0 : 1;
+        }
+      op.dUb_sample.clear();
+      op.dUb_block.clear();
+      op.dUc_sample.clear();
+      op.dUb = Matrix(std::uint32_t(rows), rows > 0 ? level.kb : 0);
+      op.dUc = Matrix(std::uint32_t(uc_rows), uc_rows > 0 ? f_count : 0);
+      std::size_t row = 0, uc_row = 0;
+      for (std::size_t s = 0; s < n; ++s) {
+        const ObjectRows* o = result[s].find(std::uint32_t(k));
+        if (!o) continue;
+        for (const auto& [src, values] : o->dUb) {  // std::map: blocks ascending
+          op.dUb_sample.push_back(std::uint32_t(s));
+          op.dUb_block.push_back(src);
+          for (std::uint32_t c = 0; c < level.kb; ++c) op.dUb(std::uint32_t(row), c) = float(values[c]);
+          ++row;
+        }
+        if (!o->dUc.empty()) {
+          op.dUc_sample.push_back(std::uint32_t(s));
+          for (std::uint32_t f = 0; f < f_count; ++f)
+            op.dUc(std::uint32_t(uc_row), f) = float(o->dUc[std::size_t(f)]);
+          ++uc_row;
+        }
+      }
+    }
+    if (report) {
+      for (const SampleResult& r : traced) {
+        report->traced_samples += r.state == SampleResult::traced;
+        report->culled_samples += r.state == SampleResult::culled;
+        report->inside_samples += r.state == SampleResult::inside;
+      }
+      report->inpainted_samples += inpainted;
+      report->dropped_rows += dropped;
+    }
+  }
+
+  // Td_c, Cb (SVD-compressed to cb_modes) and Cc of object k from its traced texels.
+  void assemble_clutter(std::size_t k, const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
+    const ClutterObject& object = objects[k];
+    const std::size_t kb = b.level_.kb;
+    const int f_count = clutter_face_count(object);
+    op.texel_count = std::uint32_t(clutter_texel_count(object));
+    op.face_count = std::uint32_t(f_count);
+    // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f.
+    const int res = object.res;
+    op.Td_c = Matrix(op.face_count, op.texel_count);
+    for (int f = 0; f < f_count; ++f)
+      for (int t = 0; t < res * res; ++t)
+        op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
+
+    const std::size_t m = texels.size();
+    std::map<std::uint32_t, std::size_t> column_of;
+    for (const TexelResult& r : texels)
+      for (const auto& [blk, values] : r.cb) column_of.emplace(blk, 0);
+    op.Cb_blocks.clear();
+    op.Cb_sigma.clear();
+    op.Uc = Matrix();
+    op.Vc = Matrix();
+    op.Cb_truncation_error = 0.0f;
+    for (auto& [blk, col] : column_of) {
+      col = op.Cb_blocks.size();
+      op.Cb_blocks.push_back(blk);
+    }
+    if (!op.Cb_blocks.empty()) {
+      MatrixXd Cb = MatrixXd::Zero(Eigen::Index(m), Eigen::Index(kb * op.Cb_blocks.size()));
+      for (std::size_t i = 0; i < m; ++i)
+        for (const auto& [blk, values] : texels[i].cb)
+          for (std::size_t c = 0; c < kb; ++c)
+            Cb(Eigen::Index(i), Eigen::Index(column_of[blk] * kb + c)) = values[c];
+      Eigen::BDCSVD<MatrixXd> svd(Cb, Eigen::ComputeThinU | Eigen::ComputeThinV);
+      const VectorXd sigma = svd.singularValues();
+      int modes = 0;
+      while (modes < std::min<int>(b.settings_.cb_modes, int(sigma.size())) && sigma[modes] > 0.0) ++modes;
+      double total = 0.0, kept = 0.0;
+      for (Eigen::Index q = 0; q < sigma.size(); ++q) {
+        total += sigma[q] * sigma[q];
+        if (q < modes) kept += sigma[q] * sigma[q];
+        op.Cb_sigma.push_back(float(sigma[q]));
+      }
+      op.Cb_truncation_error = total > 0.0 ? float(std::sqrt(std::max(0.0, total - kept) / total)) : 0.0f;
+      if (modes > 0) {
+        op.Uc = to_float(svd.matrixU().leftCols(modes) * sigma.head(modes).asDiagonal());
+        op.Vc = to_float(svd.matrixV().leftCols(modes).transpose());
+      }
+    }
+
+    // Cc: columns are the faces of every source object any texel saw, sources ascending.
+    op.Cc_objects.clear();
+    op.Cc = Matrix();
+    std::vector<std::size_t> col0(objects.size(), 0);
+    for (const TexelResult& r : texels)
+      for (const auto& [key, w] : r.cc) op.Cc_objects.push_back(std::uint32_t(key >> 8));
+    std::sort(op.Cc_objects.begin(), op.Cc_objects.end());
+    op.Cc_objects.erase(std::unique(op.Cc_objects.begin(), op.Cc_objects.end()), op.Cc_objects.end());
+    std::size_t cols = 0;
+    for (std::uint32_t src : op.Cc_objects) {
+      col0[src] = cols;
+      cols += std::size_t(clutter_face_count(objects[src]));
+    }
+    if (cols > 0) {
+      op.Cc = Matrix(std::uint32_t(m), std::uint32_t(cols));
+      for (std::size_t i = 0; i < m; ++i)
+        for (const auto& [key, w] : texels[i].cc)
+          op.Cc(std::uint32_t(i), std::uint32_t(col0[key >> 8] + (key & 0xFF))) = float(w);
+    }
+  }
+
+  // The clutter operators of the objects flagged in `dirty`, in parallel over objects.
+  void assemble_clutter_all(const std::vector<std::vector<TexelResult>>& texels,
+                            const std::vector<std::uint8_t>& dirty, DrtOperators& drt) const {
+    tbb::parallel_for(std::size_t(0), objects.size(), [&](std::size_t k) {
+      if (dirty[k]) assemble_clutter(k, texels[k], drt.objects[k]);
+    });
+  }
+};
+
+DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuildSettings& settings)
+    : level_(level),
+      dict_(dict),
+      settings_(settings),
+      walls_(level, level.res),
+      direction_sets_(make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x736574ull)) {}
+
+namespace {
+
+Status check_dictionary(const Level& level, const Dictionary& dict) {
+  for (const LevelBlock& b : level.blocks) {
+    const ShapeOperators& op = dict.shapes[std::size_t(b.shape)];
+    if (op.Limp.rows != b.sample_count || op.Limp.cols != level.kb || op.Ub.cols != level.kb)
       return Status::error(ErrorCode::invalid_argument,
                            "DRT build: dictionary Limp / Ub do not match the level");
   }
-  const int rays = std::max(1, settings_.rays);
-  const ClutterBox& box = object.box;
-  const double radius = clutter_bounding_radius(box);
-  const LevelSampleGeometry& g = walls_.samples();
-  const std::size_t n = g.position.size();
-  const int f_count = clutter_face_count(object);
-  std::array<int, kFaceCount> face_slot{};
-  for (int f = 0, slot = 0; f < kFaceCount; ++f)
-    face_slot[std::size_t(f)] = face_present(object.faces, f) ? slot++ : -1;
-
-  // dUb and dUc (DRT §4.1, §4.2): cosine-weighted gather rays from every scene sample that
-  // can see the box; a ray that reaches the box before any wall is light the box takes away
-  // (the wall behind it, lit by Limp b of its block) and light the box sends (its face).
-  const auto t0 = std::chrono::steady_clock::now();
-  const DirectionSets directions(rays, settings_.seed ^ 0x736574ull);
-  // One gather per thread: each holds a weight per level sample, too large to make per task.
-  tbb::enumerable_thread_specific<LimpGather> gathers([&] { return LimpGather(level_, dict_, g.block); });
-  std::vector<SampleResult> result(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      std::vector<glm::dvec3> dirs;
-                      LimpGather& gather = gathers.local();
-                      for (std::size_t s = range.begin(); s != range.end(); ++s) {
-                        const glm::dvec3 x = g.position[s], nrm = g.normal[s];
-                        if (clutter_contains(box, x, 1e-6)) {
-                          result[s].state = SampleResult::inside;
-                          continue;
-                        }
-                        if (settings_.cull && glm::dot(nrm, box.center - x) < -radius) continue;
-                        result[s].state = SampleResult::traced;
-                        directions.directions(settings_.seed, s, nrm, dirs);
-                        const double w = 1.0 / rays;
-                        for (const glm::dvec3& dir : dirs) {
-                          if (!ray_hits_sphere(x, dir, box.center, radius)) continue;
-                          const BoxEntry entry = enter_box(box, x, dir);
-                          if (!entry.hit) continue;
-                          const LevelHit wall = walls_.intersect(x, dir);
-                          if (wall.block >= 0 && wall.t < entry.t) continue;  // a wall hides the box
-                          if (wall.block >= 0) gather.add(wall, -w);
-                          const int slot = face_slot[std::size_t(entry.face)];
-                          if (slot >= 0) {
-                            result[s].dUc.resize(std::size_t(f_count), 0.0);
-                            result[s].dUc[std::size_t(slot)] += w;
-                          }
-                        }
-                        gather.flush(result[s].dUb);
-                      }
-                    });
-
-  // Inpainting (DRT §5): a sample inside the box takes the mean shadowed transport
-  // Ub + dUb of its valid face neighbours, minus its own Ub; Jacobi passes so that samples
-  // deep inside fill from the rim inwards, independent of the order.
-  std::size_t inpainted = 0;
-  if (settings_.inpaint) {
-    std::vector<std::uint8_t> valid(n);
-    for (std::size_t s = 0; s < n; ++s) valid[s] = result[s].state != SampleResult::inside;
-    for (bool progress = true; progress;) {
-      progress = false;
-      std::vector<std::pair<std::size_t, SampleResult>> fills;
-      for (std::size_t s = 0; s < n; ++s) {
-        if (valid[s]) continue;
-        const int blk = g.block[s];
-        const LevelBlock& lb = level_.blocks[std::size_t(blk)];
-        const ShapeOperators& op = dict_.shapes[std::size_t(lb.shape)];
-        const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(lb.shape), level_.res);
-        const int local = int(s - lb.sample_offset), face = layout.face_of(local);
-        const int within = local - layout.slot[std::size_t(face)] * level_.res * level_.res;
-        const int i0 = within % level_.res, j0 = within / level_.res;
-        std::vector<std::size_t> nbrs;
-        for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di) {
-            const int i = i0 + di, j = j0 + dj;
-            if ((di == 0 && dj == 0) || i < 0 || j < 0 || i >= level_.res || j >= level_.res) continue;
-            const std::size_t q = lb.sample_offset + std::size_t(layout.index(face, i, j));
-            if (valid[q]) nbrs.push_back(q);
-          }
-        if (nbrs.empty()) continue;
-        SampleResult fill;
-        fill.state = SampleResult::inside;
-        const double w = 1.0 / double(nbrs.size());
-        std::vector<double>& own = fill.dUb[std::uint32_t(blk)];
-        own.assign(level_.kb, 0.0);
-        for (std::uint32_t c = 0; c < level_.kb; ++c) own[c] = -double(op.Ub(std::uint32_t(local), c));
-        for (std::size_t q : nbrs) {
-          const std::span<const float> ub = op.Ub.row(std::uint32_t(q - lb.sample_offset));
-          for (std::uint32_t c = 0; c < level_.kb; ++c) own[c] += w * double(ub[c]);
-          for (const auto& [src, row] : result[q].dUb) {
-            std::vector<double>& dst = fill.dUb[src];
-            dst.resize(level_.kb, 0.0);
-            for (std::uint32_t c = 0; c < level_.kb; ++c) dst[c] += w * row[c];
-          }
-          if (!result[q].dUc.empty()) {
-            fill.dUc.resize(std::size_t(f_count), 0.0);
-            for (int f = 0; f < f_count; ++f) fill.dUc[std::size_t(f)] += w * result[q].dUc[std::size_t(f)];
-          }
-        }
-        fills.emplace_back(s, std::move(fill));
-      }
-      for (auto& [s, fill] : fills) {
-        result[s] = std::move(fill);
-        valid[s] = 1;
-        ++inpainted;
-        progress = true;
-      }
-    }
-  }
-
-  std::size_t dropped = 0;
-  if (settings_.drop_tolerance > 0.0) {
-    auto norm = [](const std::vector<double>& row) {
-      double n2 = 0.0;
-      for (double v : row) n2 += v * v;
-      return std::sqrt(n2);
-    };
-    double largest = 0.0;
-    for (const SampleResult& r : result)
-      for (const auto& [blk, row] : r.dUb) largest = std::max(largest, norm(row));
-    for (SampleResult& r : result)
-      dropped += std::erase_if(
-          r.dUb, [&](const auto& entry) { return norm(entry.second) < settings_.drop_tolerance * largest; });
-  }
-
-  const auto t1 = std::chrono::steady_clock::now();
-  DrtObjectOperators op;
-  op.texel_count = std::uint32_t(clutter_texel_count(object));
-  op.face_count = std::uint32_t(f_count);
-  std::size_t rows = 0, uc_rows = 0;
-  for (const SampleResult& r : result) {
-    rows += r.dUb.size();
-    uc_rows += r.dUc.empty() ? 0 : 1;
-  }
-  op.dUb = Matrix(std::uint32_t(rows), rows > 0 ? level_.kb : 0);
-  op.dUc = Matrix(std::uint32_t(uc_rows), uc_rows > 0 ? std::uint32_t(f_count) : 0);
-  std::size_t row = 0, uc_row = 0;
-  for (std::size_t s = 0; s < n; ++s) {
-    for (const auto& [src, values] : result[s].dUb) {  // std::map: blocks ascending
-      op.dUb_sample.push_back(std::uint32_t(s));
-      op.dUb_block.push_back(src);
-      for (std::uint32_t c = 0; c < level_.kb; ++c) op.dUb(std::uint32_t(row), c) = float(values[c]);
-      ++row;
-    }
-    if (!result[s].dUc.empty()) {
-      op.dUc_sample.push_back(std::uint32_t(s));
-      for (int f = 0; f < f_count; ++f)
-        op.dUc(std::uint32_t(uc_row), std::uint32_t(f)) = float(result[s].dUc[std::size_t(f)]);
-      ++uc_row;
-    }
-  }
-
-  // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f.
-  const int res = object.res;
-  op.Td_c = Matrix(op.face_count, op.texel_count);
-  for (int f = 0; f < f_count; ++f)
-    for (int t = 0; t < res * res; ++t)
-      op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
-
-  // Cb (DRT §4.3): gather rays from the clutter texels average the Limp rows of the walls
-  // they hit (per hit block); misses bring nothing.
-  const ClutterTexelGeometry cg = clutter_texel_geometry(object);
-  const std::size_t m = cg.position.size();
-  std::vector<BlockRows> gathered(m);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 16),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      LimpGather& gather = gathers.local();
-                      std::vector<glm::dvec3> dirs;
-                      std::vector<LevelHit> hits;
-                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                        directions.directions(settings_.seed ^ 0x436200ull, i, cg.normal[i], dirs);
-                        // Off the face so that a float ray does not start behind it.
-                        const glm::dvec3 x = cg.position[i] + 1e-6 * cg.normal[i];
-                        hits.resize(dirs.size());
-                        walls_.intersect_many(x, dirs, hits);
-                        for (const LevelHit& wall : hits)
-                          if (wall.block >= 0) gather.add(wall, 1.0 / rays);
-                        gather.flush(gathered[i]);
-                      }
-                    });
-  std::map<std::uint32_t, std::size_t> column_of;
-  for (const BlockRows& r : gathered)
-    for (const auto& [blk, values] : r) column_of.emplace(blk, 0);
-  for (auto& [blk, col] : column_of) {
-    col = op.Cb_blocks.size();
-    op.Cb_blocks.push_back(blk);
-  }
-  const std::size_t kb = level_.kb;
-  if (!op.Cb_blocks.empty()) {
-    MatrixXd Cb = MatrixXd::Zero(Eigen::Index(m), Eigen::Index(kb * op.Cb_blocks.size()));
-    for (std::size_t i = 0; i < m; ++i)
-      for (const auto& [blk, values] : gathered[i])
-        for (std::size_t c = 0; c < kb; ++c)
-          Cb(Eigen::Index(i), Eigen::Index(column_of[blk] * kb + c)) = values[c];
-    Eigen::BDCSVD<MatrixXd> svd(Cb, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const VectorXd sigma = svd.singularValues();
-    int modes = 0;
-    while (modes < std::min<int>(settings_.cb_modes, int(sigma.size())) && sigma[modes] > 0.0) ++modes;
-    double total = 0.0, kept = 0.0;
-    for (Eigen::Index q = 0; q < sigma.size(); ++q) {
-      total += sigma[q] * sigma[q];
-      if (q < modes) kept += sigma[q] * sigma[q];
-      op.Cb_sigma.push_back(float(sigma[q]));
-    }
-    op.Cb_truncation_error = total > 0.0 ? float(std::sqrt(std::max(0.0, total - kept) / total)) : 0.0f;
-    if (modes > 0) {
-      op.Uc = to_float(svd.matrixU().leftCols(modes) * sigma.head(modes).asDiagonal());
-      op.Vc = to_float(svd.matrixV().leftCols(modes).transpose());
-    }
-  }
-
-  const auto t2 = std::chrono::steady_clock::now();
-  if (report) {
-    report->scene_seconds += std::chrono::duration<double>(t1 - t0).count();
-    report->clutter_seconds += std::chrono::duration<double>(t2 - t1).count();
-    for (const SampleResult& r : result) {
-      report->traced_samples += r.state == SampleResult::traced;
-      report->culled_samples += r.state == SampleResult::culled;
-      report->inside_samples += r.state == SampleResult::inside;
-    }
-    report->inpainted_samples += inpainted;
-    report->dropped_rows += dropped;
-  }
-  return op;
+  return Status::success();
 }
 
-Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, DrtBuildReport* report) const {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, DrtBuildReport* report,
+                                       DrtBuildState* state) const {
   if (Status s = validate_clutter(level_, objects); !s.ok()) return s;
+  if (Status s = check_dictionary(level_, dict_); !s.ok()) return s;
   DrtOperators drt;
-  if (objects.empty()) return drt;
-  drt.kb = level_.kb;
-  for (const ClutterObject& o : objects) {
-    Result<DrtObjectOperators> op = build_object(o, report);
-    if (!op.ok()) return op.status();
-    drt.objects.push_back(std::move(op).value());
+  auto impl = std::make_unique<DrtBuildState::Impl>();
+  impl->objects.assign(objects.begin(), objects.end());
+  if (!objects.empty()) {
+    drt.kb = level_.kb;
+    drt.objects.resize(objects.size());
+    Pass pass(*this, impl->objects);
+
+    const auto t0 = std::chrono::steady_clock::now();
+    impl->samples.resize(walls_.samples().position.size());
+    pass.scene_pass(impl->samples, {});
+    pass.assemble_scene(impl->samples, drt, report);
+
+    const auto t1 = std::chrono::steady_clock::now();
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> work;
+    impl->texels.resize(objects.size());
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      impl->geometry.push_back(clutter_texel_geometry(objects[k]));
+      impl->texels[k].resize(impl->geometry[k].position.size());
+      for (std::size_t i = 0; i < impl->texels[k].size(); ++i)
+        work.emplace_back(std::uint32_t(k), std::uint32_t(i));
+    }
+    pass.clutter_pass(impl->texels, impl->geometry, work);
+    pass.assemble_clutter_all(impl->texels, std::vector<std::uint8_t>(objects.size(), 1), drt);
+    if (report) {
+      report->scene_seconds += std::chrono::duration<double>(t1 - t0).count();
+      report->clutter_seconds += seconds_since(t1);
+      report->traced_texels += work.size();
+    }
   }
+  if (state) state->impl_ = std::move(impl);
   return drt;
 }
 
+Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
+                                                    DrtBuildReport* report) const {
+  Result<DrtOperators> drt = build(std::span<const ClutterObject>(&object, 1), report);
+  if (!drt.ok()) return drt.status();
+  return std::move(drt.value().objects[0]);
+}
+
 Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::size_t index,
-                                  DrtOperators& drt) const {
-  if (index >= objects.size() || objects.size() != drt.objects.size())
+                                  DrtOperators& drt, DrtBuildState& state, DrtBuildReport* report) const {
+  auto fail = [&](const std::string& what) {
     return Status::error(ErrorCode::invalid_argument,
-                         "DRT rebuild: object " + std::to_string(index) + " is not one of the built objects");
-  Result<DrtObjectOperators> op = build_object(objects[index]);
-  if (!op.ok()) return op.status();
-  drt.objects[index] = std::move(op).value();
+                         "DRT rebuild of object " + std::to_string(index) + ": " + what);
+  };
+  if (index >= objects.size()) return fail("not one of the objects");
+  if (!state.impl_ || state.impl_->objects.size() != objects.size() || drt.objects.size() != objects.size())
+    return fail("the build state and operators are not those of these objects");
+  for (std::size_t k = 0; k < objects.size(); ++k)
+    if (k != index && !same_object(objects[k], state.impl_->objects[k]))
+      return fail("object " + std::to_string(k) + " changed too (rebuild one object at a time)");
+  if (Status s = validate_clutter(level_, objects); !s.ok()) return s;
+  DrtBuildState::Impl& st = *state.impl_;
+  const ClutterBox old_shape = st.objects[index].box, new_shape = objects[index].box;
+  const BoxQuery old_box(old_shape), new_box(new_shape);
+  st.objects[index] = objects[index];
+  Pass pass(*this, st.objects);
+
+  // Scene samples: only those inside the object or with a ray entering it, at its old or
+  // new place, can change.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = walls_.samples().position.size();
+  std::vector<std::uint8_t> retrace(n, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 32),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<glm::dvec3> dirs;
+                      for (std::size_t s = range.begin(); s != range.end(); ++s)
+                        retrace[s] = pass.sample_depends_on(s, old_box, old_shape, dirs) ||
+                                     pass.sample_depends_on(s, new_box, new_shape, dirs);
+                    });
+  const std::size_t retraced = std::size_t(std::count(retrace.begin(), retrace.end(), 1));
+  if (retraced > 0) pass.scene_pass(st.samples, retrace);
+  DrtBuildReport scene_report;
+  pass.assemble_scene(st.samples, drt, &scene_report);
+
+  // Clutter texels: all of the moved object's, and the others' that can see it.
+  const auto t1 = std::chrono::steady_clock::now();
+  st.geometry[index] = clutter_texel_geometry(objects[index]);
+  st.texels[index].assign(st.geometry[index].position.size(), TexelResult{});
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> work, candidates;
+  for (std::size_t k = 0; k < objects.size(); ++k)
+    for (std::size_t i = 0; i < st.geometry[k].position.size(); ++i)
+      (k == index ? work : candidates).emplace_back(std::uint32_t(k), std::uint32_t(i));
+  std::vector<std::uint8_t> affected(candidates.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 32),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<glm::dvec3> dirs;
+                      for (std::size_t c = range.begin(); c != range.end(); ++c) {
+                        const auto [k, i] = candidates[c];
+                        affected[c] = pass.texel_depends_on(k, i, st.geometry[k], old_box, old_shape, dirs) ||
+                                      pass.texel_depends_on(k, i, st.geometry[k], new_box, new_shape, dirs);
+                      }
+                    });
+  std::vector<std::uint8_t> dirty(objects.size(), 0);
+  dirty[index] = 1;
+  for (std::size_t c = 0; c < candidates.size(); ++c)
+    if (affected[c]) {
+      work.push_back(candidates[c]);
+      dirty[candidates[c].first] = 1;
+    }
+  pass.clutter_pass(st.texels, st.geometry, work);
+  pass.assemble_clutter_all(st.texels, dirty, drt);
+  if (report) {
+    report->traced_samples += retraced;
+    report->inside_samples += scene_report.inside_samples;
+    report->inpainted_samples += scene_report.inpainted_samples;
+    report->dropped_rows += scene_report.dropped_rows;
+    report->traced_texels += work.size();
+    report->scene_seconds += std::chrono::duration<double>(t1 - t0).count();
+    report->clutter_seconds += seconds_since(t1);
+  }
   return Status::success();
 }
 

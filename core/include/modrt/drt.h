@@ -11,8 +11,12 @@
 //   dUc  (DRT §4.2) affected samples x f: light reflected by the clutter onto the scene.
 //   Cb   (DRT §4.3) m x (kb * |Cb_blocks|) = Uc Vc, SVD-truncated: clutter texels' indirect
 //        light from the b of every block the clutter sees.
-// Objects are independent (each is traced against the walls and itself only), so moving one
-// rebuilds only its own operators; overlapping shadows of two objects add.
+//   Cc   (beyond the paper) m x (faces of other objects): light of other clutter objects'
+//        lit faces onto this object's texels, from the same c.
+// Rays see all clutter: a scene ray is charged to the first object it enters, so overlapping
+// shadows do not add, and a clutter texel's ray that enters another object brings that
+// object's light (Cc) instead of the wall's (Cb). Moving one object can change the others'
+// operators (precompute's DrtBuilder::rebuild_object rebuilds what it affects).
 //
 // Signals are RGB-interleaved as in level_runtime.h. Clutter-wide signals (clutter_ld,
 // clutter lightmap) concatenate the objects' texels in object order; c concatenates 3 f per
@@ -101,6 +105,13 @@ struct DrtObjectOperators {
   // Of the uncompressed Cb: all singular values, and ||Cb - Uc Vc||_F / ||Cb||_F.
   std::vector<float> Cb_sigma;
   float Cb_truncation_error = 0.0f;
+  // Clutter-to-clutter light: texel rays that enter another object before any wall sample
+  // its per-face constant basis (as dUc does for scene samples). Cc_objects: the source
+  // objects (indices into DrtOperators::objects, ascending, never this object); Cc's columns
+  // are the face_count faces of each source, sources in that order. Empty: no clutter light
+  // reaches this object (drt_clutter_add_cc does nothing).
+  std::vector<std::uint32_t> Cc_objects;
+  Matrix Cc;  // m x (sum of the sources' face_count)
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };
@@ -135,6 +146,9 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
 void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
                           std::span<const float> clutter_direct, std::span<float> out);
+// Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
+// lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
+void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);
 
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
 // evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT

@@ -1,17 +1,27 @@
 // modrt precompute — the DRT operators of clutter objects (SPEC §6, [Loos et al. 2012]
 // §4–5), traced with Embree against the level's walls and the implicit lighting Limp of the
-// dictionary, in parallel over texels (oneTBB).
+// dictionary, in parallel over scene samples and clutter texels (oneTBB).
 //
-// Every object is traced against the walls and itself only, so objects are independent:
-// moving one rebuilds its operators alone (rebuild_object) and the result equals a full
-// build. Scene samples whose hemisphere cannot contain the object's bounding sphere are not
-// traced, and rays that miss the sphere are not tested further; both are exact (no ray
-// that can hit the box is skipped).
+// Every ray sees the walls and all clutter: a scene-sample ray is charged to the first object
+// it enters (that object's dUb takes away the wall behind, its dUc adds its face), so
+// overlapping shadows of two objects do not subtract the wall twice; a clutter-texel ray that
+// enters another object before any wall brings that object's face light (Cc) instead of the
+// wall's Limp (Cb). Moving one object therefore changes the others' operators too:
+// rebuild_object re-traces exactly the scene samples and clutter texels that can see the
+// object at its old or its new place (the same culling test as the build), keeps the rest
+// from the DrtBuildState of the previous build, and gives the same operators as a full build.
+//
+// Culling is exact: a sample or texel whose tangent plane has an object's bounding sphere
+// entirely behind it does not test that object, and rays that miss the sphere are not tested
+// further; neither can skip a ray that enters the box.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
+
+#include <glm/vec3.hpp>
 
 #include "modrt/dictionary.h"
 #include "modrt/drt.h"
@@ -35,13 +45,31 @@ struct DrtBuildSettings {
 
 struct DrtBuildReport {
   std::size_t traced_samples = 0;  // scene samples that shot rays
-  std::size_t culled_samples = 0;  // scene samples skipped by the bounding sphere
+  std::size_t culled_samples = 0;  // scene samples with every object behind them
   std::size_t inside_samples = 0;  // scene samples inside clutter
   std::size_t inpainted_samples = 0;
-  std::size_t dropped_rows = 0;  // dUb rows under drop_tolerance
+  std::size_t dropped_rows = 0;   // dUb rows under drop_tolerance
+  std::size_t traced_texels = 0;  // clutter texels that shot rays (all of them in a full build)
   // Wall-clock seconds of the scene-sample pass (dUb, dUc, inpainting) and of the clutter
-  // texel pass (Cb and its SVD), summed over objects.
+  // texel pass (Cb and its SVD, Cc).
   double scene_seconds = 0.0, clutter_seconds = 0.0;
+};
+
+// What a build traced (per scene sample and clutter texel, before inpainting, dropping and
+// the SVD) and the objects it traced, so that rebuild_object re-traces only what a move can
+// change. Move-only; filled by DrtBuilder::build.
+class DrtBuildState {
+ public:
+  DrtBuildState();
+  ~DrtBuildState();
+  DrtBuildState(DrtBuildState&&) noexcept;
+  DrtBuildState& operator=(DrtBuildState&&) noexcept;
+  bool empty() const;
+
+ private:
+  friend class DrtBuilder;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 class DrtBuilder {
@@ -49,21 +77,32 @@ class DrtBuilder {
   // Throws std::runtime_error when Embree fails (as LevelScene).
   DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuildSettings& settings = {});
 
-  // Validates the objects (validate_clutter) and the dictionary's Limp sizes.
-  Result<DrtOperators> build(std::span<const ClutterObject> objects, DrtBuildReport* report = nullptr) const;
+  // Validates the objects (validate_clutter) and the dictionary's Limp sizes. `state`, when
+  // given, receives what rebuild_object needs.
+  Result<DrtOperators> build(std::span<const ClutterObject> objects, DrtBuildReport* report = nullptr,
+                             DrtBuildState* state = nullptr) const;
+  // The operators of one object alone in the level (build of a one-object list).
   Result<DrtObjectOperators> build_object(const ClutterObject& object,
                                           DrtBuildReport* report = nullptr) const;
-  // Incremental: replaces drt.objects[index] by the operators of objects[index] (after it
-  // moved); the other objects' operators are untouched.
-  Status rebuild_object(std::span<const ClutterObject> objects, std::size_t index, DrtOperators& drt) const;
+  // Incremental: objects[index] changed (moved, turned, resized, new albedo or faces) since
+  // the build that filled `state` and `drt`; every other object must be as it was then.
+  // Re-traces the scene samples and the other objects' texels that can see the object at its
+  // old or new place and all of its own texels, and rebuilds every object's operators from
+  // the kept and re-traced results: equal to build(objects). Updates `state`.
+  Status rebuild_object(std::span<const ClutterObject> objects, std::size_t index, DrtOperators& drt,
+                        DrtBuildState& state, DrtBuildReport* report = nullptr) const;
 
   const LevelScene& walls() const { return walls_; }
 
  private:
+  struct Pass;
   const Level& level_;
   const Dictionary& dict_;
   DrtBuildSettings settings_;
   LevelScene walls_;
+  // Cosine-weighted stratified direction sets in the local frame (z = normal), shared by the
+  // gathers (drt_build.cpp, DirectionSets).
+  std::vector<glm::dvec3> direction_sets_;
 };
 
 // Direct light on the clutter texels (albedo * E / pi, RGB, 3 per texel, objects in order),
