@@ -1,6 +1,7 @@
 // DRT on the SIMD CPU path (cpu_neon/cpu_drt.h) against core's scalar reference (drt.h):
-// c = Td_c clutter_ld, lightmap += dUb b + dUc c and the clutter lightmap Uc Vc b + direct,
-// every ISA this CPU (or qemu) supports, within 1e-5 relative L2; no clutter costs nothing.
+// c = Td_c clutter_ld, lightmap += dUb b + dUc c, the clutter lightmap Uc Vc b + direct and its
+// clutter-to-clutter light Cc c, every ISA this CPU (or qemu) supports, within 1e-5 relative L2;
+// no clutter costs nothing.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -103,6 +104,34 @@ TEST(CpuDrt, MatchesScalarReferenceForEveryIsa) {
     wd.add(e);
     expect_close(cl, cl_ref, std::string("clutter lightmap ") + isa_name(isa), &wl);
     wc.print("c", isa), wd.print("dUb b + dUc c", isa), wl.print("clutter lightmap", isa);
+  }
+}
+
+// Clutter-to-clutter light (Cc c): the box and the pillar see each other through the opening.
+TEST(CpuDrt, ClutterToClutterLightMatchesScalarReferenceForEveryIsa) {
+  const DrtFixture& f = fixture();
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  ASSERT_FALSE(f.drt.objects[0].Cc.empty());
+  ASSERT_FALSE(f.drt.objects[1].Cc.empty());
+  std::mt19937 rng(12);
+  const std::vector<float> c = random_vector(rng, sizes.c, 0.0f, 1.0f);
+  const std::vector<float> base = random_vector(rng, sizes.clutter_lightmap, 0.0f, 0.5f);
+  std::vector<float> ref(base);
+  drt_clutter_add_cc(f.drt, c, ref);
+  std::vector<float> ref_delta(ref.size());
+  for (std::size_t i = 0; i < ref.size(); ++i) ref_delta[i] = ref[i] - base[i];
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> out(base), delta(base.size());
+    ASSERT_TRUE(rt->clutter_add_cc(c, out).ok());
+    for (std::size_t i = 0; i < out.size(); ++i) delta[i] = out[i] - base[i];
+    const Error e = compare(delta, ref_delta);
+    EXPECT_LE(e.rel_l2, 1e-5) << isa_name(isa);
+    Worst w;
+    w.add(e);
+    w.print("Cc c", isa);
+    EXPECT_EQ(rt->clutter_add_cc(std::vector<float>(sizes.c + 3), out).code(), ErrorCode::invalid_argument);
   }
 }
 

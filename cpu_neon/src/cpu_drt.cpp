@@ -53,7 +53,7 @@ Result<CpuDrtRuntime> CpuDrtRuntime::create(const Level& level, const DrtOperato
     }
     obj.dUc_sample.assign(o.dUc_sample.begin(), o.dUc_sample.end());
     scratch = std::max({scratch, 3 * std::size_t(o.texel_count), 3 * std::size_t(o.face_count),
-                        3 * kb * o.Cb_blocks.size(), 3 * std::size_t(o.Uc.cols)});
+                        3 * kb * o.Cb_blocks.size(), 3 * std::size_t(o.Uc.cols), 3 * std::size_t(o.Cc.cols)});
     modes = std::max<std::size_t>(modes, o.Uc.cols);
     texel0 += o.texel_count;
     face0 += o.face_count;
@@ -131,6 +131,26 @@ Status CpuDrtRuntime::clutter_lightmap(std::span<const float> b, std::span<const
     }
     if (!clutter_direct.empty())
       for (std::size_t k = 0; k < 3 * m; ++k) dst[k] += clutter_direct[3 * objects_[i].texel0 + k];
+  }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::clutter_add_cc(std::span<const float> c, std::span<float> out) {
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (out.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    const std::size_t cols = o.Cc.cols;
+    if (cols == 0) continue;
+    // The c of the source objects' faces, planar in Cc's column order.
+    std::size_t col = 0;
+    for (std::uint32_t src : o.Cc_objects)
+      for (std::size_t f = 0; f < drt_->objects[src].face_count; ++f, ++col)
+        for (std::size_t ch = 0; ch < 3; ++ch)
+          planar_[ch * cols + col] = c[3 * (objects_[src].face0 + f) + ch];
+    gemv_rgb(isa_, o.Cc.data.data(), o.texel_count, cols, cols, planar_.data(), cols,
+             out.data() + 3 * objects_[i].texel0, true);
   }
   return Status::success();
 }

@@ -1,7 +1,8 @@
 // modrt::cpu — the DRT stages on the SIMD CPU path (SPEC §5 step 7, [Loos et al. 2012] §5):
-// c = Td_c clutter_ld, lightmap += dUb b + dUc c, clutter lightmap = Uc (Vc b) + direct, with
-// the GEMV kernels of kernels.h. Equal to core's drt_compute_c / drt_apply /
-// drt_clutter_lightmap within 1e-5 relative (tests/test_cpu_drt.cpp).
+// c = Td_c clutter_ld, lightmap += dUb b + dUc c, clutter lightmap = Uc (Vc b) + direct
+// (+ Cc c, clutter-to-clutter light), with the GEMV kernels of kernels.h. Equal to core's
+// drt_compute_c / drt_apply / drt_clutter_lightmap / drt_clutter_add_cc within 1e-5 relative
+// (tests/test_cpu_drt.cpp).
 //
 // Layout chosen at creation: each object's dUb rows are regrouped by the block whose b they
 // read (one dense GEMV per group, scattered onto its samples), instead of core's per-row
@@ -36,6 +37,9 @@ class CpuDrtRuntime {
   // out (3 per clutter texel) = Uc (Vc b) + clutter_direct (empty: none).
   Status clutter_lightmap(std::span<const float> b, std::span<const float> clutter_direct,
                           std::span<float> out);
+  // out (3 per clutter texel) += Cc c: light of other clutter objects (drt.h
+  // drt_clutter_add_cc); nothing for objects without Cc.
+  Status clutter_add_cc(std::span<const float> c, std::span<float> out);
 
  private:
   CpuDrtRuntime() = default;
