@@ -56,8 +56,11 @@ InterfaceSettings interface_settings(const DictionarySettings& s) {
   return is;
 }
 
-ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh,
-                     const BakeProgress& progress) {
+namespace {
+
+// bake_shape and bake_shape_with_prior: `given_Ld` null lights the settings' prior lattice.
+ShapeBake bake_shape_from(FaceMask mask, const DictionarySettings& settings, const MatrixXd* given_Ld,
+                          bool with_sh, const BakeProgress& progress) {
   if (Status s = validate_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
   ShapeBake bake;
   bake.mask = mask;
@@ -66,8 +69,15 @@ ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool wit
   StageTimer timer(progress, shape_index_of(mask));
   const std::uint64_t shape_seed = settings.seed ^ (std::uint64_t(mask) << 40);
 
-  bake.Ld = light_prior_matrix(scene, bake.layout, int(settings.prior_grid), settings.light_radius,
-                               int(settings.light_samples));
+  if (given_Ld) {
+    if (given_Ld->rows() != bake.layout.sample_count() || given_Ld->cols() < 1 || !given_Ld->allFinite())
+      throw std::invalid_argument("bake_shape_with_prior: Ld must be finite with one row per sample (" +
+                                  std::to_string(bake.layout.sample_count()) + ") and at least one column");
+    bake.Ld = *given_Ld;
+  } else {
+    bake.Ld = light_prior_matrix(scene, bake.layout, int(settings.prior_grid), settings.light_radius,
+                                 int(settings.light_samples));
+  }
   bake.raw_prior = truncated_left_svd(bake.Ld, int(settings.kd));
   timer.done("prior");
 
@@ -94,6 +104,18 @@ ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool wit
     timer.done("volume probes");
   }
   return bake;
+}
+
+}  // namespace
+
+ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh,
+                     const BakeProgress& progress) {
+  return bake_shape_from(mask, settings, nullptr, with_sh, progress);
+}
+
+ShapeBake bake_shape_with_prior(FaceMask mask, const DictionarySettings& settings, const MatrixXd& Ld,
+                                bool with_sh, const BakeProgress& progress) {
+  return bake_shape_from(mask, settings, &Ld, with_sh, progress);
 }
 
 ShapeOperators to_operators(const ShapeBake& bake) {

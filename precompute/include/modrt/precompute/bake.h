@@ -40,6 +40,14 @@ struct BakeProgress {
 ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh = true,
                      const BakeProgress& progress = {});
 
+// bake_shape with a given prior lighting matrix Ld (n x m: the direct light of m prior lights
+// at the shape's samples, e.g. from direct_light()) in place of the settings' sphere-light
+// lattice; prior_grid, light_radius and light_samples are then unused. The numerical stress
+// tests feed it near-singular priors (duplicate, colinear and on-wall lights). Throws
+// std::invalid_argument when Ld is not finite, has no column or the wrong row count.
+ShapeBake bake_shape_with_prior(FaceMask mask, const DictionarySettings& settings, const MatrixXd& Ld,
+                                bool with_sh = true, const BakeProgress& progress = {});
+
 ShapeOperators to_operators(const ShapeBake& bake);
 
 // The interface part of the dictionary settings.
