@@ -11,7 +11,13 @@ void main() {
   ivec4 map = texelFetch(u_texel_map, ivec2(gl_FragCoord.xy), 0);
   vec3 acc = vec3(0.0);
   if (map.x >= 0) {
-    for (int q = 0; q < map.w; ++q) acc += load(u_uc, map.y + q / 4)[q % 4] * load_signal(u_y, map.z + q).rgb;
+    for (int g = 0; 4 * g < map.w; ++g) {
+      vec4 w = load(u_uc, map.y + g);
+      for (int j = 0; j < 4; ++j) {
+        if (4 * g + j >= map.w) break;
+        acc += w[j] * load_signal(u_y, map.z + 4 * g + j).rgb;
+      }
+    }
     acc += load(u_direct, map.x).rgb;
   }
   o_color = store_output(vec4(acc, 1.0));

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 
 #include "gl_objects.h"
 #include "modrt/reference_runtime.h"
@@ -63,6 +65,8 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   };
   std::vector<Entry> entries;
   std::vector<std::array<std::int32_t, 4>> texel_values;  // per clutter texel: the map's value
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> dub_row;  // (sample, block) -> row
+  std::vector<double> dub_sum;
   std::size_t texel0 = 0, face0 = 0, mode0 = 0;
   for (const DrtObjectOperators& o : drt.objects) {
     const std::size_t m = o.texel_count, f = o.face_count, modes = o.Uc.cols;
@@ -73,11 +77,14 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       for (std::size_t t = 0; t < m; ++t) td_c[4 * base + t] = o.Td_c(std::uint32_t(r), std::uint32_t(t));
       face_info.insert(face_info.end(), {std::int32_t(base), std::int32_t(texel0), std::int32_t(m), 0});
     }
-    for (std::size_t r = 0; r < o.dUb_sample.size(); ++r) {  // DRT §4.1
-      const std::size_t base = dub.size() / 4;
-      dub.resize(dub.size() + 4 * G, 0.0f);
-      for (std::size_t k = 0; k < kb; ++k) dub[4 * base + k] = o.dUb(std::uint32_t(r), std::uint32_t(k));
-      entries.push_back({o.dUb_sample[r], {std::int32_t(base), std::int32_t(o.dUb_block[r]), 0, 0}});
+    // DRT §4.1. Rows of different objects for the same (sample, block) read the same b: they
+    // are summed (in double) into one, so that a sample under many objects' shadows costs one
+    // row per block it sees, not one per object.
+    for (std::size_t r = 0; r < o.dUb_sample.size(); ++r) {
+      auto [it, added] = dub_row.try_emplace({o.dUb_sample[r], o.dUb_block[r]}, dub_sum.size() / kb);
+      if (added) dub_sum.resize(dub_sum.size() + kb, 0.0);
+      for (std::size_t k = 0; k < kb; ++k)
+        dub_sum[it->second * kb + k] += double(o.dUb(std::uint32_t(r), std::uint32_t(k)));
     }
     for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {  // DRT §4.2
       const std::size_t base = duc.size() / 4;
@@ -105,6 +112,11 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     texel0 += m;
     face0 += f;
     mode0 += modes;
+  }
+  dub.assign(4 * G * (dub_sum.size() / std::max<std::size_t>(kb, 1)), 0.0f);
+  for (const auto& [key, row] : dub_row) {
+    for (std::size_t k = 0; k < kb; ++k) dub[4 * G * row + k] = float(dub_sum[row * kb + k]);
+    entries.push_back({key.first, {std::int32_t(G * row), std::int32_t(key.second), 0, 0}});
   }
   d->faces_ = int(face0);
   d->modes_ = int(mode0);
