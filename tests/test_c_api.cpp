@@ -11,6 +11,7 @@
 // within 1e-5 of the canonical probe evaluated along the turned directions (relative to the
 // probe's largest coefficient).
 #include <gtest/gtest.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -481,6 +482,9 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   ASSERT_TRUE(write_file_atomic(level_path, assets().level).ok());
   HookCounter counter;
   const modrt_allocator hook{hook_alloc, hook_free, &counter};
+  // Heap in use (glibc: operator new and the hook both draw on malloc), to report how much the
+  // hook sees of what loading and creation allocate (docs/embedding.md).
+  const std::size_t heap_before = mallinfo2().uordblks;
   modrt_dictionary* d = nullptr;
   ASSERT_EQ(
       modrt_dictionary_load_memory(assets().dictionary.data(), assets().dictionary.size(), "dict", &hook, &d),
@@ -495,6 +499,11 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   // The frame buffers (ld, lightmap, atlas, probes) live in the hook's memory.
   EXPECT_GE(counter.live_bytes, sizeof(float) * (s.ld + s.lightmap + s.atlas + s.probes));
+  const std::size_t heap = mallinfo2().uordblks - heap_before;
+  std::printf(
+      "  maze11, small test dictionary: %zu bytes live after load + context, %zu through the hook "
+      "(%.1f %%), peak through the hook %zu\n",
+      heap, counter.live_bytes, 100.0 * double(counter.live_bytes) / double(heap), counter.peak_bytes);
   ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   modrt_context_destroy(c);
