@@ -775,12 +775,13 @@ TEST(Drt, DISABLED_Timing) {
       ASSERT_TRUE(builder.rebuild_object(s.clutter, 1, drt, state).ok());
       incremental.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
     }
-    std::size_t dUb = 0, dUc = 0, Td_c = 0, Cb = 0;
+    std::size_t dUb = 0, dUc = 0, Td_c = 0, Cb = 0, Cc = 0;
     for (const DrtObjectOperators& o : drt.objects) {
       dUb += o.dUb.data.size() * 4 + o.dUb_sample.size() * 8;
       dUc += o.dUc.data.size() * 4 + o.dUc_sample.size() * 4;
       Td_c += o.Td_c.data.size() * 4;
       Cb += (o.Uc.data.size() + o.Vc.data.size()) * 4 + o.Cb_blocks.size() * 4;
+      Cc += o.Cc.data.size() * 4 + o.Cc_objects.size() * 4;
     }
     std::printf(
         "%d rays: four pillars (res %d level, kb %u, %u level samples): full build %.3f s (scene samples "
@@ -788,9 +789,9 @@ TEST(Drt, DISABLED_Timing) {
         "clutter "
         "texels %.3f s), incremental rebuild of one pillar %.3f s; storage %zu bytes (dUb %zu, dUc %zu, Td_c "
         "%zu, "
-        "Cb %zu)\n",
+        "Cb %zu, Cc %zu)\n",
         rays, level.res, level.kb, level.sample_count, median(full), median(scene_pass), median(clutter_pass),
-        median(incremental), drt.storage_bytes(), dUb, dUc, Td_c, Cb);
+        median(incremental), drt.storage_bytes(), dUb, dUc, Td_c, Cb, Cc);
     accuracy(s, "four pillars (moved pillar 1)", settings);
   }
   for (int rays : {1024, 256}) {
