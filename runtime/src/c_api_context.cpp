@@ -450,6 +450,7 @@ modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint3
   constexpr const char* fn = "modrt_context_get_atlas_texture";
   if (!context) return null_arg(fn, "context");
   if (!texture) return null_arg(fn, "texture");
+  (void)format;  // used only with the GLES backend built in
 #if MODRT_RUNTIME_GLES
   if (context->gles) {
     *texture = context->gles->atlas_texture();

@@ -35,7 +35,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#if defined(_WIN32)
+#if defined(_WIN32) && defined(MODRT_BUILDING_RUNTIME)
 #define MODRT_API __declspec(dllexport)
 #elif defined(__GNUC__)
 #define MODRT_API __attribute__((visibility("default")))
