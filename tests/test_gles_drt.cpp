@@ -105,7 +105,7 @@ const DrtFixture& fixture() {
 
 // Core's scalar reference of one frame with clutter.
 struct Reference {
-  std::vector<float> b, r, mrt, lightmap, atlas, clutter;
+  std::vector<float> b, r, mrt, lightmap, atlas, clutter, clutter_without_cc;
 };
 Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<const float> clutter_ld) {
   const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
@@ -120,6 +120,8 @@ Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<co
   drt_apply(f.level, f.drt, ref.b, c, ref.lightmap);
   level_fill_atlas(f.level, ref.lightmap, ref.atlas);
   drt_clutter_lightmap(f.drt, ref.b, f.clutter_direct, ref.clutter);
+  ref.clutter_without_cc = ref.clutter;
+  drt_clutter_add_cc(f.drt, c, ref.clutter);
   return ref;
 }
 
@@ -212,8 +214,14 @@ const FormatCase kFormats[] = {
 
 TEST_P(GlesDrtTest, MatchesScalarReference) {
   const DrtFixture& f = fixture();
+  // The box sees the pillar and the pillar the box: Cc c is part of the clutter lightmap.
+  ASSERT_FALSE(f.drt.objects[0].Cc.empty());
+  ASSERT_FALSE(f.drt.objects[1].Cc.empty());
   const Reference ref = reference(f, f.ld, f.clutter_ld);
   const std::vector<float> delta_ref = minus(ref.lightmap, ref.mrt);
+  const double cc_part = rel_l2(ref.clutter_without_cc, ref.clutter);
+  std::printf("  Cc c is %.2e of the clutter lightmap (rel L2)\n", cc_part);
+  EXPECT_GT(cc_part, 1000 * kFloat32Tolerance);  // a missing Cc c fails the float32 cases
   for (const FormatCase& fc : kFormats) {
     std::unique_ptr<GlesLevelRuntime> rt = make({.target = fc.target, .operators = fc.operators});
     ASSERT_TRUE(rt);
@@ -338,6 +346,7 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   ASSERT_TRUE(rep.ok()) << rep.status().to_string();
   ASSERT_EQ(rep->iterations, kSteps);
   drt_clutter_lightmap(f.drt, b, f.clutter_direct, clutter_ref);
+  drt_clutter_add_cc(f.drt, c, clutter_ref);
   // The delta matters: without it the feedback gives a different lightmap.
   std::vector<float> b0(s.b), r0(s.r), mrt(s.lightmap);
   ASSERT_TRUE(level_multi_bounce(f.level, dict(), f.ld, f.albedo, settings, b0, r0, mrt).ok());

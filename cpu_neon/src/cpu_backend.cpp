@@ -128,11 +128,13 @@ class CpuBackend final : public Backend {
     if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
     return probes_.empty() ? Status::success() : rt_.compute_probes(probes_);
   }
-  // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap.
+  // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
+  // Cb b + Cc c + direct.
   Status finish_drt() {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
     if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
     if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
+    if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
     return finish();
   }
   Status copy(const char* what, const std::vector<float>& from, std::span<float> to) const {

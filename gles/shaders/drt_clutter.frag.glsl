@@ -1,9 +1,14 @@
-// DRT §4.3, second half: the clutter atlas, Uc y + the clutter's direct light per clutter
-// texel (y = Vc b from drt_vc.frag). Uc row t is packed four modes per texel.
+// DRT §4.3, second half: the clutter atlas, Uc y + Cc c + the clutter's direct light per
+// clutter texel (y = Vc b from drt_vc.frag; Cc c: light of other clutter objects' faces, drt.h).
+// Uc and Cc rows are packed four modes / columns per texel.
 uniform isampler2D u_texel_map;  // clutter-atlas sized: (clutter texel or -1, first Uc texel, first y, modes)
 uniform sampler2D u_uc;
 uniform usampler2D u_y;          // per (object, mode), RGB
 uniform sampler2D u_direct;      // per clutter texel, RGB (zero when none was given)
+uniform isampler2D u_cc_map;     // clutter-atlas sized: (first Cc texel, Cc columns, first column entry, 0)
+uniform sampler2D u_cc;
+uniform isampler2D u_cc_faces;   // per Cc column: (c index, 0, 0, 0)
+uniform usampler2D u_c;          // per clutter face, RGB (drt_c.frag)
 
 layout(location = 0) out OUTPUT_TYPE o_color;
 
@@ -16,6 +21,14 @@ void main() {
       for (int j = 0; j < 4; ++j) {
         if (4 * g + j >= map.w) break;
         acc += w[j] * load_signal(u_y, map.z + 4 * g + j).rgb;
+      }
+    }
+    ivec4 cc = texelFetch(u_cc_map, ivec2(gl_FragCoord.xy), 0);
+    for (int g = 0; 4 * g < cc.y; ++g) {
+      vec4 w = load(u_cc, cc.x + g);
+      for (int j = 0; j < 4; ++j) {
+        if (4 * g + j >= cc.y) break;
+        acc += w[j] * load_signal(u_c, load_int(u_cc_faces, cc.z + 4 * g + j).x).rgb;
       }
     }
     acc += load(u_direct, map.x).rgb;

@@ -65,6 +65,11 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   };
   std::vector<Entry> entries;
   std::vector<std::array<std::int32_t, 4>> texel_values;  // per clutter texel: the map's value
+  std::vector<std::array<std::int32_t, 4>> texel_cc;      // per clutter texel: the Cc map's value
+  std::vector<float> cc;                                  // Cc rows, four columns per texel
+  std::vector<std::int32_t> cc_faces;                     // per Cc column: its c index (face)
+  std::vector<std::size_t> object_face0(1, 0);
+  for (const DrtObjectOperators& o : drt.objects) object_face0.push_back(object_face0.back() + o.face_count);
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> dub_row;  // (sample, block) -> row
   std::vector<double> dub_sum;
   std::size_t texel0 = 0, face0 = 0, mode0 = 0;
@@ -109,6 +114,17 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       texel_values.push_back(
           {std::int32_t(texel0 + t), std::int32_t(base), std::int32_t(mode0), std::int32_t(modes)});
     }
+    // Clutter-to-clutter light (drt.h, Cc): the columns are the source objects' faces.
+    const std::size_t cc_cols = o.Cc.empty() ? 0 : o.Cc.cols, cc_face0 = cc_faces.size() / 4;
+    for (std::uint32_t src : o.Cc_objects)
+      for (std::uint32_t k = 0; k < drt.objects[src].face_count; ++k)
+        cc_faces.insert(cc_faces.end(), {std::int32_t(object_face0[src] + k), 0, 0, 0});
+    for (std::size_t t = 0; t < m; ++t) {
+      const std::size_t base = cc.size() / 4;
+      cc.resize(cc.size() + 4 * quads(cc_cols), 0.0f);
+      for (std::size_t k = 0; k < cc_cols; ++k) cc[4 * base + k] = o.Cc(std::uint32_t(t), std::uint32_t(k));
+      texel_cc.push_back({std::int32_t(base), std::int32_t(cc_cols), std::int32_t(cc_face0), 0});
+    }
     texel0 += m;
     face0 += f;
     mode0 += modes;
@@ -152,11 +168,13 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                              std::to_string(atlas_h) + ") exceeds GL_MAX_TEXTURE_SIZE " +
                              std::to_string(setup.max_texture_size) + ": too much clutter for one texture");
   std::vector<std::int32_t> texel_map(4 * std::size_t(atlas_w) * std::size_t(atlas_h), -1);
+  std::vector<std::int32_t> cc_map(texel_map.size(), 0);
   for (std::size_t i = 0, t = 0; i < drt.objects.size(); ++i)
     for (std::uint32_t k = 0; k < drt.objects[i].texel_count; ++k, ++t) {
       const std::array<int, 2> xy = d->clutter_texel(i, k);
-      std::copy(texel_values[t].begin(), texel_values[t].end(),
-                texel_map.begin() + 4 * (std::ptrdiff_t(xy[1]) * atlas_w + xy[0]));
+      const std::ptrdiff_t at = 4 * (std::ptrdiff_t(xy[1]) * atlas_w + xy[0]);
+      std::copy(texel_values[t].begin(), texel_values[t].end(), texel_map.begin() + at);
+      std::copy(texel_cc[t].begin(), texel_cc[t].end(), cc_map.begin() + at);
     }
 
   // ---- textures ----
@@ -190,6 +208,8 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->duc_ = float_table("dUc", duc);
   d->vc_ = float_table("Vc", vc);
   d->uc_ = float_table("Uc", uc);
+  d->cc_ = float_table("Cc", cc);
+  d->cc_faces_ = int_table("Cc column table", cc_faces);
   d->face_info_ = int_table("clutter face table", face_info);
   d->sample_entries_ = int_table("DRT sample table", sample_entries);
   d->entries_ = int_table("DRT row table", entry_table);
@@ -202,6 +222,9 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->textures_.push_back(d->texel_map_);
   gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas_w, atlas_h, GL_RGBA_INTEGER, GL_INT, texel_map.data());
+  d->cc_map_ = create_texture(gl, GL_RGBA32I, atlas_w, atlas_h);
+  d->textures_.push_back(d->cc_map_);
+  gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas_w, atlas_h, GL_RGBA_INTEGER, GL_INT, cc_map.data());
   // Zero light until set_light (Backend: "zero until set").
   d->zeros_.assign(d->sizes_.clutter_ld, 0.0f);
   upload_linear(gl, d->clutter_ld_, GL_RGB, GL_FLOAT, 3, d->zeros_.data(), d->sizes_.clutter_texels,
@@ -266,8 +289,9 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                   {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"}, int(mode0));
       !s.ok())
     return s;
-  if (Status s = program("drt_clutter.frag", kDrtClutterFrag, d->prog_clutter_,
-                         {"u_texel_map", "u_uc", "u_y", "u_direct"}, -1);
+  if (Status s =
+          program("drt_clutter.frag", kDrtClutterFrag, d->prog_clutter_,
+                  {"u_texel_map", "u_uc", "u_y", "u_direct", "u_cc_map", "u_cc", "u_cc_faces", "u_c"}, -1);
       !s.ok())
     return s;
   gl.glUseProgram(0);
@@ -314,7 +338,8 @@ void GlesDrt::run_scene(const std::array<GLuint, 3>& b) {
 
 void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {
   draw(prog_vc_, y_, {vc_, mode_info_, cb_blocks_, b[0], b[1], b[2]});
-  draw(prog_clutter_, clutter_, {texel_map_, uc_, y_.texture, clutter_direct_});
+  draw(prog_clutter_, clutter_,
+       {texel_map_, uc_, y_.texture, clutter_direct_, cc_map_, cc_, cc_faces_, c_.texture});
 }
 
 Status GlesDrt::read_clutter_lightmap(std::span<float> out) {

@@ -6,7 +6,7 @@
 //   drt_delta.frag    dUb b + dUc c per level sample (0 where no clutter reaches); atlas.frag
 //                     built with DRT 1 adds it, so padding texels get it too
 //   drt_vc.frag       y = Vc b per (object, mode)
-//   drt_clutter.frag  clutter atlas = Uc y + clutter direct light
+//   drt_clutter.frag  clutter atlas = Uc y + Cc c (clutter-to-clutter) + clutter direct light
 // Layouts: gles/README.md, "DRT".
 #pragma once
 
@@ -48,7 +48,7 @@ class GlesDrt {
   Status set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
   // c (when the light changed since the last call) and the per-sample delta, from b's planes.
   void run_scene(const std::array<GLuint, 3>& b);
-  // The clutter atlas from b's planes.
+  // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Per-sample delta (RGBA32UI float bits, linear layout), read by atlas.frag.
   GLuint delta_texture() const { return delta_.texture; }
@@ -79,7 +79,7 @@ class GlesDrt {
   int faces_ = 0, modes_ = 0;
   std::vector<Placement> placement_;
   std::vector<std::size_t> texel0_;
-  GLuint td_c_ = 0, dub_ = 0, duc_ = 0, vc_ = 0, uc_ = 0;
+  GLuint td_c_ = 0, dub_ = 0, duc_ = 0, vc_ = 0, uc_ = 0, cc_ = 0, cc_faces_ = 0, cc_map_ = 0;
   GLuint face_info_ = 0, sample_entries_ = 0, entries_ = 0, mode_info_ = 0, cb_blocks_ = 0, texel_map_ = 0;
   GLuint clutter_ld_ = 0, clutter_direct_ = 0;
   Target c_, delta_, y_, clutter_;

@@ -61,7 +61,7 @@ class Backend {
   // the clutter, and a backend without clutter (the default) runs no DRT work and allocates
   // nothing for it. With clutter, every update() and multi_bounce_step() also computes
   //   c = Td_c clutter_ld, lightmap += dUb b + dUc c (atlas and padding included),
-  //   clutter lightmap = Cb b + clutter_direct,
+  //   clutter lightmap = Cb b + Cc c + clutter_direct (Cc: clutter-to-clutter light, drt.h),
   // and the multi-bounce feedback reads the lightmap with the delta (core's drt_multi_bounce;
   // c is not fed back). The vector irradiance and the probes get no DRT term.
   virtual Status set_clutter(const DrtOperators* drt) = 0;
