@@ -101,10 +101,11 @@ std::size_t DrtOperators::storage_bytes() const {
   for (const DrtObjectOperators& o : objects) {
     bytes += matrix_bytes(o.dUb) + matrix_bytes(o.Td_c) + matrix_bytes(o.dUc) + matrix_bytes(o.Uc) +
              matrix_bytes(o.Vc);
-    bytes += matrix_bytes(o.Cc);
-    bytes += (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size() +
-              o.Cc_objects.size()) *
-             sizeof(std::uint32_t);
+    bytes += matrix_bytes(o.Cc) + matrix_bytes(o.dUb_vec) + matrix_bytes(o.dUc_vec);
+    bytes +=
+        (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size() +
+         o.Cc_objects.size() + o.dUb_vec_sample.size() + o.dUb_vec_block.size() + o.dUc_vec_sample.size()) *
+        sizeof(std::uint32_t);
   }
   return bytes;
 }
@@ -165,8 +166,27 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
     }
     if ((!o.Cc_objects.empty() || !o.Cc.empty()) && (o.Cc.rows != o.texel_count || o.Cc.cols != cc_cols))
       return fail("Cc is not m x (faces of its source objects)");
+    const std::size_t vrows = o.dUb_vec_sample.size();
+    if (o.dUb_vec_block.size() != vrows || o.dUb_vec.rows != 4 * vrows ||
+        (vrows > 0 && o.dUb_vec.cols != drt.kb))
+      return fail("dUb_vec is not 4 entries x kb with one sample and block per entry");
+    for (std::size_t r = 0; r < vrows; ++r) {
+      if (o.dUb_vec_sample[r] >= level.sample_count || o.dUb_vec_block[r] >= level.blocks.size())
+        return fail("dUb_vec sample or block index out of range");
+      if (r > 0 &&
+          (o.dUb_vec_sample[r] < o.dUb_vec_sample[r - 1] ||
+           (o.dUb_vec_sample[r] == o.dUb_vec_sample[r - 1] && o.dUb_vec_block[r] <= o.dUb_vec_block[r - 1])))
+        return fail("dUb_vec entries not sorted by (sample, block)");
+    }
+    if (o.dUc_vec.rows != 4 * o.dUc_vec_sample.size() ||
+        (o.dUc_vec.rows > 0 && o.dUc_vec.cols != o.face_count))
+      return fail("dUc_vec is not 4 |dUc_vec_sample| x f");
+    for (std::size_t r = 0; r < o.dUc_vec_sample.size(); ++r)
+      if (o.dUc_vec_sample[r] >= level.sample_count ||
+          (r > 0 && o.dUc_vec_sample[r] <= o.dUc_vec_sample[r - 1]))
+        return fail("dUc_vec samples out of range, not sorted or not unique");
     if (!all_finite(o.dUb) || !all_finite(o.Td_c) || !all_finite(o.dUc) || !all_finite(o.Uc) ||
-        !all_finite(o.Vc) || !all_finite(o.Cc))
+        !all_finite(o.Vc) || !all_finite(o.Cc) || !all_finite(o.dUb_vec) || !all_finite(o.dUc_vec))
       return fail("non-finite operator value");
   }
   return Status::success();
@@ -218,6 +238,35 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
       for (int ch = 0; ch < 3; ++ch)
         lightmap[3 * std::size_t(o.dUc_sample[r]) + std::size_t(ch)] += float(acc[ch]);
     }
+    face0 += o.face_count;
+  }
+}
+
+void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<const float> b,
+                      std::span<const float> c, std::span<float> vector_lightmap) {
+  const std::size_t kb = level.kb;
+  std::size_t face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::size_t r = 0; r < o.dUb_vec_sample.size(); ++r) {
+      const float* bb = b.data() + 3 * kb * o.dUb_vec_block[r];
+      for (std::size_t i = 0; i < 4; ++i) {
+        const std::span<const float> row = o.dUb_vec.row(std::uint32_t(4 * r + i));
+        double acc[3] = {0, 0, 0};
+        for (std::size_t k = 0; k < kb; ++k)
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[k]) * bb[3 * k + std::size_t(ch)];
+        for (int ch = 0; ch < 3; ++ch)
+          vector_lightmap[3 * (4 * std::size_t(o.dUb_vec_sample[r]) + i) + std::size_t(ch)] += float(acc[ch]);
+      }
+    }
+    for (std::size_t r = 0; r < o.dUc_vec_sample.size(); ++r)
+      for (std::size_t i = 0; i < 4; ++i) {
+        const std::span<const float> row = o.dUc_vec.row(std::uint32_t(4 * r + i));
+        double acc[3] = {0, 0, 0};
+        for (std::uint32_t f = 0; f < o.face_count; ++f)
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[f]) * c[3 * (face0 + f) + std::size_t(ch)];
+        for (int ch = 0; ch < 3; ++ch)
+          vector_lightmap[3 * (4 * std::size_t(o.dUc_vec_sample[r]) + i) + std::size_t(ch)] += float(acc[ch]);
+      }
     face0 += o.face_count;
   }
 }

@@ -20,6 +20,7 @@
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/linalg.h"
 #include "modrt/precompute/sampling.h"
+#include "modrt/sh.h"
 
 namespace modrt::precompute {
 namespace {
@@ -122,16 +123,58 @@ struct Candidates {
 // rotation about its normal. Its rays stay stratified and each is cosine-distributed (an
 // unbiased gather), neighbouring texels' noise stays independent, and a ray costs a frame
 // change instead of the sin, cos and sqrt of the square-to-hemisphere map.
-std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed) {
+std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed, bool uniform = false) {
   std::vector<glm::dvec3> local;
   std::vector<glm::dvec2> strata;
   local.reserve(std::size_t(kDirectionSets) * std::size_t(rays));
   for (int k = 0; k < kDirectionSets; ++k) {
     Rng rng(seed, std::uint64_t(k));
     stratified_square(rays, rng, strata);
-    for (const glm::dvec2& u : strata) local.push_back(cosine_hemisphere(u));
+    for (const glm::dvec2& u : strata)
+      local.push_back(uniform ? uniform_hemisphere(u) : cosine_hemisphere(u));
   }
   return local;
+}
+
+// The directions of work item `stream` in the fixed frame (u, v, n): `local` in that frame
+// (for the SH projection), `world` in world space.
+void frame_directions(std::span<const glm::dvec3> sets, std::uint64_t seed, std::uint64_t stream,
+                      const glm::dvec3& u, const glm::dvec3& v, const glm::dvec3& n,
+                      std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& world) {
+  const std::size_t rays = sets.size() / kDirectionSets;
+  Rng rng(seed, stream);
+  const std::size_t set = std::size_t(rng.next_u64() % kDirectionSets);
+  const double phi = 2.0 * std::numbers::pi * rng.next_double(), cp = std::cos(phi), sp = std::sin(phi);
+  local.resize(rays);
+  world.resize(rays);
+  const glm::dvec3* d = sets.data() + set * rays;
+  for (std::size_t r = 0; r < rays; ++r) {
+    local[r] = glm::dvec3(cp * d[r].x - sp * d[r].y, sp * d[r].x + cp * d[r].y, d[r].z);
+    world[r] = to_world(local[r], u, v, n);
+  }
+}
+
+// OHLSH coefficients of E/pi (sh.h) per unit radiance arriving from local direction d, per
+// steradian: ohlsh(irradiance(y(d))), linear in the radiance SH projection.
+std::array<double, kOhlshCount> ohlsh_weights(const glm::dvec3& d) {
+  double y[kSh9Count], a[kOhlshCount];
+  sh9_eval(d, y);
+  irradiance_from_radiance_sh9(y, y);
+  ohlsh_from_sh9(y, a);
+  return {a[0], a[1], a[2], a[3]};
+}
+
+// A level sample's face frame in world space, that of level_compute_vector_irradiance: the
+// canonical face frame turned with the block, made orthonormal to the sample's normal.
+void sample_frame(const Level& level, const LevelSampleGeometry& g, std::size_t s, glm::dvec3& u,
+                  glm::dvec3& v, glm::dvec3& n) {
+  const FaceFrame& cf = face_frame(g.face[s]);
+  const int turns = level.blocks[std::size_t(g.block[s])].quarter_turns;
+  n = g.normal[s];
+  u = rotate_direction(cf.u_axis, turns);
+  u = glm::normalize(u - glm::dot(u, n) * n);
+  v = rotate_direction(cf.v_axis, turns);
+  v = glm::normalize(v - glm::dot(v, n) * n - glm::dot(v, u) * u);
 }
 
 // The world directions of work item `stream` (its own set and rotation) about unit normal n.
@@ -260,6 +303,7 @@ std::array<int, kFaceCount> face_slots(const ClutterObject& object) {
 struct DrtBuildState::Impl {
   std::vector<ClutterObject> objects;
   std::vector<SampleResult> samples;             // scene pass, before inpainting
+  std::vector<SampleResult> vector_samples;      // vector scene pass (empty unless built)
   std::vector<std::vector<TexelResult>> texels;  // clutter pass, per object
   std::vector<ClutterTexelGeometry> geometry;    // per object
 };
@@ -277,11 +321,16 @@ struct DrtBuilder::Pass {
   std::vector<BoxQuery> boxes;
   std::vector<std::array<int, kFaceCount>> slots;
   tbb::enumerable_thread_specific<LimpGather> gathers;
+  tbb::enumerable_thread_specific<std::vector<LimpGather>> vector_gathers;  // one per OHLSH coefficient
 
   Pass(const DrtBuilder& builder, std::span<const ClutterObject> objs)
       : b(builder),
         objects(objs),
-        gathers([this] { return LimpGather(b.level_, b.dict_, b.walls_.samples().block); }) {
+        gathers([this] { return LimpGather(b.level_, b.dict_, b.walls_.samples().block); }),
+        vector_gathers([this] {
+          return std::vector<LimpGather>(kOhlshCount,
+                                         LimpGather(b.level_, b.dict_, b.walls_.samples().block));
+        }) {
     for (const ClutterObject& o : objects) {
       boxes.emplace_back(o.box);
       slots.push_back(face_slots(o));
@@ -345,6 +394,79 @@ struct DrtBuilder::Pass {
     return result;
   }
 
+  // dUb_vec and dUc_vec at scene sample s (DRT §5, vector response): the scalar gather's
+  // charging with uniform-hemisphere rays in the sample's face frame, each ray weighted by
+  // 2 pi / rays times the OHLSH coefficients of its direction. Rows are 4 kb per block and
+  // 4 f for dUc, coefficient-major.
+  SampleResult trace_sample_vector(std::size_t s, std::vector<LimpGather>& gather, Candidates& cand,
+                                   std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs,
+                                   std::vector<glm::dvec3>& hit_dirs, std::vector<LevelHit>& walls,
+                                   std::vector<Candidates::Nearest>& nearest,
+                                   std::vector<std::array<double, kOhlshCount>>& weights) const {
+    SampleResult result;
+    const LevelSampleGeometry& g = b.walls_.samples();
+    const glm::dvec3 x = g.position[s], nrm = g.normal[s];
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (clutter_contains(objects[k].box, x, 1e-6)) {
+        result.state = SampleResult::inside;
+        result.inside_of = int(k);
+        return result;
+      }
+    cand.clear();
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (!b.settings_.cull || boxes[k].in_front(x, nrm)) cand.add(std::uint32_t(k), boxes[k], x);
+    if (cand.empty()) return result;
+    result.state = SampleResult::traced;
+    glm::dvec3 u, v, n;
+    sample_frame(b.level_, g, s, u, v, n);
+    frame_directions(b.uniform_sets_, vector_seed(), s, u, v, n, local, dirs);
+    hit_dirs.clear();
+    nearest.clear();
+    weights.clear();
+    for (std::size_t r = 0; r < dirs.size(); ++r) {
+      const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+      if (hit.object < 0) continue;
+      hit_dirs.push_back(dirs[r]);
+      nearest.push_back(hit);
+      weights.push_back(ohlsh_weights(local[r]));
+    }
+    if (hit_dirs.empty()) return result;
+    walls.resize(hit_dirs.size());
+    b.walls_.intersect_many(x, hit_dirs, walls);
+    const double w = 2.0 * std::numbers::pi / double(dirs.size());  // uniform pdf 1 / (2 pi)
+    const std::uint32_t kb = b.level_.kb;
+    for (const Candidates::Entry& e : cand.entries) {
+      const std::uint32_t k = e.object;
+      const std::size_t f_count = std::size_t(clutter_face_count(objects[k]));
+      ObjectRows* rows = nullptr;
+      for (std::size_t r = 0; r < hit_dirs.size(); ++r) {
+        if (nearest[r].object != int(k)) continue;
+        const LevelHit& wall = walls[r];
+        if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
+        if (!rows) rows = &result.rows_of(k);
+        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        if (slot >= 0) rows->dUc.resize(kOhlshCount * f_count, 0.0);
+        for (int i = 0; i < kOhlshCount; ++i) {
+          const double wi = w * weights[r][std::size_t(i)];
+          if (wall.block >= 0) gather[std::size_t(i)].add(wall, -wi);
+          if (slot >= 0) rows->dUc[std::size_t(i) * f_count + std::size_t(slot)] += wi;
+        }
+      }
+      if (!rows) continue;
+      for (int i = 0; i < kOhlshCount; ++i) {
+        BlockRows coefficient;
+        gather[std::size_t(i)].flush(coefficient);
+        for (const auto& [blk, values] : coefficient) {
+          std::vector<double>& dst = rows->dUb[blk];
+          dst.resize(kOhlshCount * std::size_t(kb), 0.0);
+          std::copy(values.begin(), values.end(), dst.begin() + std::ptrdiff_t(i) * kb);
+        }
+      }
+    }
+    return result;
+  }
+  std::uint64_t vector_seed() const { return b.settings_.seed ^ 0x766563ull; }
+
   // Cb (DRT §4.3) and Cc of texel i of object k: gather rays from the texel average the Limp
   // rows of the walls they reach (per hit block); a ray that enters another object first
   // brings that object's face instead; misses bring nothing. A texel inside another object
@@ -407,6 +529,22 @@ struct DrtBuilder::Pass {
       if (cand.nearest(one, dir).object >= 0) return true;
     return false;
   }
+  // The same for the vector pass's rays of sample s.
+  bool sample_vector_depends_on(std::size_t s, const BoxQuery& box, const ClutterBox& shape,
+                                std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs) const {
+    const LevelSampleGeometry& g = b.walls_.samples();
+    if (clutter_contains(shape, g.position[s], 1e-6)) return true;
+    if (b.settings_.cull && !box.in_front(g.position[s], g.normal[s])) return false;
+    glm::dvec3 u, v, n;
+    sample_frame(b.level_, g, s, u, v, n);
+    frame_directions(b.uniform_sets_, vector_seed(), s, u, v, n, local, dirs);
+    const std::vector<BoxQuery> one{box};
+    Candidates cand;
+    cand.add(0, box, g.position[s]);
+    for (const glm::dvec3& dir : dirs)
+      if (cand.nearest(one, dir).object >= 0) return true;
+    return false;
+  }
   bool sample_depends_on(std::size_t s, const BoxQuery& box, const ClutterBox& shape,
                          std::vector<glm::dvec3>& dirs) const {
     const LevelSampleGeometry& g = b.walls_.samples();
@@ -437,6 +575,23 @@ struct DrtBuilder::Pass {
                       });
   }
 
+  // The vector pass over the scene samples with retrace[s] != 0 (all when empty).
+  void scene_pass_vector(std::vector<SampleResult>& samples, const std::vector<std::uint8_t>& retrace) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples.size(), 16),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        std::vector<LimpGather>& gather = vector_gathers.local();
+                        Candidates cand;
+                        std::vector<glm::dvec3> local, dirs, hit_dirs;
+                        std::vector<LevelHit> walls;
+                        std::vector<Candidates::Nearest> nearest;
+                        std::vector<std::array<double, kOhlshCount>> weights;
+                        for (std::size_t s = range.begin(); s != range.end(); ++s)
+                          if (retrace.empty() || retrace[s])
+                            samples[s] = trace_sample_vector(s, gather, cand, local, dirs, hit_dirs, walls,
+                                                             nearest, weights);
+                      });
+  }
+
   // Traces the texels listed in `work` (object, texel) into `texels`.
   void clutter_pass(std::vector<std::vector<TexelResult>>& texels,
                     const std::vector<ClutterTexelGeometry>& geometry,
@@ -456,13 +611,23 @@ struct DrtBuilder::Pass {
 
   // Inpainting (DRT §5), dropping and assembly of every object's dUb and dUc from the traced
   // samples (which are not changed).
-  void assemble_scene(const std::vector<SampleResult>& traced, DrtOperators& drt,
-                      DrtBuildReport* report) const {
+  //
+  // vector: the rows are OHLSH (trace_sample_vector: 4 kb per block, 4 f for dUc, i-major),
+  // the unshadowed transport is Ub_vec, nothing is dropped, and the result goes to the
+  // *_vec operators with 4 matrix rows per entry.
+  void assemble_scene(const std::vector<SampleResult>& traced, DrtOperators& drt, DrtBuildReport* report,
+                      bool vector = false) const {
     const Level& level = b.level_;
     const Dictionary& dict = b.dict_;
     const LevelSampleGeometry& g = b.walls_.samples();
     const std::size_t n = traced.size();
+    const std::uint32_t W = vector ? 4 : 1, kb = level.kb;
     std::vector<SampleResult> result = traced;
+    // Row i, column c of a sample's unshadowed transport, i < W (Ub or Ub_vec).
+    auto unshadowed = [&](const ShapeOperators& op, int local, std::uint32_t i, std::uint32_t c) {
+      return vector ? double(op.Ub_vec(std::uint32_t(4 * local) + i, c))
+                    : double(op.Ub(std::uint32_t(local), c));
+    };
     // A sample inside clutter takes the mean shadowed transport Ub + sum of dUb of its valid
     // face neighbours, minus its own Ub (charged to the object containing it), and their
     // mean dUc; Jacobi passes fill samples deep inside from the rim inwards, independent of
@@ -498,20 +663,21 @@ struct DrtBuilder::Pass {
           const double w = 1.0 / double(nbrs.size());
           {
             std::vector<double>& own = fill.rows_of(std::uint32_t(fill.inside_of)).dUb[std::uint32_t(blk)];
-            own.assign(level.kb, 0.0);
-            for (std::uint32_t c = 0; c < level.kb; ++c) own[c] = -double(op.Ub(std::uint32_t(local), c));
-            for (std::size_t q : nbrs) {
-              const std::span<const float> ub = op.Ub.row(std::uint32_t(q - lb.sample_offset));
-              for (std::uint32_t c = 0; c < level.kb; ++c) own[c] += w * double(ub[c]);
-            }
+            own.assign(W * kb, 0.0);
+            for (std::uint32_t i = 0; i < W; ++i)
+              for (std::uint32_t c = 0; c < kb; ++c) {
+                own[i * kb + c] = -unshadowed(op, local, i, c);
+                for (std::size_t q : nbrs)
+                  own[i * kb + c] += w * unshadowed(op, int(q - lb.sample_offset), i, c);
+              }
           }
           for (std::size_t q : nbrs)
             for (const ObjectRows& src : result[q].rows) {
               ObjectRows& dst = fill.rows_of(src.object);
               for (const auto& [from, row] : src.dUb) {
                 std::vector<double>& d = dst.dUb[from];
-                d.resize(level.kb, 0.0);
-                for (std::uint32_t c = 0; c < level.kb; ++c) d[c] += w * row[c];
+                d.resize(row.size(), 0.0);
+                for (std::size_t c = 0; c < row.size(); ++c) d[c] += w * row[c];
               }
               if (!src.dUc.empty()) {
                 dst.dUc.resize(src.dUc.size(), 0.0);
@@ -530,7 +696,7 @@ struct DrtBuilder::Pass {
     }
 
     std::size_t dropped = 0;
-    if (b.settings_.drop_tolerance > 0.0) {
+    if (b.settings_.drop_tolerance > 0.0 && !vector) {
       auto norm = [](const std::vector<double>& row) {
         double n2 = 0.0;
         for (double v : row) n2 += v * v;
@@ -556,30 +722,38 @@ struct DrtBuilder::Pass {
           rows += o->dUb.size();
           uc_rows += o->dUc.empty() ? 0 : 1;
         }
-      op.dUb_sample.clear();
-      op.dUb_block.clear();
-      op.dUc_sample.clear();
-      op.dUb = Matrix(std::uint32_t(rows), rows > 0 ? level.kb : 0);
-      op.dUc = Matrix(std::uint32_t(uc_rows), uc_rows > 0 ? f_count : 0);
+      std::vector<std::uint32_t>& ub_sample = vector ? op.dUb_vec_sample : op.dUb_sample;
+      std::vector<std::uint32_t>& ub_block = vector ? op.dUb_vec_block : op.dUb_block;
+      std::vector<std::uint32_t>& uc_sample = vector ? op.dUc_vec_sample : op.dUc_sample;
+      Matrix& dUb = vector ? op.dUb_vec : op.dUb;
+      Matrix& dUc = vector ? op.dUc_vec : op.dUc;
+      ub_sample.clear();
+      ub_block.clear();
+      uc_sample.clear();
+      dUb = Matrix(std::uint32_t(W * rows), rows > 0 ? kb : 0);
+      dUc = Matrix(std::uint32_t(W * uc_rows), uc_rows > 0 ? f_count : 0);
       std::size_t row = 0, uc_row = 0;
       for (std::size_t s = 0; s < n; ++s) {
         const ObjectRows* o = result[s].find(std::uint32_t(k));
         if (!o) continue;
         for (const auto& [src, values] : o->dUb) {  // std::map: blocks ascending
-          op.dUb_sample.push_back(std::uint32_t(s));
-          op.dUb_block.push_back(src);
-          for (std::uint32_t c = 0; c < level.kb; ++c) op.dUb(std::uint32_t(row), c) = float(values[c]);
+          ub_sample.push_back(std::uint32_t(s));
+          ub_block.push_back(src);
+          for (std::uint32_t i = 0; i < W; ++i)
+            for (std::uint32_t c = 0; c < kb; ++c)
+              dUb(std::uint32_t(W * row + i), c) = float(values[i * kb + c]);
           ++row;
         }
         if (!o->dUc.empty()) {
-          op.dUc_sample.push_back(std::uint32_t(s));
-          for (std::uint32_t f = 0; f < f_count; ++f)
-            op.dUc(std::uint32_t(uc_row), f) = float(o->dUc[std::size_t(f)]);
+          uc_sample.push_back(std::uint32_t(s));
+          for (std::uint32_t i = 0; i < W; ++i)
+            for (std::uint32_t f = 0; f < f_count; ++f)
+              dUc(std::uint32_t(W * uc_row + i), f) = float(o->dUc[std::size_t(i * f_count + f)]);
           ++uc_row;
         }
       }
     }
-    if (report) {
+    if (report && !vector) {
       for (const SampleResult& r : traced) {
         report->traced_samples += r.state == SampleResult::traced;
         report->culled_samples += r.state == SampleResult::culled;
@@ -675,16 +849,23 @@ DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuil
       dict_(dict),
       settings_(settings),
       walls_(level, level.res),
-      direction_sets_(make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x736574ull)) {}
+      direction_sets_(make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x736574ull)) {
+  if (settings.vector)
+    uniform_sets_ = make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x756e69ull, true);
+}
 
 namespace {
 
-Status check_dictionary(const Level& level, const Dictionary& dict) {
+Status check_dictionary(const Level& level, const Dictionary& dict, bool vector) {
   for (const LevelBlock& b : level.blocks) {
     const ShapeOperators& op = dict.shapes[std::size_t(b.shape)];
     if (op.Limp.rows != b.sample_count || op.Limp.cols != level.kb || op.Ub.cols != level.kb)
       return Status::error(ErrorCode::invalid_argument,
                            "DRT build: dictionary Limp / Ub do not match the level");
+    if (vector && (op.Ub_vec.rows != 4 * b.sample_count || op.Ub_vec.cols != level.kb))
+      return Status::error(
+          ErrorCode::invalid_argument,
+          "DRT build: vector operators asked for, but the dictionary has no Ub_vec of 4n x kb");
   }
   return Status::success();
 }
@@ -698,7 +879,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, DrtBuildReport* report,
                                        DrtBuildState* state) const {
   if (Status s = validate_clutter(level_, objects); !s.ok()) return s;
-  if (Status s = check_dictionary(level_, dict_); !s.ok()) return s;
+  if (Status s = check_dictionary(level_, dict_, settings_.vector); !s.ok()) return s;
   DrtOperators drt;
   auto impl = std::make_unique<DrtBuildState::Impl>();
   impl->objects.assign(objects.begin(), objects.end());
@@ -711,6 +892,11 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
     impl->samples.resize(walls_.samples().position.size());
     pass.scene_pass(impl->samples, {});
     pass.assemble_scene(impl->samples, drt, report);
+    if (settings_.vector) {
+      impl->vector_samples.resize(impl->samples.size());
+      pass.scene_pass_vector(impl->vector_samples, {});
+      pass.assemble_scene(impl->vector_samples, drt, nullptr, true);
+    }
 
     const auto t1 = std::chrono::steady_clock::now();
     std::vector<std::pair<std::uint32_t, std::uint32_t>> work;
@@ -775,6 +961,17 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   if (retraced > 0) pass.scene_pass(st.samples, retrace);
   DrtBuildReport scene_report;
   pass.assemble_scene(st.samples, drt, &scene_report);
+  if (settings_.vector) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 32),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        std::vector<glm::dvec3> local, dirs;
+                        for (std::size_t s = range.begin(); s != range.end(); ++s)
+                          retrace[s] = pass.sample_vector_depends_on(s, old_box, old_shape, local, dirs) ||
+                                       pass.sample_vector_depends_on(s, new_box, new_shape, local, dirs);
+                      });
+    pass.scene_pass_vector(st.vector_samples, retrace);
+    pass.assemble_scene(st.vector_samples, drt, nullptr, true);
+  }
 
   // Clutter texels: all of the moved object's, and the others' that can see it.
   const auto t1 = std::chrono::steady_clock::now();

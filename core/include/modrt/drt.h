@@ -112,6 +112,15 @@ struct DrtObjectOperators {
   // reaches this object (drt_clutter_add_cc does nothing).
   std::vector<std::uint32_t> Cc_objects;
   Matrix Cc;  // m x (sum of the sources' face_count)
+  // Vector versions of dUb and dUc (DRT §5, "Vector and Volume Response"): the same deltas
+  // as OHLSH E/pi (sh.h) in each sample's face frame, the layout and frame of
+  // level_compute_vector_irradiance. Rows 4 k .. 4 k + 3 are the coefficients of entry k of
+  // dUb_vec_sample / dUb_vec_block (their own entry list, sorted by (sample, block), one per
+  // pair) and of dUc_vec_sample (sorted, unique). Empty: no vector delta (not built).
+  std::vector<std::uint32_t> dUb_vec_sample, dUb_vec_block;
+  Matrix dUb_vec;  // 4 entries x kb
+  std::vector<std::uint32_t> dUc_vec_sample;
+  Matrix dUc_vec;  // 4 entries x f
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };
@@ -146,6 +155,11 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
 void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
                           std::span<const float> clutter_direct, std::span<float> out);
+// Vector irradiance (SPEC §5 step 9 with DRT): vector_lightmap += dUb_vec b + dUc_vec c, the
+// layout of level_compute_vector_irradiance (3 (4 s + i) + channel); nothing for objects
+// without vector operators.
+void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<const float> b,
+                      std::span<const float> c, std::span<float> vector_lightmap);
 // Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
 // lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
 void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);

@@ -40,6 +40,11 @@ struct DrtBuildSettings {
   // dropped (storage); a dropped row changes its sample by at most |row|_2 |b(block)|_2 per
   // channel. 0 keeps every row.
   double drop_tolerance = 0.0;
+  // Also build dUb_vec and dUc_vec (OHLSH vector deltas, DRT §5) from a second set of
+  // `rays` uniform-hemisphere rays per scene sample (the radiance SH projection needs a pdf
+  // that does not vanish at the horizon; inpainted with Ub_vec, nothing dropped). Needs the
+  // dictionary's Ub_vec.
+  bool vector = false;
   std::uint64_t seed = 0x647274ull;
 };
 
@@ -103,6 +108,7 @@ class DrtBuilder {
   // Cosine-weighted stratified direction sets in the local frame (z = normal), shared by the
   // gathers (drt_build.cpp, DirectionSets).
   std::vector<glm::dvec3> direction_sets_;
+  std::vector<glm::dvec3> uniform_sets_;  // the same, uniform over the hemisphere (vector)
 };
 
 // Direct light on the clutter texels (albedo * E / pi, RGB, 3 per texel, objects in order),
