@@ -101,7 +101,9 @@ std::size_t DrtOperators::storage_bytes() const {
   for (const DrtObjectOperators& o : objects) {
     bytes += matrix_bytes(o.dUb) + matrix_bytes(o.Td_c) + matrix_bytes(o.dUc) + matrix_bytes(o.Uc) +
              matrix_bytes(o.Vc);
-    bytes += matrix_bytes(o.Cc) + matrix_bytes(o.dUb_vec) + matrix_bytes(o.dUc_vec);
+    bytes += matrix_bytes(o.Cc) + matrix_bytes(o.dUb_vec) + matrix_bytes(o.dUc_vec) + matrix_bytes(o.Udyn) +
+             matrix_bytes(o.Udyn_c);
+    bytes += (o.Udyn_probe.size() + o.Udyn_block.size() + o.Udyn_c_probe.size()) * sizeof(std::uint32_t);
     bytes +=
         (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size() +
          o.Cc_objects.size() + o.dUb_vec_sample.size() + o.dUb_vec_block.size() + o.dUc_vec_sample.size()) *
@@ -185,6 +187,23 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
       if (o.dUc_vec_sample[r] >= level.sample_count ||
           (r > 0 && o.dUc_vec_sample[r] <= o.dUc_vec_sample[r - 1]))
         return fail("dUc_vec samples out of range, not sorted or not unique");
+    const std::size_t probes = std::size_t(drt.probes_per_block) * level.blocks.size(),
+                      prows = o.Udyn_probe.size();
+    if (o.Udyn_block.size() != prows || o.Udyn.rows != 9 * prows || (prows > 0 && o.Udyn.cols != drt.kb))
+      return fail("Udyn is not 9 entries x kb with one probe and block per entry");
+    for (std::size_t r = 0; r < prows; ++r) {
+      if (o.Udyn_probe[r] >= probes || o.Udyn_block[r] >= level.blocks.size())
+        return fail("Udyn probe or block index out of range");
+      if (r > 0 && (o.Udyn_probe[r] < o.Udyn_probe[r - 1] ||
+                    (o.Udyn_probe[r] == o.Udyn_probe[r - 1] && o.Udyn_block[r] <= o.Udyn_block[r - 1])))
+        return fail("Udyn entries not sorted by (probe, block)");
+    }
+    if (o.Udyn_c.rows != 9 * o.Udyn_c_probe.size() || (o.Udyn_c.rows > 0 && o.Udyn_c.cols != o.face_count))
+      return fail("Udyn_c is not 9 |Udyn_c_probe| x f");
+    for (std::size_t r = 0; r < o.Udyn_c_probe.size(); ++r)
+      if (o.Udyn_c_probe[r] >= probes || (r > 0 && o.Udyn_c_probe[r] <= o.Udyn_c_probe[r - 1]))
+        return fail("Udyn_c probes out of range, not sorted or not unique");
+    if (!all_finite(o.Udyn) || !all_finite(o.Udyn_c)) return fail("non-finite operator value");
     if (!all_finite(o.dUb) || !all_finite(o.Td_c) || !all_finite(o.dUc) || !all_finite(o.Uc) ||
         !all_finite(o.Vc) || !all_finite(o.Cc) || !all_finite(o.dUb_vec) || !all_finite(o.dUc_vec))
       return fail("non-finite operator value");
@@ -266,6 +285,35 @@ void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<con
           for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[f]) * c[3 * (face0 + f) + std::size_t(ch)];
         for (int ch = 0; ch < 3; ++ch)
           vector_lightmap[3 * (4 * std::size_t(o.dUc_vec_sample[r]) + i) + std::size_t(ch)] += float(acc[ch]);
+      }
+    face0 += o.face_count;
+  }
+}
+
+void drt_apply_probes(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                      std::span<float> probes) {
+  const std::size_t kb = drt.kb;
+  std::size_t face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::size_t r = 0; r < o.Udyn_probe.size(); ++r) {
+      const float* bb = b.data() + 3 * kb * o.Udyn_block[r];
+      for (std::size_t j = 0; j < 9; ++j) {
+        const std::span<const float> row = o.Udyn.row(std::uint32_t(9 * r + j));
+        double acc[3] = {0, 0, 0};
+        for (std::size_t k = 0; k < kb; ++k)
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[k]) * bb[3 * k + std::size_t(ch)];
+        for (int ch = 0; ch < 3; ++ch)
+          probes[3 * (9 * std::size_t(o.Udyn_probe[r]) + j) + std::size_t(ch)] += float(acc[ch]);
+      }
+    }
+    for (std::size_t r = 0; r < o.Udyn_c_probe.size(); ++r)
+      for (std::size_t j = 0; j < 9; ++j) {
+        const std::span<const float> row = o.Udyn_c.row(std::uint32_t(9 * r + j));
+        double acc[3] = {0, 0, 0};
+        for (std::uint32_t f = 0; f < o.face_count; ++f)
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += double(row[f]) * c[3 * (face0 + f) + std::size_t(ch)];
+        for (int ch = 0; ch < 3; ++ch)
+          probes[3 * (9 * std::size_t(o.Udyn_c_probe[r]) + j) + std::size_t(ch)] += float(acc[ch]);
       }
     face0 += o.face_count;
   }

@@ -20,6 +20,7 @@
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/linalg.h"
 #include "modrt/precompute/sampling.h"
+#include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
 
 namespace modrt::precompute {
@@ -123,7 +124,9 @@ struct Candidates {
 // rotation about its normal. Its rays stay stratified and each is cosine-distributed (an
 // unbiased gather), neighbouring texels' noise stays independent, and a ray costs a frame
 // change instead of the sin, cos and sqrt of the square-to-hemisphere map.
-std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed, bool uniform = false) {
+enum class Directions { cosine, hemisphere, sphere };
+std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed,
+                                            Directions kind = Directions::cosine) {
   std::vector<glm::dvec3> local;
   std::vector<glm::dvec2> strata;
   local.reserve(std::size_t(kDirectionSets) * std::size_t(rays));
@@ -131,7 +134,9 @@ std::vector<glm::dvec3> make_direction_sets(int rays, std::uint64_t seed, bool u
     Rng rng(seed, std::uint64_t(k));
     stratified_square(rays, rng, strata);
     for (const glm::dvec2& u : strata)
-      local.push_back(uniform ? uniform_hemisphere(u) : cosine_hemisphere(u));
+      local.push_back(kind == Directions::cosine       ? cosine_hemisphere(u)
+                      : kind == Directions::hemisphere ? uniform_hemisphere(u)
+                                                       : uniform_sphere(u));
   }
   return local;
 }
@@ -304,6 +309,7 @@ struct DrtBuildState::Impl {
   std::vector<ClutterObject> objects;
   std::vector<SampleResult> samples;             // scene pass, before inpainting
   std::vector<SampleResult> vector_samples;      // vector scene pass (empty unless built)
+  std::vector<SampleResult> probes;              // U_dyn pass (empty unless built)
   std::vector<std::vector<TexelResult>> texels;  // clutter pass, per object
   std::vector<ClutterTexelGeometry> geometry;    // per object
 };
@@ -322,6 +328,7 @@ struct DrtBuilder::Pass {
   std::vector<std::array<int, kFaceCount>> slots;
   tbb::enumerable_thread_specific<LimpGather> gathers;
   tbb::enumerable_thread_specific<std::vector<LimpGather>> vector_gathers;  // one per OHLSH coefficient
+  tbb::enumerable_thread_specific<std::vector<LimpGather>> probe_gathers;   // one per SH9 coefficient
 
   Pass(const DrtBuilder& builder, std::span<const ClutterObject> objs)
       : b(builder),
@@ -330,6 +337,9 @@ struct DrtBuilder::Pass {
         vector_gathers([this] {
           return std::vector<LimpGather>(kOhlshCount,
                                          LimpGather(b.level_, b.dict_, b.walls_.samples().block));
+        }),
+        probe_gathers([this] {
+          return std::vector<LimpGather>(kSh9Count, LimpGather(b.level_, b.dict_, b.walls_.samples().block));
         }) {
     for (const ClutterObject& o : objects) {
       boxes.emplace_back(o.box);
@@ -466,6 +476,154 @@ struct DrtBuilder::Pass {
     return result;
   }
   std::uint64_t vector_seed() const { return b.settings_.seed ^ 0x766563ull; }
+  std::uint64_t probe_seed() const { return b.settings_.seed ^ 0x70726full; }
+  int probes_per_block() const {
+    const int g = int(b.dict_.settings.probe_grid);
+    return g * g * g;
+  }
+  // World position of global probe p and the frame of its SH (the block's canonical frame).
+  void probe_frame(std::size_t p, glm::dvec3& x, glm::dvec3& u, glm::dvec3& v, glm::dvec3& n) const {
+    const int count = probes_per_block();
+    const LevelBlock& blk = b.level_.blocks[p / std::size_t(count)];
+    x = block_to_world(blk, probe_position(int(p % std::size_t(count)), int(b.dict_.settings.probe_grid)));
+    u = rotate_direction(glm::dvec3(1, 0, 0), blk.quarter_turns);
+    v = rotate_direction(glm::dvec3(0, 1, 0), blk.quarter_turns);
+    n = rotate_direction(glm::dvec3(0, 0, 1), blk.quarter_turns);
+  }
+
+  // U_dyn at global probe p (DRT §5): uniform-sphere rays; a ray whose first hit is clutter
+  // object k adds to k's rows -Limp(wall behind) and its face, weighted by 4 pi / rays times
+  // the SH9 basis of its direction in the block frame. Rows are 9 kb per block and 9 f for
+  // the faces, coefficient-major.
+  SampleResult trace_probe(std::size_t p, std::vector<LimpGather>& gather, std::vector<glm::dvec3>& local,
+                           std::vector<glm::dvec3>& dirs, std::vector<glm::dvec3>& hit_dirs,
+                           std::vector<glm::dvec3>& hit_local, std::vector<LevelHit>& walls,
+                           std::vector<Candidates::Nearest>& nearest) const {
+    SampleResult result;
+    glm::dvec3 x, u, v, n;
+    probe_frame(p, x, u, v, n);
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (clutter_contains(objects[k].box, x, 1e-6)) {
+        result.state = SampleResult::inside;
+        result.inside_of = int(k);
+        return result;
+      }
+    Candidates cand;
+    for (std::size_t k = 0; k < objects.size(); ++k) cand.add(std::uint32_t(k), boxes[k], x);
+    result.state = SampleResult::traced;
+    frame_directions(b.sphere_sets_, probe_seed(), p, u, v, n, local, dirs);
+    hit_dirs.clear();
+    hit_local.clear();
+    nearest.clear();
+    for (std::size_t r = 0; r < dirs.size(); ++r) {
+      const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+      if (hit.object < 0) continue;
+      hit_dirs.push_back(dirs[r]);
+      hit_local.push_back(local[r]);
+      nearest.push_back(hit);
+    }
+    if (hit_dirs.empty()) return result;
+    walls.resize(hit_dirs.size());
+    b.walls_.intersect_many(x, hit_dirs, walls);
+    const double w = 4.0 * std::numbers::pi / double(dirs.size());  // uniform pdf 1 / (4 pi)
+    const std::uint32_t kb = b.level_.kb;
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      const std::size_t f_count = std::size_t(clutter_face_count(objects[k]));
+      ObjectRows* rows = nullptr;
+      for (std::size_t r = 0; r < hit_dirs.size(); ++r) {
+        if (nearest[r].object != int(k)) continue;
+        const LevelHit& wall = walls[r];
+        if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
+        if (!rows) rows = &result.rows_of(std::uint32_t(k));
+        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        if (slot >= 0) rows->dUc.resize(kSh9Count * f_count, 0.0);
+        double y[kSh9Count];
+        sh9_eval(hit_local[r], y);
+        for (int j = 0; j < kSh9Count; ++j) {
+          const double wj = w * y[j];
+          if (wall.block >= 0) gather[std::size_t(j)].add(wall, -wj);
+          if (slot >= 0) rows->dUc[std::size_t(j) * f_count + std::size_t(slot)] += wj;
+        }
+      }
+      if (!rows) continue;
+      for (int j = 0; j < kSh9Count; ++j) {
+        BlockRows coefficient;
+        gather[std::size_t(j)].flush(coefficient);
+        for (const auto& [blk, values] : coefficient) {
+          std::vector<double>& dst = rows->dUb[blk];
+          dst.resize(kSh9Count * std::size_t(kb), 0.0);
+          std::copy(values.begin(), values.end(), dst.begin() + std::ptrdiff_t(j) * kb);
+        }
+      }
+    }
+    return result;
+  }
+  bool probe_depends_on(std::size_t p, const BoxQuery& box, const ClutterBox& shape,
+                        std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs) const {
+    glm::dvec3 x, u, v, n;
+    probe_frame(p, x, u, v, n);
+    if (clutter_contains(shape, x, 1e-6)) return true;
+    frame_directions(b.sphere_sets_, probe_seed(), p, u, v, n, local, dirs);
+    const std::vector<BoxQuery> one{box};
+    Candidates cand;
+    cand.add(0, box, x);
+    for (const glm::dvec3& dir : dirs)
+      if (cand.nearest(one, dir).object >= 0) return true;
+    return false;
+  }
+  void probe_pass(std::vector<SampleResult>& probes, const std::vector<std::uint8_t>& retrace) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 1),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        std::vector<LimpGather>& gather = probe_gathers.local();
+                        std::vector<glm::dvec3> local, dirs, hit_dirs, hit_local;
+                        std::vector<LevelHit> walls;
+                        std::vector<Candidates::Nearest> nearest;
+                        for (std::size_t p = range.begin(); p != range.end(); ++p)
+                          if (retrace.empty() || retrace[p])
+                            probes[p] =
+                                trace_probe(p, gather, local, dirs, hit_dirs, hit_local, walls, nearest);
+                      });
+  }
+  // Udyn and Udyn_c of every object from the traced probes.
+  void assemble_probes(const std::vector<SampleResult>& probes, DrtOperators& drt) const {
+    const std::uint32_t kb = b.level_.kb;
+    drt.probes_per_block = std::uint32_t(probes_per_block());
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      DrtObjectOperators& op = drt.objects[k];
+      const std::uint32_t f_count = std::uint32_t(clutter_face_count(objects[k]));
+      std::size_t rows = 0, c_rows = 0;
+      for (const SampleResult& r : probes)
+        if (const ObjectRows* o = r.find(std::uint32_t(k))) {
+          rows += o->dUb.size();
+          c_rows += o->dUc.empty() ? 0 : 1;
+        }
+      op.Udyn_probe.clear();
+      op.Udyn_block.clear();
+      op.Udyn_c_probe.clear();
+      op.Udyn = Matrix(std::uint32_t(kSh9Count * rows), rows > 0 ? kb : 0);
+      op.Udyn_c = Matrix(std::uint32_t(kSh9Count * c_rows), c_rows > 0 ? f_count : 0);
+      std::size_t row = 0, c_row = 0;
+      for (std::size_t p = 0; p < probes.size(); ++p) {
+        const ObjectRows* o = probes[p].find(std::uint32_t(k));
+        if (!o) continue;
+        for (const auto& [src, values] : o->dUb) {
+          op.Udyn_probe.push_back(std::uint32_t(p));
+          op.Udyn_block.push_back(src);
+          for (std::uint32_t j = 0; j < kSh9Count; ++j)
+            for (std::uint32_t c = 0; c < kb; ++c)
+              op.Udyn(std::uint32_t(kSh9Count * row + j), c) = float(values[j * kb + c]);
+          ++row;
+        }
+        if (!o->dUc.empty()) {
+          op.Udyn_c_probe.push_back(std::uint32_t(p));
+          for (std::uint32_t j = 0; j < kSh9Count; ++j)
+            for (std::uint32_t f = 0; f < f_count; ++f)
+              op.Udyn_c(std::uint32_t(kSh9Count * c_row + j), f) = float(o->dUc[j * f_count + f]);
+          ++c_row;
+        }
+      }
+    }
+  }
 
   // Cb (DRT §4.3) and Cc of texel i of object k: gather rays from the texel average the Limp
   // rows of the walls they reach (per hit block); a ray that enters another object first
@@ -851,7 +1009,11 @@ DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuil
       walls_(level, level.res),
       direction_sets_(make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x736574ull)) {
   if (settings.vector)
-    uniform_sets_ = make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x756e69ull, true);
+    uniform_sets_ =
+        make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x756e69ull, Directions::hemisphere);
+  if (settings.probes)
+    sphere_sets_ =
+        make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x737068ull, Directions::sphere);
 }
 
 namespace {
@@ -896,6 +1058,11 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
       impl->vector_samples.resize(impl->samples.size());
       pass.scene_pass_vector(impl->vector_samples, {});
       pass.assemble_scene(impl->vector_samples, drt, nullptr, true);
+    }
+    if (settings_.probes) {
+      impl->probes.resize(level_.blocks.size() * std::size_t(pass.probes_per_block()));
+      pass.probe_pass(impl->probes, {});
+      pass.assemble_probes(impl->probes, drt);
     }
 
     const auto t1 = std::chrono::steady_clock::now();
@@ -971,6 +1138,16 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
                       });
     pass.scene_pass_vector(st.vector_samples, retrace);
     pass.assemble_scene(st.vector_samples, drt, nullptr, true);
+  }
+  if (settings_.probes) {
+    std::vector<std::uint8_t> again(st.probes.size(), 0);
+    tbb::parallel_for(std::size_t(0), again.size(), [&](std::size_t p) {
+      std::vector<glm::dvec3> local, dirs;
+      again[p] = pass.probe_depends_on(p, old_box, old_shape, local, dirs) ||
+                 pass.probe_depends_on(p, new_box, new_shape, local, dirs);
+    });
+    pass.probe_pass(st.probes, again);
+    pass.assemble_probes(st.probes, drt);
   }
 
   // Clutter texels: all of the moved object's, and the others' that can see it.

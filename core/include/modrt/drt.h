@@ -121,6 +121,16 @@ struct DrtObjectOperators {
   Matrix dUb_vec;  // 4 entries x kb
   std::vector<std::uint32_t> dUc_vec_sample;
   Matrix dUc_vec;  // 4 entries x f
+  // Clutter-aware volume probes (DRT §5, U_dyn): the delta of the probes' SH9 radiance (the
+  // layout and block frame of level_compute_probes) from the rays whose first hit is this
+  // object: -Limp b of the wall behind it and its faces' c. Rows 9 k .. 9 k + 8 are the SH9
+  // coefficients of entry k of Udyn_probe / Udyn_block (global probe index = block *
+  // DrtOperators::probes_per_block + probe; sorted by (probe, block), one per pair), and of
+  // Udyn_c_probe (sorted, unique) for Udyn_c. Empty: no probe delta (not built).
+  std::vector<std::uint32_t> Udyn_probe, Udyn_block;
+  Matrix Udyn;  // 9 entries x kb
+  std::vector<std::uint32_t> Udyn_c_probe;
+  Matrix Udyn_c;  // 9 entries x f
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };
@@ -128,6 +138,7 @@ struct DrtObjectOperators {
 struct DrtOperators {
   std::uint32_t kb = 0;
   std::vector<DrtObjectOperators> objects;
+  std::uint32_t probes_per_block = 0;  // g^3 of the U_dyn operators; 0 when they were not built
 
   bool empty() const { return objects.empty(); }
   // Bytes of the run-time operators (float32 matrices and uint32 indices; not the sigmas).
@@ -160,6 +171,11 @@ void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
 // without vector operators.
 void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<const float> b,
                       std::span<const float> c, std::span<float> vector_lightmap);
+// Clutter-aware volume probes (U_dyn): probes += Udyn b + Udyn_c c, probes as
+// level_compute_probes (3 (9 p + j) + channel, p the global probe index); nothing for objects
+// without U_dyn operators.
+void drt_apply_probes(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                      std::span<float> probes);
 // Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
 // lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
 void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);

@@ -45,6 +45,9 @@ struct DrtBuildSettings {
   // that does not vanish at the horizon; inpainted with Ub_vec, nothing dropped). Needs the
   // dictionary's Ub_vec.
   bool vector = false;
+  // Also build U_dyn (clutter-aware volume probes, DRT §5) from `rays` uniform-sphere rays
+  // per probe of the dictionary's probe grid (probes inside clutter get no delta).
+  bool probes = false;
   std::uint64_t seed = 0x647274ull;
 };
 
@@ -109,6 +112,7 @@ class DrtBuilder {
   // gathers (drt_build.cpp, DirectionSets).
   std::vector<glm::dvec3> direction_sets_;
   std::vector<glm::dvec3> uniform_sets_;  // the same, uniform over the hemisphere (vector)
+  std::vector<glm::dvec3> sphere_sets_;   // the same, uniform over the sphere (probes)
 };
 
 // Direct light on the clutter texels (albedo * E / pi, RGB, 3 per texel, objects in order),
