@@ -2,8 +2,9 @@
 // [Loos et al. 2012] §4–5) on the four-pillar corridor of tests/drt_scenes.h, with the small
 // test dictionary (res 8, kb 32; tests/test_support.h, baked into the test cache on first use).
 //
-//   BM_DrtBuildFourPillars/<rays>     DrtBuilder::build of the four pillars (1024 rays is the
-//                                     paper's setting); counters: scene pass and clutter pass
+//   BM_DrtBuildFourPillars/<rays>/<extra>  DrtBuilder::build of the four pillars (1024 rays is the
+//                                     paper's setting; extra 1: also the vector deltas and U_dyn
+//                                     probes, timed in scene_s); counters: scene pass and clutter pass
 //                                     wall seconds, storage bytes of the operators, cpu_s the
 //                                     process CPU seconds (all threads) per build
 //   BM_DrtRebuildOnePillar/<rays>     rebuild_object after one pillar moved (alternately
@@ -54,6 +55,7 @@ void BM_DrtBuildFourPillars(benchmark::State& state) {
   const test::ClutterScene s = test::maze_block_four_pillars();
   DrtBuildSettings settings;
   settings.rays = int(state.range(0));
+  settings.vector = settings.probes = state.range(1) != 0;
   const DrtBuilder builder(four_pillar_level(), test::small_test_dictionary(), settings);
   DrtBuildReport report;
   std::size_t storage = 0;
@@ -73,7 +75,12 @@ void BM_DrtBuildFourPillars(benchmark::State& state) {
   state.counters["bytes"] = double(storage);
   state.counters["cpu_s"] = (process_cpu_seconds() - cpu0) / n;
 }
-BENCHMARK(BM_DrtBuildFourPillars)->Arg(1024)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DrtBuildFourPillars)
+    ->Args({1024, 0})
+    ->Args({256, 0})
+    ->Args({1024, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_DrtRebuildOnePillar(benchmark::State& state) {
   test::ClutterScene s = test::maze_block_four_pillars();
