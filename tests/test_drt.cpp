@@ -172,9 +172,10 @@ TEST(Drt, ValidationNamesTheProblem) {
   EXPECT_FALSE(check_drt_operators(level, drt).ok());
 }
 
-// Culling is exact: a build that traces every sample gives the same operators, and no
-// sample whose hemisphere excludes the bounding sphere has a row.
-TEST(Drt, BoundingSphereCullingIsExact) {
+// Culling is exact: a build that tests every object from every sample and texel gives the
+// same operators (one box; four pillars that see each other, Cc included), and no sample
+// with the whole box behind its tangent plane has a row.
+TEST(Drt, CullingIsExact) {
   const ClutterScene s = l_shaped_level_with_a_box();
   const Level level = build_level(s.description, dict()).value();
   DrtBuildSettings settings;
@@ -191,16 +192,22 @@ TEST(Drt, BoundingSphereCullingIsExact) {
   EXPECT_LT(rc.traced_samples, rf.traced_samples);
   EXPECT_TRUE(operators_equal(a, b));
   const LevelSampleGeometry g = level_sample_geometry(level);
-  const double radius = clutter_bounding_radius(s.clutter[0].box);
   std::vector<std::uint8_t> has_row(level.sample_count, 0);
   for (std::uint32_t smp : a.dUb_sample) has_row[smp] = 1;
   for (std::uint32_t smp : a.dUc_sample) has_row[smp] = 1;
   std::size_t behind = 0;
-  for (std::size_t i = 0; i < g.position.size(); ++i)
-    if (glm::dot(g.normal[i], s.clutter[0].box.center - g.position[i]) < -radius) {
+  for (std::size_t i = 0; i < g.position.size(); ++i) {
+    double nearest = -1e300;  // the box corner farthest in front of the tangent plane
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::dvec3 q((corner & 1) ? 1.0 : 0.0, (corner & 2) ? 1.0 : 0.0, (corner & 4) ? 1.0 : 0.0);
+      nearest =
+          std::max(nearest, glm::dot(g.normal[i], clutter_to_world(s.clutter[0].box, q) - g.position[i]));
+    }
+    if (nearest < 0.0) {
       ++behind;
       EXPECT_FALSE(has_row[i]) << "sample " << i;
     }
+  }
   EXPECT_GT(behind, 0u);
   // The box shades the next block through the opening (DRT §4: propagated beyond the
   // block), with rows that use the b of the block whose wall it hides.
@@ -211,6 +218,17 @@ TEST(Drt, BoundingSphereCullingIsExact) {
   }
   EXPECT_TRUE(other_block_row);
   EXPECT_TRUE(other_block_b);
+
+  const ClutterScene p = maze_block_four_pillars();
+  const Level corridor = build_level(p.description, dict()).value();
+  settings.cull = true;
+  const DrtOperators pc = DrtBuilder(corridor, dict(), settings).build(p.clutter).value();
+  settings.cull = false;
+  const DrtOperators pf = DrtBuilder(corridor, dict(), settings).build(p.clutter).value();
+  for (std::size_t k = 0; k < p.clutter.size(); ++k) {
+    EXPECT_TRUE(operators_equal(pc.objects[k], pf.objects[k])) << "pillar " << k;
+    EXPECT_EQ(pc.objects[k].Cc_objects.size(), 3u);
+  }
 }
 
 // Samples under a box are inpainted (DRT §5): mean shadowed transport Ub + dUb of the
