@@ -36,16 +36,19 @@ struct BoxEntry {
 };
 
 // A clutter box prepared for many ray queries from one origin: the origin in the box frame
-// is computed once per origin, a ray then costs a rotation and the slab test.
+// is computed once per origin, a ray then costs a rotation (none for an axis-aligned box)
+// and the slab test.
 struct BoxQuery {
   glm::dvec3 center, half;
   glm::dmat3 Rt;  // world -> box frame
   double radius;
+  bool axis_aligned;  // Rt is the identity: the slab test skips the rotation
   explicit BoxQuery(const ClutterBox& box)
       : center(box.center),
         half(box.half_extent),
         Rt(glm::transpose(box.rotation)),
-        radius(clutter_bounding_radius(box)) {}
+        radius(clutter_bounding_radius(box)),
+        axis_aligned(box.rotation == glm::dmat3(1.0)) {}
   // Exact culling: no ray from x into the hemisphere of n can reach the box when all its
   // corners lie strictly behind the tangent plane (tighter than the bounding sphere, whose
   // radius is half a floor-to-ceiling pillar's height).
@@ -58,7 +61,7 @@ struct BoxQuery {
   glm::dvec3 local(const glm::dvec3& origin) const { return Rt * (origin - center); }
   // Slab test with the origin already in the box frame (o = local(origin)).
   BoxEntry enter(const glm::dvec3& o, const glm::dvec3& dir) const {
-    const glm::dvec3 d = Rt * dir;
+    const glm::dvec3 d = axis_aligned ? dir : Rt * dir;
     double t_min = -std::numeric_limits<double>::infinity(), t_max = std::numeric_limits<double>::infinity();
     int face = -1;
     for (int a = 0; a < 3; ++a) {
@@ -217,7 +220,7 @@ class LimpGather {
   void add(const LevelHit& hit, double w) {
     const LevelBlock& hb = level_.blocks[std::size_t(hit.block)];
     const SampleLayout& layout = layouts_[std::size_t(hit.block)];
-    const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level_.res);
+    const BilinearTaps taps = taps_of(hit.u, hit.v);
     for (int k = 0; k < 4; ++k) {
       const std::size_t idx = hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]));
       if (!touched_flag_[idx]) {
@@ -226,6 +229,25 @@ class LimpGather {
       }
       weight_[idx] += w * taps.w[k];
     }
+  }
+  // bilinear_taps (block_scene.h), inlined: it is called four times per gathered ray.
+  BilinearTaps taps_of(double u, double v) const {
+    const int res = level_.res;
+    BilinearTaps taps;
+    const double x = u * res - 0.5, y = v * res - 0.5;
+    const double fx0 = std::floor(x), fy0 = std::floor(y);
+    const double ax = x - fx0, ay = y - fy0;
+    const int x0 = int(fx0), y0 = int(fy0);
+    const int xs[2] = {std::clamp(x0, 0, res - 1), std::clamp(x0 + 1, 0, res - 1)};
+    const int ys[2] = {std::clamp(y0, 0, res - 1), std::clamp(y0 + 1, 0, res - 1)};
+    const double wx[2] = {1.0 - ax, ax}, wy[2] = {1.0 - ay, ay};
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        taps.i[2 * b + a] = xs[a];
+        taps.j[2 * b + a] = ys[b];
+        taps.w[2 * b + a] = wx[a] * wy[b];
+      }
+    return taps;
   }
   // Adds the gathered Limp rows to `rows` and clears the gather. Samples are taken in the
   // order the rays first touched them, fixed by the work item's directions, so the sums do
