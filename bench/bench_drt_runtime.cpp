@@ -15,12 +15,18 @@
 //              per pass, from 8 extra frames with GlesLevelRuntime::set_timing after the
 //              timed loop
 // The ratio of a backend's drt 1 to drt 0 time is DRT's cost; compare within one run.
+//   BM_DrtOverMrt/<backend>           the same two frames interleaved in one loop (an MRT
+//                                     backend and an MRT + DRT backend, alternately), so that
+//                                     the shared machine's load drifts over both alike;
+//                                     counters mrt_us, drt_us (per frame) and ratio
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "drt_scenes.h"
@@ -109,6 +115,88 @@ platform::GlContext* context(int backend) {
   if (it->second && !it->second->make_current().ok()) return nullptr;
   return it->second.get();
 }
+
+// The backend of `kind` (see above), with the four pillars when `with_drt`; null and a reason
+// in `error` when it cannot be made here.
+std::unique_ptr<Backend> make_backend(int kind, bool with_drt, platform::GlContext** ctx_out,
+                                      std::string* error) {
+  const Scene& s = scene();
+  const Dictionary& dict = test::small_test_dictionary();
+  std::unique_ptr<Backend> backend;
+  *ctx_out = nullptr;
+  if (kind == 0) {
+    Result<std::unique_ptr<Backend>> be = cpu::create_cpu_backend(s.level, dict);
+    if (!be.ok()) {
+      *error = be.status().to_string();
+      return nullptr;
+    }
+    backend = std::move(be).value();
+  } else {
+    platform::GlContext* ctx = context(kind);
+    if (!ctx) {
+      *error = "no such GL context here";
+      return nullptr;
+    }
+    Result<std::unique_ptr<gles::GlesLevelRuntime>> be =
+        gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, s.level, dict);
+    if (!be.ok()) {
+      *error = be.status().to_string();
+      return nullptr;
+    }
+    backend = std::move(be).value();
+    *ctx_out = ctx;
+  }
+  if (with_drt) {
+    Status st = backend->set_clutter(&s.drt);
+    if (st.ok()) st = backend->set_clutter_light(s.clutter_ld, s.clutter_direct);
+    if (!st.ok()) {
+      *error = st.to_string();
+      return nullptr;
+    }
+  }
+  return backend;
+}
+
+void BM_DrtOverMrt(benchmark::State& state) {
+  const Scene& s = scene();
+  if (!s.ok) {
+    state.SkipWithError("no level or DRT operators");
+    return;
+  }
+  std::string error;
+  platform::GlContext* ctx = nullptr;
+  std::unique_ptr<Backend> mrt = make_backend(int(state.range(0)), false, &ctx, &error);
+  std::unique_ptr<Backend> drt = mrt ? make_backend(int(state.range(0)), true, &ctx, &error) : nullptr;
+  if (!mrt || !drt) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  using Clock = std::chrono::steady_clock;
+  std::size_t frame = 0;
+  double mrt_s = 0.0, drt_s = 0.0;
+  auto timed = [&](Backend& be) {
+    const Clock::time_point t0 = Clock::now();
+    const Status st = be.update(s.ld[frame % 2]);
+    if (ctx) ctx->gl().glFinish();
+    if (!st.ok()) state.SkipWithError(st.to_string().c_str());
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+  };
+  // Both backends get the same ld each round, and it alternates between rounds, so that no
+  // frame is skipped.
+  for (int warm = 0; warm < 3; ++warm, ++frame) timed(*mrt), timed(*drt);
+  for (auto _ : state) {
+    mrt_s += timed(*mrt);
+    drt_s += timed(*drt);
+    ++frame;
+  }
+  const double n = double(state.iterations());
+  state.counters["mrt_us"] = 1e6 * mrt_s / n;
+  state.counters["drt_us"] = 1e6 * drt_s / n;
+  state.counters["ratio"] = mrt_s > 0.0 ? drt_s / mrt_s : 0.0;
+  state.SetLabel(drt->description());
+}
+
+BENCHMARK(BM_DrtOverMrt)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_BackendFrame(benchmark::State& state) {
   const Scene& s = scene();
