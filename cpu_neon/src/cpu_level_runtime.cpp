@@ -7,6 +7,7 @@
 #include <string>
 #include <system_error>
 
+#include "fp_env.h"
 #include "modrt/cpu/kernels.h"
 #include "modrt/reference_runtime.h"
 #include "thread_pool.h"
@@ -128,14 +129,28 @@ CpuLevelRuntime::CpuLevelRuntime(CpuLevelRuntime&&) noexcept = default;
 CpuLevelRuntime& CpuLevelRuntime::operator=(CpuLevelRuntime&&) noexcept = default;
 CpuLevelRuntime::~CpuLevelRuntime() = default;
 
+// Every phase of every public call runs here: the flush-to-zero guard (fp_env.h) covers the
+// calling thread for the whole loop and each worker for each of its tasks (the control
+// register is per thread).
 template <class F>
 void CpuLevelRuntime::parallel_for(std::size_t count, F& f) const {
+  const ScopedFlushDenormals flush(flush_denormals_);
   if (!pool_) {
     for (std::size_t i = 0; i < count; ++i) f(i, 0);
     return;
   }
+  struct Task {
+    F* f;
+    bool flush;
+  } task{&f, flush_denormals_};
   pool_->run(
-      count, [](void* ctx, std::size_t i, int thread) { (*static_cast<F*>(ctx))(i, thread); }, &f);
+      count,
+      [](void* ctx, std::size_t i, int thread) {
+        const Task& t = *static_cast<const Task*>(ctx);
+        const ScopedFlushDenormals worker_flush(t.flush && thread != 0);
+        (*t.f)(i, thread);
+      },
+      &task);
 }
 
 void CpuLevelRuntime::gemv(const OperatorRef& A, std::size_t rows, std::size_t cols, const float* planar,
@@ -248,6 +263,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.dict_ = &dict;
   rt.isa_ = isa;
   rt.threads_ = options.threads;
+  rt.flush_denormals_ = options.flush_denormals;
   rt.sizes_ = level_buffer_sizes(level, dict);
   for (const LevelBlock& blk : level.blocks)
     rt.max_block_samples_ = std::max<std::size_t>(rt.max_block_samples_, blk.sample_count);
@@ -625,6 +641,7 @@ Status CpuLevelRuntime::multi_bounce_step(std::span<const float> ld_direct, std:
   if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
   const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
   const float bound = ld_max / (1.0f - rho_max_);
+  const ScopedFlushDenormals flush(flush_denormals_);
   const bool clamped = feedback_rgb(isa_, ld_direct.data(), rho_.data(), lightmap.data(), bound,
                                     ld_feedback_.data(), ld_direct.size());
   if (value_clamped) *value_clamped = clamped;

@@ -22,17 +22,25 @@ inline std::string fmt(const char* format, ...) {
 }
 
 // One row; returns `pass` so a test can both report and assert: EXPECT_TRUE(row(...)).
+// '|' separates the fields: one inside a field becomes '/'.
+inline std::string field(std::string s) {
+  for (char& c : s)
+    if (c == '|' || c == '\n') c = c == '|' ? '/' : ' ';
+  return s;
+}
+
 inline bool row(const std::string& case_name, const std::string& stage, const std::string& value,
                 const std::string& bound, bool pass) {
-  std::printf("ROBUSTNESS|%s|%s|%s|%s|%s\n", case_name.c_str(), stage.c_str(), value.c_str(), bound.c_str(),
-              pass ? "pass" : "FAIL");
+  std::printf("ROBUSTNESS|%s|%s|%s|%s|%s\n", field(case_name).c_str(), field(stage).c_str(),
+              field(value).c_str(), field(bound).c_str(), pass ? "pass" : "FAIL");
   std::fflush(stdout);
   return pass;
 }
 
 // A logged quantity (conditioning, a spectral radius): no assertion.
 inline void report(const std::string& case_name, const std::string& stage, const std::string& value) {
-  std::printf("ROBUSTNESS|%s|%s|%s|report|logged\n", case_name.c_str(), stage.c_str(), value.c_str());
+  std::printf("ROBUSTNESS|%s|%s|%s|report|logged\n", field(case_name).c_str(), field(stage).c_str(),
+              field(value).c_str());
   std::fflush(stdout);
 }
 

@@ -14,8 +14,14 @@
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
+#include "modrt/cpu/isa.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/bake.h"
+#include "stress/stress_report.h"
+
+#if defined(__x86_64__) || defined(_M_X64)
+#include <xmmintrin.h>
+#endif
 
 namespace modrt::cpu {
 namespace {
@@ -37,6 +43,20 @@ double rel_l2(std::span<const float> a, std::span<const float> b, double scale_b
 
 bool all_finite(std::span<const float> v) {
   return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
+}
+
+// The calling thread's float control register (MXCSR, FPCR), to check that the runtime
+// restores it.
+unsigned fp_control() {
+#if defined(__x86_64__) || defined(_M_X64)
+  return _mm_getcsr();
+#elif defined(__aarch64__)
+  std::uint64_t fpcr;
+  __asm__ volatile("mrs %0, fpcr" : "=r"(fpcr));
+  return unsigned(fpcr);
+#else
+  return 0;
+#endif
 }
 
 // Multi-bounce feedback over 10 000 steps with uniform albedo 0, 0.99, 1.0 and 1.5: the
@@ -68,6 +88,8 @@ TEST(Stress, MultiBounceStaysBoundedForAnyAlbedo) {
   std::printf(
       "  spectral radius: one-bounce operator F %.4f, feedback 0.95 F %.6f (maze11, test dictionary)\n",
       radius / 0.95, radius);
+  stress::report("multi-bounce feedback (maze11)", "spectral radius (power iteration)",
+                 stress::fmt("F %.4f, 0.95 F %.6f", radius / 0.95, radius));
   for (float albedo : {0.0f, 0.99f, 1.0f, 1.5f}) {
     Result<CpuLevelRuntime> r = CpuLevelRuntime::create(t.level, dict());
     ASSERT_TRUE(r.ok());
@@ -100,6 +122,10 @@ TEST(Stress, MultiBounceStaysBoundedForAnyAlbedo) {
     if (radius < 0.99) {  // a contraction with margin converges well within 10 000 steps
       EXPECT_LT(last_change, 1e-6) << "albedo " << albedo;
     }
+    stress::row(stress::fmt("multi-bounce albedo %.2f, 10 000 steps (maze11)", albedo), "lightmap max",
+                stress::fmt("%.4g, last step change %.1e", lm_max, last_change),
+                stress::fmt("finite, <= 1.5 x %.4g (clamp)", one_max / ld_max * bound),
+                all_finite(lightmap) && lm_max <= one_max / ld_max * bound * 1.5f);
     std::printf(
         "  albedo %.2f: 10 000 steps, max %.4g (bound %.4g x one-bounce gain %.3f), last step change %.2e, "
         "energy clamp %s\n",
@@ -125,37 +151,72 @@ TEST(Stress, LightIntensityOverSixteenDecadesIsLinear) {
     const double e = rel_l2(lightmap, reference, scale);
     EXPECT_LT(e, 1e-6) << scale;
     std::printf("  ld x %.0e: lightmap vs scaled reference rel L2 %.2e\n", scale, e);
+    stress::row(stress::fmt("ld x %.0e (maze41)", scale), "lightmap vs scale x reference",
+                stress::fmt("%.2e", e), "<= 1e-6, finite", e < 1e-6 && all_finite(lightmap));
   }
   std::vector<float> ld(t.ld);
   ld[5] = std::numeric_limits<float>::infinity();
-  EXPECT_EQ(rt->evaluate(ld, lightmap).code(), ErrorCode::non_finite);
+  const Status inf_status = rt->evaluate(ld, lightmap);
+  EXPECT_EQ(inf_status.code(), ErrorCode::non_finite);
+  ld[5] = std::numeric_limits<float>::quiet_NaN();
+  const Status nan_status = rt->evaluate(ld, lightmap);
+  EXPECT_EQ(nan_status.code(), ErrorCode::non_finite);
+  stress::row("ld with Inf / NaN", "validate_light_signal", "non_finite, names sample and channel", "refused",
+              inf_status.code() == ErrorCode::non_finite && nan_status.code() == ErrorCode::non_finite);
+  ld = t.ld;
+  ld[7] = -1.0f;
+  const Status negative = rt->evaluate(ld, lightmap);
+  EXPECT_EQ(negative.code(), ErrorCode::invalid_argument);
+  stress::row("ld with a negative value", "validate_light_signal", "invalid_argument", "refused",
+              negative.code() == ErrorCode::invalid_argument);
   // Finite but beyond kMaxLightValue, where transport could overflow: refused, naming it.
   ld = t.ld;
   for (float& v : ld) v *= 1e31f;
   const Status s = rt->evaluate(ld, lightmap);
   EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
   EXPECT_NE(s.message().find("largest light value"), std::string::npos) << s.message();
+  stress::row("ld x 1e31 (above kMaxLightValue 1e30)", "validate_light_signal", "invalid_argument", "refused",
+              s.code() == ErrorCode::invalid_argument);
 }
 
-// Denormal ld (1e-40, below FLT_MIN): computed without error and finite; the lightmap keeps
-// the shape of the normal-range result where the products stay representable.
-TEST(Stress, DenormalLightStaysFinite) {
+// Denormal ld (1e-40, below FLT_MIN = 1.2e-38). By default the runtime flushes subnormals to
+// zero while it computes (CpuRuntimeOptions::flush_denormals, fp_env.h): the lightmap is then
+// exactly 0, and the caller's FPU control word is left as it was. With the flush off, IEEE
+// gradual underflow keeps the normal-range lightmap's shape roughly (subnormals carry fewer
+// significant bits). Either way finite. The cost: modrt-bench-stress BM_CpuDenormalLd.
+TEST(Stress, DenormalLightIsFlushedToZero) {
   const TestLevel& t = test_level("maze11");
-  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict());
-  ASSERT_TRUE(rt.ok());
-  std::vector<float> reference(rt->sizes().lightmap), lightmap(reference.size());
-  ASSERT_TRUE(rt->evaluate(t.ld, reference).ok());
+  std::vector<float> reference(level_buffer_sizes(t.level, dict()).lightmap), lightmap(reference.size());
   const float ld_max = *std::max_element(t.ld.begin(), t.ld.end());
   std::vector<float> ld(t.ld);
   for (float& v : ld) v = v / ld_max * 1e-40f;
-  ASSERT_TRUE(rt->evaluate(ld, lightmap).ok());
-  EXPECT_TRUE(all_finite(lightmap));
-  const float out_max = *std::max_element(lightmap.begin(), lightmap.end());
-  const float ref_max = *std::max_element(reference.begin(), reference.end());
-  // Denormals carry fewer significant bits: the shape is kept only roughly.
-  EXPECT_LT(rel_l2(lightmap, reference, double(out_max) / ref_max), 0.05);
-  std::printf("  ld at 1e-40: lightmap max %.3g, shape vs normal range rel L2 %.3f\n", out_max,
-              rel_l2(lightmap, reference, double(out_max) / ref_max));
+  for (Isa isa : supported_isas()) {
+    CpuRuntimeOptions options;
+    options.isa = isa;
+    Result<CpuLevelRuntime> flushing = CpuLevelRuntime::create(t.level, dict(), options);
+    options.flush_denormals = false;
+    Result<CpuLevelRuntime> gradual = CpuLevelRuntime::create(t.level, dict(), options);
+    ASSERT_TRUE(flushing.ok() && gradual.ok());
+    ASSERT_TRUE(gradual->evaluate(t.ld, reference).ok());
+    const unsigned before = fp_control();
+    ASSERT_TRUE(flushing->evaluate(ld, lightmap).ok());
+    const bool restored = fp_control() == before;
+    const float flushed_max = *std::max_element(lightmap.begin(), lightmap.end());
+    const float flushed_min = *std::min_element(lightmap.begin(), lightmap.end());
+    EXPECT_TRUE(stress::row(std::string("ld at 1e-40, flush on (default), ") + isa_name(isa), "lightmap",
+                            stress::fmt("max %.3g, min %.3g, FPU control word %s", double(flushed_max),
+                                        double(flushed_min), restored ? "restored" : "CHANGED"),
+                            "exactly 0, control word restored",
+                            flushed_max == 0.0f && flushed_min == 0.0f && restored));
+    ASSERT_TRUE(gradual->evaluate(ld, lightmap).ok());
+    const float out_max = *std::max_element(lightmap.begin(), lightmap.end());
+    const float ref_max = *std::max_element(reference.begin(), reference.end());
+    const double shape = rel_l2(lightmap, reference, double(out_max) / ref_max);
+    EXPECT_TRUE(
+        stress::row(std::string("ld at 1e-40, flush off, ") + isa_name(isa), "lightmap",
+                    stress::fmt("max %.3g, shape vs normal range rel L2 %.3f", double(out_max), shape),
+                    "finite, shape within 0.05", all_finite(lightmap) && out_max > 0.0f && shape < 0.05));
+  }
 }
 
 // A long animated run: a point light circling through maze41 (CpuDirectLight, incremental),
@@ -192,6 +253,11 @@ TEST(Stress, LongAnimatedRunDoesNotDrift) {
   }
   EXPECT_EQ(mismatches, 0u);
   EXPECT_GT(kept_blocks, 0u);
+  stress::row(
+      stress::fmt("%d frames, animated light, skipping on (maze41)", frames), "incremental vs full lightmap",
+      stress::fmt("%zu of %zu checkpoints differ; %.0f%% block-frames skipped", mismatches, checkpoints,
+                  100.0 * double(kept_blocks) / double(std::size_t(frames) * t.level.blocks.size())),
+      "bit-identical (bound 0)", mismatches == 0);
   std::printf(
       "  %d frames, %zu checkpoints bit-identical to the full path: %s; blocks skipped (kept or dark) %zu of "
       "%zu\n",
@@ -210,6 +276,10 @@ TEST(Stress, OversizedBakesAndLevelsAreRefusedUpFront) {
   EXPECT_NE(d.status().message().find("memory budget"), std::string::npos) << d.status().message();
   const std::uint64_t default_need = precompute::estimate_bake_bytes(DictionarySettings{});
   EXPECT_LT(default_need, precompute::kDefaultBakeMemoryBudget);
+  stress::row("bake res 64 (default settings otherwise)", "bake_dictionary",
+              stress::fmt("refused, estimate %.1f GiB",
+                          double(precompute::estimate_bake_bytes(huge)) / double(1u << 30)),
+              "resource_limit (budget 8 GiB)", d.status().code() == ErrorCode::resource_limit);
   std::printf("  bake estimate: default settings %.2f GiB, res 64 %.1f GiB (budget %.0f GiB)\n",
               double(default_need) / double(1u << 30),
               double(precompute::estimate_bake_bytes(huge)) / double(1u << 30),
@@ -237,6 +307,8 @@ TEST(Stress, OversizedBakesAndLevelsAreRefusedUpFront) {
   settings.memory_budget_bytes = 1 << 20;
   EXPECT_EQ(precompute::build_level(t.description, dict(), settings).status().code(),
             ErrorCode::resource_limit);
+  stress::row("level of 250 000 blocks", "build_level", "refused before validating a block",
+              "resource_limit (budget 4 GiB)", level.status().code() == ErrorCode::resource_limit);
   std::printf("  level estimate: maze41 %.1f MiB, 250 000-block corridor %.1f GiB (budget 4 GiB)\n",
               double(precompute::estimate_level_bytes(t.description, dict())) / double(1u << 20),
               double(precompute::estimate_level_bytes(corridor, dict())) / double(1u << 30));

@@ -226,14 +226,14 @@ void report_case(const std::string& name, const DictionarySettings& s, const Cas
              static_cast<long long>(st.ld_kept_min), static_cast<long long>(st.ld_kept_max), s.kd, st.ld_cond,
              static_cast<long long>(st.m_kept_min), static_cast<long long>(st.m_kept_max), s.kb, st.m_cond) +
              (s.enrichment_iterations > 0 ? fmt("; enrichment: cond %.3g", st.enrich_cond) : std::string()));
-  row(name, "operators finite; ||F||_inf", fmt("%s; %.4f", st.finite ? "finite" : "NON-FINITE", st.F_inf),
+  row(name, "operators finite; ‖F‖∞", fmt("%s; %.4f", st.finite ? "finite" : "NON-FINITE", st.F_inf),
       "finite; <= 1", st.finite && st.F_inf <= 1.0 + 1e-12);
-  row(name, "||Ub Td_b||_2 / ||F||_2", fmt("%.4f", st.UT_ratio), "<= 1", st.UT_ratio <= 1.0 + 1e-9);
-  row(name, "||Td_b||_2 (max |entry|)",
-      fmt("%.4g (%.3g), %.2f of bound", st.Td_2, double(st.Td_max), st.Td_ratio), "<= ||F||_2 / sigma_min(M)",
+  row(name, "‖Ub Td_b‖₂ / ‖F‖₂", fmt("%.4f", st.UT_ratio), "<= 1", st.UT_ratio <= 1.0 + 1e-9);
+  row(name, "‖Td_b‖₂ (largest entry)",
+      fmt("%.4g (%.3g), %.2f of bound", st.Td_2, double(st.Td_max), st.Td_ratio), "<= ‖F‖₂ / σ_min(M)",
       st.Td_ratio <= 1.0 + 1e-9);
-  row(name, "float32 Ub (Td_b ld) vs double", fmt("%.2e (kappa %.3g)", st.float_error, st.kappa),
-      fmt("<= (n + kb + 2) u kappa = %.1e", st.float_bound), st.float_error <= st.float_bound);
+  row(name, "float32 Ub (Td_b ld) vs double", fmt("%.2e (κ %.3g)", st.float_error, st.kappa),
+      fmt("<= (n + kb + 2) u κ = %.1e", st.float_bound), st.float_error <= st.float_bound);
   if (st.exact_shapes > 0)
     row(name, "Ub Td_b Ld vs F Ld, rank kept", fmt("%.2e (%d shapes)", st.exact_residual, st.exact_shapes),
         fmt("<= %.1e", st.exact_tol), st.exact_residual <= st.exact_tol);

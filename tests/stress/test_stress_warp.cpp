@@ -108,7 +108,7 @@ TEST(StressWarp, ExtremeWarpsBuildAndStayFinite) {
     }
     EXPECT_TRUE(row(
         w.name, "sample geometry",
-        fmt("|normal| - 1 max %.1e, positions %s", worst_normal, positions_finite ? "finite" : "NON-FINITE"),
+        fmt("max abs(‖n‖ - 1) %.1e, positions %s", worst_normal, positions_finite ? "finite" : "NON-FINITE"),
         "<= 1e-9, finite", worst_normal <= 1e-9 && positions_finite))
         << w.name;
 

@@ -143,6 +143,11 @@ struct CpuRuntimeOptions {
   int threads = 1;         // threads working on a frame, the caller included (1 to 256)
   CpuSkipOptions skip;     // off by default
   OperatorStorage operators = OperatorStorage::float32;
+  // Flush subnormal floats to zero while the runtime computes (x86-64 MXCSR FTZ + DAZ, aarch64
+  // FPCR.FZ; the caller's setting is restored before each call returns, and the pool's workers
+  // set it around each task): ld, b, r or lightmap values below FLT_MIN (1.2e-38) read and write
+  // as 0, and never cost a slow subnormal operation. False keeps IEEE gradual underflow.
+  bool flush_denormals = true;
 };
 
 class CpuLevelRuntime {
@@ -252,6 +257,7 @@ class CpuLevelRuntime {
   OperatorRef ur_op_;
   Isa isa_ = Isa::scalar;
   int threads_ = 1;
+  bool flush_denormals_ = true;
   std::unique_ptr<ThreadPool> pool_;  // null with one thread
   LevelBufferSizes sizes_;
   std::size_t max_block_samples_ = 0;
