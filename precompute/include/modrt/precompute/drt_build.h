@@ -7,13 +7,13 @@
 // overlapping shadows of two objects do not subtract the wall twice; a clutter-texel ray that
 // enters another object before any wall brings that object's face light (Cc) instead of the
 // wall's Limp (Cb). Moving one object therefore changes the others' operators too:
-// rebuild_object re-traces exactly the scene samples and clutter texels that can see the
-// object at its old or its new place (the same culling test as the build), keeps the rest
+// rebuild_object re-traces exactly the scene samples, clutter texels (and probes) that lie
+// inside the object or have a ray entering it, at its old or its new place, keeps the rest
 // from the DrtBuildState of the previous build, and gives the same operators as a full build.
 //
-// Culling is exact: a sample or texel whose tangent plane has an object's bounding sphere
-// entirely behind it does not test that object, and rays that miss the sphere are not tested
-// further; neither can skip a ray that enters the box.
+// Culling is exact: a sample or texel with all corners of an object's box behind its
+// tangent plane does not test that object, and rays that miss the box's bounding sphere are
+// not slab-tested; neither can skip a ray that enters the box.
 #pragma once
 
 #include <cstdint>
@@ -35,7 +35,7 @@ struct DrtBuildSettings {
   int rays = 1024;      // cosine-weighted stratified rays per scene sample and clutter texel
   int cb_modes = 5;     // modes kept of Cb's SVD (DRT §5: "5 x 16^2 values per clutter face")
   bool inpaint = true;  // DRT §5: samples inside clutter take their neighbours' shadowed Ub
-  bool cull = true;     // bounding-sphere culling (exact; off only to test that it is)
+  bool cull = true;     // box-behind-the-plane culling (exact; off only to test that it is)
   // dUb rows whose L2 norm is below this fraction of the object's largest row norm are
   // dropped (storage); a dropped row changes its sample by at most |row|_2 |b(block)|_2 per
   // channel. 0 keeps every row.
