@@ -62,6 +62,7 @@ const DrtFixture& fixture() {
     s.clutter = {box, pillar};
     precompute::DrtBuildSettings settings;
     settings.rays = 128;
+    settings.vector = settings.probes = true;
     Result<DrtOperators> drt = precompute::DrtBuilder(s.level, dict(), settings).build(s.clutter);
     if (!drt.ok()) {
       std::fprintf(stderr, "drt build: %s\n", drt.status().to_string().c_str());
@@ -132,6 +133,41 @@ TEST(CpuDrt, ClutterToClutterLightMatchesScalarReferenceForEveryIsa) {
     w.add(e);
     w.print("Cc c", isa);
     EXPECT_EQ(rt->clutter_add_cc(std::vector<float>(sizes.c + 3), out).code(), ErrorCode::invalid_argument);
+  }
+}
+
+// The vector deltas (dUb_vec b + dUc_vec c) and the clutter-aware probes (Udyn b + Udyn_c c).
+TEST(CpuDrt, VectorAndProbeDeltasMatchScalarReferenceForEveryIsa) {
+  const DrtFixture& f = fixture();
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  ASSERT_FALSE(f.drt.objects[1].dUb_vec.empty());
+  ASSERT_FALSE(f.drt.objects[1].Udyn.empty());
+  std::mt19937 rng(13);
+  const std::vector<float> b =
+      random_vector(rng, 3 * std::size_t(f.level.kb) * f.level.blocks.size(), -1.0f, 1.0f);
+  const std::vector<float> c = random_vector(rng, sizes.c, 0.0f, 1.0f);
+  const std::size_t probe_size = 27 * std::size_t(f.drt.probes_per_block) * f.level.blocks.size();
+  const std::vector<float> zero_vec(12 * std::size_t(f.level.sample_count), 0.0f),
+      zero_probes(probe_size, 0.0f);
+  std::vector<float> vec_ref(zero_vec), probes_ref(zero_probes);
+  drt_apply_vector(f.level, f.drt, b, c, vec_ref);
+  drt_apply_probes(f.drt, b, c, probes_ref);
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> vec(zero_vec), probes(zero_probes);
+    ASSERT_TRUE(rt->apply_vector(b, c, vec).ok());
+    ASSERT_TRUE(rt->apply_probes(b, c, probes).ok());
+    const Error ev = compare(vec, vec_ref), ep = compare(probes, probes_ref);
+    EXPECT_LE(ev.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ep.rel_l2, 1e-5) << isa_name(isa);
+    Worst wv, wp;
+    wv.add(ev);
+    wp.add(ep);
+    wv.print("dUb_vec b + dUc_vec c", isa), wp.print("Udyn b + Udyn_c c", isa);
+    std::vector<float> too_long_vec(zero_vec.size() + 1), too_long_probes(probe_size + 1);
+    EXPECT_EQ(rt->apply_vector(b, c, too_long_vec).code(), ErrorCode::invalid_argument);
+    EXPECT_EQ(rt->apply_probes(b, c, too_long_probes).code(), ErrorCode::invalid_argument);
   }
 }
 

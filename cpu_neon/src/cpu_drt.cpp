@@ -52,6 +52,32 @@ Result<CpuDrtRuntime> CpuDrtRuntime::create(const Level& level, const DrtOperato
       obj.groups.push_back(std::move(g));
     }
     obj.dUc_sample.assign(o.dUc_sample.begin(), o.dUc_sample.end());
+    // The vector and probe deltas: W matrix rows per (sample or probe, block) entry, grouped
+    // by block the same way, each row scattered to its coefficient's output slot.
+    auto regroup = [&](const Matrix& A, const std::vector<std::uint32_t>& index,
+                       const std::vector<std::uint32_t>& block_of, std::uint32_t W,
+                       std::vector<BlockGroup>& out) {
+      std::map<std::uint32_t, std::vector<std::size_t>> entries;
+      for (std::size_t e = 0; e < block_of.size(); ++e) entries[block_of[e]].push_back(e);
+      for (const auto& [block, list] : entries) {
+        BlockGroup g;
+        g.block = block;
+        g.rows = Matrix(std::uint32_t(W * list.size()), std::uint32_t(kb));
+        for (std::size_t i = 0; i < list.size(); ++i)
+          for (std::uint32_t w = 0; w < W; ++w) {
+            const std::span<const float> src = A.row(std::uint32_t(W * list[i] + w));
+            std::copy(src.begin(), src.end(), g.rows.data.begin() + std::ptrdiff_t((W * i + w) * kb));
+            g.sample.push_back(std::int32_t(W * index[list[i]] + w));
+          }
+        out.push_back(std::move(g));
+      }
+    };
+    regroup(o.dUb_vec, o.dUb_vec_sample, o.dUb_vec_block, 4, obj.vector_groups);
+    regroup(o.Udyn, o.Udyn_probe, o.Udyn_block, 9, obj.probe_groups);
+    for (std::uint32_t smp : o.dUc_vec_sample)
+      for (std::int32_t i = 0; i < 4; ++i) obj.dUc_vec_slot.push_back(std::int32_t(4 * smp) + i);
+    for (std::uint32_t p : o.Udyn_c_probe)
+      for (std::int32_t j = 0; j < 9; ++j) obj.Udyn_c_slot.push_back(std::int32_t(9 * p) + j);
     scratch = std::max({scratch, 3 * std::size_t(o.texel_count), 3 * std::size_t(o.face_count),
                         3 * kb * o.Cb_blocks.size(), 3 * std::size_t(o.Uc.cols), 3 * std::size_t(o.Cc.cols)});
     modes = std::max<std::size_t>(modes, o.Uc.cols);
@@ -151,6 +177,53 @@ Status CpuDrtRuntime::clutter_add_cc(std::span<const float> c, std::span<float> 
           planar_[ch * cols + col] = c[3 * (objects_[src].face0 + f) + ch];
     gemv_rgb(isa_, o.Cc.data.data(), o.texel_count, cols, cols, planar_.data(), cols,
              out.data() + 3 * objects_[i].texel0, true);
+  }
+  return Status::success();
+}
+
+void CpuDrtRuntime::apply_groups(std::span<const float> b, const std::vector<BlockGroup>& groups,
+                                 const Matrix& face_rows, const std::vector<std::int32_t>& face_slot,
+                                 const float* c_object, std::size_t faces, float* out) {
+  const std::size_t kb = level_->kb;
+  for (const BlockGroup& g : groups) {
+    deinterleave_rgb(b.data() + 3 * kb * g.block, kb, planar_.data(), kb);
+    gemv_rgb_scatter(isa_, g.rows.data.data(), g.rows.rows, kb, kb, g.sample.data(), planar_.data(), kb, out);
+  }
+  if (!face_slot.empty()) {
+    deinterleave_rgb(c_object, faces, planar_.data(), faces);
+    gemv_rgb_scatter(isa_, face_rows.data.data(), face_rows.rows, faces, faces, face_slot.data(),
+                     planar_.data(), faces, out);
+  }
+}
+
+Status CpuDrtRuntime::apply_vector(std::span<const float> b, std::span<const float> c,
+                                   std::span<float> vector_lightmap) {
+  const std::size_t kb = level_->kb;
+  if (b.size() != 3 * kb * level_->blocks.size())
+    return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (vector_lightmap.size() != 4 * lightmap_size_)
+    return wrong_size("vector lightmap", vector_lightmap.size(), 4 * lightmap_size_);
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    apply_groups(b, objects_[i].vector_groups, o.dUc_vec, objects_[i].dUc_vec_slot,
+                 c.data() + 3 * objects_[i].face0, o.face_count, vector_lightmap.data());
+  }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::apply_probes(std::span<const float> b, std::span<const float> c,
+                                   std::span<float> probes) {
+  const std::size_t kb = level_->kb;
+  const std::size_t size = 27 * std::size_t(drt_->probes_per_block) * level_->blocks.size();
+  if (b.size() != 3 * kb * level_->blocks.size())
+    return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (probes.size() != size) return wrong_size("probes", probes.size(), size);
+  for (std::size_t i = 0; i < objects_.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    apply_groups(b, objects_[i].probe_groups, o.Udyn_c, objects_[i].Udyn_c_slot,
+                 c.data() + 3 * objects_[i].face0, o.face_count, probes.data());
   }
   return Status::success();
 }
