@@ -911,6 +911,8 @@ struct AccuracyResult {
   // The same with every object built alone (each traced against the walls and itself: no
   // clutter-to-clutter shadows or light), and the clutter with Cb b only (no Cc c).
   double drt_alone = 0, clutter_alone = 0, clutter_cb_only = 0;
+  // The clutter shaded by the volume probes with the U_dyn delta (clutter-aware probes).
+  double probes_udyn = 0;
 };
 
 // One bounce at the level's texels and the clutter texels: MRT (lightmap Ub b + Ur r; the
@@ -968,6 +970,12 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildS
   std::vector<float> probes(sz.probes);
   level_compute_probes(level, dict(), f.b, f.r, probes);
   const std::vector<float> probe_lightmap = probe_shading(level, probes, s.clutter);
+  DrtBuildSettings with_probes = settings;
+  with_probes.probes = true;
+  const DrtOperators drt_probes = DrtBuilder(level, dict(), with_probes).build(s.clutter).value();
+  std::vector<float> aware = probes;
+  drt_apply_probes(drt_probes, f.b, c, aware);
+  const std::vector<float> aware_lightmap = probe_shading(level, aware, s.clutter);
   const std::vector<std::uint8_t> none(cp.size(), 0);
 
   AccuracyResult a;
@@ -985,6 +993,7 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildS
   a.drt_alone = rel_l2(lightmap_alone, truth.value, skip);
   a.clutter_alone = rel_l2(clutter_alone, clutter_truth.value, none);
   a.clutter_cb_only = rel_l2(clutter_cb_only, clutter_truth.value, none);
+  a.probes_udyn = rel_l2(aware_lightmap, clutter_truth.value, none);
   double se = 0, v = 0;
   for (std::size_t i = 0; i < clutter_truth.value.size(); ++i) {
     se += double(clutter_truth.standard_error[i]) * clutter_truth.standard_error[i];
@@ -993,10 +1002,12 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildS
   a.clutter_noise = std::sqrt(se / v);
   std::printf(
       "%s: scene lightmap relL2 MRT %.4f, MRT+DRT %.4f (%.0f %% lower; objects alone %.4f; truth noise floor "
-      "%.4f); clutter relL2 MRT probes %.4f, DRT Cb b + Cc c %.4f (Cb b only %.4f, objects alone %.4f; noise "
+      "%.4f); clutter relL2 MRT probes %.4f (+ U_dyn %.4f), DRT Cb b + Cc c %.4f (Cb b only %.4f, objects "
+      "alone %.4f; noise "
       "floor %.4f); %zu objects, build %.3f s (test build, not a benchmark), storage %zu bytes\n",
-      name, a.mrt, a.drt, 100.0 * (1.0 - a.drt / a.mrt), a.drt_alone, a.noise, a.probes, a.clutter,
-      a.clutter_cb_only, a.clutter_alone, a.clutter_noise, s.clutter.size(), build_s, drt.storage_bytes());
+      name, a.mrt, a.drt, 100.0 * (1.0 - a.drt / a.mrt), a.drt_alone, a.noise, a.probes, a.probes_udyn,
+      a.clutter, a.clutter_cb_only, a.clutter_alone, a.clutter_noise, s.clutter.size(), build_s,
+      drt.storage_bytes());
   return a;
 }
 
