@@ -85,6 +85,8 @@ const DrtFixture& fixture() {
     pillar.faces = FaceMask(kAllFaces & ~(1u << kFaceNegY) & ~(1u << kFacePosY));
     precompute::DrtBuildSettings settings;
     settings.rays = 64;
+    settings.vector = true;  // dUb_vec / dUc_vec and U_dyn, so that vector.frag and probes.frag get deltas
+    settings.probes = true;
     Result<DrtOperators> drt =
         precompute::DrtBuilder(s.level, dict(), settings).build(std::vector<ClutterObject>{box, pillar});
     if (!drt.ok()) {
@@ -106,6 +108,7 @@ const DrtFixture& fixture() {
 // Core's scalar reference of one frame with clutter.
 struct Reference {
   std::vector<float> b, r, mrt, lightmap, atlas, clutter, clutter_without_cc;
+  std::vector<float> probes, probes_mrt, vector, vector_mrt;
 };
 Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<const float> clutter_ld) {
   const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
@@ -122,6 +125,14 @@ Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<co
   drt_clutter_lightmap(f.drt, ref.b, f.clutter_direct, ref.clutter);
   ref.clutter_without_cc = ref.clutter;
   drt_clutter_add_cc(f.drt, c, ref.clutter);
+  ref.probes_mrt.resize(s.probes);
+  level_compute_probes(f.level, dict(), ref.b, ref.r, ref.probes_mrt);
+  ref.probes = ref.probes_mrt;
+  drt_apply_probes(f.drt, ref.b, c, ref.probes);
+  ref.vector_mrt.resize(s.vector_lightmap);
+  EXPECT_TRUE(level_compute_vector_irradiance(f.level, dict(), ref.b, ref.r, ref.vector_mrt).ok());
+  ref.vector = ref.vector_mrt;
+  drt_apply_vector(f.level, f.drt, ref.b, c, ref.vector);
   return ref;
 }
 
@@ -222,11 +233,19 @@ TEST_P(GlesDrtTest, MatchesScalarReference) {
   const double cc_part = rel_l2(ref.clutter_without_cc, ref.clutter);
   std::printf("  Cc c is %.2e of the clutter lightmap (rel L2)\n", cc_part);
   EXPECT_GT(cc_part, 1000 * kFloat32Tolerance);  // a missing Cc c fails the float32 cases
+  const double probe_part = rel_l2(ref.probes_mrt, ref.probes),
+               vector_part = rel_l2(ref.vector_mrt, ref.vector);
+  std::printf("  U_dyn is %.2e of the probes, dUb_vec b + dUc_vec c %.2e of the vector irradiance\n",
+              probe_part, vector_part);
+  EXPECT_GT(probe_part, 1000 * kFloat32Tolerance);
+  EXPECT_GT(vector_part, 1000 * kFloat32Tolerance);
   for (const FormatCase& fc : kFormats) {
-    std::unique_ptr<GlesLevelRuntime> rt = make({.target = fc.target, .operators = fc.operators});
+    std::unique_ptr<GlesLevelRuntime> rt =
+        make({.target = fc.target, .operators = fc.operators, .vector_irradiance = true});
     ASSERT_TRUE(rt);
     const LevelBufferSizes& s = rt->sizes();
-    std::vector<float> mrt(s.lightmap), lightmap(s.lightmap), atlas(s.atlas);
+    std::vector<float> mrt(s.lightmap), lightmap(s.lightmap), atlas(s.atlas), probes(s.probes),
+        vector(s.vector_lightmap);
     ASSERT_TRUE(rt->update(f.ld).ok());
     ASSERT_TRUE(rt->read_lightmap(mrt).ok());
     const Status st = rt->set_clutter(&f.drt);
@@ -238,6 +257,11 @@ TEST_P(GlesDrtTest, MatchesScalarReference) {
       ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
       ASSERT_TRUE(rt->read_atlas(atlas).ok());
       ASSERT_TRUE(rt->read_clutter_lightmap(clutter).ok());
+      ASSERT_TRUE(rt->read_probes(probes).ok());
+      ASSERT_TRUE(rt->read_vector_lightmap(vector).ok());
+      const double ep = rel_l2(probes, ref.probes), ev = rel_l2(vector, ref.vector);
+      EXPECT_LE(ep, fc.tolerance) << rt->description() << " probes";
+      EXPECT_LE(ev, fc.tolerance) << rt->description() << " vector irradiance";
       const double el = rel_l2(lightmap, ref.lightmap), ea = rel_l2(atlas, ref.atlas),
                    ed = rel_l2(minus(lightmap, mrt), delta_ref), ec = rel_l2(clutter, ref.clutter);
       EXPECT_LE(el, fc.tolerance) << rt->description();
@@ -245,8 +269,10 @@ TEST_P(GlesDrtTest, MatchesScalarReference) {
       EXPECT_LE(ed, fc.delta_tolerance) << rt->description();
       EXPECT_LE(ec, fc.tolerance) << rt->description();
       if (frame == 0)
-        std::printf("  %-52s rel L2: lightmap %.2e atlas %.2e delta %.2e clutter lightmap %.2e\n",
-                    rt->description(), el, ea, ed, ec);
+        std::printf(
+            "  %-52s rel L2: lightmap %.2e atlas %.2e delta %.2e clutter lightmap %.2e probes %.2e "
+            "vector %.2e\n",
+            rt->description(), el, ea, ed, ec, ep, ev);
     }
     EXPECT_NE(rt->clutter_texture(), 0u);
   }
@@ -351,7 +377,7 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   std::vector<float> b0(s.b), r0(s.r), mrt(s.lightmap);
   ASSERT_TRUE(level_multi_bounce(f.level, dict(), f.ld, f.albedo, settings, b0, r0, mrt).ok());
 
-  std::unique_ptr<GlesLevelRuntime> g = make({.target = TargetFormat::float32});
+  std::unique_ptr<GlesLevelRuntime> g = make({.target = TargetFormat::float32, .vector_irradiance = true});
   ASSERT_TRUE(g);
   Result<std::unique_ptr<Backend>> cpu = cpu::create_cpu_backend(f.level, dict());
   ASSERT_TRUE(cpu.ok()) << cpu.status().to_string();
@@ -359,7 +385,7 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   skipping.skip.enabled = true;  // kept tiles must not keep last frame's delta
   Result<std::unique_ptr<Backend>> cpu_skip = cpu::create_cpu_backend(f.level, dict(), skipping);
   ASSERT_TRUE(cpu_skip.ok()) << cpu_skip.status().to_string();
-  std::vector<std::vector<float>> lightmaps, atlases, clutters;
+  std::vector<std::vector<float>> lightmaps, atlases, clutters, probes, vectors;
   for (Backend* be : {static_cast<Backend*>(g.get()), cpu->get(), cpu_skip->get()}) {
     ASSERT_TRUE(be->set_clutter(&f.drt).ok()) << be->description();
     ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
@@ -373,6 +399,10 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
     ASSERT_TRUE(be->read_lightmap(lightmaps.back()).ok());
     ASSERT_TRUE(be->read_atlas(atlases.back()).ok());
     ASSERT_TRUE(be->read_clutter_lightmap(clutters.back()).ok());
+    probes.emplace_back(s.probes);
+    vectors.emplace_back(s.vector_lightmap);
+    ASSERT_TRUE(be->read_probes(probes.back()).ok());
+    ASSERT_TRUE(be->read_vector_lightmap(vectors.back()).ok()) << be->description();
     const double e = rel_l2(lightmaps.back(), ref), ec = rel_l2(clutters.back(), clutter_ref);
     EXPECT_LE(e, kFloat32Tolerance) << be->description();
     EXPECT_LE(ec, kFloat32Tolerance) << be->description();
@@ -383,9 +413,20 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   EXPECT_GT(rel_l2(mrt, ref), 100 * kFloat32Tolerance);
   EXPECT_LE(rel_l2(atlases[0], atlases[1]), kFloat32Tolerance);
   EXPECT_LE(rel_l2(clutters[0], clutters[1]), kFloat32Tolerance);
+  // Probes and vector irradiance with their DRT deltas, against core after the same feedback.
+  std::vector<float> probe_ref(s.probes), vector_ref(s.vector_lightmap);
+  level_compute_probes(f.level, dict(), b, r, probe_ref);
+  drt_apply_probes(f.drt, b, c, probe_ref);
+  ASSERT_TRUE(level_compute_vector_irradiance(f.level, dict(), b, r, vector_ref).ok());
+  drt_apply_vector(f.level, f.drt, b, c, vector_ref);
+  for (std::size_t k = 0; k < probes.size(); ++k) {
+    EXPECT_LE(rel_l2(probes[k], probe_ref), kFloat32Tolerance) << k;
+    EXPECT_LE(rel_l2(vectors[k], vector_ref), kFloat32Tolerance) << k;
+  }
   EXPECT_EQ(lightmaps[1], lightmaps[2]);  // skipping (exact with these options) changes nothing
-  std::printf("  gles vs cpu: atlas %.2e, clutter lightmap %.2e\n", rel_l2(atlases[0], atlases[1]),
-              rel_l2(clutters[0], clutters[1]));
+  std::printf("  gles vs cpu: atlas %.2e, clutter lightmap %.2e, probes %.2e, vector irradiance %.2e\n",
+              rel_l2(atlases[0], atlases[1]), rel_l2(clutters[0], clutters[1]), rel_l2(probes[0], probes[1]),
+              rel_l2(vectors[0], vectors[1]));
 }
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesDrtTest,

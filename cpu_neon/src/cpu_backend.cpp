@@ -75,20 +75,25 @@ class CpuBackend final : public Backend {
   // Computed on request from the kept b and r, so frames that never read it pay nothing.
   Status read_vector_lightmap(std::span<float> out) override {
     if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
-    return rt_.compute_vector_irradiance(out);
+    if (Status s = rt_.compute_vector_irradiance(out); !s.ok()) return s;
+    if (drt_) drt_apply_vector(level_, *drt_ops_, rt_.b(), c_, out);  // DRT §5 (dUb_vec, dUc_vec)
+    return Status::success();
   }
 
   Status set_clutter(const DrtOperators* drt) override {
     if (!drt || drt->empty()) {
       drt_.reset();
+      drt_ops_ = nullptr;
       drt_sizes_ = {};
       base_ = {}, c_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {}, ld_feedback_ = {};
       updated_ = false;
       return Status::success();
     }
+    if (Status s = check_probe_grid(*drt); !s.ok()) return s;
     Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level_, *drt, rt_.isa());
     if (!rt.ok()) return rt.status();
     drt_.emplace(std::move(rt).value());
+    drt_ops_ = drt;
     drt_sizes_ = drt_->sizes();
     base_.assign(lightmap_.size(), 0.0f);
     ld_feedback_.assign(lightmap_.size(), 0.0f);
@@ -123,10 +128,26 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  // U_dyn operators must be for the dictionary's probe grid (the probes this backend computes).
+  Status check_probe_grid(const DrtOperators& drt) const {
+    bool any = false;
+    for (const DrtObjectOperators& o : drt.objects) any |= !o.Udyn.empty() || !o.Udyn_c.empty();
+    if (!any || probes_.empty() ||
+        std::size_t(27) * drt.probes_per_block * level_.blocks.size() == probes_.size())
+      return Status::success();
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "cpu: the U_dyn operators are for " + std::to_string(drt.probes_per_block) +
+            " probes per block, the dictionary's grid has " +
+            std::to_string(probes_.size() / 27 / std::max<std::size_t>(level_.blocks.size(), 1)));
+  }
   Status finish() {
     updated_ = true;
     if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
-    return probes_.empty() ? Status::success() : rt_.compute_probes(probes_);
+    if (probes_.empty()) return Status::success();
+    if (Status s = rt_.compute_probes(probes_); !s.ok()) return s;
+    if (drt_) drt_apply_probes(*drt_ops_, rt_.b(), c_, probes_);  // DRT §5 (U_dyn)
+    return Status::success();
   }
   // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
   // Cb b + Cc c + direct.
@@ -155,6 +176,7 @@ class CpuBackend final : public Backend {
   // DRT (only with clutter): the MRT lightmap the level runtime writes, c, the clutter's light
   // and lightmap, the feedback ld; the albedo as clamped by set_albedo.
   std::optional<CpuDrtRuntime> drt_;
+  const DrtOperators* drt_ops_ = nullptr;
   DrtBufferSizes drt_sizes_;
   std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_, ld_feedback_;
   std::vector<float> rho_;

@@ -11,6 +11,9 @@ uniform isampler2D u_slot_info;    // per slot: (first record, record count, blo
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
 uniform int u_count;  // blocks * PROBE_ROWS
+#if DRT
+uniform usampler2D u_probe_delta;  // per probe coefficient: Udyn b + Udyn_c c (drt_delta.frag)
+#endif
 
 layout(location = 0) out OUTPUT_TYPE o_sh;
 
@@ -30,6 +33,9 @@ void main() {
       acc += dot_rgb(u_probe_response, (face * PROBE_ROWS + row) * R_GROUPS, u_r_red, u_r_green, u_r_blue,
                      slots[k] * R_GROUPS, R_GROUPS);
     }
+#if DRT
+    acc += load_signal(u_probe_delta, i).rgb;  // i = 9 (global probe) + j, U_dyn's layout
+#endif
   }
   o_sh = store_output(vec4(acc, 1.0));
 }

@@ -15,6 +15,9 @@ uniform isampler2D u_block_info;    // per block: (shape, sample_offset, sample_
 uniform isampler2D u_slot_info;     // per slot: (first record, record count, block, entry face)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
+#if DRT
+uniform usampler2D u_vector_delta;  // per sample and coefficient: dUb_vec b + dUc_vec c (drt_delta.frag)
+#endif
 layout(location = 0) out OUTPUT_TYPE o_a0;
 layout(location = 1) out OUTPUT_TYPE o_a1;
 layout(location = 2) out OUTPUT_TYPE o_a2;
@@ -39,6 +42,9 @@ void main() {
         a[i] += dot_rgb(u_vector_response, (first + i) * R_GROUPS, u_r_red, u_r_green, u_r_blue,
                         slots[k] * R_GROUPS, R_GROUPS);
     }
+#if DRT
+    for (int i = 0; i < 4; ++i) a[i] += load_signal(u_vector_delta, 4 * s + i).rgb;
+#endif
   }
   o_a0 = store_output(vec4(a[0], 1.0));
   o_a1 = store_output(vec4(a[1], 1.0));

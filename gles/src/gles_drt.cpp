@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 #include <utility>
 
 #include "gl_objects.h"
@@ -57,21 +58,14 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   const std::size_t kb = level.kb, G = quads(kb), samples = level.sample_count;
 
   // ---- operators and tables (layouts: gles/README.md, "DRT") ----
-  std::vector<float> td_c, dub, duc, vc, uc;
+  std::vector<float> td_c, vc, uc;
   std::vector<std::int32_t> face_info, mode_info, cb_blocks;
-  struct Entry {
-    std::uint32_t sample;
-    std::array<std::int32_t, 4> value;
-  };
-  std::vector<Entry> entries;
   std::vector<std::array<std::int32_t, 4>> texel_values;  // per clutter texel: the map's value
   std::vector<std::array<std::int32_t, 4>> texel_cc;      // per clutter texel: the Cc map's value
   std::vector<float> cc;                                  // Cc rows, four columns per texel
   std::vector<std::int32_t> cc_faces;                     // per Cc column: its c index (face)
   std::vector<std::size_t> object_face0(1, 0);
   for (const DrtObjectOperators& o : drt.objects) object_face0.push_back(object_face0.back() + o.face_count);
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> dub_row;  // (sample, block) -> row
-  std::vector<double> dub_sum;
   std::size_t texel0 = 0, face0 = 0, mode0 = 0;
   for (const DrtObjectOperators& o : drt.objects) {
     const std::size_t m = o.texel_count, f = o.face_count, modes = o.Uc.cols;
@@ -81,21 +75,6 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       td_c.resize(td_c.size() + 4 * quads(m), 0.0f);
       for (std::size_t t = 0; t < m; ++t) td_c[4 * base + t] = o.Td_c(std::uint32_t(r), std::uint32_t(t));
       face_info.insert(face_info.end(), {std::int32_t(base), std::int32_t(texel0), std::int32_t(m), 0});
-    }
-    // DRT §4.1. Rows of different objects for the same (sample, block) read the same b: they
-    // are summed (in double) into one, so that a sample under many objects' shadows costs one
-    // row per block it sees, not one per object.
-    for (std::size_t r = 0; r < o.dUb_sample.size(); ++r) {
-      auto [it, added] = dub_row.try_emplace({o.dUb_sample[r], o.dUb_block[r]}, dub_sum.size() / kb);
-      if (added) dub_sum.resize(dub_sum.size() + kb, 0.0);
-      for (std::size_t k = 0; k < kb; ++k)
-        dub_sum[it->second * kb + k] += double(o.dUb(std::uint32_t(r), std::uint32_t(k)));
-    }
-    for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {  // DRT §4.2
-      const std::size_t base = duc.size() / 4;
-      duc.resize(duc.size() + 4 * quads(f), 0.0f);
-      for (std::size_t k = 0; k < f; ++k) duc[4 * base + k] = o.dUc(std::uint32_t(r), std::uint32_t(k));
-      entries.push_back({o.dUc_sample[r], {std::int32_t(base), std::int32_t(face0), std::int32_t(f), 1}});
     }
     const std::size_t nb = o.Cb_blocks.size(), cb0 = cb_blocks.size() / 4;
     for (std::uint32_t blk : o.Cb_blocks) cb_blocks.insert(cb_blocks.end(), {std::int32_t(blk), 0, 0, 0});
@@ -129,21 +108,107 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     face0 += f;
     mode0 += modes;
   }
-  dub.assign(4 * G * (dub_sum.size() / std::max<std::size_t>(kb, 1)), 0.0f);
-  for (const auto& [key, row] : dub_row) {
-    for (std::size_t k = 0; k < kb; ++k) dub[4 * G * row + k] = float(dub_sum[row * kb + k]);
-    entries.push_back({key.first, {std::int32_t(G * row), std::int32_t(key.second), 0, 0}});
-  }
   d->faces_ = int(face0);
   d->modes_ = int(mode0);
-  // Entries grouped by sample (stable: the objects' order), one range per sample.
-  std::stable_sort(entries.begin(), entries.end(),
-                   [](const Entry& a, const Entry& b) { return a.sample < b.sample; });
-  std::vector<std::int32_t> sample_entries(4 * std::max<std::size_t>(samples, 1), 0), entry_table;
-  for (std::size_t e = 0; e < entries.size(); ++e) {
-    std::int32_t* range = &sample_entries[4 * std::size_t(entries[e].sample)];
-    if (range[1]++ == 0) range[0] = std::int32_t(e);
-    entry_table.insert(entry_table.end(), entries[e].value.begin(), entries[e].value.end());
+
+  // Delta operators (DRT §4.1-4.2, §5): per item (level sample or probe) `rows` values from
+  // b rows (item, block) and c rows (item). Rows of different objects for the same (item,
+  // block) read the same b: they are summed (in double) into one, so that an item under many
+  // objects' shadows costs one row per block it sees, not one per object.
+  struct DeltaTables {
+    std::vector<float> dub, duc;
+    std::vector<std::int32_t> item_entries, entries;
+  };
+  auto build_delta = [&](std::size_t rows, std::size_t items, auto b_part, auto c_part) {
+    struct Entry {
+      std::uint32_t item;
+      std::array<std::int32_t, 4> value;
+    };
+    std::vector<Entry> entries;
+    DeltaTables t;
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> b_row;  // (item, block) -> row
+    std::vector<double> b_sum;
+    const std::size_t per_row = rows * kb;
+    for (std::size_t i = 0; i < drt.objects.size(); ++i) {
+      const DrtObjectOperators& o = drt.objects[i];
+      const auto [b_item, b_block, b_op] = b_part(o);
+      for (std::size_t r = 0; r < b_item->size(); ++r) {
+        auto [it, added] = b_row.try_emplace({(*b_item)[r], (*b_block)[r]}, b_sum.size() / per_row);
+        if (added) b_sum.resize(b_sum.size() + per_row, 0.0);
+        for (std::size_t j = 0; j < rows; ++j)
+          for (std::size_t k = 0; k < kb; ++k)
+            b_sum[it->second * per_row + j * kb + k] +=
+                double((*b_op)(std::uint32_t(rows * r + j), std::uint32_t(k)));
+      }
+      const auto [c_item, c_op] = c_part(o);
+      const std::size_t f = o.face_count;
+      for (std::size_t r = 0; r < c_item->size(); ++r) {
+        const std::size_t base = t.duc.size() / 4;
+        t.duc.resize(t.duc.size() + 4 * rows * quads(f), 0.0f);
+        for (std::size_t j = 0; j < rows; ++j)
+          for (std::size_t k = 0; k < f; ++k)
+            t.duc[4 * (base + j * quads(f)) + k] = (*c_op)(std::uint32_t(rows * r + j), std::uint32_t(k));
+        entries.push_back(
+            {(*c_item)[r], {std::int32_t(base), std::int32_t(object_face0[i]), std::int32_t(f), 1}});
+      }
+    }
+    t.dub.assign(4 * G * rows * (b_sum.size() / std::max<std::size_t>(per_row, 1)), 0.0f);
+    for (const auto& [key, row] : b_row) {
+      for (std::size_t j = 0; j < rows; ++j)
+        for (std::size_t k = 0; k < kb; ++k)
+          t.dub[4 * G * (rows * row + j) + k] = float(b_sum[row * per_row + j * kb + k]);
+      entries.push_back({key.first, {std::int32_t(G * rows * row), std::int32_t(key.second), 0, 0}});
+    }
+    // Entries grouped by item (stable: the objects' order), one range per item.
+    std::stable_sort(entries.begin(), entries.end(),
+                     [](const Entry& a, const Entry& b) { return a.item < b.item; });
+    t.item_entries.assign(4 * std::max<std::size_t>(items, 1), 0);
+    for (std::size_t e = 0; e < entries.size(); ++e) {
+      std::int32_t* range = &t.item_entries[4 * std::size_t(entries[e].item)];
+      if (range[1]++ == 0) range[0] = std::int32_t(e);
+      t.entries.insert(t.entries.end(), entries[e].value.begin(), entries[e].value.end());
+    }
+    return t;
+  };
+  using Index = const std::vector<std::uint32_t>*;
+  DeltaTables scalar = build_delta(
+      1, samples,
+      [](const DrtObjectOperators& o) {
+        return std::tuple<Index, Index, const Matrix*>{&o.dUb_sample, &o.dUb_block, &o.dUb};
+      },
+      [](const DrtObjectOperators& o) {
+        return std::pair<Index, const Matrix*>{&o.dUc_sample, &o.dUc};
+      });
+  bool any_vector = false, any_probes = false;
+  for (const DrtObjectOperators& o : drt.objects) {
+    any_vector |= !o.dUb_vec.empty() || !o.dUc_vec.empty();
+    any_probes |= !o.Udyn.empty() || !o.Udyn_c.empty();
+  }
+  DeltaTables vector, probes;
+  if (setup.vector && any_vector)  // DRT §5, the OHLSH vector irradiance
+    vector = build_delta(
+        4, samples,
+        [](const DrtObjectOperators& o) {
+          return std::tuple<Index, Index, const Matrix*>{&o.dUb_vec_sample, &o.dUb_vec_block, &o.dUb_vec};
+        },
+        [](const DrtObjectOperators& o) {
+          return std::pair<Index, const Matrix*>{&o.dUc_vec_sample, &o.dUc_vec};
+        });
+  if (setup.probe_count > 0 && any_probes) {  // DRT §5, U_dyn
+    if (std::size_t(drt.probes_per_block) * level.blocks.size() != setup.probe_count)
+      return Status::error(
+          ErrorCode::invalid_argument,
+          "gles drt: the U_dyn operators are for " + std::to_string(drt.probes_per_block) +
+              " probes per block, the dictionary's grid has " +
+              std::to_string(setup.probe_count / std::max<std::size_t>(level.blocks.size(), 1)));
+    probes = build_delta(
+        9, setup.probe_count,
+        [](const DrtObjectOperators& o) {
+          return std::tuple<Index, Index, const Matrix*>{&o.Udyn_probe, &o.Udyn_block, &o.Udyn};
+        },
+        [](const DrtObjectOperators& o) {
+          return std::pair<Index, const Matrix*>{&o.Udyn_c_probe, &o.Udyn_c};
+        });
   }
 
   // ---- clutter atlas placement: an object per band of rows ----
@@ -204,15 +269,20 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     return tex;
   };
   d->td_c_ = float_table("Td_c", td_c);
-  d->dub_ = float_table("dUb", dub);
-  d->duc_ = float_table("dUc", duc);
   d->vc_ = float_table("Vc", vc);
   d->uc_ = float_table("Uc", uc);
   d->cc_ = float_table("Cc", cc);
   d->cc_faces_ = int_table("Cc column table", cc_faces);
   d->face_info_ = int_table("clutter face table", face_info);
-  d->sample_entries_ = int_table("DRT sample table", sample_entries);
-  d->entries_ = int_table("DRT row table", entry_table);
+  auto delta_tables = [&](const char* name, DeltaTables& t, DeltaPass& pass) {
+    pass.dub = float_table(name, t.dub);
+    pass.duc = float_table(name, t.duc);
+    pass.item_entries = int_table(name, t.item_entries);
+    pass.entries = int_table(name, t.entries);
+  };
+  delta_tables("dUb / dUc", scalar, d->scalar_);
+  if (!vector.entries.empty()) delta_tables("dUb_vec / dUc_vec", vector, d->vector_);
+  if (!probes.entries.empty()) delta_tables("Udyn / Udyn_c", probes, d->probes_);
   d->mode_info_ = int_table("Cb mode table", mode_info);
   d->cb_blocks_ = int_table("Cb block list", cb_blocks);
   d->clutter_ld_ = linear_texture("clutter_ld", GL_RGB32F, d->sizes_.clutter_texels);
@@ -250,9 +320,17 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   };
   if (Status s = target("c", kLinearWidth, linear_rows(face0), GL_RGBA32UI, "RGBA32UI", d->c_); !s.ok())
     return s;
-  if (Status s = target("DRT delta", kLinearWidth, linear_rows(samples), GL_RGBA32UI, "RGBA32UI", d->delta_);
-      !s.ok())
-    return s;
+  for (auto [pass, name, rows, items] : {std::tuple{&d->scalar_, "DRT delta", 1, samples},
+                                         std::tuple{&d->vector_, "DRT vector delta", 4, samples},
+                                         std::tuple{&d->probes_, "DRT probe delta", 9, setup.probe_count}}) {
+    if (!pass->entries) continue;
+    pass->rows = rows;
+    pass->count = std::size_t(rows) * items;
+    if (Status s =
+            target(name, kLinearWidth, linear_rows(pass->count), GL_RGBA32UI, "RGBA32UI", pass->target);
+        !s.ok())
+      return s;
+  }
   if (Status s = target("Vc b", kLinearWidth, linear_rows(mode0), GL_RGBA32UI, "RGBA32UI", d->y_); !s.ok())
     return s;
   if (Status s = target("clutter atlas", atlas_w, atlas_h, setup.output_format, setup.output_format_name,
@@ -263,9 +341,11 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
 
   // ---- programs ----
   auto program = [&](const char* name, const char* fragment, GLuint& out,
-                     std::initializer_list<const char*> samplers, int count) -> Status {
-    Result<GLuint> p = build_program(gl, name, {"#version 300 es\n", kFullscreenVert},
-                                     {setup.defines->c_str(), kCommon, fragment});
+                     std::initializer_list<const char*> samplers, int count,
+                     const std::string& extra = {}) -> Status {
+    const std::string head = *setup.defines + extra;
+    Result<GLuint> p =
+        build_program(gl, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
     if (!p.ok()) return p.status();
     out = p.value();
     d->programs_.push_back(out);
@@ -278,12 +358,15 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
           program("drt_c.frag", kDrtCFrag, d->prog_c_, {"u_td_c", "u_face_info", "u_clutter_ld"}, int(face0));
       !s.ok())
     return s;
-  if (Status s = program(
-          "drt_delta.frag", kDrtDeltaFrag, d->prog_delta_,
-          {"u_dub", "u_duc", "u_sample_entries", "u_entries", "u_b_red", "u_b_green", "u_b_blue", "u_c"},
-          int(samples));
-      !s.ok())
-    return s;
+  for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
+    if (!pass->entries) continue;
+    if (Status s = program(
+            "drt_delta.frag", kDrtDeltaFrag, pass->program,
+            {"u_dub", "u_duc", "u_item_entries", "u_entries", "u_b_red", "u_b_green", "u_b_blue", "u_c"},
+            int(pass->count), "#define DELTA_ROWS " + std::to_string(pass->rows) + "\n");
+        !s.ok())
+      return s;
+  }
   if (Status s =
           program("drt_vc.frag", kDrtVcFrag, d->prog_vc_,
                   {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"}, int(mode0));
@@ -333,7 +416,10 @@ void GlesDrt::run_scene(const std::array<GLuint, 3>& b) {
     draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_});
     light_changed_ = false;
   }
-  draw(prog_delta_, delta_, {dub_, duc_, sample_entries_, entries_, b[0], b[1], b[2], c_.texture});
+  for (const DeltaPass* pass : {&scalar_, &vector_, &probes_})
+    if (pass->entries)
+      draw(pass->program, pass->target,
+           {pass->dub, pass->duc, pass->item_entries, pass->entries, b[0], b[1], b[2], c_.texture});
 }
 
 void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {

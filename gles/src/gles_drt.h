@@ -4,7 +4,10 @@
 //
 //   drt_c.frag        c = Td_c clutter_ld, one fragment per clutter face
 //   drt_delta.frag    dUb b + dUc c per level sample (0 where no clutter reaches); atlas.frag
-//                     built with DRT 1 adds it, so padding texels get it too
+//                     built with DRT 1 adds it, so padding texels get it too. Two more
+//                     instances, when the operators have them: dUb_vec b + dUc_vec c (4 per
+//                     sample, added by vector.frag) and Udyn b + Udyn_c c (9 per probe, added
+//                     by probes.frag)
 //   drt_vc.frag       y = Vc b per (object, mode)
 //   drt_clutter.frag  clutter atlas = Uc y + Cc c (clutter-to-clutter) + clutter direct light
 // Layouts: gles/README.md, "DRT".
@@ -31,6 +34,8 @@ struct GlesDrtSetup {
   const char* output_format_name = "";   // for framebuffer errors
   bool output_bits = false;              // RGBA32UI float bits (TargetFormat::bits32)
   int max_texture_size = 0;
+  bool vector = false;          // the runtime renders vector irradiance: apply dUb_vec / dUc_vec
+  std::size_t probe_count = 0;  // probes the runtime renders (blocks x g^3; 0: none): apply U_dyn
 };
 
 class GlesDrt {
@@ -50,8 +55,13 @@ class GlesDrt {
   void run_scene(const std::array<GLuint, 3>& b);
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
-  // Per-sample delta (RGBA32UI float bits, linear layout), read by atlas.frag.
-  GLuint delta_texture() const { return delta_.texture; }
+  // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
+  // and OHLSH coefficient (4 s + i), read by vector.frag; per probe coefficient (9 p + j), read
+  // by probes.frag. The last two are 0 when the operators lack them or the runtime does not
+  // render vector irradiance / probes.
+  GLuint delta_texture() const { return scalar_.target.texture; }
+  GLuint vector_delta_texture() const { return vector_.entries ? vector_.target.texture : 0; }
+  GLuint probe_delta_texture() const { return probes_.entries ? probes_.target.texture : 0; }
   GLuint clutter_texture() const { return clutter_.texture; }
   int clutter_width() const { return clutter_.width; }
   int clutter_height() const { return clutter_.height; }
@@ -64,6 +74,12 @@ class GlesDrt {
   struct Target {
     GLuint texture = 0, framebuffer = 0;
     int width = 0, height = 0;
+  };
+  struct DeltaPass {  // one drt_delta.frag instance (DELTA_ROWS = rows)
+    GLuint dub = 0, duc = 0, item_entries = 0, entries = 0, program = 0;
+    Target target;
+    int rows = 1;
+    std::size_t count = 0;  // items x rows
   };
   struct Placement {  // an object's rectangle in the clutter atlas
     int y = 0, res = 0, width = 0;
@@ -79,11 +95,12 @@ class GlesDrt {
   int faces_ = 0, modes_ = 0;
   std::vector<Placement> placement_;
   std::vector<std::size_t> texel0_;
-  GLuint td_c_ = 0, dub_ = 0, duc_ = 0, vc_ = 0, uc_ = 0, cc_ = 0, cc_faces_ = 0, cc_map_ = 0;
-  GLuint face_info_ = 0, sample_entries_ = 0, entries_ = 0, mode_info_ = 0, cb_blocks_ = 0, texel_map_ = 0;
+  GLuint td_c_ = 0, vc_ = 0, uc_ = 0, cc_ = 0, cc_faces_ = 0, cc_map_ = 0;
+  GLuint face_info_ = 0, mode_info_ = 0, cb_blocks_ = 0, texel_map_ = 0;
   GLuint clutter_ld_ = 0, clutter_direct_ = 0;
-  Target c_, delta_, y_, clutter_;
-  GLuint prog_c_ = 0, prog_delta_ = 0, prog_vc_ = 0, prog_clutter_ = 0;
+  Target c_, y_, clutter_;
+  DeltaPass scalar_, vector_, probes_;
+  GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0;
   std::vector<GLuint> textures_, framebuffers_, programs_;
   std::vector<float> zeros_, readback_;
 };

@@ -466,14 +466,16 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   set_int(gl_, prog_feedback_.id, "u_count", int(samples));
   prog_feedback_.u_bound = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound");
   if (has_probes_) {
-    if (Status s = program("probes.frag", defines, kProbesFrag, prog_probes_); !s.ok()) return s;
+    if (Status s = program("probes.frag", defines + "#define DRT 0\n", kProbesFrag, prog_probes_); !s.ok())
+      return s;
     assign_sampler_units(gl_, prog_probes_.id,
                          {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
                           "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
     set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
   }
   if (has_vector_) {
-    if (Status s = program("vector.frag", defines, kVectorFrag, prog_vector_); !s.ok()) return s;
+    if (Status s = program("vector.frag", defines + "#define DRT 0\n", kVectorFrag, prog_vector_); !s.ok())
+      return s;
     assign_sampler_units(gl_, prog_vector_.id,
                          {"u_ub_vec", "u_vector_response", "u_texel_sample", "u_sample_info",
                           "u_sample_slots", "u_sample_rows", "u_block_info", "u_slot_info", "u_b_red",
@@ -648,21 +650,32 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
 
   if (has_vector_) {  // the same tiles as the atlas (rects_ still holds them)
     begin_pass(kVector);
-    draw(prog_vector_, vector_.framebuffer, vector_.width, vector_.height,
-         {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
-          slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
-          r_.textures[2]},
-         partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+    if (drt_ && drt_->vector_delta_texture())
+      draw(prog_vector_drt_, vector_.framebuffer, vector_.width, vector_.height,
+           {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
+            slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
+            r_.textures[2], drt_->vector_delta_texture()});
+    else
+      draw(prog_vector_, vector_.framebuffer, vector_.width, vector_.height,
+           {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
+            slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
+            r_.textures[2]},
+           partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
     end_pass(kVector);
     if (Status s = check("vector irradiance pass (Ub_vec b + Ur_vec r)"); !s.ok()) return s;
   }
 
   if (has_probes_ && blocks > 0) {
     begin_pass(kProbes);
-    draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
-         {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
-          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-         partial.atlas ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
+    if (drt_ && drt_->probe_delta_texture())
+      draw(prog_probes_drt_, probes_.framebuffer, probes_.width, probes_.height,
+           {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
+            b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2], drt_->probe_delta_texture()});
+    else
+      draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
+           {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
+            b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
+           partial.atlas ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
     end_pass(kProbes);
     if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
   }
@@ -907,20 +920,46 @@ Status GlesLevelRuntime::set_clutter(const DrtOperators* drt) {
     return Status::success();
   }
   if (Status s = check_drt_operators(*level_, *drt); !s.ok()) return s;
-  if (!prog_atlas_drt_.id) {
+  // The level passes that add a delta, built with DRT 1 on first use.
+  auto drt_program = [&](const char* name, const char* fragment, Program& out,
+                         std::initializer_list<const char*> samplers, int count) -> Status {
+    if (out.id) return Status::success();
     const std::string head = defines_ + "#define DRT 1\n";
-    Result<GLuint> p = build_program(gl_, "atlas.frag (DRT)", {"#version 300 es\n", kFullscreenVert},
-                                     {head.c_str(), kCommon, kAtlasFrag});
+    Result<GLuint> p =
+        build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
     if (!p.ok()) return p.status();
-    prog_atlas_drt_.id = p.value();
+    out.id = p.value();
     programs_.push_back(p.value());
     gl_.glUseProgram(p.value());
-    assign_sampler_units(
-        gl_, p.value(),
-        {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
-         "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue", "u_delta"});
+    assign_sampler_units(gl_, p.value(), samplers);
+    if (count >= 0) set_int(gl_, p.value(), "u_count", count);
     gl_.glUseProgram(0);
-  }
+    return Status::success();
+  };
+  if (Status s = drt_program(
+          "atlas.frag (DRT)", kAtlasFrag, prog_atlas_drt_,
+          {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows",
+           "u_block_info", "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue", "u_delta"},
+          -1);
+      !s.ok())
+    return s;
+  if (has_vector_)
+    if (Status s =
+            drt_program("vector.frag (DRT)", kVectorFrag, prog_vector_drt_,
+                        {"u_ub_vec", "u_vector_response", "u_texel_sample", "u_sample_info", "u_sample_slots",
+                         "u_sample_rows", "u_block_info", "u_slot_info", "u_b_red", "u_b_green", "u_b_blue",
+                         "u_r_red", "u_r_green", "u_r_blue", "u_vector_delta"},
+                        -1);
+        !s.ok())
+      return s;
+  if (has_probes_)
+    if (Status s = drt_program(
+            "probes.frag (DRT)", kProbesFrag, prog_probes_drt_,
+            {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info", "u_b_red",
+             "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue", "u_probe_delta"},
+            int(level_->blocks.size()) * probe_rows_);
+        !s.ok())
+      return s;
   GlesDrtSetup setup;
   setup.defines = &defines_;
   setup.operator_format = operator_format_;
@@ -928,6 +967,8 @@ Status GlesLevelRuntime::set_clutter(const DrtOperators* drt) {
   setup.output_format_name = target_format_name(target_);
   setup.output_bits = target_ == TargetFormat::bits32;
   setup.max_texture_size = max_texture_size_;
+  setup.vector = has_vector_;
+  setup.probe_count = has_probes_ ? level_->blocks.size() * std::size_t(probe_rows_ / 9) : 0;
   Result<std::unique_ptr<GlesDrt>> created = GlesDrt::create(gl_, *level_, *drt, setup);
   if (!created.ok()) return created.status();
   drt_ = std::move(created).value();

@@ -63,7 +63,9 @@ class Backend {
   //   c = Td_c clutter_ld, lightmap += dUb b + dUc c (atlas and padding included),
   //   clutter lightmap = Cb b + Cc c + clutter_direct (Cc: clutter-to-clutter light, drt.h),
   // and the multi-bounce feedback reads the lightmap with the delta (core's drt_multi_bounce;
-  // c is not fed back). The vector irradiance and the probes get no DRT term.
+  // c is not fed back). When the operators carry them (DrtBuildSettings::vector / probes) and
+  // the backend renders them, the vector irradiance gets dUb_vec b + dUc_vec c
+  // (drt_apply_vector) and the probes Udyn b + Udyn_c c (drt_apply_probes).
   virtual Status set_clutter(const DrtOperators* drt) = 0;
   // The clutter's light for the following updates (3 floats per clutter texel, clutter_sizes()
   // .clutter_ld): clutter_ld is what Td_c reads (drt_compute_c), clutter_direct what the clutter

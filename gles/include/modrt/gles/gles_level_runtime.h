@@ -13,8 +13,9 @@
 //               coefficient each (GlesRuntimeOptions::vector_irradiance)
 //   feedback.frag ld = ld_direct + rho min(max(atlas, 0), bound) (multi_bounce_step only)
 //   drt_*.frag  with clutter only (set_clutter; gles_drt.h): c = Td_c clutter_ld and the
-//               per-sample delta dUb b + dUc c before the atlas pass, which adds it; the
-//               clutter atlas Uc (Vc b) + clutter direct light after it
+//               per-sample delta dUb b + dUc c before the atlas pass, which adds it (and
+//               the vector and probe deltas, added by vector.frag and probes.frag); the
+//               clutter atlas Uc (Vc b) + Cc c + clutter direct light after it
 // Shaders are strictly "#version 300 es" with no extension required.
 //
 // Intermediate signals (b, r, feedback ld) are RGBA32UI render targets holding float bit
@@ -225,7 +226,7 @@ class GlesLevelRuntime final : public Backend {
   float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
-      prog_probes_, prog_vector_, prog_atlas_drt_;
+      prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_;
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
   // creation; rects_ has capacity for every item so that no frame allocates.
