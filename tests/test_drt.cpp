@@ -867,6 +867,16 @@ TEST(Drt, IncrementalRebuildOfAMovedObjectEqualsAFullBuild) {
   EXPECT_FALSE(builder.rebuild_object(s.clutter, 4, drt, state).ok());
   DrtBuildState none;
   EXPECT_FALSE(builder.rebuild_object(s.clutter, 1, drt, none).ok());
+  // A state built without the vector and probe passes cannot feed a builder that has them.
+  s.clutter[3].box.center.x -= 0.05;
+  DrtBuildSettings plain = settings;
+  plain.vector = plain.probes = false;
+  DrtBuildState other;
+  DrtOperators drt_plain = DrtBuilder(level, dict(), plain).build(s.clutter, nullptr, &other).value();
+  s.clutter[1].box.center.x -= 0.05;
+  const Status st = builder.rebuild_object(s.clutter, 1, drt_plain, other);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.to_string().find("other vector / probe settings"), std::string::npos) << st.to_string();
 }
 
 // MRT's clutter shading: the volume probes (SH9 radiance, trilinear between the g^3 probes

@@ -830,6 +830,12 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
       return fail("object " + std::to_string(k) + " changed too (rebuild one object at a time)");
   if (Status s = validate_clutter(level_, objects); !s.ok()) return s;
   DrtBuildState::Impl& st = *state.impl_;
+  // A state from another level or from a builder with other passes would leave stale rows.
+  const std::size_t samples = walls_.samples().position.size();
+  const int g = int(dict_.settings.probe_grid);
+  if (st.samples.size() != samples || st.vector_samples.size() != (settings_.vector ? samples : 0) ||
+      st.probes.size() != (settings_.probes ? level_.blocks.size() * std::size_t(g * g * g) : 0))
+    return fail("the build state was made for another level or with other vector / probe settings");
   const ClutterBox old_shape = st.objects[index].box, new_shape = objects[index].box;
   const BoxQuery old_box(old_shape), new_box(new_shape);
   st.objects[index] = objects[index];
