@@ -10,6 +10,7 @@
 // targets, as test_gles_backend). Probe SH in the world frame: evaluated along 64 directions,
 // within 1e-5 of the canonical probe evaluated along the turned directions (relative to the
 // probe's largest coefficient).
+#include <dlfcn.h>
 #include <gtest/gtest.h>
 #include <malloc.h>
 
@@ -794,6 +795,47 @@ TEST(CApiGles, ContextOnTheCallersEglContext) {
   modrt_context_destroy(c);
   modrt_dictionary_destroy(d);
   modrt_level_destroy(l);
+}
+
+// The app passes its own loader (options.gl_loader), here OSMesa's get-proc-address on an OSMesa
+// desktop GL core context (the "#version 300 es" shaders run through ARB_ES3_compatibility).
+void* osmesa_loader(const char* name, void* user) {
+  using GetProc = void* (*)(const char*);
+  return reinterpret_cast<GetProc>(user)(name);
+}
+
+TEST(CApiGles, ContextThroughTheAppsLoaderOnOsmesa) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::osmesa);
+  if (!gl.ok()) GTEST_SKIP() << "no OSMesa context here: " << gl.status().to_string();
+  // The library platform loaded; RTLD_NOLOAD finds it without loading another copy.
+  void* lib = dlopen("libOSMesa.so.8", RTLD_NOW | RTLD_NOLOAD);
+  if (!lib) GTEST_SKIP() << "libOSMesa.so.8 is not the loaded OSMesa";
+  void* get_proc = dlsym(lib, "OSMesaGetProcAddress");
+  ASSERT_NE(get_proc, nullptr);
+  const test::TestLevel& t = test_level("corridor");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle("corridor");
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.gl_loader = osmesa_loader;
+  o.gl_loader_user = get_proc;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const test::LevelReference ref = level_reference(t.level, t.ld);
+  EXPECT_LT(rel_l2(read_atlas(c), ref.atlas), 1e-4);
+  // A loader that finds nothing: a GL error naming the missing entry point.
+  modrt_context* bad = nullptr;
+  o.gl_loader = [](const char*, void*) -> void* { return nullptr; };
+  expect_error(modrt_context_create(d, l, &o, nullptr, &bad), MODRT_ERROR_GL, {"modrt_context_create", "gl"});
+  EXPECT_EQ(bad, nullptr);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+  dlclose(lib);
 }
 
 TEST(CApiGles, NoCurrentContextIsANamedError) {
