@@ -76,14 +76,12 @@ class CpuBackend final : public Backend {
   Status read_vector_lightmap(std::span<float> out) override {
     if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
     if (Status s = rt_.compute_vector_irradiance(out); !s.ok()) return s;
-    if (drt_) drt_apply_vector(level_, *drt_ops_, rt_.b(), c_, out);  // DRT §5 (dUb_vec, dUc_vec)
-    return Status::success();
+    return drt_ ? drt_->apply_vector(rt_.b(), c_, out) : Status::success();  // DRT §5 (dUb_vec, dUc_vec)
   }
 
   Status set_clutter(const DrtOperators* drt) override {
     if (!drt || drt->empty()) {
       drt_.reset();
-      drt_ops_ = nullptr;
       drt_sizes_ = {};
       base_ = {}, c_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {}, ld_feedback_ = {};
       updated_ = false;
@@ -93,7 +91,6 @@ class CpuBackend final : public Backend {
     Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level_, *drt, rt_.isa());
     if (!rt.ok()) return rt.status();
     drt_.emplace(std::move(rt).value());
-    drt_ops_ = drt;
     drt_sizes_ = drt_->sizes();
     base_.assign(lightmap_.size(), 0.0f);
     ld_feedback_.assign(lightmap_.size(), 0.0f);
@@ -146,8 +143,7 @@ class CpuBackend final : public Backend {
     if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
     if (probes_.empty()) return Status::success();
     if (Status s = rt_.compute_probes(probes_); !s.ok()) return s;
-    if (drt_) drt_apply_probes(*drt_ops_, rt_.b(), c_, probes_);  // DRT §5 (U_dyn)
-    return Status::success();
+    return drt_ ? drt_->apply_probes(rt_.b(), c_, probes_) : Status::success();  // DRT §5 (U_dyn)
   }
   // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
   // Cb b + Cc c + direct.
@@ -176,7 +172,6 @@ class CpuBackend final : public Backend {
   // DRT (only with clutter): the MRT lightmap the level runtime writes, c, the clutter's light
   // and lightmap, the feedback ld; the albedo as clamped by set_albedo.
   std::optional<CpuDrtRuntime> drt_;
-  const DrtOperators* drt_ops_ = nullptr;
   DrtBufferSizes drt_sizes_;
   std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_, ld_feedback_;
   std::vector<float> rho_;
