@@ -53,5 +53,10 @@ cmake -S . -B "$build_dir" "${cmake_args[@]}"
 echo "test.sh: building $build_dir"
 cmake --build "$build_dir" -j"$(nproc)"
 echo "test.sh: running tests in $build_dir"
-ctest --test-dir "$build_dir" --output-on-failure -j2 --timeout 900
+ctest_args=(--output-on-failure -j2 --timeout 900)
+# Under ASan a test that passed can still die at exit when LeakSanitizer's stop-the-world
+# tracer crashes (signal 11) while llvmpipe's threads shut down; it happened once in 288 GL
+# tests and did not reproduce. A real failure fails the second run too.
+((asan)) && ctest_args+=(--repeat until-pass:2)
+ctest --test-dir "$build_dir" "${ctest_args[@]}"
 echo "test.sh: all tests passed ($build_dir)"
