@@ -262,6 +262,19 @@ TEST(GltfScene, SampleMapsOntoItsProxies) {
   }
 }
 
+// Regression (fuzz_gltf, CI): an embedded PNG whose IHDR was damaged, so that stb_image read
+// a 2 GB IDAT length from an 85-byte image and reallocated to it before reading. The PNG
+// chunk walk refuses it first, naming the image and the chunk.
+TEST(GltfScene, DamagedPngChunkIsRefusedBeforeDecoding) {
+  GltfSceneOptions options;
+  options.level_path = std::string(MODRT_SCENES_DIR) + "/two_rooms.level.json";
+  Result<DemoScene> scene = load_gltf_scene(
+      std::string(MODRT_TEST_DATA_DIR) + "/fuzz_regressions/gltf_png_huge_idat.gltf", options);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_NE(scene.status().message().find("image 1"), std::string::npos) << scene.status().message();
+  EXPECT_NE(scene.status().message().find("PNG chunk"), std::string::npos) << scene.status().message();
+}
+
 TEST(GltfScene, GlbRoundTrip) {
   tinygltf::TinyGLTF io;
   tinygltf::Model model;

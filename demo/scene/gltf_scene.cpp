@@ -25,6 +25,7 @@
 #include <tiny_gltf.h>
 
 #include "default_scene.h"
+#include "modrt/file_io.h"
 #include "modrt/precompute/level_json.h"
 
 namespace modrt::demo {
@@ -215,6 +216,35 @@ bool sniff_image(const unsigned char* bytes, int size, int* w, int* h) {
   return false;
 }
 
+// A PNG's chunk list: every chunk's declared length fits in the bytes that follow it and its
+// CRC-32 (the IEEE/zlib polynomial, modrt::crc32) matches, up to IEND. stb_image trusts
+// declared IDAT lengths and reallocates its buffer to them before reading (an 85-byte file
+// asked for 2 GB; found by fuzz_gltf), so a damaged chunk is refused before decoding.
+bool png_chunks_intact(const unsigned char* bytes, int size, std::string* problem) {
+  std::size_t at = 8;
+  const std::size_t end = std::size_t(size);
+  for (int chunk = 0;; ++chunk) {
+    if (end - at < 12) {
+      *problem = "PNG ends inside chunk " + num(chunk) + " (no IEND)";
+      return false;
+    }
+    const std::uint32_t length = be32(bytes + at);
+    if (length > end - at - 12) {
+      *problem = "PNG chunk " + num(chunk) + " declares " + std::to_string(length) + " bytes, " +
+                 num(end - at - 12) + " are left";
+      return false;
+    }
+    const auto* body = reinterpret_cast<const std::byte*>(bytes + at + 4);
+    if (crc32(std::span<const std::byte>(body, 4 + std::size_t(length))) != be32(bytes + at + 8 + length)) {
+      *problem = "PNG chunk " + num(chunk) + " has a bad CRC (damaged file)";
+      return false;
+    }
+    const bool iend = std::memcmp(bytes + at + 4, "IEND", 4) == 0;
+    at += 12 + std::size_t(length);
+    if (iend) return true;
+  }
+}
+
 // Image decoding through tinygltf's stb loader, after checking the format and the size.
 bool load_image_checked(tinygltf::Image* image, const int index, std::string* err, std::string* warn,
                         int req_width, int req_height, const unsigned char* bytes, int size, void* user) {
@@ -236,6 +266,11 @@ bool load_image_checked(tinygltf::Image* image, const int index, std::string* er
     if (err)
       *err += label + ": " + num(w) + " x " + num(h) + " pixels, more than the renderer's texture limit of " +
               num(ctx->max_image_side) + " per side\n";
+    return false;
+  }
+  std::string problem;
+  if (bytes[0] == 0x89 && !png_chunks_intact(bytes, size, &problem)) {
+    if (err) *err += label + ": " + problem + "\n";
     return false;
   }
   return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size, nullptr);
