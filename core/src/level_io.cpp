@@ -303,6 +303,10 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
                                               " is not " + std::to_string(kLevelFileHeaderBytes));
   if (crc32(bytes.first(kHeaderCrcOffset)) != header_u32(bytes, kHeaderCrcOffset))
     return error(ErrorCode::checksum_mismatch, "header checksum mismatch");
+  // One encoding per level: the reserved field must be what the writer writes.
+  if (header_u32(bytes, 44) != 0)
+    return error(ErrorCode::format_error, "header field at offset 44 (reserved) is " +
+                                              std::to_string(header_u32(bytes, 44)) + ", not 0");
   const std::uint64_t body_bytes =
       std::uint64_t(header_u32(bytes, 48)) | (std::uint64_t(header_u32(bytes, 52)) << 32);
   if (body_bytes != bytes.size() - kLevelFileHeaderBytes)
