@@ -1,9 +1,11 @@
 // modrt — world geometry of a built level (level_geometry.h).
 #include "modrt/level_geometry.h"
 
+#include <cmath>
 #include <cstddef>
 
 #include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 
 #include "modrt/cube.h"
 #include "modrt/level_description.h"
@@ -12,6 +14,25 @@ namespace modrt {
 
 glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p) {
   return trilinear(b.corners, rotate_point(p, b.quarter_turns));
+}
+
+glm::dvec3 world_to_block(const LevelBlock& b, const glm::dvec3& x) {
+  glm::dvec3 p(0.5);
+  for (int it = 0; it < 16; ++it) {
+    const glm::dvec3 f = block_to_world(b, p) - x;
+    if (glm::dot(f, f) < 1e-24) break;
+    // The trilinear map is linear along each axis: central differences are exact.
+    const double h = 1e-3;
+    glm::dmat3 J;
+    for (int a = 0; a < 3; ++a) {
+      glm::dvec3 e(0.0);
+      e[a] = h;
+      J[a] = (block_to_world(b, p + e) - block_to_world(b, p - e)) / (2 * h);
+    }
+    if (std::abs(glm::determinant(J)) < 1e-12) break;
+    p -= glm::inverse(J) * f;
+  }
+  return p;
 }
 
 glm::dvec3 block_face_normal(const LevelBlock& b, int face, double u, double v) {

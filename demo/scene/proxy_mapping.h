@@ -17,6 +17,7 @@
 
 #include "demo_scene.h"
 #include "modrt/level.h"
+#include "modrt/level_geometry.h"  // world_to_block
 #include "modrt/status.h"
 
 namespace modrt::demo {
@@ -38,10 +39,6 @@ struct MappedMesh {
   std::vector<MappedVertex> vertices;  // three per triangle
   int triangles_outside = 0;           // centroids in no block: mapped to the nearest block
 };
-
-// Canonical coordinates p in block `b` of world point x (Newton on block_to_world, whose
-// Jacobian is regular for any valid warp). Exact for unwarped blocks.
-glm::dvec3 world_to_block(const LevelBlock& b, const glm::dvec3& x);
 
 // Maps every static mesh of `scene` onto `level` (built from scene.level). Fails when the
 // level has no atlas or a mesh's arrays disagree in size (naming the mesh).

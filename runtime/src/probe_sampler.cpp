@@ -77,26 +77,6 @@ ProbeSampler::ProbeSampler(const Level& level, int grid) : level_(&level), grid_
   for (int t = 0; t < 4; ++t) rotation_[std::size_t(t)] = sh9_rotation(t);
 }
 
-glm::dvec3 ProbeSampler::world_to_block(std::size_t block, const glm::dvec3& x) const {
-  const LevelBlock& b = level_->blocks[block];
-  glm::dvec3 p(0.5);
-  for (int it = 0; it < 16; ++it) {
-    const glm::dvec3 f = block_to_world(b, p) - x;
-    if (glm::dot(f, f) < 1e-24) break;
-    // The trilinear map is linear along each axis: central differences are exact.
-    const double h = 1e-3;
-    glm::dmat3 J;
-    for (int a = 0; a < 3; ++a) {
-      glm::dvec3 e(0.0);
-      e[a] = h;
-      J[a] = (block_to_world(b, p + e) - block_to_world(b, p - e)) / (2 * h);
-    }
-    if (std::abs(glm::determinant(J)) < 1e-12) break;
-    p -= glm::inverse(J) * f;
-  }
-  return p;
-}
-
 Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance,
                             float out[27]) const {
   std::size_t block = 0;
@@ -104,7 +84,7 @@ Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, 
   glm::dvec3 p(0.5);
   for (std::size_t i = 0; i < box_lo_.size() && best > 0.0; ++i) {
     if (glm::any(glm::lessThan(x, box_lo_[i])) || glm::any(glm::greaterThan(x, box_hi_[i]))) continue;
-    const glm::dvec3 q = world_to_block(i, x);
+    const glm::dvec3 q = world_to_block(level_->blocks[i], x);
     const double o = outside(q);
     if (o < best) best = o, block = i, p = q;
   }

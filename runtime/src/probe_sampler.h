@@ -26,7 +26,6 @@ class ProbeSampler {
   Status sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance, float out[27]) const;
 
   // Canonical block coordinates of world point x in block `block`.
-  glm::dvec3 world_to_block(std::size_t block, const glm::dvec3& x) const;
   // c_world = M c_canonical for a block turned by `quarter_turns` (0..3).
   const std::array<double, 81>& rotation(int quarter_turns) const {
     return rotation_[std::size_t(quarter_turns & 3)];

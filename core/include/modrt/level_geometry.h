@@ -14,6 +14,9 @@ namespace modrt {
 
 // World-space point of canonical block coordinates p in [0,1]^3 of block `b`.
 glm::dvec3 block_to_world(const LevelBlock& b, const glm::dvec3& p);
+// Its inverse: canonical coordinates of world point x (Newton on the trilinear warp, 16 steps
+// at most, starting from the block centre; outside [0,1]^3 for points outside the block).
+glm::dvec3 world_to_block(const LevelBlock& b, const glm::dvec3& x);
 
 // Unit inward normal of canonical face `face` of block `b` at face coordinates (u, v),
 // through the block's trilinear warp (central differences of the map; exact for the
