@@ -11,10 +11,13 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "clutter_meshes.h"
 #include "modrt/precompute/clutter_mesh.h"
 
 namespace modrt::precompute {
 namespace {
+
+using test::box_mesh;
 
 double mesh_area(const ClutterMesh& m) {
   double a = 0;
@@ -24,23 +27,6 @@ double mesh_area(const ClutterMesh& m) {
     a += 0.5 * glm::length(glm::cross(p1 - p0, p2 - p0));
   }
   return a;
-}
-
-// A rotated box as 12 triangles; face f's n x n texels occupy a grid-aligned UV square with a
-// one-texel gutter, faces in a 3 x 2 arrangement of a res x res atlas.
-ClutterMesh box_mesh(const ClutterBox& box, int n, int res) {
-  ClutterMesh m;
-  for (int f = 0; f < kFaceCount; ++f) {
-    const glm::dvec2 origin{double(1 + (f % 3) * (n + 2)) / res, double(1 + (f / 3) * (n + 2)) / res};
-    const std::uint32_t base = std::uint32_t(m.positions.size());
-    for (int k = 0; k < 4; ++k) {
-      const double u = k & 1, v = k >> 1;
-      m.positions.push_back(clutter_face_point(box, f, u, v));
-      m.uvs.push_back(origin + glm::dvec2(u, v) * (double(n) / res));
-    }
-    for (std::uint32_t i : {0u, 1u, 3u, 0u, 3u, 2u}) m.indices.push_back(base + i);
-  }
-  return m;
 }
 
 ClutterBox rotated_box() {

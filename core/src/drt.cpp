@@ -7,14 +7,20 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "modrt/clutter_mesh.h"
 #include "modrt/level_runtime.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt {
 
-int clutter_face_count(const ClutterObject& object) { return face_count(object.faces); }
+int clutter_face_count(const ClutterObject& object) {
+  if (object.kind == ClutterKind::mesh) return object.mesh ? object.mesh->atlas.chart_count : 0;
+  return face_count(object.faces);
+}
 
 int clutter_texel_count(const ClutterObject& object) {
+  if (object.kind == ClutterKind::mesh)
+    return object.mesh ? int(object.mesh->atlas.texels.position.size()) : 0;
   return clutter_face_count(object) * object.res * object.res;
 }
 
@@ -41,6 +47,8 @@ bool clutter_contains(const ClutterBox& box, const glm::dvec3& p, double margin)
 double clutter_bounding_radius(const ClutterBox& box) { return glm::length(box.half_extent); }
 
 ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object) {
+  if (object.kind == ClutterKind::mesh)
+    return object.mesh ? object.mesh->atlas.texels : ClutterTexelGeometry{};
   ClutterTexelGeometry g;
   const std::size_t m = std::size_t(clutter_texel_count(object));
   g.position.reserve(m);
@@ -60,13 +68,55 @@ ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object) {
   return g;
 }
 
+std::vector<double> clutter_texel_area(const ClutterObject& object) {
+  if (object.kind == ClutterKind::mesh) return object.mesh ? object.mesh->atlas.area : std::vector<double>{};
+  std::vector<double> area;
+  const glm::dvec3 e = 2.0 * object.box.half_extent;
+  const double per_face[3] = {e.y * e.z, e.x * e.z, e.x * e.y};  // faces 2a, 2a + 1 are normal to axis a
+  const double cells = double(object.res) * double(object.res);
+  for (int f = 0; f < kFaceCount; ++f)
+    if (face_present(object.faces, f)) area.insert(area.end(), std::size_t(cells), per_face[f / 2] / cells);
+  return area;
+}
+
+namespace {
+
+// A mesh object's data against itself: what clutter_texel_geometry, the operator build and
+// the backends index without further checks.
+std::string check_mesh_data(const ClutterObject& o) {
+  if (!o.mesh) return "kind mesh without mesh data";
+  const ClutterMeshData& d = *o.mesh;
+  const ClutterMeshAtlas& a = d.atlas;
+  const std::size_t m = a.texels.position.size(), triangles = d.mesh.indices.size() / 3;
+  if (a.res != o.res) return "res " + std::to_string(o.res) + " is not the atlas's " + std::to_string(a.res);
+  if (m == 0) return "the atlas has no texels";
+  if (a.texels.normal.size() != m || a.texels.face.size() != m || a.area.size() != m ||
+      a.triangle.size() != m || a.cell_texel.size() != std::size_t(a.res) * std::size_t(a.res))
+    return "atlas arrays of different lengths";
+  if (a.chart_count < 1 || d.chart_of_triangle.size() != triangles || d.mesh.indices.size() % 3 != 0)
+    return "charts do not match the triangles";
+  for (std::size_t t = 0; t < m; ++t)
+    if (a.texels.face[t] < 0 || a.texels.face[t] >= a.chart_count || a.triangle[t] >= triangles ||
+        !(a.area[t] > 0.0) || !std::isfinite(a.area[t]))
+      return "texel " + std::to_string(t) + " has a bad chart, triangle or area";
+  for (int c : d.chart_of_triangle)
+    if (c < 0 || c >= a.chart_count) return "a triangle's chart is out of range";
+  for (std::uint32_t i : d.mesh.indices)
+    if (i >= d.mesh.positions.size()) return "a triangle index is out of range";
+  return {};
+}
+
+}  // namespace
+
 Status validate_clutter(const Level& level, std::span<const ClutterObject> objects) {
   for (std::size_t k = 0; k < objects.size(); ++k) {
     const ClutterObject& o = objects[k];
     auto fail = [&](const std::string& what) {
       return Status::error(ErrorCode::invalid_argument, "clutter object " + std::to_string(k) + ": " + what);
     };
-    if (o.kind != ClutterKind::box) return fail("unknown kind");
+    if (o.kind != ClutterKind::box && o.kind != ClutterKind::mesh) return fail("unknown kind");
+    if (o.kind == ClutterKind::mesh)
+      if (std::string why = check_mesh_data(o); !why.empty()) return fail(why);
     if (o.block < 0 || std::size_t(o.block) >= level.blocks.size())
       return fail("block " + std::to_string(o.block) + " is not a level block");
     if (o.res < 1) return fail("res must be >= 1");

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include <embree3/rtcore.h>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
 #include "embree_rays.h"
@@ -279,6 +280,29 @@ struct ClutterMeshShape::Impl {
 ClutterMeshShape::~ClutterMeshShape() = default;
 ClutterMeshShape::ClutterMeshShape(ClutterMeshShape&&) noexcept = default;
 ClutterMeshShape& ClutterMeshShape::operator=(ClutterMeshShape&&) noexcept = default;
+
+Result<ClutterObject> make_mesh_clutter(ClutterMesh mesh, int block, const glm::dvec3& albedo, int res,
+                                        const std::string& what) {
+  Result<ClutterMeshAtlas> atlas = rasterize_clutter_mesh(mesh, res, what);
+  if (!atlas.ok()) return atlas.status();
+  auto data = std::make_shared<ClutterMeshData>();
+  data->chart_of_triangle = clutter_mesh_charts(mesh);
+  data->atlas = std::move(atlas.value());
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (const glm::dvec3& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  data->mesh = std::move(mesh);
+  ClutterObject object;
+  object.kind = ClutterKind::mesh;
+  object.block = block;
+  object.albedo = albedo;
+  object.res = res;
+  object.faces = kAllFaces;
+  object.box.center = 0.5 * (lo + hi);
+  // Grown a little so that a flat mesh still has positive extents (validate_clutter).
+  object.box.half_extent = 0.5 * (hi - lo) + glm::dvec3(1e-9);
+  object.mesh = std::move(data);
+  return object;
+}
 
 Result<ClutterMeshShape> ClutterMeshShape::create(const ClutterMesh& mesh, std::vector<int> chart_of_triangle,
                                                   const std::string& what) {

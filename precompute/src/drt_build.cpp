@@ -46,15 +46,17 @@ bool DrtBuildState::empty() const { return !impl_; }
 struct DrtBuilder::Pass {
   const DrtBuilder& b;
   std::span<const ClutterObject> objects;
-  std::vector<BoxQuery> boxes;
-  std::vector<std::array<int, kFaceCount>> slots;
+  ObjectQueries owned;
+  const std::vector<ObjectQuery>& queries;
   tbb::enumerable_thread_specific<LimpGather> gathers;
   tbb::enumerable_thread_specific<std::vector<LimpGather>> vector_gathers;  // one per OHLSH coefficient
   tbb::enumerable_thread_specific<std::vector<LimpGather>> probe_gathers;   // one per SH9 coefficient
 
-  Pass(const DrtBuilder& builder, std::span<const ClutterObject> objs)
+  Pass(const DrtBuilder& builder, std::span<const ClutterObject> objs, ObjectQueries q)
       : b(builder),
         objects(objs),
+        owned(std::move(q)),
+        queries(owned.queries),
         gathers([this] { return LimpGather(b.level_, b.dict_, b.walls_.samples().block); }),
         vector_gathers([this] {
           return std::vector<LimpGather>(kOhlshCount,
@@ -62,12 +64,7 @@ struct DrtBuilder::Pass {
         }),
         probe_gathers([this] {
           return std::vector<LimpGather>(kSh9Count, LimpGather(b.level_, b.dict_, b.walls_.samples().block));
-        }) {
-    for (const ClutterObject& o : objects) {
-      boxes.emplace_back(o.box);
-      slots.push_back(face_slots(o));
-    }
-  }
+        }) {}
 
   std::span<const glm::dvec3> sets() const { return b.direction_sets_; }
   int rays() const { return int(b.direction_sets_.size() / kDirectionSets); }
@@ -82,21 +79,21 @@ struct DrtBuilder::Pass {
     const LevelSampleGeometry& g = b.walls_.samples();
     const glm::dvec3 x = g.position[s], nrm = g.normal[s];
     for (std::size_t k = 0; k < objects.size(); ++k)
-      if (clutter_contains(objects[k].box, x, 1e-6)) {
+      if (queries[k].contains(x, nrm)) {
         result.state = SampleResult::inside;
         result.inside_of = int(k);
         return result;
       }
     cand.clear();
     for (std::size_t k = 0; k < objects.size(); ++k)
-      if (!b.settings_.cull || boxes[k].in_front(x, nrm)) cand.add(std::uint32_t(k), boxes[k], x);
+      if (!b.settings_.cull || queries[k].in_front(x, nrm)) cand.add(std::uint32_t(k), queries[k], x);
     if (cand.empty()) return result;
     result.state = SampleResult::traced;
     texel_directions(sets(), b.settings_.seed, s, nrm, dirs);
     hit_dirs.clear();
     nearest.clear();
     for (const glm::dvec3& dir : dirs) {
-      const Candidates::Nearest n = cand.nearest(boxes, dir);
+      const Candidates::Nearest n = cand.nearest(queries, dir);
       if (n.object < 0) continue;
       hit_dirs.push_back(dir);
       nearest.push_back(n);
@@ -115,7 +112,7 @@ struct DrtBuilder::Pass {
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(k);
         if (wall.block >= 0) gather.add(wall, -w);
-        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        const int slot = queries[k].slot(nearest[r].entry.face);
         if (slot >= 0) {
           rows->dUc.resize(std::size_t(clutter_face_count(objects[k])), 0.0);
           rows->dUc[std::size_t(slot)] += w;
@@ -139,14 +136,14 @@ struct DrtBuilder::Pass {
     const LevelSampleGeometry& g = b.walls_.samples();
     const glm::dvec3 x = g.position[s], nrm = g.normal[s];
     for (std::size_t k = 0; k < objects.size(); ++k)
-      if (clutter_contains(objects[k].box, x, 1e-6)) {
+      if (queries[k].contains(x, nrm)) {
         result.state = SampleResult::inside;
         result.inside_of = int(k);
         return result;
       }
     cand.clear();
     for (std::size_t k = 0; k < objects.size(); ++k)
-      if (!b.settings_.cull || boxes[k].in_front(x, nrm)) cand.add(std::uint32_t(k), boxes[k], x);
+      if (!b.settings_.cull || queries[k].in_front(x, nrm)) cand.add(std::uint32_t(k), queries[k], x);
     if (cand.empty()) return result;
     result.state = SampleResult::traced;
     glm::dvec3 u, v, n;
@@ -156,7 +153,7 @@ struct DrtBuilder::Pass {
     nearest.clear();
     weights.clear();
     for (std::size_t r = 0; r < dirs.size(); ++r) {
-      const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+      const Candidates::Nearest hit = cand.nearest(queries, dirs[r]);
       if (hit.object < 0) continue;
       hit_dirs.push_back(dirs[r]);
       nearest.push_back(hit);
@@ -176,7 +173,7 @@ struct DrtBuilder::Pass {
         const LevelHit& wall = walls[r];
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(k);
-        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        const int slot = queries[k].slot(nearest[r].entry.face);
         if (slot >= 0) rows->dUc.resize(kOhlshCount * f_count, 0.0);
         for (int i = 0; i < kOhlshCount; ++i) {
           const double wi = w * weights[r][std::size_t(i)];
@@ -225,20 +222,20 @@ struct DrtBuilder::Pass {
     glm::dvec3 x, u, v, n;
     probe_frame(p, x, u, v, n);
     for (std::size_t k = 0; k < objects.size(); ++k)
-      if (clutter_contains(objects[k].box, x, 1e-6)) {
+      if (queries[k].contains(x, glm::dvec3(0.0))) {
         result.state = SampleResult::inside;
         result.inside_of = int(k);
         return result;
       }
     Candidates cand;
-    for (std::size_t k = 0; k < objects.size(); ++k) cand.add(std::uint32_t(k), boxes[k], x);
+    for (std::size_t k = 0; k < objects.size(); ++k) cand.add(std::uint32_t(k), queries[k], x);
     result.state = SampleResult::traced;
     frame_directions(b.sphere_sets_, probe_seed(), p, u, v, n, local, dirs);
     hit_dirs.clear();
     hit_local.clear();
     nearest.clear();
     for (std::size_t r = 0; r < dirs.size(); ++r) {
-      const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+      const Candidates::Nearest hit = cand.nearest(queries, dirs[r]);
       if (hit.object < 0) continue;
       hit_dirs.push_back(dirs[r]);
       hit_local.push_back(local[r]);
@@ -257,7 +254,7 @@ struct DrtBuilder::Pass {
         const LevelHit& wall = walls[r];
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(std::uint32_t(k));
-        const int slot = slots[k][std::size_t(nearest[r].entry.face)];
+        const int slot = queries[k].slot(nearest[r].entry.face);
         if (slot >= 0) rows->dUc.resize(kSh9Count * f_count, 0.0);
         double y[kSh9Count];
         sh9_eval(hit_local[r], y);
@@ -280,15 +277,15 @@ struct DrtBuilder::Pass {
     }
     return result;
   }
-  bool probe_depends_on(std::size_t p, const BoxQuery& box, const ClutterBox& shape,
-                        std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs) const {
+  bool probe_depends_on(std::size_t p, const ObjectQuery& query, std::vector<glm::dvec3>& local,
+                        std::vector<glm::dvec3>& dirs) const {
     glm::dvec3 x, u, v, n;
     probe_frame(p, x, u, v, n);
-    if (clutter_contains(shape, x, 1e-6)) return true;
+    if (query.contains(x, glm::dvec3(0.0))) return true;
     frame_directions(b.sphere_sets_, probe_seed(), p, u, v, n, local, dirs);
-    const std::vector<BoxQuery> one{box};
+    const std::vector<ObjectQuery> one{query};
     Candidates cand;
-    cand.add(0, box, x);
+    cand.add(0, query, x);
     for (const glm::dvec3& dir : dirs)
       if (cand.nearest(one, dir).object >= 0) return true;
     return false;
@@ -350,19 +347,22 @@ struct DrtBuilder::Pass {
   // Cb (DRT §4.3) and Cc of texel i of object k: gather rays from the texel average the Limp
   // rows of the walls they reach (per hit block); a ray that enters another object first
   // brings that object's face instead; misses bring nothing. A texel inside another object
-  // is hidden and gathers nothing.
+  // is hidden and gathers nothing. A mesh can be concave: a ray that re-enters the object
+  // itself is shadowed and brings nothing (its own interreflection is left out, so Cc never
+  // names the object itself).
   TexelResult trace_texel(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg, LimpGather& gather,
                           Candidates& cand, std::vector<glm::dvec3>& dirs,
                           std::vector<LevelHit>& walls) const {
     TexelResult result;
     const glm::dvec3 p = cg.position[i], n = cg.normal[i];
     for (std::size_t j = 0; j < objects.size(); ++j)
-      if (j != k && clutter_contains(objects[j].box, p, 1e-6)) return result;
+      if (j != k && queries[j].contains(p, n)) return result;
     // Off the face so that a float ray does not start behind it.
     const glm::dvec3 x = p + 1e-6 * n;
     cand.clear();
     for (std::size_t j = 0; j < objects.size(); ++j)
-      if (j != k && (!b.settings_.cull || boxes[j].in_front(p, n))) cand.add(std::uint32_t(j), boxes[j], x);
+      if ((j != k || queries[j].mesh) && (!b.settings_.cull || queries[j].in_front(p, n)))
+        cand.add(std::uint32_t(j), queries[j], x);
     texel_directions(sets(), b.settings_.seed ^ 0x436200ull, texel_stream(k, i), n, dirs);
     walls.resize(dirs.size());
     b.walls_.intersect_many(x, dirs, walls);
@@ -370,9 +370,10 @@ struct DrtBuilder::Pass {
     for (std::size_t r = 0; r < dirs.size(); ++r) {
       const LevelHit& wall = walls[r];
       if (!cand.empty()) {
-        const Candidates::Nearest hit = cand.nearest(boxes, dirs[r]);
+        const Candidates::Nearest hit = cand.nearest(queries, dirs[r]);
         if (hit.object >= 0 && !(wall.block >= 0 && wall.t < hit.entry.t)) {
-          const int slot = slots[std::size_t(hit.object)][std::size_t(hit.entry.face)];
+          if (std::size_t(hit.object) == k) continue;  // a concave mesh shadows itself
+          const int slot = queries[std::size_t(hit.object)].slot(hit.entry.face);
           if (slot < 0) continue;  // an unlit face (resting on a wall) sends nothing
           const std::uint64_t key = cc_key(std::uint32_t(hit.object), slot);
           auto it =
@@ -396,43 +397,42 @@ struct DrtBuilder::Pass {
   // origin lies in it (inside test of the trace) or one of its rays enters it (the only
   // rays whose nearest object can change). Exact: an item for which this is false for a
   // box's old and new place gives the same result before and after the move.
-  bool depends_on(const BoxQuery& box, const ClutterBox& shape, const glm::dvec3& p, const glm::dvec3& origin,
+  bool depends_on(const ObjectQuery& query, const glm::dvec3& p, const glm::dvec3& origin,
                   const glm::dvec3& n, std::uint64_t seed, std::uint64_t stream,
                   std::vector<glm::dvec3>& dirs) const {
-    if (clutter_contains(shape, p, 1e-6)) return true;
-    if (b.settings_.cull && !box.in_front(p, n)) return false;
+    if (query.contains(p, n)) return true;
+    if (b.settings_.cull && !query.in_front(p, n)) return false;
     texel_directions(sets(), seed, stream, n, dirs);
-    const std::vector<BoxQuery> one{box};
+    const std::vector<ObjectQuery> one{query};
     Candidates cand;
-    cand.add(0, box, origin);
+    cand.add(0, query, origin);
     for (const glm::dvec3& dir : dirs)
       if (cand.nearest(one, dir).object >= 0) return true;
     return false;
   }
   // The same for the vector pass's rays of sample s.
-  bool sample_vector_depends_on(std::size_t s, const BoxQuery& box, const ClutterBox& shape,
-                                std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs) const {
+  bool sample_vector_depends_on(std::size_t s, const ObjectQuery& query, std::vector<glm::dvec3>& local,
+                                std::vector<glm::dvec3>& dirs) const {
     const LevelSampleGeometry& g = b.walls_.samples();
-    if (clutter_contains(shape, g.position[s], 1e-6)) return true;
-    if (b.settings_.cull && !box.in_front(g.position[s], g.normal[s])) return false;
+    if (query.contains(g.position[s], g.normal[s])) return true;
+    if (b.settings_.cull && !query.in_front(g.position[s], g.normal[s])) return false;
     glm::dvec3 u, v, n;
     sample_frame(b.level_, g, s, u, v, n);
     frame_directions(b.uniform_sets_, vector_seed(), s, u, v, n, local, dirs);
-    const std::vector<BoxQuery> one{box};
+    const std::vector<ObjectQuery> one{query};
     Candidates cand;
-    cand.add(0, box, g.position[s]);
+    cand.add(0, query, g.position[s]);
     for (const glm::dvec3& dir : dirs)
       if (cand.nearest(one, dir).object >= 0) return true;
     return false;
   }
-  bool sample_depends_on(std::size_t s, const BoxQuery& box, const ClutterBox& shape,
-                         std::vector<glm::dvec3>& dirs) const {
+  bool sample_depends_on(std::size_t s, const ObjectQuery& query, std::vector<glm::dvec3>& dirs) const {
     const LevelSampleGeometry& g = b.walls_.samples();
-    return depends_on(box, shape, g.position[s], g.position[s], g.normal[s], b.settings_.seed, s, dirs);
+    return depends_on(query, g.position[s], g.position[s], g.normal[s], b.settings_.seed, s, dirs);
   }
-  bool texel_depends_on(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg, const BoxQuery& box,
-                        const ClutterBox& shape, std::vector<glm::dvec3>& dirs) const {
-    return depends_on(box, shape, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i],
+  bool texel_depends_on(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg,
+                        const ObjectQuery& query, std::vector<glm::dvec3>& dirs) const {
+    return depends_on(query, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i],
                       b.settings_.seed ^ 0x436200ull, texel_stream(k, i), dirs);
   }
   static std::uint64_t texel_stream(std::size_t k, std::size_t i) {
@@ -651,12 +651,24 @@ struct DrtBuilder::Pass {
     const int f_count = clutter_face_count(object);
     op.texel_count = std::uint32_t(clutter_texel_count(object));
     op.face_count = std::uint32_t(f_count);
-    // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f.
-    const int res = object.res;
+    // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f; over
+    // a mesh chart the mean is weighted by texel area (border texels cover less).
     op.Td_c = Matrix(op.face_count, op.texel_count);
-    for (int f = 0; f < f_count; ++f)
-      for (int t = 0; t < res * res; ++t)
-        op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
+    if (object.kind == ClutterKind::mesh) {
+      const ClutterMeshAtlas& atlas = object.mesh->atlas;
+      std::vector<double> chart_area(std::size_t(f_count), 0.0);
+      for (std::size_t t = 0; t < atlas.area.size(); ++t)
+        chart_area[std::size_t(atlas.texels.face[t])] += atlas.area[t];
+      for (std::size_t t = 0; t < atlas.area.size(); ++t) {
+        const int f = atlas.texels.face[t];
+        op.Td_c(std::uint32_t(f), std::uint32_t(t)) = float(atlas.area[t] / chart_area[std::size_t(f)]);
+      }
+    } else {
+      const int res = object.res;
+      for (int f = 0; f < f_count; ++f)
+        for (int t = 0; t < res * res; ++t)
+          op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
+    }
 
     const std::size_t m = texels.size();
     std::map<std::uint32_t, std::size_t> column_of;
@@ -699,7 +711,7 @@ struct DrtBuilder::Pass {
     op.Cc = Matrix();
     std::vector<std::size_t> col0(objects.size(), 0);
     for (const TexelResult& r : texels)
-      for (const auto& [key, w] : r.cc) op.Cc_objects.push_back(std::uint32_t(key >> 8));
+      for (const auto& [key, w] : r.cc) op.Cc_objects.push_back(cc_object(key));
     std::sort(op.Cc_objects.begin(), op.Cc_objects.end());
     op.Cc_objects.erase(std::unique(op.Cc_objects.begin(), op.Cc_objects.end()), op.Cc_objects.end());
     std::size_t cols = 0;
@@ -711,7 +723,7 @@ struct DrtBuilder::Pass {
       op.Cc = Matrix(std::uint32_t(m), std::uint32_t(cols));
       for (std::size_t i = 0; i < m; ++i)
         for (const auto& [key, w] : texels[i].cc)
-          op.Cc(std::uint32_t(i), std::uint32_t(col0[key >> 8] + (key & 0xFF))) = float(w);
+          op.Cc(std::uint32_t(i), std::uint32_t(col0[cc_object(key)] + cc_slot(key))) = float(w);
     }
   }
 
@@ -770,7 +782,9 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
   if (!objects.empty()) {
     drt.kb = level_.kb;
     drt.objects.resize(objects.size());
-    Pass pass(*this, impl->objects);
+    Result<ObjectQueries> queries = ObjectQueries::make(impl->objects);
+    if (!queries.ok()) return queries.status();
+    Pass pass(*this, impl->objects, std::move(queries.value()));
 
     const auto t0 = std::chrono::steady_clock::now();
     impl->samples.resize(walls_.samples().position.size());
@@ -835,10 +849,16 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   if (st.samples.size() != samples || st.vector_samples.size() != (settings_.vector ? samples : 0) ||
       st.probes.size() != (settings_.probes ? level_.blocks.size() * std::size_t(g * g * g) : 0))
     return fail("the build state was made for another level or with other vector / probe settings");
-  const ClutterBox old_shape = st.objects[index].box, new_shape = objects[index].box;
-  const BoxQuery old_box(old_shape), new_box(new_shape);
+  // The moved object's queries at its old and new place.
+  Result<ObjectQueries> old_q = ObjectQueries::make(std::span<const ClutterObject>(&st.objects[index], 1));
+  Result<ObjectQueries> new_q = ObjectQueries::make(objects.subspan(index, 1));
+  if (!old_q.ok()) return old_q.status();
+  if (!new_q.ok()) return new_q.status();
+  const ObjectQuery &old_box = old_q->queries[0], &new_box = new_q->queries[0];
   st.objects[index] = objects[index];
-  Pass pass(*this, st.objects);
+  Result<ObjectQueries> queries = ObjectQueries::make(st.objects);
+  if (!queries.ok()) return queries.status();
+  Pass pass(*this, st.objects, std::move(queries.value()));
 
   // Scene samples: only those inside the object or with a ray entering it, at its old or
   // new place, can change.
@@ -849,8 +869,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       std::vector<glm::dvec3> dirs;
                       for (std::size_t s = range.begin(); s != range.end(); ++s)
-                        retrace[s] = pass.sample_depends_on(s, old_box, old_shape, dirs) ||
-                                     pass.sample_depends_on(s, new_box, new_shape, dirs);
+                        retrace[s] = pass.sample_depends_on(s, old_box, dirs) ||
+                                     pass.sample_depends_on(s, new_box, dirs);
                     });
   const std::size_t retraced = std::size_t(std::count(retrace.begin(), retrace.end(), 1));
   if (retraced > 0) pass.scene_pass(st.samples, retrace);
@@ -861,8 +881,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         std::vector<glm::dvec3> local, dirs;
                         for (std::size_t s = range.begin(); s != range.end(); ++s)
-                          retrace[s] = pass.sample_vector_depends_on(s, old_box, old_shape, local, dirs) ||
-                                       pass.sample_vector_depends_on(s, new_box, new_shape, local, dirs);
+                          retrace[s] = pass.sample_vector_depends_on(s, old_box, local, dirs) ||
+                                       pass.sample_vector_depends_on(s, new_box, local, dirs);
                       });
     pass.scene_pass_vector(st.vector_samples, retrace);
     pass.assemble_scene(st.vector_samples, drt, nullptr, true);
@@ -871,8 +891,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
     std::vector<std::uint8_t> again(st.probes.size(), 0);
     tbb::parallel_for(std::size_t(0), again.size(), [&](std::size_t p) {
       std::vector<glm::dvec3> local, dirs;
-      again[p] = pass.probe_depends_on(p, old_box, old_shape, local, dirs) ||
-                 pass.probe_depends_on(p, new_box, new_shape, local, dirs);
+      again[p] =
+          pass.probe_depends_on(p, old_box, local, dirs) || pass.probe_depends_on(p, new_box, local, dirs);
     });
     pass.probe_pass(st.probes, again);
     pass.assemble_probes(st.probes, drt);
@@ -892,8 +912,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
                       std::vector<glm::dvec3> dirs;
                       for (std::size_t c = range.begin(); c != range.end(); ++c) {
                         const auto [k, i] = candidates[c];
-                        affected[c] = pass.texel_depends_on(k, i, st.geometry[k], old_box, old_shape, dirs) ||
-                                      pass.texel_depends_on(k, i, st.geometry[k], new_box, new_shape, dirs);
+                        affected[c] = pass.texel_depends_on(k, i, st.geometry[k], old_box, dirs) ||
+                                      pass.texel_depends_on(k, i, st.geometry[k], new_box, dirs);
                       }
                     });
   std::vector<std::uint8_t> dirty(objects.size(), 0);

@@ -9,18 +9,22 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "modrt/clutter_mesh.h"
 #include "modrt/dictionary.h"
 #include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/precompute/block_scene.h"
+#include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/sh.h"
@@ -84,39 +88,95 @@ struct BoxQuery {
   }
 };
 
-// The objects a sample or texel tests (those whose sphere is in front of it), with its
+// One clutter object's ray queries: a box's analytic slab test, or a mesh's Embree scene
+// (ClutterMeshShape) behind the culling and sphere tests of its bounds. The entry's `face`
+// is a box face or a mesh chart; slot() turns it into the column of the object's c (-1: an
+// unlit box face, which sends nothing).
+struct ObjectQuery {
+  BoxQuery bounds;  // the box itself, or a mesh's axis-aligned bounds
+  const ClutterMeshShape* mesh = nullptr;
+  std::array<int, kFaceCount> slots{};
+  ObjectQuery(const ClutterObject& object, const ClutterMeshShape* shape) : bounds(object.box), mesh(shape) {
+    for (int f = 0, s = 0; f < kFaceCount; ++f)
+      slots[std::size_t(f)] = face_present(object.faces, f) ? s++ : -1;
+  }
+  bool in_front(const glm::dvec3& x, const glm::dvec3& n) const { return bounds.in_front(x, n); }
+  // origin_local = bounds.local(origin), precomputed per origin for boxes.
+  BoxEntry enter(const glm::dvec3& origin, const glm::dvec3& origin_local, const glm::dvec3& dir) const {
+    if (!mesh) return bounds.enter(origin_local, dir);
+    const ClutterMeshShape::Entry e = mesh->enter(origin, dir);
+    return {e.hit, e.t, e.chart};
+  }
+  int slot(int face) const { return mesh ? face : slots[std::size_t(face)]; }
+  // Whether surface point p (unit normal n; zero for a point in the air) is inside or on the
+  // object: a box grown by 1e-6, a mesh tested just off p along n, where a floor sample
+  // under an object resting on the floor is inside it.
+  bool contains(const glm::dvec3& p, const glm::dvec3& n) const {
+    if (mesh) return mesh->contains(p + 1e-5 * n);
+    const glm::dvec3 q = bounds.local(p);
+    for (int a = 0; a < 3; ++a)
+      if (std::abs(q[a]) > bounds.half[a] + 1e-6) return false;
+    return true;
+  }
+};
+
+// The queries of a list of objects, owning the mesh objects' Embree scenes.
+struct ObjectQueries {
+  std::vector<std::unique_ptr<ClutterMeshShape>> meshes;
+  std::vector<ObjectQuery> queries;
+  static Result<ObjectQueries> make(std::span<const ClutterObject> objects) {
+    ObjectQueries q;
+    q.meshes.resize(objects.size());
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      const ClutterObject& o = objects[k];
+      if (o.kind == ClutterKind::mesh) {
+        Result<ClutterMeshShape> shape = ClutterMeshShape::create(o.mesh->mesh, o.mesh->chart_of_triangle,
+                                                                  "clutter object " + std::to_string(k));
+        if (!shape.ok()) return shape.status();
+        q.meshes[k] = std::make_unique<ClutterMeshShape>(std::move(shape.value()));
+      }
+      q.queries.emplace_back(o, q.meshes[k].get());
+    }
+    return q;
+  }
+};
+
+// The objects a sample or texel tests (those whose bounds are in front of it), with its
 // origin in each box frame; the nearest entry over them, ties to the lower object index.
-// Before the slab test, the bounding-sphere test (a ray that misses the sphere misses the
-// box) with its per-origin terms computed once; skipped for an origin well inside the
+// Before the entry test, the bounding-sphere test (a ray that misses the sphere misses the
+// object) with its per-origin terms computed once; skipped for an origin well inside the
 // sphere, where it always passes.
 struct Candidates {
   struct Entry {
     std::uint32_t object;
-    glm::dvec3 origin_local, oc;
+    glm::dvec3 origin, origin_local, oc;
     double oc2;
     bool in_sphere;
   };
   std::vector<Entry> entries;
   void clear() { entries.clear(); }
   bool empty() const { return entries.empty(); }
-  void add(std::uint32_t object, const BoxQuery& box, const glm::dvec3& origin) {
+  void add(std::uint32_t object, const ObjectQuery& query, const glm::dvec3& origin) {
+    const BoxQuery& box = query.bounds;
     const glm::dvec3 oc = box.center - origin;
     const double oc2 = glm::dot(oc, oc);
-    entries.push_back({object, box.local(origin), oc, oc2, oc2 < box.radius * box.radius * (1.0 - 1e-9)});
+    entries.push_back(
+        {object, origin, box.local(origin), oc, oc2, oc2 < box.radius * box.radius * (1.0 - 1e-9)});
   }
   struct Nearest {
     int object = -1;
     BoxEntry entry;
   };
-  Nearest nearest(const std::vector<BoxQuery>& boxes, const glm::dvec3& dir) const {
+  Nearest nearest(const std::vector<ObjectQuery>& queries, const glm::dvec3& dir) const {
     Nearest best;
     for (const Entry& c : entries) {
-      const BoxQuery& box = boxes[c.object];
+      const ObjectQuery& query = queries[c.object];
+      const BoxQuery& box = query.bounds;
       if (!c.in_sphere) {
         const double along = glm::dot(c.oc, dir);
         if (c.oc2 - along * along > box.radius * box.radius || !(along + box.radius > 0.0)) continue;
       }
-      const BoxEntry e = box.enter(c.origin_local, dir);
+      const BoxEntry e = query.enter(c.origin, c.origin_local, dir);
       if (e.hit && (best.object < 0 || e.t < best.entry.t)) best = {int(c.object), e};
     }
     return best;
@@ -310,20 +370,24 @@ struct TexelResult {
   // (source object, face slot) -> weight of the rays that enter that face first, ascending.
   std::vector<std::pair<std::uint64_t, double>> cc;
 };
+// A mesh can have many charts: 32 bits each.
 inline std::uint64_t cc_key(std::uint32_t object, int slot) {
-  return (std::uint64_t(object) << 8) | std::uint64_t(slot);
+  return (std::uint64_t(object) << 32) | std::uint64_t(std::uint32_t(slot));
+}
+inline std::uint32_t cc_object(std::uint64_t key) { return std::uint32_t(key >> 32); }
+inline std::uint32_t cc_slot(std::uint64_t key) { return std::uint32_t(key & 0xFFFFFFFFull); }
+
+inline bool same_mesh(const ClutterObject& a, const ClutterObject& b) {
+  if (a.mesh == b.mesh) return true;
+  if (!a.mesh || !b.mesh) return false;
+  return a.mesh->mesh.positions == b.mesh->mesh.positions && a.mesh->mesh.uvs == b.mesh->mesh.uvs &&
+         a.mesh->mesh.indices == b.mesh->mesh.indices;
 }
 
 inline bool same_object(const ClutterObject& a, const ClutterObject& b) {
   return a.kind == b.kind && a.block == b.block && a.box.center == b.box.center &&
          a.box.half_extent == b.box.half_extent && a.box.rotation == b.box.rotation && a.faces == b.faces &&
-         a.albedo == b.albedo && a.res == b.res;
-}
-
-inline std::array<int, kFaceCount> face_slots(const ClutterObject& object) {
-  std::array<int, kFaceCount> slot{};
-  for (int f = 0, s = 0; f < kFaceCount; ++f) slot[std::size_t(f)] = face_present(object.faces, f) ? s++ : -1;
-  return slot;
+         a.albedo == b.albedo && a.res == b.res && same_mesh(a, b);
 }
 
 }  // namespace modrt::precompute::drt_detail

@@ -11,6 +11,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "modrt/clutter_mesh.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/sampling.h"
@@ -27,6 +28,12 @@ struct LevelScene::Impl {
   int subdivisions = 1;
   unsigned clutter_geometry = RTC_INVALID_GEOMETRY_ID;
   std::vector<Cell> clutter_cells;  // per clutter quad: block = object, face = box face
+  // Mesh clutter: per triangle, block = object and face = the triangle in its mesh; the
+  // unit normal of each, and each object's first triangle.
+  unsigned clutter_mesh_geometry = RTC_INVALID_GEOMETRY_ID;
+  std::vector<Cell> clutter_mesh_cells;
+  std::vector<glm::dvec3> clutter_mesh_normals;
+  std::vector<std::size_t> clutter_mesh_first;
 };
 
 namespace {
@@ -95,11 +102,43 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
   rtcCommitGeometry(geom);
   rtcAttachGeometry(impl_->scene, geom);
   rtcReleaseGeometry(geom);
-  if (!clutter_.empty()) {
+  std::vector<float> mv;
+  std::vector<unsigned> mi;
+  impl_->clutter_mesh_first.assign(clutter_.size(), 0);
+  for (std::size_t k = 0; k < clutter_.size(); ++k) {
+    impl_->clutter_mesh_first[k] = impl_->clutter_mesh_cells.size();
+    if (clutter_[k].kind != ClutterKind::mesh || !clutter_[k].mesh) continue;
+    const ClutterMesh& mesh = clutter_[k].mesh->mesh;
+    const unsigned base = unsigned(mv.size() / 3);
+    for (const glm::dvec3& p : mesh.positions) mv.insert(mv.end(), {float(p.x), float(p.y), float(p.z)});
+    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      mi.insert(mi.end(), {base + mesh.indices[t], base + mesh.indices[t + 1], base + mesh.indices[t + 2]});
+      impl_->clutter_mesh_cells.push_back({int(k), int(t / 3), 0, 0});
+      const glm::dvec3 &p0 = mesh.positions[mesh.indices[t]], &p1 = mesh.positions[mesh.indices[t + 1]],
+                       &p2 = mesh.positions[mesh.indices[t + 2]];
+      impl_->clutter_mesh_normals.push_back(glm::normalize(glm::cross(p1 - p0, p2 - p0)));
+    }
+  }
+  if (!mi.empty()) {
+    RTCGeometry mg = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* mvb = static_cast<float*>(rtcSetNewGeometryBuffer(mg, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                            3 * sizeof(float), mv.size() / 3));
+    auto* mib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(mg, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                               3 * sizeof(unsigned), mi.size() / 3));
+    if (!mvb || !mib) throw std::runtime_error("Embree: cannot allocate clutter mesh geometry");
+    std::copy(mv.begin(), mv.end(), mvb);
+    std::copy(mi.begin(), mi.end(), mib);
+    rtcCommitGeometry(mg);
+    impl_->clutter_mesh_geometry = rtcAttachGeometry(impl_->scene, mg);
+    rtcReleaseGeometry(mg);
+  }
+  const bool any_box = std::any_of(clutter_.begin(), clutter_.end(),
+                                   [](const ClutterObject& o) { return o.kind == ClutterKind::box; });
+  if (any_box) {
     std::vector<float> cv;
     std::vector<unsigned> ci;
     for (std::size_t k = 0; k < clutter_.size(); ++k)
-      for (int f = 0; f < kFaceCount; ++f) {
+      for (int f = 0; f < kFaceCount && clutter_[k].kind == ClutterKind::box; ++f) {
         const unsigned base = unsigned(cv.size() / 3);
         for (int j = 0; j <= 1; ++j)
           for (int i = 0; i <= 1; ++i) {
@@ -169,6 +208,16 @@ void LevelScene::intersect_many(const glm::dvec3& origin, std::span<const glm::d
 LevelHit LevelScene::make_hit(unsigned geom_id, unsigned prim_id, float u, float v, float t_far) const {
   LevelHit hit;
   if (geom_id == RTC_INVALID_GEOMETRY_ID) return hit;
+  if (geom_id == impl_->clutter_mesh_geometry) {
+    const Impl::Cell& c = impl_->clutter_mesh_cells[prim_id];
+    hit.clutter = c.block;
+    hit.block = clutter_[std::size_t(c.block)].block;
+    hit.face = c.face;
+    hit.u = u;
+    hit.v = v;
+    hit.t = t_far;
+    return hit;
+  }
   const bool on_clutter = geom_id == impl_->clutter_geometry;
   const Impl::Cell& c = on_clutter ? impl_->clutter_cells[prim_id / 2] : impl_->cells[prim_id / 2];
   // Barycentrics of (v00, v10, v11) or (v00, v11, v01) -> position inside the cell.
@@ -199,6 +248,9 @@ LevelHit LevelScene::make_hit(unsigned geom_id, unsigned prim_id, float u, float
 }
 
 glm::dvec3 LevelScene::hit_normal(const LevelHit& hit) const {
+  if (hit.clutter >= 0 && clutter_[std::size_t(hit.clutter)].kind == ClutterKind::mesh)
+    return impl_
+        ->clutter_mesh_normals[impl_->clutter_mesh_first[std::size_t(hit.clutter)] + std::size_t(hit.face)];
   if (hit.clutter >= 0) return clutter_face_normal(clutter_[std::size_t(hit.clutter)].box, hit.face);
   return block_face_normal(level_.blocks[std::size_t(hit.block)], hit.face, hit.u, hit.v);
 }

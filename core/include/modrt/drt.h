@@ -1,8 +1,10 @@
 // modrt — Delta Radiance Transfer (SPEC §6, [Loos et al. 2012] "DRT"): clutter objects
 // inside blocks, their delta operators and the scalar reference runtime that applies them.
 //
-// A clutter object is an oriented box in world space owned by one block. Each of its lit
-// faces carries a res x res texel grid (its clutter lightmap). The operators of one object:
+// A clutter object is an oriented box or a closed triangle mesh in world space owned by one
+// block. Each lit face of a box carries a res x res texel grid; a mesh carries the texels of
+// its lightmap UV atlas (clutter_mesh.h), its UV charts standing in for faces.
+// The operators of one object:
 //   dUb  (DRT §4.1) rows = (level sample, source block) pairs, kb columns: the antiradiance
 //        of the clutter; the row's sample gets dUb_row . b(source block). The source block
 //        is the block whose Limp the occluded ray sampled, so shadows cast across a block
@@ -26,6 +28,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -40,9 +43,11 @@ namespace modrt {
 
 inline constexpr int kClutterDefaultRes = 16;
 
-// Kinds of clutter geometry. Only boxes exist so far; a triangle mesh (lightmap by UV-atlas
-// rasterisation, DRT §5) would add a kind and a mesh payload without changing the operators.
-enum class ClutterKind : int { box = 0 };
+// Kinds of clutter geometry: an oriented box (analytic texels and ray queries) or a closed
+// triangle mesh with lightmap UVs (texels by rasterising the UV atlas, DRT §3; ray queries
+// by Embree in precompute). The operators only see texel positions, normals and faces.
+enum class ClutterKind : int { box = 0, mesh = 1 };
+struct ClutterMeshData;  // clutter_mesh.h
 
 // World point of local box coordinates q in [0,1]^3: center + rotation * ((q - 0.5) * 2 *
 // half_extent). rotation's columns are the box axes in world space (orthonormal).
@@ -55,17 +60,22 @@ struct ClutterBox {
 struct ClutterObject {
   ClutterKind kind = ClutterKind::box;
   int block = 0;  // owning level block
+  // box: the object. mesh: the mesh's axis-aligned bounds (culling and bounding sphere only).
   ClutterBox box;
   // Lit faces (cube.h numbering in the box's local frame); a face resting on a wall receives
-  // no light and can be left out, so it costs no texels.
+  // no light and can be left out, so it costs no texels. mesh: every chart is lit (kAllFaces).
   FaceMask faces = kAllFaces;
   glm::dvec3 albedo{0.5};
+  // box: texels per face edge. mesh: the atlas grid's edge (mesh->atlas.res).
   int res = kClutterDefaultRes;
+  // mesh only: the mesh and its lightmap atlas (precompute's make_mesh_clutter fills it).
+  std::shared_ptr<const ClutterMeshData> mesh;
 };
 
-// Texels of a clutter object: lit faces in ascending face order, then row j, then column i
-// (as SampleLayout). Face f's frame: p(u, v) = the unit cube's face_point(f, v, u) mapped
-// through the box, so that cross(u_axis, v_axis) is the outward normal.
+// Texels of a box: lit faces in ascending face order, then row j, then column i (as
+// SampleLayout). Face f's frame: p(u, v) = the unit cube's face_point(f, v, u) mapped
+// through the box, so that cross(u_axis, v_axis) is the outward normal. Texels of a mesh:
+// its atlas's covered cells in row-major cell order; its "faces" are the atlas's charts.
 int clutter_face_count(const ClutterObject& object);
 int clutter_texel_count(const ClutterObject& object);
 glm::dvec3 clutter_to_world(const ClutterBox& box, const glm::dvec3& q);
@@ -79,12 +89,16 @@ double clutter_bounding_radius(const ClutterBox& box);
 struct ClutterTexelGeometry {
   std::vector<glm::dvec3> position;  // texel centres
   std::vector<glm::dvec3> normal;    // outward
-  std::vector<int> face;             // box face per texel
+  std::vector<int> face;             // box face (mesh: chart) per texel
 };
 ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object);
+// World area each texel stands for (a box face's area / res^2; a mesh texel's share of its
+// triangle), in texel order.
+std::vector<double> clutter_texel_area(const ClutterObject& object);
 
 // Checks the objects against the level: owning block exists, finite box with positive
-// extents and an orthonormal rotation, res >= 1, albedo in [0, 1], at least one lit face.
+// extents and an orthonormal rotation, res >= 1, albedo in [0, 1], at least one lit face;
+// for a mesh, its data present and consistent (atlas of res, at least one texel, charts).
 Status validate_clutter(const Level& level, std::span<const ClutterObject> objects);
 
 struct DrtObjectOperators {

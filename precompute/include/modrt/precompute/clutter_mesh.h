@@ -25,35 +25,24 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "modrt/clutter_mesh.h"
 #include "modrt/drt.h"
 #include "modrt/status.h"
 
 namespace modrt::precompute {
-
-struct ClutterMesh {
-  std::vector<glm::dvec3> positions;   // world space
-  std::vector<glm::dvec2> uvs;         // lightmap UVs in [0, 1]^2, one per position
-  std::vector<std::uint32_t> indices;  // three per triangle, counter-clockwise seen from outside
-};
-
-struct ClutterMeshAtlas {
-  int res = 0;
-  // Per grid cell (row-major, res x res): its texel index, or -1 when no triangle covers it.
-  std::vector<std::int32_t> cell_texel;
-  // Covered texels in cell order; `face` is the chart index.
-  ClutterTexelGeometry texels;
-  std::vector<std::uint32_t> triangle;  // the triangle each texel stands for
-  std::vector<double> area;             // world area per texel (the triangle's, split by UV area)
-  int chart_count = 0;
-  // Unused cell -> used cell it copies (dilation by one texel ring).
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> padding;
-};
 
 // Fails (invalid_argument, naming `what` and the triangle or vertex) on: no triangles, an
 // index out of range, NaN/Inf positions or UVs, UVs outside [0, 1], a triangle with zero
 // world or UV area, overlapping UV triangles (two triangles claiming the same texel centre),
 // or res outside 1..1024.
 Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res, const std::string& what);
+
+// A clutter object of kind mesh owned by level block `block`: the atlas rasterized at res
+// (kClutterMeshDefaultRes: about as many texels as a box of 16 x 16 per face), its charts,
+// and the mesh's axis-aligned bounds as `box` (for culling). Fails as rasterize_clutter_mesh.
+inline constexpr int kClutterMeshDefaultRes = 48;
+Result<ClutterObject> make_mesh_clutter(ClutterMesh mesh, int block, const glm::dvec3& albedo, int res,
+                                        const std::string& what);
 
 // The ray queries the DRT build asks of a clutter object, for a closed triangle mesh (the
 // box's analytic slab test in drt_build.cpp answers the same for boxes): where a ray from

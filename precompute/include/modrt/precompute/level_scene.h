@@ -19,7 +19,8 @@ struct LevelHit {
   int face = -1;   // canonical face of that block
   double u = 0, v = 0, t = 0;
   // >= 0: the ray hit clutter object `clutter` (of LevelScene::clutter()); then `block` is
-  // its owning block, `face` the box face and (u, v) the clutter face coordinates (drt.h).
+  // its owning block, `face` the box face and (u, v) the clutter face coordinates (drt.h),
+  // or for a mesh object `face` the triangle and (u, v) its barycentrics.
   int clutter = -1;
 };
 
@@ -28,7 +29,7 @@ class LevelScene {
   // Every present face is tessellated into `subdivisions`^2 bilinear cells (2 triangles
   // each) of its trilinear warp; throws std::runtime_error when Embree fails.
   LevelScene(const Level& level, int subdivisions);
-  // The same walls plus clutter boxes (DRT), two-sided so that points inside a box see its
+  // The same walls plus clutter boxes and meshes (DRT), two-sided so that points inside a box see its
   // inside; with no objects this is the constructor above.
   LevelScene(const Level& level, int subdivisions, std::span<const ClutterObject> clutter);
   ~LevelScene();
