@@ -1,7 +1,8 @@
 // DRT on the SIMD CPU path (cpu_neon/cpu_drt.h) against core's scalar reference (drt.h):
 // c = Td_c clutter_ld, lightmap += dUb b + dUc c, the clutter lightmap Uc Vc b + direct and its
 // clutter-to-clutter light Cc c, every ISA this CPU (or qemu) supports, within 1e-5 relative L2;
-// no clutter costs nothing.
+// the rows of overlapping objects merged (four pillars) and still equal to the reference; no
+// clutter costs nothing.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "cpu_test_support.h"
+#include "drt_scenes.h"
 #include "modrt/cpu/cpu_drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/drt_build.h"
@@ -169,6 +171,145 @@ TEST(CpuDrt, VectorAndProbeDeltasMatchScalarReferenceForEveryIsa) {
     EXPECT_EQ(rt->apply_vector(b, c, too_long_vec).code(), ErrorCode::invalid_argument);
     EXPECT_EQ(rt->apply_probes(b, c, too_long_probes).code(), ErrorCode::invalid_argument);
   }
+}
+
+// The four-pillar corridor of drt_scenes.h (64 rays, vector and probe operators): the pillars
+// stand around one light, so their shadows fall on the same samples and probes.
+struct PillarFixture {
+  Level level;
+  DrtOperators drt;
+};
+
+const PillarFixture& pillars() {
+  static const PillarFixture f = [] {
+    PillarFixture s;
+    const test::ClutterScene scene = test::maze_block_four_pillars();
+    s.level = precompute::build_level(scene.description, dict()).value();
+    precompute::DrtBuildSettings settings;
+    settings.rays = 64;
+    settings.vector = settings.probes = true;
+    Result<DrtOperators> drt = precompute::DrtBuilder(s.level, dict(), settings).build(scene.clutter);
+    if (!drt.ok()) {
+      std::fprintf(stderr, "drt build: %s\n", drt.status().to_string().c_str());
+      std::abort();
+    }
+    s.drt = std::move(drt).value();
+    return s;
+  }();
+  return f;
+}
+
+// Rows of different objects for the same (sample or probe, block) are summed into one, and
+// each item's face rows concatenated over the pillars' c. A merge that kept one object's row
+// of a shared pair, or scattered a merged row to the wrong item, would leave the deltas far
+// from core's per-object reference; the row counts show that shared pairs exist.
+TEST(CpuDrt, MergedRowsOfOverlappingObjectsMatchScalarReferenceForEveryIsa) {
+  const PillarFixture& f = pillars();
+  ASSERT_EQ(f.drt.objects.size(), 4u);
+  std::size_t dUb = 0, dUb_vec = 0, Udyn = 0, dUc = 0, dUc_cells = 0, dUc_vec = 0, Udyn_c = 0;
+  for (const DrtObjectOperators& o : f.drt.objects) {
+    dUb += o.dUb.rows, dUb_vec += o.dUb_vec.rows, Udyn += o.Udyn.rows;
+    dUc += o.dUc.rows, dUc_cells += o.dUc.data.size(), dUc_vec += o.dUc_vec.rows, Udyn_c += o.Udyn_c.rows;
+  }
+  Result<CpuDrtRuntime> layout = CpuDrtRuntime::create(f.level, f.drt, Isa::scalar);
+  ASSERT_TRUE(layout.ok()) << layout.status().to_string();
+  const CpuDrtRuntime::DeltaShape &lm = layout->lightmap_shape(), &vec = layout->vector_shape(),
+                                  &pr = layout->probe_shape();
+  EXPECT_LT(lm.b_rows, dUb);
+  EXPECT_LT(vec.b_rows, dUb_vec);
+  EXPECT_LT(pr.b_rows, Udyn);
+  EXPECT_LE(lm.b_groups, f.level.blocks.size());  // one GEMV per source block
+  EXPECT_LE(vec.b_groups, f.level.blocks.size());
+  EXPECT_LE(pr.b_groups, f.level.blocks.size());
+  EXPECT_LT(lm.c_rows, dUc);
+  EXPECT_LT(vec.c_rows, dUc_vec);
+  EXPECT_LT(pr.c_rows, Udyn_c);
+  EXPECT_LE(lm.c_cells, 2 * dUc_cells);  // the concatenation's zeros stay bounded
+  std::printf(
+      "four pillars: dUb %zu -> %zu rows (%zu groups), dUb_vec %zu -> %zu, Udyn %zu -> %zu; "
+      "dUc %zu -> %zu rows (%zu -> %zu cells, %zu groups)\n",
+      dUb, lm.b_rows, lm.b_groups, dUb_vec, vec.b_rows, Udyn, pr.b_rows, dUc, lm.c_rows, dUc_cells,
+      lm.c_cells, lm.c_groups);
+
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  std::mt19937 rng(14);
+  const std::vector<float> b =
+      random_vector(rng, 3 * std::size_t(f.level.kb) * f.level.blocks.size(), -1.0f, 1.0f);
+  const std::vector<float> c = random_vector(rng, sizes.c, 0.0f, 1.0f);
+  const std::vector<float> zero_lm(3 * std::size_t(f.level.sample_count), 0.0f),
+      zero_vec(4 * zero_lm.size(), 0.0f),
+      zero_probes(27 * std::size_t(f.drt.probes_per_block) * f.level.blocks.size(), 0.0f);
+  std::vector<float> lm_ref(zero_lm), vec_ref(zero_vec), probes_ref(zero_probes);
+  drt_apply(f.level, f.drt, b, c, lm_ref);
+  drt_apply_vector(f.level, f.drt, b, c, vec_ref);
+  drt_apply_probes(f.drt, b, c, probes_ref);
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> out_lm(zero_lm), out_vec(zero_vec), out_probes(zero_probes);
+    ASSERT_TRUE(rt->apply(b, c, out_lm).ok());
+    ASSERT_TRUE(rt->apply_vector(b, c, out_vec).ok());
+    ASSERT_TRUE(rt->apply_probes(b, c, out_probes).ok());
+    const Error el = compare(out_lm, lm_ref), ev = compare(out_vec, vec_ref),
+                ep = compare(out_probes, probes_ref);
+    EXPECT_LE(el.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ev.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ep.rel_l2, 1e-5) << isa_name(isa);
+    Worst wl, wv, wp;
+    wl.add(el), wv.add(ev), wp.add(ep);
+    // The face rows' values are reused while c keeps its bits: the same c again gives the
+    // same bits, and a new c in the same buffer (one face changed) is not served stale values.
+    std::vector<float> again(zero_lm), again_vec(zero_vec), again_probes(zero_probes);
+    ASSERT_TRUE(rt->apply(b, c, again).ok());
+    ASSERT_TRUE(rt->apply_vector(b, c, again_vec).ok());
+    ASSERT_TRUE(rt->apply_probes(b, c, again_probes).ok());
+    EXPECT_EQ(again, out_lm) << isa_name(isa);
+    EXPECT_EQ(again_vec, out_vec) << isa_name(isa);
+    EXPECT_EQ(again_probes, out_probes) << isa_name(isa);
+    std::vector<float> c2(c);
+    c2[3 * 5 + 1] += 0.5f;  // face 5 (the second pillar), green
+    std::vector<float> ref2(zero_lm), vec_ref2(zero_vec), probes_ref2(zero_probes);
+    drt_apply(f.level, f.drt, b, c2, ref2);
+    drt_apply_vector(f.level, f.drt, b, c2, vec_ref2);
+    drt_apply_probes(f.drt, b, c2, probes_ref2);
+    ASSERT_GT(compare(ref2, lm_ref).rel_l2, 1e-3);  // the change is visible in the reference
+    std::fill(again.begin(), again.end(), 0.0f);
+    std::fill(again_vec.begin(), again_vec.end(), 0.0f);
+    std::fill(again_probes.begin(), again_probes.end(), 0.0f);
+    ASSERT_TRUE(rt->apply(b, c2, again).ok());
+    ASSERT_TRUE(rt->apply_vector(b, c2, again_vec).ok());
+    ASSERT_TRUE(rt->apply_probes(b, c2, again_probes).ok());
+    const Error el2 = compare(again, ref2), ev2 = compare(again_vec, vec_ref2),
+                ep2 = compare(again_probes, probes_ref2);
+    EXPECT_LE(el2.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ev2.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ep2.rel_l2, 1e-5) << isa_name(isa);
+    wl.add(el2), wv.add(ev2), wp.add(ep2);
+    wl.print("merged dUb b + dUc c", isa), wv.print("merged dUb_vec b + dUc_vec c", isa),
+        wp.print("merged Udyn b + Udyn_c c", isa);
+  }
+}
+
+// Operators without U_dyn add nothing to the probes, whatever the dictionary's probe grid (the
+// CPU backend passes its probes on every frame).
+TEST(CpuDrt, ProbesAreLeftAsTheyAreWithoutUdyn) {
+  const DrtFixture& f = fixture();
+  DrtOperators no_udyn = f.drt;
+  for (DrtObjectOperators& o : no_udyn.objects) {
+    o.Udyn_probe.clear(), o.Udyn_block.clear(), o.Udyn_c_probe.clear();
+    o.Udyn = {}, o.Udyn_c = {};
+  }
+  no_udyn.probes_per_block = 0;
+  Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, no_udyn);
+  ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+  const std::vector<float> b(3 * std::size_t(f.level.kb) * f.level.blocks.size(), 1.0f),
+      c(rt->sizes().c, 1.0f);
+  std::vector<float> probes(27 * 64 * f.level.blocks.size(), 0.5f);
+  const std::vector<float> before = probes;
+  ASSERT_TRUE(rt->apply_probes(b, c, probes).ok());
+  EXPECT_EQ(probes, before);
+  EXPECT_EQ(rt->apply_probes(b, std::vector<float>(c.size() + 1), probes).code(),
+            ErrorCode::invalid_argument);
 }
 
 TEST(CpuDrt, NoClutterCostsNothingAndBadSizesAreRefused) {

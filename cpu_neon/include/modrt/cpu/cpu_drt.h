@@ -5,9 +5,17 @@
 // drt_clutter_add_cc / drt_apply_vector / drt_apply_probes within 1e-5 relative
 // (tests/test_cpu_drt.cpp).
 //
-// Layout chosen at creation: each object's dUb rows are regrouped by the block whose b they
-// read (one dense GEMV per group, scattered onto its samples), instead of core's per-row
-// (sample, block) order. A scene without clutter (empty operators) costs nothing.
+// Layout chosen at creation: the dUb rows of all objects are merged and regrouped by the block
+// whose b they read, one dense GEMV per block scattered onto its samples, instead of core's
+// per-object, per-row (sample, block) order. Rows of different objects for the same (sample,
+// block) read the same b, so they are summed (in double, stored float) into one: a sample
+// under several objects' shadows costs one row per block it sees. Likewise dUb_vec and Udyn.
+// The face rows (dUc, dUc_vec, Udyn_c) multiply each object's own c; an item's rows of several
+// objects are concatenated into one row over the window of the concatenated c that spans
+// those objects' faces, when the window holds at most twice their faces (else each object's
+// row stays alone). The face rows' values are kept while c stays the same bit for bit (it
+// changes with the clutter's light, not every frame) and only scattered again.
+// A scene without clutter (empty operators) costs nothing.
 // b is the CpuLevelRuntime's (interleaved, 3 kb per block). Nothing is allocated per call.
 #pragma once
 
@@ -48,29 +56,52 @@ class CpuDrtRuntime {
   // drt_apply_probes); nothing for objects without U_dyn.
   Status apply_probes(std::span<const float> b, std::span<const float> c, std::span<float> probes);
 
+  // The merged layout of one delta (matrix rows, so 4 per entry for the vector delta and 9
+  // for the probes): b_rows against the objects' summed dUb / dUb_vec / Udyn rows shows the
+  // merge; c_cells (rows x window columns, zeros included) against their dUc cells the cost
+  // of the concatenation.
+  struct DeltaShape {
+    std::size_t b_rows = 0, b_groups = 0;               // one group (GEMV) per source block
+    std::size_t c_rows = 0, c_groups = 0, c_cells = 0;  // one group per window of c
+  };
+  const DeltaShape& lightmap_shape() const { return lightmap_.shape; }
+  const DeltaShape& vector_shape() const { return vector_.shape; }
+  const DeltaShape& probe_shape() const { return probes_.shape; }
+
  private:
   CpuDrtRuntime() = default;
-  struct BlockGroup {  // the dUb rows of one object that read one block's b
+  struct BlockGroup {  // the merged rows that read one block's b
     std::uint32_t block = 0;
-    Matrix rows;                       // rows x kb
-    std::vector<std::int32_t> sample;  // output slot (3 floats) of each row: level sample, or
-                                       // 4 sample + i (vector), 9 probe + j (probes)
+    Matrix rows;                     // rows x kb
+    std::vector<std::int32_t> slot;  // output slot (3 floats) of each row: level sample, or
+                                     // 4 sample + i (vector), 9 probe + j (probes)
   };
-  struct Object {
-    std::vector<BlockGroup> groups, vector_groups, probe_groups;
-    std::vector<std::int32_t> dUc_sample, dUc_vec_slot, Udyn_c_slot;
-    std::size_t texel0 = 0, face0 = 0;
+  struct FaceGroup {  // the face rows that read columns [col0, col0 + rows.cols) of c
+    std::uint32_t col0 = 0;
+    std::size_t row0 = 0;  // its first row in Delta::c_values
+    Matrix rows;
+    std::vector<std::int32_t> slot;
   };
-  // out += the grouped rows times b (by block) and face_rows times the object's c.
-  void apply_groups(std::span<const float> b, const std::vector<BlockGroup>& groups, const Matrix& face_rows,
-                    const std::vector<std::int32_t>& face_slot, const float* c_object, std::size_t faces,
-                    float* out);
+  struct Delta {
+    std::vector<BlockGroup> b;
+    std::vector<FaceGroup> c;
+    DeltaShape shape;
+    // The face rows' values (3 per row) for the c they were computed from (c_from).
+    std::vector<float> c_values, c_from;
+    bool c_valid = false;
+  };
+  enum class DeltaKind { lightmap, vector, probes };
+  static Delta build_delta(const DrtOperators& drt, std::uint32_t kb, DeltaKind kind,
+                           const std::vector<std::size_t>& face0);
+  // out += the block groups times b and the face groups times c.
+  void apply_delta(Delta& delta, std::span<const float> b, std::span<const float> c, float* out);
   const Level* level_ = nullptr;
   const DrtOperators* drt_ = nullptr;
   Isa isa_ = Isa::scalar;
   DrtBufferSizes sizes_;
   std::size_t lightmap_size_ = 0;
-  std::vector<Object> objects_;
+  std::vector<std::size_t> texel0_, face0_;  // per object: its first clutter texel and c face
+  Delta lightmap_, vector_, probes_;
   std::vector<float> planar_, modes_;  // scratch: the largest planar input, Vc b per mode
 };
 
