@@ -20,6 +20,8 @@
 
 #include <glm/geometric.hpp>
 
+#include "modrt/precompute/clutter_mesh.h"
+#include "modrt/precompute/drt_build.h"
 #include "modrt/precompute/level_build.h"
 #include "scene/gltf_scene.h"
 #include "scene/proxy_mapping.h"
@@ -688,6 +690,250 @@ TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {
   draco.top_extra =
       R"(,"extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"])";
   expect_error(load_text("draco.gltf", draco.text()), "draco.gltf", {"KHR_draco_mesh_compression"});
+}
+
+// ---- DRT clutter meshes (extras.modrt_clutter) ----
+
+// A box of local half extents h around the node's origin, 4 vertices per face (faces +X, -X,
+// +Y, -Y, +Z, -Z, counter-clockwise from outside), flat, with TEXCOORD_1 laying the faces out
+// as 6 of the 4 x 2 tiles of a 32 x 32 atlas, each 6 x 14 cells inset by one cell (multiples
+// of 1/32, exact in float, so every face covers exactly 84 cells).
+struct ClutterBoxGltf {
+  glm::vec3 h{0.1f, 0.3f, 0.15f};
+  std::string node_fields = R"("translation":[0.5,0.3,0.5],"rotation":[0,0.70710678,0,0.70710678])";
+  std::string clutter = R"({"res":32})";
+  bool texcoord1 = true;
+  int drop_faces = 0;         // leave out the last faces' triangles (an open mesh)
+  bool flat_uv_face = false;  // face 0's lightmap UVs all at one point (zero UV area)
+  std::string extra_nodes = R"({"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}},)"
+                            R"({"name":"annex","extras":{"modrt_block":{"cell":[1,0,0]}}})";
+
+  std::string text() const {
+    std::vector<float> pos, uv;
+    std::vector<std::uint16_t> idx;
+    for (int f = 0; f < 6; ++f) {
+      const int a = f / 2;
+      const float sign = f % 2 == 0 ? 1.0f : -1.0f;
+      const int ua = sign > 0 ? (a + 1) % 3 : (a + 2) % 3, va = sign > 0 ? (a + 2) % 3 : (a + 1) % 3;
+      const int col = f % 4, row = f / 4;
+      const std::uint16_t base = std::uint16_t(pos.size() / 3);
+      for (auto [x, y] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+        glm::vec3 p(0.0f);
+        p[a] = sign * h[a];
+        p[ua] = (x ? 1.0f : -1.0f) * h[ua];
+        p[va] = (y ? 1.0f : -1.0f) * h[va];
+        pos.insert(pos.end(), {p.x, p.y, p.z});
+        if (flat_uv_face && f == 0)
+          uv.insert(uv.end(), {1.0f / 32.0f, 1.0f / 32.0f});
+        else
+          uv.insert(uv.end(), {float(8 * col + 1 + 6 * x) / 32.0f, float(16 * row + 1 + 14 * y) / 32.0f});
+      }
+      if (f < 6 - drop_faces)
+        idx.insert(idx.end(), {base, std::uint16_t(base + 1), std::uint16_t(base + 2), base,
+                               std::uint16_t(base + 2), std::uint16_t(base + 3)});
+    }
+    std::vector<std::uint8_t> bytes(pos.size() * 4 + uv.size() * 4 + idx.size() * 2);
+    std::memcpy(bytes.data(), pos.data(), pos.size() * 4);
+    std::memcpy(bytes.data() + pos.size() * 4, uv.data(), uv.size() * 4);
+    std::memcpy(bytes.data() + pos.size() * 4 + uv.size() * 4, idx.data(), idx.size() * 2);
+    const std::string n = std::to_string(pos.size() / 3), pl = std::to_string(pos.size() * 4),
+                      ul = std::to_string(uv.size() * 4), il = std::to_string(idx.size() * 2);
+    const std::string attributes =
+        std::string(R"({"POSITION":0)") + (texcoord1 ? R"(,"TEXCOORD_1":1)" : "") + "}";
+    return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1,2]}],"nodes":[{"name":"box","mesh":0,)" +
+           node_fields + (clutter.empty() ? "" : R"(,"extras":{"modrt_clutter":)" + clutter + "}") + "}," +
+           extra_nodes + R"(],"materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.6,0.5,0.4,1]}}],)" +
+           R"("meshes":[{"primitives":[{"attributes":)" + attributes + R"(,"indices":2,"material":0}]}],)" +
+           R"("buffers":[{"byteLength":)" + std::to_string(bytes.size()) +
+           R"(,"uri":"data:application/octet-stream;base64,)" + base64(bytes) + R"("}],"bufferViews":[)" +
+           R"({"buffer":0,"byteOffset":0,"byteLength":)" + pl + R"(},{"buffer":0,"byteOffset":)" + pl +
+           R"(,"byteLength":)" + ul + R"(},{"buffer":0,"byteOffset":)" +
+           std::to_string(pos.size() * 4 + uv.size() * 4) + R"(,"byteLength":)" + il +
+           R"(}],"accessors":[{"bufferView":0,"componentType":5126,"count":)" + n +
+           R"(,"type":"VEC3"},{"bufferView":1,"componentType":5126,"count":)" + n +
+           R"(,"type":"VEC2"},{"bufferView":2,"componentType":5123,"count":)" + std::to_string(idx.size()) +
+           R"(,"type":"SCALAR"}]})";
+  }
+};
+
+TEST(GltfScene, ClutterMeshFromExtras) {
+  // The node turns the box a quarter about +Y: local half extents (0.1, 0.3, 0.15) become
+  // world (0.15, 0.3, 0.1) around (0.5, 0.3, 0.5), standing on the floor of block 0.
+  Result<DemoScene> r = load_text("clutter.gltf", ClutterBoxGltf().text());
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->clutter.size(), 1u);
+  const ClutterObject& object = r->clutter[0];
+  EXPECT_EQ(object.kind, ClutterKind::mesh);
+  EXPECT_EQ(object.block, 0);  // the block whose cell holds the mesh's centre
+  EXPECT_EQ(object.res, 32);
+  EXPECT_EQ(object.albedo, glm::dvec3(glm::vec3(0.6f, 0.5f, 0.4f)));  // the material's base colour
+  ASSERT_TRUE(object.mesh);
+  const ClutterMeshData& data = *object.mesh;
+  EXPECT_EQ(data.mesh.positions.size(), 24u);
+  EXPECT_EQ(data.mesh.indices.size(), 36u);
+  // Exactly the 6 x 84 cells inside the faces' UV rectangles are texels.
+  EXPECT_EQ(clutter_texel_count(object), 6 * 6 * 14);
+  EXPECT_EQ(data.atlas.chart_count, 6);
+  const glm::dvec3 lo(0.35, 0.0, 0.4), hi(0.65, 0.6, 0.6);
+  glm::dvec3 mlo(1e30), mhi(-1e30);
+  for (const glm::dvec3& p : data.mesh.positions) mlo = glm::min(mlo, p), mhi = glm::max(mhi, p);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(mlo[a], lo[a], 1e-6) << a;
+    EXPECT_NEAR(mhi[a], hi[a], 1e-6) << a;
+  }
+  // Every texel lies on the world box's surface with the outward normal of its side, and
+  // the texels' areas add up to the box's (2 (0.3 0.6 + 0.6 0.2 + 0.3 0.2) = 0.72).
+  double area = 0.0;
+  for (double x : data.atlas.area) area += x;
+  EXPECT_NEAR(area, 0.72, 1e-6);
+  const ClutterTexelGeometry& g = data.atlas.texels;
+  ASSERT_EQ(g.position.size(), std::size_t(clutter_texel_count(object)));
+  for (std::size_t t = 0; t < g.position.size(); ++t) {
+    int on_side = 0;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(g.position[t][a], lo[a] - 1e-6);
+      EXPECT_LE(g.position[t][a], hi[a] + 1e-6);
+      for (double sign : {-1.0, 1.0}) {
+        const double bound = sign > 0 ? hi[a] : lo[a];
+        if (std::abs(g.position[t][a] - bound) > 1e-6) continue;
+        glm::dvec3 n(0.0);
+        n[a] = sign;
+        if (glm::length(g.normal[t] - n) < 1e-6) ++on_side;
+      }
+    }
+    ASSERT_EQ(on_side, 1) << "texel " << t;
+  }
+  // The drawn mesh carries the object's index and its lightmap UVs; proxy mapping skips it.
+  const Mesh* drawn = nullptr;
+  for (const Mesh& m : r->meshes)
+    if (m.name == "box") drawn = &m;
+  ASSERT_NE(drawn, nullptr);
+  EXPECT_EQ(drawn->clutter, 0);
+  ASSERT_EQ(drawn->lightmap_uv.size(), drawn->position.size());
+  for (const glm::vec2& uv : drawn->lightmap_uv) {
+    EXPECT_GT(uv.x, 0.0f);
+    EXPECT_LT(uv.y, 1.0f);
+  }
+  const std::size_t box_index = std::size_t(drawn - r->meshes.data());
+  Result<Level> level = precompute::build_level(r->level, test::small_test_dictionary());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  Result<std::vector<MappedMesh>> mapped = map_to_proxies(r.value(), level.value());
+  ASSERT_TRUE(mapped.ok()) << mapped.status().to_string();
+  EXPECT_FALSE(mapped->empty());  // the proxy walls
+  for (const MappedMesh& m : mapped.value()) EXPECT_NE(std::size_t(m.mesh), box_index);
+  EXPECT_TRUE(validate_clutter(level.value(), r->clutter).ok());
+
+  // Default block from the centre's cell; explicit block, res and albedo.
+  ClutterBoxGltf moved;
+  moved.node_fields = R"("translation":[1.5,0.3,0.5])";
+  moved.clutter = "true";
+  Result<DemoScene> m = load_text("clutter_moved.gltf", moved.text());
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  ASSERT_EQ(m->clutter.size(), 1u);
+  EXPECT_EQ(m->clutter[0].block, 1);
+  EXPECT_EQ(m->clutter[0].res, precompute::kClutterMeshDefaultRes);
+  ClutterBoxGltf fields;
+  fields.clutter = R"({"block":1,"res":16,"albedo":[0.2,0.3,0.9]})";
+  Result<DemoScene> f = load_text("clutter_fields.gltf", fields.text());
+  ASSERT_TRUE(f.ok()) << f.status().to_string();
+  EXPECT_EQ(f->clutter[0].block, 1);
+  EXPECT_EQ(f->clutter[0].res, 16);
+  EXPECT_EQ(f->clutter[0].albedo, glm::dvec3(0.2, 0.3, 0.9));
+  // Half the res: the faces' edges cut cells in half, and every cell a face touches is a
+  // texel (conservative rasterization): 4 x 8 cells per face.
+  EXPECT_EQ(clutter_texel_count(f->clutter[0]), 6 * 4 * 8);
+  ClutterBoxGltf off;
+  off.clutter = "false";
+  Result<DemoScene> o = load_text("clutter_off.gltf", off.text());
+  ASSERT_TRUE(o.ok()) << o.status().to_string();
+  EXPECT_TRUE(o->clutter.empty());
+}
+
+TEST(GltfScene, ClutterSampleBuildsDrtOperators) {
+  // data/scenes/clutter_room.gltf (scripts/make_clutter_gltf.py): a concave L pillar in block
+  // 0 (its default block) and a box given block 1, both closed prisms.
+  const std::string path = std::string(MODRT_SCENES_DIR) + "/clutter_room.gltf";
+  Result<DemoScene> r = load_gltf_scene(path);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->clutter.size(), 2u);
+  const ClutterObject &pillar = r->clutter[0], &box = r->clutter[1];
+  EXPECT_EQ(pillar.block, 0);
+  EXPECT_EQ(box.block, 1);
+  EXPECT_EQ(pillar.res, 48);
+  EXPECT_EQ(box.res, precompute::kClutterMeshDefaultRes);
+  EXPECT_EQ(pillar.albedo, glm::dvec3(glm::vec3(0.8f, 0.45f, 0.3f)));
+  EXPECT_EQ(box.albedo, glm::dvec3(0.25, 0.4, 0.8));
+  EXPECT_EQ(pillar.mesh->atlas.chart_count, 8);  // 6 sides + 2 caps
+  EXPECT_EQ(box.mesh->atlas.chart_count, 6);
+  // Surface areas: 2 cap areas + perimeter x height (L: caps 0.0896, perimeter 1.44, height
+  // 0.748; box: 0.3 x 0.25, perimeter 1.1, height 0.298).
+  auto area = [](const ClutterObject& o) {
+    double a = 0.0;
+    for (double x : o.mesh->atlas.area) a += x;
+    return a;
+  };
+  EXPECT_NEAR(area(pillar), 2 * 0.0896 + 1.44 * 0.748, 1e-5);
+  EXPECT_NEAR(area(box), 2 * 0.075 + 1.1 * 0.298, 1e-5);
+  int drawn = 0;
+  for (const Mesh& m : r->meshes) drawn += m.clutter >= 0;
+  EXPECT_EQ(drawn, 2);
+  // The DRT build accepts the objects and its operators pass the runtime's checks; the box
+  // and the pillar see each other across the open side (Cc).
+  Result<Level> level = precompute::build_level(r->level, test::small_test_dictionary());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  precompute::DrtBuildSettings settings;
+  settings.rays = 64;
+  Result<DrtOperators> drt =
+      precompute::DrtBuilder(level.value(), test::small_test_dictionary(), settings).build(r->clutter);
+  ASSERT_TRUE(drt.ok()) << drt.status().to_string();
+  EXPECT_TRUE(check_drt_operators(level.value(), drt.value()).ok());
+  ASSERT_EQ(drt->objects.size(), 2u);
+  EXPECT_FALSE(drt->objects[0].Cc_objects.empty());
+}
+
+TEST(GltfScene, ClutterErrorsNameTheNode) {
+  ClutterBoxGltf no_uv;
+  no_uv.texcoord1 = false;
+  expect_error(load_text("clutter_nouv.gltf", no_uv.text()), "clutter_nouv.gltf",
+               {"node 0 ('box')", "TEXCOORD_1"});
+  ClutterBoxGltf block;
+  block.clutter = R"({"block":5})";
+  expect_error(load_text("clutter_block.gltf", block.text()), "clutter_block.gltf",
+               {"node 0 ('box')", "block 5", "does not exist"});
+  ClutterBoxGltf outside;
+  outside.node_fields = R"("translation":[4.5,0.3,0.5])";
+  expect_error(load_text("clutter_outside.gltf", outside.text()), "clutter_outside.gltf",
+               {"node 0 ('box')", "no block"});
+  for (const char* res : {"0", "2000", "1.5"}) {
+    ClutterBoxGltf bad_res;
+    bad_res.clutter = std::string(R"({"res":)") + res + "}";
+    expect_error(load_text("clutter_res.gltf", bad_res.text()), "clutter_res.gltf",
+                 {"node 0 ('box')", ".res"});
+  }
+  ClutterBoxGltf albedo;
+  albedo.clutter = R"({"albedo":[0.5,1.5,0.5]})";
+  expect_error(load_text("clutter_albedo.gltf", albedo.text()), "clutter_albedo.gltf",
+               {"node 0 ('box')", "albedo[1]", "[0, 1]"});
+  ClutterBoxGltf unknown;
+  unknown.clutter = R"({"rez":32})";
+  expect_error(load_text("clutter_field.gltf", unknown.text()), "clutter_field.gltf",
+               {"node 0 ('box')", "'rez'"});
+  ClutterBoxGltf open;
+  open.drop_faces = 1;
+  expect_error(load_text("clutter_open.gltf", open.text()), "clutter_open.gltf",
+               {"node 0 ('box')", "not closed"});
+  ClutterBoxGltf flat;
+  flat.flat_uv_face = true;
+  expect_error(load_text("clutter_flat.gltf", flat.text()), "clutter_flat.gltf",
+               {"node 0 ('box')", "clutter mesh"});
+  ClutterBoxGltf empty;
+  empty.clutter = "{}";
+  expect_error(load_text("clutter_empty.gltf", empty.text()), "clutter_empty.gltf",
+               {"node 0 ('box')", "empty"});
+  ClutterBoxGltf both;
+  both.clutter = R"({"res":32},"modrt_dynamic":true)";
+  expect_error(load_text("clutter_dynamic.gltf", both.text()), "clutter_dynamic.gltf",
+               {"node 0 ('box')", "dynamic"});
 }
 
 }  // namespace

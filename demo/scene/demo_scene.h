@@ -12,6 +12,7 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "modrt/drt.h"
 #include "modrt/level_description.h"
 
 namespace modrt::demo {
@@ -43,6 +44,11 @@ struct Mesh {
   // coordinates (proxy_mapping.h). A dynamic mesh's positions are in its local frame and
   // `animation` moves it.
   bool dynamic = false;
+  // DRT clutter (docs/drt.md): index into DemoScene::clutter, -1 for none. A clutter mesh is
+  // drawn with that object's clutter lightmap at `lightmap_uv` (its glTF TEXCOORD_1, one per
+  // vertex, in [0, 1]^2) instead of being mapped onto the proxies.
+  int clutter = -1;
+  std::vector<glm::vec2> lightmap_uv;
 };
 
 // A point or spot light moves along a closed path of key positions (Catmull-Rom, one loop
@@ -76,6 +82,9 @@ struct DemoScene {
   // Path of the dynamic meshes (all move together), as DemoLight::path.
   std::vector<glm::vec3> dynamic_path;
   int dynamic_period = 120;
+  // DRT clutter objects inside the level's blocks (kind mesh from glTF, drawn by the meshes
+  // whose Mesh::clutter names them).
+  std::vector<ClutterObject> clutter;
 };
 
 }  // namespace modrt::demo

@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <new>
+#include <optional>
 #include <utility>
 
 #include <glm/geometric.hpp>
@@ -26,6 +27,7 @@
 
 #include "default_scene.h"
 #include "modrt/file_io.h"
+#include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/level_json.h"
 
 namespace modrt::demo {
@@ -344,6 +346,18 @@ struct BlockNode {
   const tinygltf::Value* block = nullptr;  // extras.modrt_block (an object, or true)
 };
 
+// A node marked extras.modrt_clutter, collected while its primitives are read; it becomes a
+// ClutterObject once the level (and so the default block) is known.
+struct ClutterNode {
+  int node = 0;
+  std::string label;
+  ClutterMesh mesh;  // all primitives merged, world space, TEXCOORD_1 as lightmap UVs
+  std::optional<int> block;
+  int res = precompute::kClutterMeshDefaultRes;
+  std::optional<glm::dvec3> albedo;
+  int material = -1;  // the first primitive's, for the default albedo
+};
+
 class Loader {
  public:
   Loader(const tinygltf::Model& model, const GltfSceneOptions& options, std::string tinygltf_warn)
@@ -359,7 +373,9 @@ class Loader {
   int image_for_texture(int texture, const std::string& what);
   int default_material();
   int material_without_normal_map(int material);
-  void add_mesh(int node, const glm::dmat4& transform, bool dynamic);
+  void add_mesh(int node, const glm::dmat4& transform, bool dynamic, int clutter = -1);
+  void read_clutter_extras(const tinygltf::Value& value, ClutterNode& out) const;
+  void make_clutter_objects();
   struct Stream {
     const unsigned char* data = nullptr;  // nullptr: an accessor without buffer view (zeros)
     std::size_t stride = 0, count = 0;
@@ -392,6 +408,7 @@ class Loader {
   bool have_dynamic_key_ = false;
   glm::dvec3 dynamic_key_{0.0};
   bool warned_morph_ = false, warned_texcoord_ = false;
+  std::vector<ClutterNode> clutter_nodes_;
 };
 
 std::vector<NodeInstance> Loader::traverse(const std::vector<int>& roots) const {
@@ -731,7 +748,7 @@ glm::vec3 any_perpendicular(const glm::vec3& n) {
   return glm::normalize(glm::cross(axis, n));
 }
 
-void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic) {
+void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic, int clutter) {
   const tinygltf::Node& node = model_.nodes[std::size_t(node_index)];
   if (node.mesh < 0 || std::size_t(node.mesh) >= model_.meshes.size())
     fail(ErrorCode::format_error, node_label(node, node_index) + " refers to mesh " + num(node.mesh) +
@@ -779,6 +796,14 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic)
     };
     std::vector<float> nrm = read_attribute("NORMAL", 3);
     std::vector<float> uv = read_attribute("TEXCOORD_0", 2);
+    std::vector<float> lightmap_uv;
+    if (clutter >= 0) {
+      if (attribute("TEXCOORD_1") < 0)
+        fail(ErrorCode::format_error, node_label(node, node_index) + ": " + what +
+                                          ": a clutter mesh (extras.modrt_clutter) needs lightmap UVs in "
+                                          "TEXCOORD_1; the primitive has none");
+      lightmap_uv = read_attribute("TEXCOORD_1", 2);
+    }
 
     std::vector<std::uint32_t> idx;
     if (prim.indices >= 0) {
@@ -814,6 +839,19 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic)
     if (idx.empty()) continue;
     if (mirrored)
       for (std::size_t t = 0; t + 2 < idx.size(); t += 3) std::swap(idx[t + 1], idx[t + 2]);
+    if (clutter >= 0) {
+      // The primitives of a clutter node form one mesh (one lightmap atlas), in world space.
+      ClutterMesh& cm = clutter_nodes_[std::size_t(clutter)].mesh;
+      const std::size_t base = cm.positions.size();
+      if (base + n > std::numeric_limits<std::uint32_t>::max())
+        fail(ErrorCode::resource_limit, what + ": the clutter mesh has more than 2^32 vertices");
+      for (std::size_t v = 0; v < n; ++v) {
+        cm.positions.push_back(glm::dvec3(
+            transform * glm::dvec4(double(pos[3 * v]), double(pos[3 * v + 1]), double(pos[3 * v + 2]), 1.0)));
+        cm.uvs.push_back(glm::dvec2(lightmap_uv[2 * v], lightmap_uv[2 * v + 1]));
+      }
+      for (std::uint32_t i : idx) cm.indices.push_back(std::uint32_t(base) + i);
+    }
 
     int material = prim.material;
     if (material >= 0 && std::size_t(material) >= model_.materials.size())
@@ -843,16 +881,23 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic)
                 (gm.primitives.size() > 1 ? " #" + num(pi) : std::string());
     mesh.material = material;
     mesh.dynamic = dynamic;
+    if (clutter >= 0) {
+      mesh.clutter = clutter;
+      if (clutter_nodes_[std::size_t(clutter)].material < 0)
+        clutter_nodes_[std::size_t(clutter)].material = material;
+    }
     auto local_pos = [&](std::size_t v) { return glm::dvec3(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]); };
     const std::vector<std::uint32_t>& src = idx;  // corner -> source vertex
     auto source = [&](std::size_t out_v) { return split ? src[out_v] : std::uint32_t(out_v); };
     mesh.position.resize(out_vertices);
     mesh.normal.resize(out_vertices);
     if (!uv.empty()) mesh.uv.resize(out_vertices);
+    if (!lightmap_uv.empty()) mesh.lightmap_uv.resize(out_vertices);
     for (std::size_t v = 0; v < out_vertices; ++v) {
       const std::uint32_t s = source(v);
       mesh.position[v] = glm::vec3(transform * glm::dvec4(local_pos(s), 1.0));
       if (!uv.empty()) mesh.uv[v] = glm::vec2(uv[2 * s], uv[2 * s + 1]);
+      if (!lightmap_uv.empty()) mesh.lightmap_uv[v] = glm::vec2(lightmap_uv[2 * s], lightmap_uv[2 * s + 1]);
       if (!nrm.empty()) {
         const glm::dvec3 nn = normal_matrix * glm::dvec3(nrm[3 * s], nrm[3 * s + 1], nrm[3 * s + 2]);
         const double len = glm::length(nn);
@@ -916,6 +961,127 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic)
       }
     }
     scene_.meshes.push_back(std::move(mesh));
+  }
+}
+
+void Loader::read_clutter_extras(const tinygltf::Value& value, ClutterNode& out) const {
+  const std::string where = out.label + ": extras.modrt_clutter";
+  if (value.IsBool()) return;  // true: every field at its default
+  if (!value.IsObject()) fail(ErrorCode::format_error, where + " must be an object (or true)");
+  for (const std::string& key : value.Keys())
+    if (key != "block" && key != "res" && key != "albedo")
+      fail(ErrorCode::format_error,
+           where + ": unknown field " + quote(key) + "; allowed: block, res, albedo");
+  auto integer = [&](const char* key) {
+    const tinygltf::Value& v = value.Get(key);
+    // tinygltf keeps JSON integers as int and other numbers as real.
+    if (!v.IsInt()) fail(ErrorCode::format_error, where + "." + key + " must be an integer");
+    return v.Get<int>();
+  };
+  if (value.Has("block")) {
+    out.block = integer("block");
+    if (*out.block < 0) fail(ErrorCode::format_error, where + ".block " + num(*out.block) + " is negative");
+  }
+  if (value.Has("res")) {
+    out.res = integer("res");
+    if (out.res < 1 || out.res > 1024)
+      fail(ErrorCode::format_error, where + ".res " + num(out.res) + " is not 1..1024");
+  }
+  if (value.Has("albedo")) {
+    const tinygltf::Value& a = value.Get("albedo");
+    if (!a.IsArray() || a.ArrayLen() != 3)
+      fail(ErrorCode::format_error, where + ".albedo must be an array of 3 numbers [r, g, b]");
+    glm::dvec3 rgb(0.0);
+    for (int c = 0; c < 3; ++c) {
+      const tinygltf::Value& x = a.Get(c);
+      if (!x.IsNumber()) fail(ErrorCode::format_error, where + ".albedo[" + num(c) + "] is not a number");
+      rgb[c] = x.GetNumberAsDouble();
+      if (!(rgb[c] >= 0.0 && rgb[c] <= 1.0))
+        fail(ErrorCode::format_error,
+             where + ".albedo[" + num(c) + "] " + short_double(rgb[c]) + " is not in [0, 1]");
+    }
+    out.albedo = rgb;
+  }
+}
+
+// The DRT build's inside and entry tests (ClutterMeshShape) count surface crossings, which
+// only mean something for a closed, consistently wound surface: every edge, with vertices
+// welded by position (UV seams split them), must border exactly two triangles, once in
+// each direction.
+std::string short_vec3(const glm::dvec3& v) {
+  return "(" + short_double(v.x) + ", " + short_double(v.y) + ", " + short_double(v.z) + ")";
+}
+
+std::string open_edge(const ClutterMesh& mesh) {
+  std::map<std::array<double, 3>, std::uint32_t> weld;
+  std::vector<std::uint32_t> id(mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    const glm::dvec3& p = mesh.positions[v];
+    id[v] = weld.emplace(std::array<double, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = id[mesh.indices[t + std::size_t(k)]],
+                          b = id[mesh.indices[t + std::size_t((k + 1) % 3)]];
+      if (a != b) ++directed[{a, b}];
+    }
+  for (const auto& [edge, count] : directed) {
+    const auto back = directed.find({edge.second, edge.first});
+    const int reverse = back == directed.end() ? 0 : back->second;
+    if (count != 1 || reverse != 1) {
+      glm::dvec3 pa(0.0), pb(0.0);
+      for (std::size_t v = 0; v < id.size(); ++v) {
+        if (id[v] == edge.first) pa = mesh.positions[v];
+        if (id[v] == edge.second) pb = mesh.positions[v];
+      }
+      return "the edge " + short_vec3(pa) + " - " + short_vec3(pb) + " borders " + num(count) +
+             " triangle(s) in one direction and " + num(reverse) + " in the other";
+    }
+  }
+  return {};
+}
+
+void Loader::make_clutter_objects() {
+  const LevelDescription& level = scene_.level;
+  for (ClutterNode& c : clutter_nodes_) {
+    const std::string where = c.label + ": extras.modrt_clutter";
+    if (c.mesh.indices.empty()) fail(ErrorCode::format_error, where + ": the node's mesh has no triangles");
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::dvec3& p : c.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    int block = -1;
+    if (c.block) {
+      if (std::size_t(*c.block) >= level.blocks.size())
+        fail(ErrorCode::format_error, where + ".block " + num(*c.block) + " does not exist; the level has " +
+                                          num(level.blocks.size()) + " blocks");
+      block = *c.block;
+    } else {
+      const glm::dvec3 centre = 0.5 * (lo + hi);
+      const glm::ivec3 cell(glm::floor(centre / level.cell_size));
+      for (std::size_t b = 0; b < level.blocks.size() && block < 0; ++b)
+        if (level.blocks[b].cell == cell) block = int(b);
+      if (block < 0)
+        fail(ErrorCode::format_error, where +
+                                          ": no block given and no block's cell contains the mesh's centre " +
+                                          short_vec3(centre) + "; set extras.modrt_clutter.block");
+    }
+    glm::dvec3 albedo(0.0);
+    if (c.albedo) {
+      albedo = *c.albedo;
+    } else {
+      albedo = glm::dvec3(scene_.materials[std::size_t(c.material)].base_color);
+      if (!(glm::all(glm::greaterThanEqual(albedo, glm::dvec3(0.0))) &&
+            glm::all(glm::lessThanEqual(albedo, glm::dvec3(1.0)))))
+        fail(ErrorCode::format_error, where + ": the material's base colour " + short_vec3(albedo) +
+                                          " is not an albedo in [0, 1]; give extras.modrt_clutter.albedo");
+    }
+    if (const std::string open = open_edge(c.mesh); !open.empty())
+      fail(ErrorCode::format_error, where + ": the mesh is not closed (" + open +
+                                        "); DRT's inside and entry tests need a closed surface");
+    Result<ClutterObject> object =
+        precompute::make_mesh_clutter(std::move(c.mesh), block, albedo, c.res, c.label);
+    if (!object.ok()) fail(object.status().code(), "clutter mesh: " + object.status().message());
+    scene_.clutter.push_back(std::move(object).value());
   }
 }
 
@@ -1172,6 +1338,7 @@ DemoScene Loader::load(const std::string& path) {
     const tinygltf::Node& node = model_.nodes[std::size_t(inst.node)];
     const std::string label = node_label(node, inst.node);
     bool is_block = false, draw_block = false, dynamic = false;
+    int clutter = -1;
     if (node.extras.IsObject()) {
       if (node.extras.Has("modrt_block")) {
         const tinygltf::Value& b = node.extras.Get("modrt_block");
@@ -1209,6 +1376,26 @@ DemoScene Loader::load(const std::string& path) {
     }
     if (is_block && dynamic)
       fail(ErrorCode::format_error, label + ": a node cannot be both a proxy block and dynamic");
+    const bool clutter_false = node.extras.IsObject() && node.extras.Has("modrt_clutter") &&
+                               node.extras.Get("modrt_clutter").IsBool() &&
+                               !node.extras.Get("modrt_clutter").Get<bool>();
+    if (node.extras.IsObject() && node.extras.Has("modrt_clutter") && !clutter_false) {
+      ClutterNode c;
+      c.node = inst.node;
+      c.label = label;
+      read_clutter_extras(node.extras.Get("modrt_clutter"), c);
+      if (is_block || dynamic)
+        fail(ErrorCode::format_error, label + ": extras.modrt_clutter: a clutter node cannot also be " +
+                                          (is_block ? "a proxy block" : "dynamic"));
+      if (node.mesh < 0)
+        fail(ErrorCode::format_error, label + ": extras.modrt_clutter: the node has no mesh");
+      clutter = int(clutter_nodes_.size());
+      clutter_nodes_.push_back(std::move(c));
+    } else if (!clutter_false && node.extras_json_string.find("\"modrt_clutter\"") != std::string::npos) {
+      fail(ErrorCode::format_error, label +
+                                        ": extras.modrt_clutter is empty or null; write true for a clutter "
+                                        "object with default fields, or give its fields");
+    }
     if (node.skin >= 0) warnings_.push_back(label + ": skin ignored; the mesh is drawn unskinned");
     if (node.camera >= 0 && !have_camera_) set_camera(inst);
     if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end()) {
@@ -1226,7 +1413,7 @@ DemoScene Loader::load(const std::string& path) {
       relative[3] -= glm::dvec4(dynamic_key_, 0.0);
       add_mesh(inst.node, relative, true);
     } else {
-      add_mesh(inst.node, inst.world, false);
+      add_mesh(inst.node, inst.world, false, clutter);
     }
   }
   if (have_dynamic_key_) scene_.dynamic_path = {glm::vec3(dynamic_key_)};
@@ -1252,6 +1439,8 @@ DemoScene Loader::load(const std::string& path) {
     fail(ErrorCode::format_error,
          "no proxy blocks found: mark nodes with extras.modrt_block or add a level file " + sidecar +
              (level_file.empty() ? std::string() : " (" + level_file + " has no blocks)"));
+
+  make_clutter_objects();
 
   bool walls = true;
   if (const tinygltf::Value* lv = scene_level_extras(); lv && lv->Has("proxy_walls")) {

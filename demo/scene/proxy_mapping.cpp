@@ -35,7 +35,7 @@ Result<std::vector<MappedMesh>> map_to_proxies(const DemoScene& scene, const Lev
   std::vector<MappedMesh> out;
   for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
     const Mesh& mesh = scene.meshes[mi];
-    if (mesh.dynamic) continue;
+    if (mesh.dynamic || mesh.clutter >= 0) continue;  // probes / the clutter lightmap light them
     const std::size_t n = mesh.position.size();
     if (mesh.normal.size() != n || (!mesh.uv.empty() && mesh.uv.size() != n) ||
         (!mesh.tangent.empty() && mesh.tangent.size() != n) || mesh.indices.size() % 3 != 0)
