@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
   std::string scene_file, dictionary_path;
   int frames = 48, modes = 32, res = 16, bounces = 2, every = 1;
   float exposure = 1.0f;
-  bool exr = true;
+  bool exr = true, drt = true;
   app.add_option("--backend", backend_name, "Indirect light on the GPU (gles) or the SIMD CPU runtime (cpu)")
       ->check(CLI::IsMember({"gles", "cpu"}))
       ->capture_default_str();
@@ -82,6 +82,9 @@ int main(int argc, char** argv) {
                  "marked extras.modrt_block, docs/demo.md); default: the built-in scene");
   app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks");
   app.add_flag("!--no-exr", exr, "Do not write the linear EXR files");
+  app.add_flag("!--no-drt", drt,
+               "Without Delta Radiance Transfer: the scene's clutter meshes are drawn as ordinary "
+               "geometry mapped onto the proxies (MRT alone), for comparison");
   CLI11_PARSE(app, argc, argv);
   int width = 0, height = 0;
   if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 ||
@@ -140,6 +143,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
     return 1;
   }
+  if (!drt && !scene->clutter.empty()) {
+    // MRT alone: the clutter meshes become detail geometry lit through the proxies' lightmaps.
+    scene->clutter.clear();
+    for (Mesh& m : scene->meshes) m.clutter = -1, m.lightmap_uv.clear();
+  }
 
   // ---- GL context and the run (level, renderer, backend) ----
   Result<std::unique_ptr<platform::GlContext>> context = platform::create_context(request);
@@ -169,6 +177,11 @@ int main(int argc, char** argv) {
       "  setup %.1f s\n",
       level.blocks.size(), level.sample_count, level.res, level.kb, level.records.size(),
       run.value()->mapped_triangles(), run.value()->backend().description(), ms_since(t_setup) / 1000.0);
+  if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0)
+    std::printf("  DRT: %zu clutter objects, %zu texels; operators built in %.2f s, %.2f MB\n", d.objects,
+                d.texels, d.seconds, double(d.bytes) / 1e6);
+  else if (!drt)
+    std::printf("  DRT: off (--no-drt)\n");
 
   std::vector<float> linear(3 * std::size_t(width) * std::size_t(height)), flipped(linear.size());
   std::vector<std::uint8_t> srgb(linear.size());
@@ -221,6 +234,11 @@ int main(int argc, char** argv) {
     std::printf(
         "    first update's passes: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",
         total.b / n, total.r / n, total.lightmaps / n, total.probes / n, total.vector / n);
+  if (run.value()->drt_startup().objects > 0)
+    std::printf(
+        "    DRT: clutter direct light (in direct) %.3f, clutter lightmap readback + upload (in indirect) "
+        "%.3f\n",
+        total.clutter_direct / n, total.clutter_lightmap / n);
   std::printf("  render (camera image, tone map, readback)  %8.3f\n", total.render / n);
   std::printf("  write images                               %8.3f\n", write_ms / n);
   std::printf("vector irradiance on normal maps: %s\n",

@@ -7,8 +7,10 @@
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
+#include "modrt/precompute/drt_build.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/reference_runtime.h"
 #include "scene/proxy_mapping.h"
 
 namespace modrt::demo {
@@ -113,6 +115,27 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->backend_ = std::move(be).value();
   }
   if (Status s = run->backend_->set_albedo(albedo); !s.ok()) return s;
+  if (!scene.clutter.empty()) {
+    // DRT operators once for the static clutter; the light moves, the clutter does not.
+    const Clock::time_point t0 = Clock::now();
+    precompute::DrtBuildSettings settings;
+    settings.rays = options.drt_rays;
+    Result<DrtOperators> drt = precompute::DrtBuilder(lv, dict, settings).build(scene.clutter);
+    if (!drt.ok()) return drt.status();
+    run->drt_ = std::make_unique<DrtOperators>(std::move(drt).value());
+    run->drt_startup_.seconds = ms_since(t0) * 1e-3;
+    run->drt_startup_.objects = scene.clutter.size();
+    run->drt_startup_.bytes = run->drt_->storage_bytes();
+    if (Status s = run->backend_->set_clutter(run->drt_.get()); !s.ok()) return s;
+    run->clutter_scene_ = std::make_unique<precompute::LevelScene>(lv, lv.res, scene.clutter);
+    for (const ClutterObject& object : scene.clutter) {
+      const ClutterTexelGeometry g = clutter_texel_geometry(object);
+      run->clutter_position_.insert(run->clutter_position_.end(), g.position.begin(), g.position.end());
+    }
+    run->drt_startup_.texels = run->clutter_position_.size();
+    run->clutter_ld_.assign(run->backend_->clutter_sizes().clutter_ld, 0.0f);
+    run->clutter_lightmap_.assign(run->backend_->clutter_sizes().clutter_lightmap, 0.0f);
+  }
   if (options.direct == DemoDirect::cpu) {
     Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(lv, albedo);
     if (!direct.ok()) return direct.status();
@@ -125,6 +148,45 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   run->vector_lightmap_.assign(run->vector_ ? sizes.vector_lightmap : 0, 0.0f);
   run->coefficient_.assign(run->vector_ ? sizes.lightmap : 0, 0.0f);
   return run;
+}
+
+// The clutter's direct light, albedo * E/pi per texel (what Td_c reads): precompute's model of
+// the level's direct light with shadows from the proxy walls and all clutter (Embree), the
+// light treated as the renderer treats it (a point, E clamped at its radius) and the spot
+// cone of lighting.glsl applied per texel. The renderer draws the clutter's direct light
+// itself, as for every mesh, so the clutter lightmap gets none (clutter_direct empty).
+Status DemoRun::clutter_light(const FrameState& state) {
+  const Clock::time_point t = Clock::now();
+  const DemoLight& light = scene_->lights.front();
+  LightDescription l;
+  l.position = glm::dvec3(state.light_position);
+  l.radius = light.radius;
+  l.color = glm::dvec3(light.color);
+  l.intensity = light.intensity;
+  const std::vector<float> e = precompute::clutter_direct_light(*clutter_scene_, std::span(&l, 1), 1);
+  if (e.size() != clutter_ld_.size())
+    return Status::error(ErrorCode::internal_error, "demo: clutter direct light has the wrong size");
+  const bool spot = light.outer_cone < 3.14159f;
+  const double cos_outer = std::cos(double(light.outer_cone)),
+               cos_inner =
+                   std::max(std::cos(double(std::min(light.inner_cone, light.outer_cone))), cos_outer + 1e-4);
+  const glm::dvec3 axis = glm::length(light.direction) > 0.0f ? glm::normalize(glm::dvec3(light.direction))
+                                                              : glm::dvec3(0.0, -1.0, 0.0);
+  for (std::size_t i = 0; i < clutter_position_.size(); ++i) {
+    double cone = 1.0;
+    if (spot) {
+      const double c = glm::dot(glm::normalize(clutter_position_[i] - l.position), axis);
+      const double x = std::clamp((c - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0);
+      cone = x * x * (3.0 - 2.0 * x);  // GLSL smoothstep
+    }
+    for (std::size_t c = 0; c < 3; ++c) {
+      const float v = float(cone * double(e[3 * i + c]));
+      clutter_ld_[3 * i + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
+    }
+  }
+  Status s = backend_->set_clutter_light(clutter_ld_, {});
+  times_.clutter_direct += ms_since(t);
+  return s;
 }
 
 Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8) {
@@ -164,6 +226,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   } else if (s.ok()) {
     s = renderer_->compute_ld(state, ld_);
   }
+  if (s.ok() && drt_) s = clutter_light(state);
   times_.direct += ms_since(t);
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();
@@ -177,6 +240,12 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   const int steps = frame == 0 ? 3 * options_.bounces : options_.bounces;
   for (int k = 0; k < steps && s.ok(); ++k) s = backend_->multi_bounce_step(ld_);
   if (s.ok() && !probes_.empty()) s = backend_->read_probes(probes_);
+  if (s.ok() && drt_) {
+    const Clock::time_point tc = Clock::now();
+    s = backend_->read_clutter_lightmap(clutter_lightmap_);
+    if (s.ok()) s = renderer_->upload_clutter_lightmap(clutter_lightmap_);
+    times_.clutter_lightmap += ms_since(tc);
+  }
   if (s.ok()) {
     if (gles_runtime) {
       state.atlas = gles_runtime->atlas_texture();

@@ -11,8 +11,10 @@
 #include "modrt/backend.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/dictionary.h"
+#include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_context.h"
+#include "modrt/precompute/level_scene.h"
 #include "render/scene_renderer.h"
 #include "scene/demo_scene.h"
 
@@ -31,6 +33,10 @@ struct DemoRunOptions {
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
   int bounces = 2;  // multi-bounce feedback steps per frame (three times as many on frame 0)
+  // DRT for the scene's clutter (docs/drt.md): operators built at create(). The clutter
+  // meshes need it (they are lit by the clutter lightmap); a caller that turns it off must
+  // pass a scene whose clutter is ordinary geometry (demo_main's --no-drt does that).
+  int drt_rays = 1024;  // DrtBuildSettings::rays
 };
 
 // Wall-clock milliseconds per stage, summed over frames (glFinish closes each stage).
@@ -39,6 +45,15 @@ struct StageTimes {
   // GLES backend only, from its pass timers (GPU timer queries where the context has them):
   // the frame's first update; feedback steps repeat b, r and lightmaps.
   double b = 0, r = 0, lightmaps = 0, probes = 0, vector = 0;
+  // DRT: the clutter's direct light (Embree, included in `direct`) and the clutter lightmap's
+  // readback and upload (included in `indirect`).
+  double clutter_direct = 0, clutter_lightmap = 0;
+};
+
+// The DRT operator build at create().
+struct DrtStartup {
+  std::size_t objects = 0, texels = 0, bytes = 0;
+  double seconds = 0.0;
 };
 
 class DemoRun {
@@ -62,15 +77,28 @@ class DemoRun {
   int height() const { return options_.renderer.height; }
   // The ld of the last frame (3 per sample), for tests.
   std::span<const float> ld() const { return ld_; }
+  // DRT (empty without clutter): the build, the clutter's ld and clutter lightmap of the
+  // last frame (3 per clutter texel).
+  const DrtStartup& drt_startup() const { return drt_startup_; }
+  std::span<const float> clutter_ld() const { return clutter_ld_; }
+  std::span<const float> clutter_lightmap() const { return clutter_lightmap_; }
 
  private:
   DemoRun() = default;
+  Status clutter_light(const FrameState& state);
   const DemoScene* scene_ = nullptr;
   const Dictionary* dict_ = nullptr;
   platform::GlContext* context_ = nullptr;
   DemoRunOptions options_;
   Level level_;
   std::unique_ptr<SceneRenderer> renderer_;
+  // DRT: the operators (borrowed by the backend, so they outlive it), the walls plus clutter
+  // for the clutter's shadowed direct light, and the clutter texels' positions (spot cones).
+  std::unique_ptr<DrtOperators> drt_;
+  std::unique_ptr<precompute::LevelScene> clutter_scene_;
+  std::vector<glm::dvec3> clutter_position_;
+  std::vector<float> clutter_ld_, clutter_lightmap_;
+  DrtStartup drt_startup_;
   std::unique_ptr<Backend> backend_;
   void* gles_runtime_ = nullptr;                     // the backend as gles::GlesLevelRuntime, when it is one
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu

@@ -18,6 +18,7 @@
 #include "demo_run.h"
 #include "modrt/level_geometry.h"
 #include "modrt/precompute/level_scene.h"
+#include "scene/clutter_shapes.h"
 #include "scene/default_scene.h"
 #include "scene/proxy_mapping.h"
 #include "test_support.h"
@@ -346,6 +347,67 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
   EXPECT_LT(e.p99, 0.5);
   std::printf("  GLES vs CPU backend image: linear rel L2 %.2e, Delta E mean %.3f, p99 %.3f\n",
               std::sqrt(num / den), e.mean, e.p99);
+}
+
+// DRT in the demo: the default scene plus a clutter box (a mesh with lightmap UVs) in block 0.
+// Both backends build the same operators (same seeds) and must give the same clutter
+// lightmap and image; the clutter lightmap must carry light (an unlit or unread lightmap
+// would leave the box black in the indirect image).
+TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoScene s = scene();
+  const std::array<glm::dvec3, 8> c0 = block_corners(s.level, s.level.blocks[0]);
+  const glm::dvec3 centre = trilinear(c0, glm::dvec3(0.5));
+  ClutterPrism box;
+  box.name = "test clutter box";
+  s.materials.push_back(Material{"clutter", glm::vec3(0.7f, 0.4f, 0.3f)});
+  box.material = int(s.materials.size()) - 1;
+  const double x = centre.x + 0.15, z = centre.z + 0.15;
+  box.polygon = {{x, z}, {x + 0.15, z}, {x + 0.15, z + 0.15}, {x, z + 0.15}};
+  box.cap_triangles = {0, 1, 2, 0, 2, 3};
+  box.y0 = centre.y - 0.3, box.y1 = centre.y;
+  box.res = 24;
+  ASSERT_TRUE(add_clutter_prism(s, box).ok());
+  std::vector<std::vector<std::uint8_t>> images;
+  std::vector<std::vector<float>> linear, clutter;
+  for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
+    DemoRunOptions options;
+    options.backend = backend;
+    options.drt_rays = 128;
+    options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    EXPECT_EQ(run.value()->drt_startup().objects, 1u);
+    linear.emplace_back(3 * kGoldenWidth * kGoldenHeight);
+    images.emplace_back(linear.back().size());
+    for (int frame = 0; frame < 3; ++frame) {
+      const Status st = run.value()->render(frame, linear.back(), images.back());
+      ASSERT_TRUE(st.ok()) << st.to_string();
+    }
+    clutter.emplace_back(run.value()->clutter_lightmap().begin(), run.value()->clutter_lightmap().end());
+    ASSERT_EQ(clutter.back().size(), 3 * std::size_t(clutter_texel_count(s.clutter[0])));
+    // The direct light reaches part of the box (the light starts beside block 0's centre).
+    EXPECT_GT(*std::max_element(run.value()->clutter_ld().begin(), run.value()->clutter_ld().end()), 0.0f);
+  }
+  auto rel_l2 = [](const std::vector<float>& a, const std::vector<float>& b) {
+    double num = 0, den = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      num += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
+      den += double(b[i]) * b[i];
+    }
+    return std::sqrt(num / den);
+  };
+  double lo = 1e30, sum = 0.0;
+  for (float v : clutter[1]) lo = std::min(lo, double(v)), sum += v;
+  EXPECT_GE(lo, 0.0);
+  EXPECT_GT(sum / double(clutter[1].size()), 1e-3);  // E/pi of the indirect light, not black
+  EXPECT_LT(rel_l2(clutter[0], clutter[1]), 1e-4);
+  EXPECT_LT(rel_l2(linear[0], linear[1]), 1e-4);
+  const DeltaE e = delta_e(images[0], images[1]);
+  EXPECT_LT(e.p99, 0.5);
+  std::printf("  with clutter, GLES vs CPU: clutter lightmap rel L2 %.2e, image %.2e, Delta E p99 %.3f\n",
+              rel_l2(clutter[0], clutter[1]), rel_l2(linear[0], linear[1]), e.p99);
 }
 
 // The golden image: frame 0 of the default scene under OSMesa, 320 x 180, small test

@@ -8,6 +8,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "modrt/clutter_mesh.h"
 #include "modrt/level_geometry.h"
 #include "modrt/platform/gl_program.h"
 #include "modrt/reference_runtime.h"
@@ -38,6 +39,7 @@ struct DrawRange {
   GLsizei count = 0;
   int material = 0;
   bool dynamic = false;
+  int clutter = -1;  // DemoScene::clutter object whose lightmap lights it
 };
 
 void append_sphere(std::vector<MappedVertex>& out, float radius) {
@@ -101,7 +103,7 @@ struct SceneRenderer::Impl {
   struct SceneUniforms {
     GLint view_proj = -1, output = -1, probe_sh = -1, to_canonical = -1, offset = -1, base_color = -1,
           has_normal_map = -1, normal_scale = -1, use_vector = -1, dynamic = -1, emissive = -1,
-          has_base_map = -1;
+          has_base_map = -1, clutter = -1;
   } su;
 
   std::vector<GLuint> programs, framebuffers, textures, buffers;
@@ -122,6 +124,13 @@ struct SceneRenderer::Impl {
   std::vector<GLuint> material_normal;  // texture per material, 0 = none
   std::vector<GLuint> material_base;    // base colour texture (sRGB) per material, 0 = none
   std::vector<float> readback;
+  // DRT clutter: per object its atlas (cell -> texel, padding) and its res x res RGBA32F
+  // lightmap texture; the offset of its texels in the concatenated clutter lightmap.
+  std::vector<std::shared_ptr<const ClutterMeshData>> clutter_mesh;
+  std::vector<GLuint> clutter_texture;
+  std::vector<std::size_t> clutter_offset;
+  std::size_t clutter_floats = 0;
+  bool clutter_uploaded = false;
 };
 
 SceneRenderer::SceneRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -192,7 +201,8 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     m.su = {m.loc(p, "u_view_proj"),      m.loc(p, "u_output"),       m.loc(p, "u_probe_sh"),
             m.loc(p, "u_to_canonical"),   m.loc(p, "u_offset"),       m.loc(p, "u_base_color"),
             m.loc(p, "u_has_normal_map"), m.loc(p, "u_normal_scale"), m.loc(p, "u_use_vector"),
-            m.loc(p, "u_dynamic"),        m.loc(p, "u_emissive"),     m.loc(p, "u_has_base_map")};
+            m.loc(p, "u_dynamic"),        m.loc(p, "u_emissive"),     m.loc(p, "u_has_base_map"),
+            m.loc(p, "u_clutter")};
   }
   gl.glUseProgram(0);
 
@@ -219,6 +229,43 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     }
     d.count = GLsizei(vertices.size()) - d.first;
     m.draws.push_back(d);
+  }
+  // Clutter meshes: their lightmap coordinates are TEXCOORD_1 in texels of their object's
+  // res x res clutter lightmap (x + 0.5 a texel centre, as the level atlas's).
+  for (const Mesh& mesh : scene.meshes) {
+    if (mesh.dynamic || mesh.clutter < 0) continue;
+    if (std::size_t(mesh.clutter) >= scene.clutter.size() || !scene.clutter[std::size_t(mesh.clutter)].mesh)
+      return Status::error(ErrorCode::invalid_argument,
+                           "renderer: mesh '" + mesh.name + "' names clutter object " +
+                               std::to_string(mesh.clutter) +
+                               ", which is not a mesh clutter object of the scene");
+    if (mesh.lightmap_uv.size() != mesh.position.size())
+      return Status::error(ErrorCode::invalid_argument,
+                           "renderer: clutter mesh '" + mesh.name + "' needs one lightmap UV per vertex");
+    const float res = float(scene.clutter[std::size_t(mesh.clutter)].mesh->atlas.res);
+    DrawRange d{GLint(vertices.size()), 0, mesh.material, false, mesh.clutter};
+    for (std::uint32_t i : mesh.indices) {
+      if (i >= mesh.position.size() || i >= mesh.normal.size())
+        return Status::error(ErrorCode::invalid_argument,
+                             "renderer: mesh '" + mesh.name + "': index out of range");
+      MappedVertex v;
+      v.position = mesh.position[i];
+      v.normal = mesh.normal[i];
+      if (i < mesh.uv.size()) v.uv = mesh.uv[i];
+      if (i < mesh.tangent.size()) v.tangent = mesh.tangent[i];
+      v.lightmap = mesh.lightmap_uv[i] * res;
+      vertices.push_back(v);
+    }
+    d.count = GLsizei(vertices.size()) - d.first;
+    m.draws.push_back(d);
+  }
+  for (const ClutterObject& object : scene.clutter) {
+    m.clutter_offset.push_back(m.clutter_floats);
+    m.clutter_floats += 3 * std::size_t(clutter_texel_count(object));
+    m.clutter_mesh.push_back(object.mesh);
+    // Box clutter has no mesh to draw; it keeps no texture.
+    m.clutter_texture.push_back(
+        object.mesh ? m.texture(GL_RGBA32F, object.mesh->atlas.res, object.mesh->atlas.res) : 0);
   }
   m.light_marker.first = GLint(vertices.size());
   append_sphere(vertices, 1.0f);
@@ -482,6 +529,38 @@ Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int
   return target;
 }
 
+Status SceneRenderer::upload_clutter_lightmap(std::span<const float> clutter_lightmap) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (clutter_lightmap.size() != m.clutter_floats)
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the clutter lightmap has " + std::to_string(clutter_lightmap.size()) +
+                             " floats, the scene's clutter " + std::to_string(m.clutter_floats));
+  for (std::size_t k = 0; k < m.clutter_mesh.size(); ++k) {
+    if (!m.clutter_mesh[k]) continue;
+    const ClutterMeshAtlas& atlas = m.clutter_mesh[k]->atlas;
+    const std::size_t cells = std::size_t(atlas.res) * std::size_t(atlas.res);
+    if (m.readback.size() < 4 * cells) m.readback.resize(4 * cells);
+    std::fill(m.readback.begin(), m.readback.begin() + std::ptrdiff_t(4 * cells), 0.0f);
+    const float* src = clutter_lightmap.data() + m.clutter_offset[k];
+    for (std::size_t c = 0; c < cells; ++c) {
+      const std::int32_t t = atlas.cell_texel[c];
+      if (t < 0) continue;
+      for (std::size_t ch = 0; ch < 3; ++ch) m.readback[4 * c + ch] = src[3 * std::size_t(t) + ch];
+      m.readback[4 * c + 3] = 1.0f;
+    }
+    // The ring around the charts copies its neighbours, so bilinear taps at chart borders
+    // never read black.
+    for (const auto& [to, from] : atlas.padding)
+      for (std::size_t ch = 0; ch < 4; ++ch) m.readback[4 * to + ch] = m.readback[4 * from + ch];
+    gl.glBindTexture(GL_TEXTURE_2D, m.clutter_texture[k]);
+    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas.res, atlas.res, GL_RGBA, GL_FLOAT, m.readback.data());
+  }
+  m.clutter_uploaded = true;
+  return gl_status(gl, "uploading the clutter lightmaps");
+}
+
 Status SceneRenderer::render_image(const FrameState& frame, std::span<float> linear_rgb,
                                    std::span<std::uint8_t> srgb8) {
   Impl& m = *impl_;
@@ -490,6 +569,9 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   if (linear_rgb.size() != 3 * pixels || srgb8.size() != 3 * pixels)
     return Status::error(ErrorCode::invalid_argument, "renderer: output buffers have the wrong size");
   if (!frame.atlas) return Status::error(ErrorCode::invalid_argument, "renderer: no lightmap atlas given");
+  if (m.clutter_floats > 0 && !m.clutter_uploaded)
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the scene has clutter but no clutter lightmap was uploaded");
   const DemoCamera& cam = frame.camera;
   const glm::mat4 view_proj =
       glm::perspective(cam.yfov, float(options_.width) / float(options_.height), cam.znear, cam.zfar) *
@@ -528,8 +610,9 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glBindVertexArray(m.vao);
   const GLint u_offset = m.su.offset, u_base = m.su.base_color, u_nm = m.su.has_normal_map,
               u_scale = m.su.normal_scale, u_vec = m.su.use_vector, u_dyn = m.su.dynamic,
-              u_emissive = m.su.emissive, u_base_tex = m.su.has_base_map;
+              u_emissive = m.su.emissive, u_base_tex = m.su.has_base_map, u_clutter = m.su.clutter;
   gl.glUniform1i(u_emissive, 0);
+  gl.glUniform1i(u_clutter, 0);
   for (const DrawRange& d : m.draws) {
     const Material& mat = m.materials[std::size_t(d.material)];
     const GLuint normal_map = m.material_normal[std::size_t(d.material)];
@@ -546,8 +629,15 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     bind_texture(gl, 1, GL_TEXTURE_2D, normal_map);
     bind_texture(gl, 7, GL_TEXTURE_2D, base_map);
     gl.glUniform1i(u_base_tex, base_map != 0);
+    if (d.clutter >= 0) {
+      // Clutter draws come last: the atlas unit is not needed again this pass.
+      gl.glUniform1i(u_vec, 0);
+      gl.glUniform1i(u_clutter, 1);
+      bind_texture(gl, 2, GL_TEXTURE_2D, m.clutter_texture[std::size_t(d.clutter)]);
+    }
     gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
   }
+  gl.glUniform1i(u_clutter, 0);
   // The light itself, a small bright sphere (scaled through the offset trick: radius 1 mesh).
   gl.glUniform1i(u_emissive, 1);
   const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), frame.light_position) *

@@ -73,6 +73,11 @@ class SceneRenderer {
   // Uploads an atlas computed on the CPU (3 floats per texel) into one of the renderer's own
   // atlas textures and returns it: slot 0 for FrameState::atlas, 1..4 for vector_atlas[0..3].
   Result<GLuint> upload_atlas(std::span<const float> atlas_rgb, int slot = 0);
+  // DRT: the clutter lightmap (Backend::read_clutter_lightmap, 3 floats per clutter texel,
+  // the scene's clutter objects in order), scattered into each mesh object's res x res
+  // texture through its atlas's cells and padding. Required before render_image when the
+  // scene has clutter.
+  Status upload_clutter_lightmap(std::span<const float> clutter_lightmap);
   // The camera image: linear RGB (3 floats per pixel, rows bottom to top) and sRGB8 (3 bytes
   // per pixel, rows top to bottom, ready for an image file).
   Status render_image(const FrameState& frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);

@@ -18,6 +18,7 @@ uniform vec3 u_probe_sh[9];   // E/pi SH9 of the probe volume at the dynamic obj
 uniform mat3 u_to_canonical;  // world -> that block's canonical frame
 uniform int u_output;
 uniform int u_emissive;       // the light's own marker
+uniform int u_clutter;        // DRT clutter mesh: u_atlas is its own clutter lightmap
 in vec3 v_position;
 in vec3 v_normal;
 in vec4 v_tangent;
@@ -71,6 +72,17 @@ void main() {
   vec3 indirect;
   if (u_dynamic != 0) {
     indirect = sh9(normalize(u_to_canonical * shading_n));
+  } else if (u_clutter != 0) {
+    // The clutter lightmap (Cb b + Cc c, E/pi) at the mesh's lightmap UVs; taps clamped to
+    // the texture (a chart may touch the atlas edge).
+    vec2 p = v_lightmap - 0.5;
+    ivec2 hi = textureSize(u_atlas, 0) - 1;
+    ivec2 i = ivec2(floor(p));
+    vec2 f = p - vec2(i);
+    ivec2 i0 = clamp(i, ivec2(0), hi), i1 = clamp(i + 1, ivec2(0), hi);
+    vec4 a = mix(texelFetch(u_atlas, i0, 0), texelFetch(u_atlas, ivec2(i1.x, i0.y), 0), f.x);
+    vec4 b = mix(texelFetch(u_atlas, ivec2(i0.x, i1.y), 0), texelFetch(u_atlas, i1, 0), f.x);
+    indirect = max(mix(a, b, f.y).rgb, vec3(0.0));
   } else if (u_use_vector != 0) {
     // The OHLSH coefficients are in the proxy face frame (u, v, inward normal).
     vec3 fu = normalize(v_face_u), fv = normalize(v_face_v);
