@@ -363,12 +363,11 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
   const DrtBufferSizes d = drt_buffer_sizes(f.drt);
   std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
-  ASSERT_TRUE(drt_compute_c(f.drt, f.clutter_ld, c).ok());
   MultiBounceSettings settings;
   settings.max_iterations = kSteps;
   settings.tolerance = 0.0f;
   const Result<MultiBounceReport> rep =
-      drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, c, settings, b, r, ref);
+      drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r, ref, c);
   ASSERT_TRUE(rep.ok()) << rep.status().to_string();
   ASSERT_EQ(rep->iterations, kSteps);
   drt_clutter_lightmap(f.drt, b, f.clutter_direct, clutter_ref);
@@ -387,8 +386,14 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   ASSERT_TRUE(cpu_skip.ok()) << cpu_skip.status().to_string();
   std::vector<std::vector<float>> lightmaps, atlases, clutters, probes, vectors;
   for (Backend* be : {static_cast<Backend*>(g.get()), cpu->get(), cpu_skip->get()}) {
-    ASSERT_TRUE(be->set_clutter(&f.drt).ok()) << be->description();
-    ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    {
+      const Status st = be->set_clutter(&f.drt);
+      ASSERT_TRUE(st.ok()) << st.to_string();
+    }
+    {
+      const Status st = be->set_clutter_light(f.clutter_ld, f.clutter_direct);
+      ASSERT_TRUE(st.ok()) << st.to_string();
+    }
     ASSERT_TRUE(be->set_albedo(f.albedo, settings.max_albedo).ok());
     ASSERT_TRUE(be->update(f.ld).ok());
     ASSERT_TRUE(be->update(f.ld).ok());  // a repeated frame changes nothing
@@ -427,6 +432,66 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
   std::printf("  gles vs cpu: atlas %.2e, clutter lightmap %.2e, probes %.2e, vector irradiance %.2e\n",
               rel_l2(atlases[0], atlases[1]), rel_l2(clutters[0], clutters[1]), rel_l2(probes[0], probes[1]),
               rel_l2(vectors[0], vectors[1]));
+}
+
+// With the clutter's albedo, multi_bounce_step also feeds the clutter's indirect light back
+// through c (core's drt_multi_bounce with clutter_albedo), on GLES and on the CPU; update()
+// then starts again from the clutter's direct light.
+TEST_P(GlesDrtTest, MultiBounceFeedsTheClutterLightBackAsCore) {
+  constexpr int kSteps = 3;
+  const DrtFixture& f = fixture();
+  const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
+  const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+  std::mt19937 rng(31);
+  const std::vector<float> clutter_albedo = random_vector(rng, d.clutter_ld, 0.2f, 0.99f);  // some clamped
+  MultiBounceSettings settings;
+  settings.max_iterations = kSteps;
+  settings.tolerance = 0.0f;
+  std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
+  ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, settings,
+                               b, r, ref, c)
+                  .ok());
+  drt_clutter_lightmap(f.drt, b, f.clutter_direct, clutter_ref);
+  drt_clutter_add_cc(f.drt, c, clutter_ref);
+  std::vector<float> plain(s.lightmap), c_plain(d.c);
+  ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r,
+                               plain, c_plain)
+                  .ok());
+  EXPECT_GT(rel_l2(plain, ref), 100 * kFloat32Tolerance);  // the clutter's bounce shows
+  const Reference one = reference(f, f.ld, f.clutter_ld);
+
+  std::unique_ptr<GlesLevelRuntime> g = make({.target = TargetFormat::float32});
+  ASSERT_TRUE(g);
+  Result<std::unique_ptr<Backend>> cpu = cpu::create_cpu_backend(f.level, dict());
+  ASSERT_TRUE(cpu.ok()) << cpu.status().to_string();
+  for (Backend* be : {static_cast<Backend*>(g.get()), cpu->get()}) {
+    EXPECT_EQ(be->set_clutter_albedo(clutter_albedo).code(), ErrorCode::invalid_argument);  // no clutter yet
+    ASSERT_TRUE(be->set_clutter(&f.drt).ok()) << be->description();
+    ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(be->set_albedo(f.albedo, settings.max_albedo).ok());
+    std::vector<float> bad = clutter_albedo;
+    bad[7] = std::nanf("");
+    EXPECT_EQ(be->set_clutter_albedo(bad).code(), ErrorCode::non_finite) << be->description();
+    bad.pop_back();
+    EXPECT_EQ(be->set_clutter_albedo(bad).code(), ErrorCode::invalid_argument) << be->description();
+    ASSERT_TRUE(be->set_clutter_albedo(clutter_albedo, settings.max_albedo).ok()) << be->description();
+    ASSERT_TRUE(be->update(f.ld).ok());
+    for (int k = 0; k < kSteps; ++k) ASSERT_TRUE(be->multi_bounce_step(f.ld).ok()) << be->description();
+    std::vector<float> lightmap(s.lightmap), clutter(d.clutter_lightmap);
+    ASSERT_TRUE(be->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
+    const double e = rel_l2(lightmap, ref), ec = rel_l2(clutter, clutter_ref);
+    EXPECT_LE(e, kFloat32Tolerance) << be->description();
+    EXPECT_LE(ec, kFloat32Tolerance) << be->description();
+    // A new frame: one bounce from the clutter's direct light again.
+    ASSERT_TRUE(be->update(f.ld).ok());
+    ASSERT_TRUE(be->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
+    EXPECT_LE(rel_l2(lightmap, one.lightmap), kFloat32Tolerance) << be->description();
+    EXPECT_LE(rel_l2(clutter, one.clutter), kFloat32Tolerance) << be->description();
+    std::printf("  %-40s multi-bounce x%d with clutter feedback rel L2 %.2e, clutter lightmap %.2e\n",
+                be->description(), kSteps, e, ec);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesDrtTest,

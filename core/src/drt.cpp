@@ -420,20 +420,62 @@ void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
   }
 }
 
-Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict, const DrtOperators& drt,
-                                           std::span<const float> ld_direct, std::span<const float> albedo,
-                                           std::span<const float> c, const MultiBounceSettings& settings,
-                                           std::span<float> b, std::span<float> r, std::span<float> lightmap) {
-  if (c.size() != drt_buffer_sizes(drt).c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
+void drt_clutter_feedback(std::span<const float> clutter_ld, std::span<const float> rho_c,
+                          std::span<const float> indirect, float bound, std::span<float> out) {
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = clutter_ld[i] + rho_c[i] * std::min(std::max(indirect[i], 0.0f), bound);
+}
+
+float drt_feedback_bound(std::span<const float> ld_direct, float rho_max, std::span<const float> clutter_ld,
+                         float rho_c_max) {
+  float ld_max = 0.0f;
+  for (float v : ld_direct) ld_max = std::max(ld_max, v);
+  for (float v : clutter_ld) ld_max = std::max(ld_max, v);
+  return ld_max / (1.0f - std::max(rho_max, rho_c_max));
+}
+
+Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict,
+                                           const DrtOperators& drt, std::span<const float> ld_direct,
+                                           std::span<const float> albedo, std::span<const float> clutter_ld,
+                                           std::span<const float> clutter_albedo,
+                                           const MultiBounceSettings& settings, std::span<float> b,
+                                           std::span<float> r, std::span<float> lightmap,
+                                           std::span<float> c) {
+  const DrtBufferSizes sizes = drt_buffer_sizes(drt);
+  if (c.size() != sizes.c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
+  if (!clutter_albedo.empty())
+    if (Status s = validate_light_signal(clutter_albedo, sizes.clutter_texels, "clutter_albedo"); !s.ok())
+      return s;
+  if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;
   Result<FeedbackClamp> clamp = prepare_feedback(ld_direct, albedo, level.sample_count, settings);
   if (!clamp.ok()) return clamp.status();
   MultiBounceReport report;
   report.albedo_clamped = clamp->albedo_clamped;
   report.energy_bound = clamp->energy_bound;
+  // The clutter's feedback (docs/drt.md "Multi-bounce"): its albedo clamped as the level's.
+  std::vector<float> rho_c(clutter_albedo.begin(), clutter_albedo.end()), indirect, fed;
+  float rho_max = 0.0f, rho_c_max = 0.0f, bound_c = 0.0f;
+  if (!rho_c.empty()) {
+    for (float v : clamp->rho) rho_max = std::max(rho_max, v);
+    for (float& v : rho_c) {
+      report.albedo_clamped |= v > settings.max_albedo;
+      v = std::min(v, settings.max_albedo);
+      rho_c_max = std::max(rho_c_max, v);
+    }
+    bound_c = drt_feedback_bound(ld_direct, rho_max, clutter_ld, rho_c_max);
+    indirect.resize(sizes.clutter_lightmap);
+    fed.resize(sizes.clutter_ld);
+  }
   std::vector<float> ld(ld_direct.begin(), ld_direct.end()), b_prev(b.size());
   if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
   drt_apply(level, drt, b, c, lightmap);
   for (int it = 1; it <= settings.max_iterations; ++it) {
+    if (!rho_c.empty()) {
+      drt_clutter_lightmap(drt, b, {}, indirect);
+      drt_clutter_add_cc(drt, c, indirect);
+      drt_clutter_feedback(clutter_ld, rho_c, indirect, bound_c, fed);
+      if (Status s = drt_compute_c(drt, fed, c); !s.ok()) return s;
+    }
     report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
     std::copy(b.begin(), b.end(), b_prev.begin());
     if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;

@@ -29,6 +29,7 @@ class CpuBackend final : public Backend {
   Status update(std::span<const float> ld) override {
     if (drt_) {
       if (Status s = rt_.evaluate(ld, base_); !s.ok()) return s;
+      c_ = c_direct_;  // a new first bounce: the clutter's direct light only
       return finish_drt();
     }
     if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
@@ -57,6 +58,13 @@ class CpuBackend final : public Backend {
         return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call set_albedo first");
       if (Status s = validate_light_signal(ld_direct, lightmap_.size() / 3, "ld_direct"); !s.ok()) return s;
       const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
+      if (!rho_c_.empty()) {  // the clutter's indirect light of the last evaluation, fed back
+        if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
+        if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
+        drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_,
+                             drt_feedback_bound(ld_direct, rho_max_, clutter_ld_, rho_c_max_), clutter_fed_);
+        if (Status s = drt_->compute_c(clutter_fed_, c_); !s.ok()) return s;
+      }
       feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(), ld_max / (1.0f - rho_max_),
                    ld_feedback_.data(), ld_direct.size());
       if (Status s = rt_.evaluate(ld_feedback_, base_); !s.ok()) return s;
@@ -83,7 +91,8 @@ class CpuBackend final : public Backend {
     if (!drt || drt->empty()) {
       drt_.reset();
       drt_sizes_ = {};
-      base_ = {}, c_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {}, ld_feedback_ = {};
+      base_ = {}, c_ = {}, c_direct_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {};
+      ld_feedback_ = {}, rho_c_ = {}, clutter_indirect_ = {}, clutter_fed_ = {};
       updated_ = false;
       return Status::success();
     }
@@ -95,6 +104,8 @@ class CpuBackend final : public Backend {
     base_.assign(lightmap_.size(), 0.0f);
     ld_feedback_.assign(lightmap_.size(), 0.0f);
     c_.assign(drt_sizes_.c, 0.0f);
+    c_direct_ = c_;
+    rho_c_.clear();
     clutter_ld_.assign(drt_sizes_.clutter_ld, 0.0f);
     clutter_direct_.clear();
     clutter_lightmap_.assign(drt_sizes_.clutter_lightmap, 0.0f);
@@ -115,7 +126,25 @@ class CpuBackend final : public Backend {
       if (Status s = validate_light_signal(clutter_direct, n / 3, "clutter_direct"); !s.ok()) return s;
     clutter_ld_.assign(clutter_ld.begin(), clutter_ld.end());
     clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
-    return drt_->compute_c(clutter_ld_, c_);
+    if (Status s = drt_->compute_c(clutter_ld_, c_direct_); !s.ok()) return s;
+    c_ = c_direct_;
+    return Status::success();
+  }
+  Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) override {
+    if (!drt_) return Status::error(ErrorCode::invalid_argument, "cpu: set_clutter_albedo: no clutter set");
+    if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
+      return Status::error(ErrorCode::invalid_argument,
+                           "cpu: set_clutter_albedo: max_albedo must be in [0, 1)");
+    if (!clutter_albedo.empty())
+      if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo");
+          !s.ok())
+        return s;
+    rho_c_.assign(clutter_albedo.begin(), clutter_albedo.end());
+    rho_c_max_ = 0.0f;
+    for (float& v : rho_c_) rho_c_max_ = std::max(rho_c_max_, v = std::min(v, max_albedo));
+    clutter_indirect_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_lightmap, 0.0f);
+    clutter_fed_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_ld, 0.0f);
+    return Status::success();
   }
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
   Status read_clutter_lightmap(std::span<float> out) override {
@@ -174,6 +203,10 @@ class CpuBackend final : public Backend {
   std::optional<CpuDrtRuntime> drt_;
   DrtBufferSizes drt_sizes_;
   std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_, ld_feedback_;
+  // The clutter's feedback (set_clutter_albedo): c of its direct light alone, the clamped
+  // clutter albedo, the last evaluation's Cb b + Cc c and the light fed back.
+  std::vector<float> c_direct_, rho_c_, clutter_indirect_, clutter_fed_;
+  float rho_c_max_ = 0.0f;
   std::vector<float> rho_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;

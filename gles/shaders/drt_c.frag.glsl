@@ -3,7 +3,13 @@
 // owning object's texels.
 uniform sampler2D u_td_c;
 uniform isampler2D u_face_info;  // per face: (first Td_c texel, object's first clutter texel, m, 0)
+#ifdef FEEDBACK
+uniform usampler2D u_clutter_ld;  // per clutter texel, RGB: the light fed back (drt_feedback.frag)
+#define CLUTTER_LD(i) load_signal(u_clutter_ld, i).rgb
+#else
 uniform sampler2D u_clutter_ld;  // per clutter texel, RGB
+#define CLUTTER_LD(i) load(u_clutter_ld, i).rgb
+#endif
 uniform int u_count;             // clutter faces
 
 layout(location = 0) out uvec4 o_c;
@@ -18,7 +24,7 @@ void main() {
       for (int j = 0; j < 4; ++j) {
         // Texels past the object's last are not read: they belong to the next object.
         if (4 * q + j >= info.z) break;
-        acc += w[j] * load(u_clutter_ld, info.y + 4 * q + j).rgb;
+        acc += w[j] * CLUTTER_LD(info.y + 4 * q + j);
       }
     }
   }

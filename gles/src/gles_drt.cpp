@@ -15,6 +15,7 @@ namespace modrt::gles {
 extern const char* const kCommon;
 extern const char* const kFullscreenVert;
 extern const char* const kDrtCFrag;
+extern const char* const kDrtFeedbackFrag;
 extern const char* const kDrtDeltaFrag;
 extern const char* const kDrtVcFrag;
 extern const char* const kDrtClutterFrag;
@@ -233,6 +234,7 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                              std::to_string(atlas_h) + ") exceeds GL_MAX_TEXTURE_SIZE " +
                              std::to_string(setup.max_texture_size) + ": too much clutter for one texture");
   std::vector<std::int32_t> texel_map(4 * std::size_t(atlas_w) * std::size_t(atlas_h), -1);
+  std::vector<std::int32_t> texel_xy(4 * std::max<std::size_t>(d->sizes_.clutter_texels, 1), 0);
   std::vector<std::int32_t> cc_map(texel_map.size(), 0);
   for (std::size_t i = 0, t = 0; i < drt.objects.size(); ++i)
     for (std::uint32_t k = 0; k < drt.objects[i].texel_count; ++k, ++t) {
@@ -240,6 +242,8 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       const std::ptrdiff_t at = 4 * (std::ptrdiff_t(xy[1]) * atlas_w + xy[0]);
       std::copy(texel_values[t].begin(), texel_values[t].end(), texel_map.begin() + at);
       std::copy(texel_cc[t].begin(), texel_cc[t].end(), cc_map.begin() + at);
+      texel_xy[4 * t] = xy[0];
+      texel_xy[4 * t + 1] = xy[1];
     }
 
   // ---- textures ----
@@ -274,6 +278,7 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->cc_ = float_table("Cc", cc);
   d->cc_faces_ = int_table("Cc column table", cc_faces);
   d->face_info_ = int_table("clutter face table", face_info);
+  d->texel_xy_ = int_table("clutter texel positions", texel_xy);
   auto delta_tables = [&](const char* name, DeltaTables& t, DeltaPass& pass) {
     pass.dub = float_table(name, t.dub);
     pass.duc = float_table(name, t.duc);
@@ -287,6 +292,7 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->cb_blocks_ = int_table("Cb block list", cb_blocks);
   d->clutter_ld_ = linear_texture("clutter_ld", GL_RGB32F, d->sizes_.clutter_texels);
   d->clutter_direct_ = linear_texture("clutter direct light", GL_RGB32F, d->sizes_.clutter_texels);
+  d->rho_c_ = linear_texture("clutter albedo", GL_RGB32F, d->sizes_.clutter_texels);
   if (!limit.ok()) return limit;
   d->texel_map_ = create_texture(gl, GL_RGBA32I, atlas_w, atlas_h);
   d->textures_.push_back(d->texel_map_);
@@ -319,6 +325,10 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     return Status::success();
   };
   if (Status s = target("c", kLinearWidth, linear_rows(face0), GL_RGBA32UI, "RGBA32UI", d->c_); !s.ok())
+    return s;
+  if (Status s = target("clutter feedback", kLinearWidth, linear_rows(d->sizes_.clutter_texels), GL_RGBA32UI,
+                        "RGBA32UI", d->fed_);
+      !s.ok())
     return s;
   for (auto [pass, name, rows, items] : {std::tuple{&d->scalar_, "DRT delta", 1, samples},
                                          std::tuple{&d->vector_, "DRT vector delta", 4, samples},
@@ -356,6 +366,15 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   };
   if (Status s =
           program("drt_c.frag", kDrtCFrag, d->prog_c_, {"u_td_c", "u_face_info", "u_clutter_ld"}, int(face0));
+      !s.ok())
+    return s;
+  if (Status s = program("drt_c.frag (FEEDBACK)", kDrtCFrag, d->prog_c_fed_,
+                         {"u_td_c", "u_face_info", "u_clutter_ld"}, int(face0), "#define FEEDBACK 1\n");
+      !s.ok())
+    return s;
+  if (Status s = program("drt_feedback.frag", kDrtFeedbackFrag, d->prog_feedback_,
+                         {"u_clutter_ld", "u_rho", "u_direct", "u_texel_xy", "u_atlas"},
+                         int(d->sizes_.clutter_texels));
       !s.ok())
     return s;
   for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
@@ -404,6 +423,8 @@ Status GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const flo
       return s;
   upload_linear(gl_, clutter_ld_, GL_RGB, GL_FLOAT, 3, clutter_ld.data(), sizes_.clutter_texels,
                 sizeof(float));
+  clutter_ld_max_ = 0.0f;
+  for (float v : clutter_ld) clutter_ld_max_ = std::max(clutter_ld_max_, v);
   upload_linear(gl_, clutter_direct_, GL_RGB, GL_FLOAT, 3,
                 clutter_direct.empty() ? zeros_.data() : clutter_direct.data(), sizes_.clutter_texels,
                 sizeof(float));
@@ -411,8 +432,35 @@ Status GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const flo
   return Status::success();
 }
 
-void GlesDrt::run_scene(const std::array<GLuint, 3>& b) {
-  if (light_changed_) {  // c depends on the clutter's light only
+Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albedo) {
+  if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles drt: clutter albedo: max_albedo must be in [0, 1)");
+  if (!clutter_albedo.empty()) {
+    if (clutter_albedo.size() != sizes_.clutter_ld)
+      return wrong_size("clutter_albedo (may be empty)", clutter_albedo.size(), sizes_.clutter_ld);
+    if (Status s = validate_light_signal(clutter_albedo, sizes_.clutter_texels, "clutter_albedo"); !s.ok())
+      return s;
+  }
+  feed_ = !clutter_albedo.empty();
+  if (!feed_) return Status::success();
+  std::vector<float> rho(clutter_albedo.begin(), clutter_albedo.end());
+  rho_c_max_ = 0.0f;
+  for (float& v : rho) rho_c_max_ = std::max(rho_c_max_, v = std::min(v, max_albedo));
+  upload_linear(gl_, rho_c_, GL_RGB, GL_FLOAT, 3, rho.data(), sizes_.clutter_texels, sizeof(float));
+  return Status::success();
+}
+
+void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, float ld_max, float rho_max) {
+  if (feedback && feed_) {
+    // The clutter atlas still holds the last evaluation's light (run_clutter comes after).
+    const float bound = std::max(ld_max, clutter_ld_max_) / (1.0f - std::max(rho_max, rho_c_max_));
+    gl_.glUseProgram(prog_feedback_);
+    gl_.glUniform1f(gl_.glGetUniformLocation(prog_feedback_, "u_bound"), bound);
+    draw(prog_feedback_, fed_, {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture});
+    draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});
+    light_changed_ = true;      // the next update() starts again from the direct light
+  } else if (light_changed_) {  // c depends on the clutter's light only
     draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_});
     light_changed_ = false;
   }

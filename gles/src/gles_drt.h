@@ -3,6 +3,8 @@
 // GlesLevelRuntime, which creates one only when a level has clutter.
 //
 //   drt_c.frag        c = Td_c clutter_ld, one fragment per clutter face
+//   drt_feedback.frag multi-bounce with clutter albedo: the clutter light fed back, read by
+//                     a FEEDBACK instance of drt_c.frag
 //   drt_delta.frag    dUb b + dUc c per level sample (0 where no clutter reaches); atlas.frag
 //                     built with DRT 1 adds it, so padding texels get it too. Two more
 //                     instances, when the operators have them: dUb_vec b + dUc_vec c (4 per
@@ -51,8 +53,14 @@ class GlesDrt {
   const DrtBufferSizes& sizes() const { return sizes_; }
   // Validates and uploads the clutter's light (see Backend::set_clutter_light).
   Status set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
-  // c (when the light changed since the last call) and the per-sample delta, from b's planes.
-  void run_scene(const std::array<GLuint, 3>& b);
+  // The clutter's albedo for multi-bounce (see Backend::set_clutter_albedo); empty: none.
+  Status set_albedo(std::span<const float> clutter_albedo, float max_albedo);
+  // c and the per-sample delta, from b's planes. c is Td_c clutter_ld (recomputed when the
+  // light changed or after feedback); on a multi-bounce step (feedback) with a clutter albedo
+  // it is Td_c of the light fed back from the clutter atlas of the last run, clamped with
+  // drt_feedback_bound(ld_direct of max ld_max, rho_max, ...).
+  void run_scene(const std::array<GLuint, 3>& b, bool feedback = false, float ld_max = 0.0f,
+                 float rho_max = 0.0f);
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
@@ -98,9 +106,13 @@ class GlesDrt {
   GLuint td_c_ = 0, vc_ = 0, uc_ = 0, cc_ = 0, cc_faces_ = 0, cc_map_ = 0;
   GLuint face_info_ = 0, mode_info_ = 0, cb_blocks_ = 0, texel_map_ = 0;
   GLuint clutter_ld_ = 0, clutter_direct_ = 0;
-  Target c_, y_, clutter_;
+  // Clutter feedback: clamped albedo, each clutter texel's atlas position, the light fed back.
+  GLuint rho_c_ = 0, texel_xy_ = 0;
+  bool feed_ = false;
+  float rho_c_max_ = 0.0f, clutter_ld_max_ = 0.0f;
+  Target c_, y_, clutter_, fed_;
   DeltaPass scalar_, vector_, probes_;
-  GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0;
+  GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0;
   std::vector<GLuint> textures_, framebuffers_, programs_;
   std::vector<float> zeros_, readback_;
 };

@@ -622,7 +622,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
 
   if (drt_) {  // SPEC §5 step 7: the delta the atlas pass adds
     begin_pass(kDrt);
-    drt_->run_scene(b_.textures);
+    drt_->run_scene(b_.textures, from_feedback, feedback_ld_max_, rho_max_);
     end_pass(kDrt);
     if (Status s = check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)"); !s.ok()) return s;
   }
@@ -801,6 +801,7 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
   const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
   feedback_bound_ = ld_max / (1.0f - rho_max_);
+  feedback_ld_max_ = ld_max;
   if (timing_) timer_->reset();
   begin_pass(kUpload);
   upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
@@ -984,6 +985,12 @@ Status GlesLevelRuntime::set_clutter_light(std::span<const float> clutter_ld,
   if (Status s = drt_->set_light(clutter_ld, clutter_direct); !s.ok()) return s;
   drt_light_changed_ = true;
   return check("uploading the clutter light");
+}
+
+Status GlesLevelRuntime::set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) {
+  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: set_clutter_albedo: no clutter set");
+  if (Status s = drt_->set_albedo(clutter_albedo, max_albedo); !s.ok()) return s;
+  return check("uploading the clutter albedo");
 }
 
 Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap) {

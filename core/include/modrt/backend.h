@@ -63,9 +63,9 @@ class Backend {
   //   c = Td_c clutter_ld, lightmap += dUb b + dUc c (atlas and padding included),
   //   clutter lightmap = Cb b + Cc c + clutter_direct (Cc: clutter-to-clutter light, drt.h),
   // and the multi-bounce feedback reads the lightmap with the delta (core's drt_multi_bounce;
-  // c is not fed back). When the operators carry them (DrtBuildSettings::vector / probes) and
-  // the backend renders them, the vector irradiance gets dUb_vec b + dUc_vec c
-  // (drt_apply_vector) and the probes Udyn b + Udyn_c c (drt_apply_probes).
+  // with set_clutter_albedo it feeds the clutter's indirect light back through c too). When the operators
+  // carry them (DrtBuildSettings::vector / probes) and the backend renders them, the vector irradiance gets
+  // dUb_vec b + dUc_vec c (drt_apply_vector) and the probes Udyn b + Udyn_c c (drt_apply_probes).
   virtual Status set_clutter(const DrtOperators* drt) = 0;
   // The clutter's light for the following updates (3 floats per clutter texel, clutter_sizes()
   // .clutter_ld): clutter_ld is what Td_c reads (drt_compute_c), clutter_direct what the clutter
@@ -73,6 +73,13 @@ class Backend {
   // wrong sizes; then nothing changes. Takes effect at the next update().
   virtual Status set_clutter_light(std::span<const float> clutter_ld,
                                    std::span<const float> clutter_direct) = 0;
+  // The clutter's albedo (3 floats per clutter texel, clamped to max_albedo < 1) for
+  // multi-bounce: each multi_bounce_step() then first feeds the clutter's indirect light of
+  // the previous evaluation back, c = Td_c drt_clutter_feedback(clutter_ld, rho_c, Cb b + Cc c,
+  // drt_feedback_bound(...)), as core's drt_multi_bounce with clutter_albedo; update() starts
+  // again from c = Td_c clutter_ld. Empty: no clutter feedback (the default; also after
+  // set_clutter). Rejects NaN, Inf, negative values and wrong sizes; then nothing changes.
+  virtual Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) = 0;
   // drt_buffer_sizes of the current clutter (all zero without).
   virtual const DrtBufferSizes& clutter_sizes() const = 0;
   // The clutter lightmap of the last update (clutter_sizes().clutter_lightmap floats, core's

@@ -196,12 +196,28 @@ void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::
 
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
 // evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT
-// delta (shadows and clutter light bounce on). c stays that of the clutter's direct light
-// (drt_compute_c): the clutter's indirect light is not fed back. The oracle for the backends'
-// multi_bounce_step with clutter; allocates per call.
-Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict, const DrtOperators& drt,
-                                           std::span<const float> ld_direct, std::span<const float> albedo,
-                                           std::span<const float> c, const MultiBounceSettings& settings,
-                                           std::span<float> b, std::span<float> r, std::span<float> lightmap);
+// delta (shadows and clutter light bounce on). c starts as Td_c clutter_ld (the clutter's
+// direct light); with clutter_albedo (3 per clutter texel) each iteration first feeds the
+// clutter's own indirect light back, c = Td_c drt_clutter_feedback(...) of the previous
+// evaluation's Cb b + Cc c, so light bounces off the clutter too. Empty clutter_albedo: c
+// stays that of the direct light (the clutter's indirect light is not fed back). On return
+// c (3 per clutter face) is the c of the last evaluation, the one drt_clutter_add_cc takes.
+// The oracle for the backends' multi_bounce_step with clutter; allocates per call.
+Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict,
+                                           const DrtOperators& drt, std::span<const float> ld_direct,
+                                           std::span<const float> albedo, std::span<const float> clutter_ld,
+                                           std::span<const float> clutter_albedo,
+                                           const MultiBounceSettings& settings, std::span<float> b,
+                                           std::span<float> r, std::span<float> lightmap, std::span<float> c);
+
+// The clutter's light for the next bounce: out = clutter_ld + rho_c * min(max(indirect, 0),
+// bound), rho_c the clutter albedo clamped to max_albedo and indirect = Cb b + Cc c of the
+// last evaluation (apply_feedback's clamp). All spans 3 per clutter texel.
+void drt_clutter_feedback(std::span<const float> clutter_ld, std::span<const float> rho_c,
+                          std::span<const float> indirect, float bound, std::span<float> out);
+// The bound of that clamp: max(ld_direct, clutter_ld) / (1 - max(rho_max, rho_c_max)), the
+// most any texel can reach when every surface reflects at most the larger albedo.
+float drt_feedback_bound(std::span<const float> ld_direct, float rho_max, std::span<const float> clutter_ld,
+                         float rho_c_max);
 
 }  // namespace modrt

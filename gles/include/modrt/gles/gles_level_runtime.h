@@ -123,6 +123,7 @@ class GlesLevelRuntime final : public Backend {
   // light alone is not a skipped frame.
   Status set_clutter(const DrtOperators* drt) override;
   Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
+  Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) override;
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
   Status read_clutter_lightmap(std::span<float> clutter_lightmap) override;
   // The clutter atlas (the atlas's format; RGB in .rgb), 0 without clutter. Object k's texels
@@ -223,7 +224,7 @@ class GlesLevelRuntime final : public Backend {
   Signal3 b_partial_, b_, r_partial_, r_;
   Target atlas_, probes_, ld_feedback_;
   VectorTarget vector_;
-  float feedback_bound_ = 0.0f, rho_max_ = 0.0f;
+  float feedback_bound_ = 0.0f, rho_max_ = 0.0f, feedback_ld_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
       prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_;
