@@ -82,6 +82,10 @@ int main(int argc, char** argv) {
                  "marked extras.modrt_block, docs/demo.md); default: the built-in scene");
   app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks");
   app.add_flag("!--no-exr", exr, "Do not write the linear EXR files");
+  int drt_rays = DemoRunOptions{}.drt_rays;
+  app.add_option("--drt-rays", drt_rays, "Rays per scene sample and clutter texel of the DRT operator build")
+      ->check(CLI::Range(8, 65536))
+      ->capture_default_str();
   app.add_flag("!--no-drt", drt,
                "Without Delta Radiance Transfer: the scene's clutter meshes are drawn as ordinary "
                "geometry mapped onto the proxies (MRT alone), for comparison");
@@ -166,6 +170,7 @@ int main(int argc, char** argv) {
   options.output = mode;
   options.exposure = exposure;
   options.bounces = bounces;
+  options.drt_rays = drt_rays;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
     std::fprintf(stderr, "modrt-demo: %s\n", run.status().to_string().c_str());

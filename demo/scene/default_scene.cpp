@@ -8,6 +8,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "clutter_shapes.h"
 #include "modrt/cube.h"
 #include "modrt/precompute/maze.h"
 
@@ -110,6 +111,22 @@ float tile_height(float u, float v) {
   const float fu = u * 3.0f - std::floor(u * 3.0f), fv = v * 3.0f - std::floor(v * 3.0f);
   const float edge = std::min({fu, 1.0f - fu, fv, 1.0f - fv});
   return std::clamp(edge / 0.05f, 0.0f, 1.0f);
+}
+
+// Canonical coordinates of a world point in a mildly warped block (a few fixed-point steps
+// of the trilinear map's inverse; the default scene's warp is 8 % of a cell at most).
+glm::dvec3 world_to_canonical_guess(const std::array<glm::dvec3, 8>& corners, const glm::vec3& world) {
+  const glm::dvec3 lo = corners[0], size = corners[7] - corners[0];
+  glm::dvec3 q = (glm::dvec3(world) - lo) / size;
+  for (int i = 0; i < 20; ++i) q += (glm::dvec3(world) - trilinear(corners, q)) / size;
+  return q;
+}
+
+double polygon_area2(const std::vector<glm::dvec2>& p) {
+  double a = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    a += p[i].x * p[(i + 1) % p.size()].y - p[(i + 1) % p.size()].x * p[i].y;
+  return a;
 }
 
 }  // namespace
@@ -291,6 +308,31 @@ Result<DemoScene> default_scene() {
   light.intensity = 0.6f;
   light.radius = 0.02f;
   scene.lights.push_back(light);
+
+  // DRT clutter (docs/drt.md): a terracotta pillar standing on block 0's floor beside the
+  // light's path, a mesh with lightmap UVs. Its indirect shadow and the light it reflects
+  // onto the walls, and its own indirect light, come from the DRT operators. The footprint is
+  // a square in block 0's canonical frame carried onto its warped floor; the pillar stands
+  // 3 mm above the floor's highest point under it.
+  {
+    const int terracotta = add_material(scene, "terracotta pillar", {0.8f, 0.42f, 0.28f});
+    const glm::dvec3 q = world_to_canonical_guess(c0, centre + 0.22f * out - 0.24f * right);
+    ClutterPrism pillar;
+    pillar.name = "clutter pillar";
+    pillar.material = terracotta;
+    pillar.block = 0;
+    double floor = -1e30;
+    for (const glm::dvec2 d : {glm::dvec2(-1, -1), glm::dvec2(1, -1), glm::dvec2(1, 1), glm::dvec2(-1, 1)}) {
+      const glm::dvec3 p = trilinear(c0, glm::dvec3(q.x + 0.07 * d.x, 0.0, q.z + 0.07 * d.y));
+      pillar.polygon.emplace_back(p.x, p.z);
+      floor = std::max(floor, p.y);
+    }
+    if (polygon_area2(pillar.polygon) < 0.0) std::reverse(pillar.polygon.begin(), pillar.polygon.end());
+    pillar.cap_triangles = {0, 1, 2, 0, 2, 3};
+    pillar.y0 = floor + 0.003;
+    pillar.y1 = floor + 0.62;
+    if (Status st = add_clutter_prism(scene, pillar); !st.ok()) return st;
+  }
 
   // The dynamic sphere: from the far side of the opening towards the camera and back.
   Mesh sphere;
