@@ -1241,10 +1241,18 @@ ClutterScene box_room_sphere_and_l() {
   return s;
 }
 
+// With a lighting prior for c (DrtBuildSettings::clutter_prior_modes, see DrtPrior below) the
+// sphere's light reaches the scene with its shape rather than as one constant.
 TEST(DrtMesh, LowersTheErrorOfMrtAgainstThePathTracerWithASphereAndAConcaveL) {
   const AccuracyResult a = accuracy(box_room_sphere_and_l(), "box room, sphere and L meshes");
   EXPECT_LT(a.drt, 0.7 * a.mrt);
   EXPECT_LT(a.clutter, a.probes);
+  DrtBuildSettings settings;
+  settings.clutter_prior_modes = 8;
+  const AccuracyResult prior =
+      accuracy(box_room_sphere_and_l(), "sphere and L, 8-mode lighting prior", settings);
+  EXPECT_LT(prior.drt, a.drt);
+  EXPECT_LT(prior.clutter, 1.01 * a.clutter);
 }
 
 TEST(DrtMesh, IncrementalRebuildOfAMovedMeshEqualsAFullBuild) {
@@ -1301,6 +1309,52 @@ TEST(DrtMesh, ValidationNamesTheProblem) {
   const Result<ClutterObject> r = make_mesh_clutter(broken, 0, glm::dvec3(0.5), 32, "chair.gltf node 3");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().to_string().find("chair.gltf node 3"), std::string::npos) << r.status().to_string();
+}
+
+// The lighting prior of c (DrtBuildSettings::clutter_prior_modes, DRT §4.2's optional prior):
+// Td_c's rows are orthonormal in the area inner product (Td_c diag(1/area) Td_c^T = I, so
+// Td_c B = I for B = diag(1/area) Td_c^T), and the incremental rebuild stays exact. The
+// accuracy gain is in DrtMesh.LowersTheErrorOfMrtAgainstThePathTracerWithASphereAndAConcaveL.
+TEST(DrtPrior, TdcIsAnAreaOrthonormalProjection) {
+  const ClutterScene s = box_room_sphere_and_l();
+  const Level level = build_level(s.description, dict()).value();
+  DrtBuildSettings settings;
+  settings.rays = 64;
+  settings.clutter_prior_modes = 6;
+  const DrtOperators drt = DrtBuilder(level, dict(), settings).build(s.clutter).value();
+  ASSERT_TRUE(check_drt_operators(level, drt).ok());
+  for (std::size_t k = 0; k < s.clutter.size(); ++k) {
+    const DrtObjectOperators& op = drt.objects[k];
+    EXPECT_EQ(op.face_count, 6u);
+    const std::vector<double> area = clutter_texel_area(s.clutter[k]);
+    double worst = 0;
+    for (std::uint32_t a = 0; a < op.face_count; ++a)
+      for (std::uint32_t b = 0; b < op.face_count; ++b) {
+        double dot = 0;
+        for (std::uint32_t t = 0; t < op.texel_count; ++t)
+          dot += double(op.Td_c(a, t)) * op.Td_c(b, t) / area[t];
+        worst = std::max(worst, std::abs(dot - (a == b ? 1.0 : 0.0)));
+      }
+    EXPECT_LT(worst, 1e-5) << "object " << k;
+  }
+}
+
+TEST(DrtPrior, IncrementalRebuildWithPriorsEqualsAFullBuild) {
+  ClutterScene s = box_room_sphere_and_l();
+  const Level level = build_level(s.description, dict()).value();
+  DrtBuildSettings settings;
+  settings.rays = 64;
+  settings.clutter_prior_modes = 4;
+  const DrtBuilder builder(level, dict(), settings);
+  DrtBuildState state;
+  DrtOperators drt = builder.build(s.clutter, nullptr, &state).value();
+  ClutterMesh moved = s.clutter[1].mesh->mesh;
+  for (glm::dvec3& p : moved.positions) p += glm::dvec3(-0.05, 0.0, 0.08);
+  s.clutter[1] = mesh_object(std::move(moved), 0, s.clutter[1].albedo, s.clutter[1].res);
+  ASSERT_TRUE(builder.rebuild_object(s.clutter, 1, drt, state).ok());
+  const DrtOperators full = builder.build(s.clutter).value();
+  for (std::size_t k = 0; k < s.clutter.size(); ++k)
+    EXPECT_TRUE(operators_equal(drt.objects[k], full.objects[k])) << "object " << k;
 }
 
 // Timing for docs/drt.md, not a test (run with --gtest_also_run_disabled_tests

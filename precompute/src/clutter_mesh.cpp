@@ -357,7 +357,8 @@ ClutterMeshShape::Entry ClutterMeshShape::enter(const glm::dvec3& origin, const 
   const RTCRayHit rh = embree_intersect(impl_->scene, origin, dir, 0.0);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || !(rh.ray.tfar > 0.0f)) return {};
   if (glm::dot(dir, impl_->normal[rh.hit.primID]) >= 0.0) return {};  // leaving: the origin is inside
-  return {true, double(rh.ray.tfar), impl_->chart[rh.hit.primID]};
+  return {true,          double(rh.ray.tfar), impl_->chart[rh.hit.primID],
+          rh.hit.primID, double(rh.hit.u),    double(rh.hit.v)};
 }
 
 bool ClutterMeshShape::contains(const glm::dvec3& p) const {

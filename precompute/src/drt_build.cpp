@@ -112,11 +112,10 @@ struct DrtBuilder::Pass {
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(k);
         if (wall.block >= 0) gather.add(wall, -w);
-        const int slot = queries[k].slot(nearest[r].entry.face);
-        if (slot >= 0) {
-          rows->dUc.resize(std::size_t(clutter_face_count(objects[k])), 0.0);
-          rows->dUc[std::size_t(slot)] += w;
-        }
+        queries[k].charge(nearest[r].entry, x, hit_dirs[r], [&](std::size_t col, double value) {
+          rows->dUc.resize(std::size_t(queries[k].columns), 0.0);
+          rows->dUc[col] += w * value;
+        });
       }
       if (rows) gather.flush(rows->dUb);
     }
@@ -166,20 +165,20 @@ struct DrtBuilder::Pass {
     const std::uint32_t kb = b.level_.kb;
     for (const Candidates::Entry& e : cand.entries) {
       const std::uint32_t k = e.object;
-      const std::size_t f_count = std::size_t(clutter_face_count(objects[k]));
+      const std::size_t f_count = std::size_t(queries[k].columns);
       ObjectRows* rows = nullptr;
       for (std::size_t r = 0; r < hit_dirs.size(); ++r) {
         if (nearest[r].object != int(k)) continue;
         const LevelHit& wall = walls[r];
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(k);
-        const int slot = queries[k].slot(nearest[r].entry.face);
-        if (slot >= 0) rows->dUc.resize(kOhlshCount * f_count, 0.0);
-        for (int i = 0; i < kOhlshCount; ++i) {
-          const double wi = w * weights[r][std::size_t(i)];
-          if (wall.block >= 0) gather[std::size_t(i)].add(wall, -wi);
-          if (slot >= 0) rows->dUc[std::size_t(i) * f_count + std::size_t(slot)] += wi;
-        }
+        for (int i = 0; i < kOhlshCount; ++i)
+          if (wall.block >= 0) gather[std::size_t(i)].add(wall, -w * weights[r][std::size_t(i)]);
+        queries[k].charge(nearest[r].entry, x, hit_dirs[r], [&](std::size_t col, double value) {
+          rows->dUc.resize(kOhlshCount * f_count, 0.0);
+          for (int i = 0; i < kOhlshCount; ++i)
+            rows->dUc[std::size_t(i) * f_count + col] += w * weights[r][std::size_t(i)] * value;
+        });
       }
       if (!rows) continue;
       for (int i = 0; i < kOhlshCount; ++i) {
@@ -247,22 +246,21 @@ struct DrtBuilder::Pass {
     const double w = 4.0 * std::numbers::pi / double(dirs.size());  // uniform pdf 1 / (4 pi)
     const std::uint32_t kb = b.level_.kb;
     for (std::size_t k = 0; k < objects.size(); ++k) {
-      const std::size_t f_count = std::size_t(clutter_face_count(objects[k]));
+      const std::size_t f_count = std::size_t(queries[k].columns);
       ObjectRows* rows = nullptr;
       for (std::size_t r = 0; r < hit_dirs.size(); ++r) {
         if (nearest[r].object != int(k)) continue;
         const LevelHit& wall = walls[r];
         if (wall.block >= 0 && wall.t < nearest[r].entry.t) continue;  // a wall hides the box
         if (!rows) rows = &result.rows_of(std::uint32_t(k));
-        const int slot = queries[k].slot(nearest[r].entry.face);
-        if (slot >= 0) rows->dUc.resize(kSh9Count * f_count, 0.0);
         double y[kSh9Count];
         sh9_eval(hit_local[r], y);
-        for (int j = 0; j < kSh9Count; ++j) {
-          const double wj = w * y[j];
-          if (wall.block >= 0) gather[std::size_t(j)].add(wall, -wj);
-          if (slot >= 0) rows->dUc[std::size_t(j) * f_count + std::size_t(slot)] += wj;
-        }
+        for (int j = 0; j < kSh9Count; ++j)
+          if (wall.block >= 0) gather[std::size_t(j)].add(wall, -w * y[j]);
+        queries[k].charge(nearest[r].entry, x, hit_dirs[r], [&](std::size_t col, double value) {
+          rows->dUc.resize(kSh9Count * f_count, 0.0);
+          for (int j = 0; j < kSh9Count; ++j) rows->dUc[std::size_t(j) * f_count + col] += w * y[j] * value;
+        });
       }
       if (!rows) continue;
       for (int j = 0; j < kSh9Count; ++j) {
@@ -309,7 +307,7 @@ struct DrtBuilder::Pass {
     drt.probes_per_block = std::uint32_t(probes_per_block());
     for (std::size_t k = 0; k < objects.size(); ++k) {
       DrtObjectOperators& op = drt.objects[k];
-      const std::uint32_t f_count = std::uint32_t(clutter_face_count(objects[k]));
+      const std::uint32_t f_count = std::uint32_t(queries[k].columns);
       std::size_t rows = 0, c_rows = 0;
       for (const SampleResult& r : probes)
         if (const ObjectRows* o = r.find(std::uint32_t(k))) {
@@ -373,16 +371,17 @@ struct DrtBuilder::Pass {
         const Candidates::Nearest hit = cand.nearest(queries, dirs[r]);
         if (hit.object >= 0 && !(wall.block >= 0 && wall.t < hit.entry.t)) {
           if (std::size_t(hit.object) == k) continue;  // a concave mesh shadows itself
-          const int slot = queries[std::size_t(hit.object)].slot(hit.entry.face);
-          if (slot < 0) continue;  // an unlit face (resting on a wall) sends nothing
-          const std::uint64_t key = cc_key(std::uint32_t(hit.object), slot);
-          auto it =
-              std::find_if(result.cc.begin(), result.cc.end(), [&](const auto& e) { return e.first == key; });
-          if (it == result.cc.end()) {
-            result.cc.emplace_back(key, w);
-          } else {
-            it->second += w;
-          }
+          // An unlit face (resting on a wall) sends nothing.
+          queries[std::size_t(hit.object)].charge(hit.entry, x, dirs[r], [&](std::size_t col, double value) {
+            const std::uint64_t key = cc_key(std::uint32_t(hit.object), int(col));
+            auto it = std::find_if(result.cc.begin(), result.cc.end(),
+                                   [&](const auto& e) { return e.first == key; });
+            if (it == result.cc.end()) {
+              result.cc.emplace_back(key, w * value);
+            } else {
+              it->second += w * value;
+            }
+          });
           continue;
         }
       }
@@ -595,7 +594,7 @@ struct DrtBuilder::Pass {
 
     for (std::size_t k = 0; k < objects.size(); ++k) {
       DrtObjectOperators& op = drt.objects[k];
-      const std::uint32_t f_count = std::uint32_t(clutter_face_count(objects[k]));
+      const std::uint32_t f_count = std::uint32_t(queries[k].columns);
       std::size_t rows = 0, uc_rows = 0;
       for (const SampleResult& r : result)
         if (const ObjectRows* o = r.find(std::uint32_t(k))) {
@@ -648,13 +647,15 @@ struct DrtBuilder::Pass {
   void assemble_clutter(std::size_t k, const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
     const ClutterObject& object = objects[k];
     const std::size_t kb = b.level_.kb;
-    const int f_count = clutter_face_count(object);
+    const int f_count = queries[k].columns;
     op.texel_count = std::uint32_t(clutter_texel_count(object));
     op.face_count = std::uint32_t(f_count);
     // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f; over
     // a mesh chart the mean is weighted by texel area (border texels cover less).
     op.Td_c = Matrix(op.face_count, op.texel_count);
-    if (object.kind == ClutterKind::mesh) {
+    if (queries[k].basis) {
+      op.Td_c = queries[k].basis->Td_c;  // the lighting prior's projection
+    } else if (object.kind == ClutterKind::mesh) {
       const ClutterMeshAtlas& atlas = object.mesh->atlas;
       std::vector<double> chart_area(std::size_t(f_count), 0.0);
       for (std::size_t t = 0; t < atlas.area.size(); ++t)
@@ -717,7 +718,7 @@ struct DrtBuilder::Pass {
     std::size_t cols = 0;
     for (std::uint32_t src : op.Cc_objects) {
       col0[src] = cols;
-      cols += std::size_t(clutter_face_count(objects[src]));
+      cols += std::size_t(queries[src].columns);
     }
     if (cols > 0) {
       op.Cc = Matrix(std::uint32_t(m), std::uint32_t(cols));
@@ -766,6 +767,89 @@ Status check_dictionary(const Level& level, const Dictionary& dict, bool vector)
   return Status::success();
 }
 
+// The lighting prior of each object's c (DRT §4.2's optional prior, the construction of MRT
+// §3.2): the irradiance of clutter_prior_grid^3 unit point lights on a grid of the owning
+// block (lights inside the object left out) at every texel, shadowed by the walls and by the
+// object itself (a concave mesh), each light's column scaled to unit area-weighted norm; the
+// first clutter_prior_modes left singular vectors of diag(sqrt(area)) L are the basis. Other
+// objects' shadows are left out, so an object's basis depends on itself alone (moving one
+// object leaves the others' bases as they were).
+void attach_priors(const Level& level, const LevelScene& walls, const DrtBuildSettings& settings,
+                   std::span<const ClutterObject> objects, ObjectQueries& q) {
+  if (settings.clutter_prior_modes <= 0) return;
+  q.bases.resize(objects.size());
+  const int g = std::max(1, settings.clutter_prior_grid);
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    const ClutterObject& object = objects[k];
+    const ClutterTexelGeometry geo = clutter_texel_geometry(object);
+    const std::vector<double> area = clutter_texel_area(object);
+    const std::size_t m = geo.position.size();
+    std::vector<glm::dvec3> lights;
+    const LevelBlock& block = level.blocks[std::size_t(object.block)];
+    for (int z = 0; z < g; ++z)
+      for (int y = 0; y < g; ++y)
+        for (int x = 0; x < g; ++x) {
+          const glm::dvec3 p = block_to_world(block, (glm::dvec3(x, y, z) + 0.5) / double(g));
+          if (!q.queries[k].contains(p, glm::dvec3(0.0))) lights.push_back(p);
+        }
+    const ObjectQuery& self = q.queries[k];
+    MatrixXd L = MatrixXd::Zero(Eigen::Index(m), Eigen::Index(std::max<std::size_t>(lights.size(), 1)));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 16),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t t = range.begin(); t != range.end(); ++t) {
+                          const glm::dvec3 x = geo.position[t] + 1e-5 * geo.normal[t];
+                          for (std::size_t l = 0; l < lights.size(); ++l) {
+                            const glm::dvec3 d = lights[l] - x;
+                            const double r2 = glm::dot(d, d), r = std::sqrt(r2);
+                            const double cosine = glm::dot(geo.normal[t], d) / r;
+                            if (!(cosine > 0.0) || walls.occluded(x, lights[l])) continue;
+                            const glm::dvec3 dir = d / r;
+                            const std::vector<ObjectQuery> one{self};
+                            Candidates cand;
+                            cand.add(0, self, x);
+                            const Candidates::Nearest hit = cand.nearest(one, dir);
+                            if (hit.object >= 0 && hit.entry.t < r) continue;  // the object shadows itself
+                            L(Eigen::Index(t), Eigen::Index(l)) = std::sqrt(area[t]) * cosine / r2;
+                          }
+                        }
+                      });
+    for (Eigen::Index l = 0; l < L.cols(); ++l) {
+      const double norm = L.col(l).norm();
+      if (norm > 0.0) L.col(l) /= norm;
+    }
+    Eigen::BDCSVD<MatrixXd> svd(L, Eigen::ComputeThinU);
+    const VectorXd sigma = svd.singularValues();
+    int modes = 0;
+    while (modes < std::min<int>(settings.clutter_prior_modes, int(sigma.size())) &&
+           sigma[modes] > 1e-9 * std::max(sigma[0], 1e-300))
+      ++modes;
+    MatrixXd U;
+    if (modes == 0) {  // no prior light reaches the object: one constant over it
+      U = MatrixXd(Eigen::Index(m), 1);
+      double total = 0.0;
+      for (double a : area) total += a;
+      for (std::size_t t = 0; t < m; ++t) U(Eigen::Index(t), 0) = std::sqrt(area[t] / total);
+      modes = 1;
+    } else {
+      U = svd.matrixU().leftCols(modes);
+    }
+    auto basis = std::make_unique<ObjectBasis>();
+    basis->prepare(object);
+    basis->count = modes;
+    basis->B.resize(m * std::size_t(modes));
+    basis->Td_c = Matrix(std::uint32_t(modes), std::uint32_t(m));
+    for (std::size_t t = 0; t < m; ++t)
+      for (int c = 0; c < modes; ++c) {
+        const double u = U(Eigen::Index(t), c), sa = std::sqrt(area[t]);
+        basis->B[t * std::size_t(modes) + std::size_t(c)] = u / sa;
+        basis->Td_c(std::uint32_t(c), std::uint32_t(t)) = float(u * sa);
+      }
+    q.queries[k].basis = basis.get();
+    q.queries[k].columns = modes;
+    q.bases[k] = std::move(basis);
+  }
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -784,6 +868,7 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
     drt.objects.resize(objects.size());
     Result<ObjectQueries> queries = ObjectQueries::make(impl->objects);
     if (!queries.ok()) return queries.status();
+    attach_priors(level_, walls_, settings_, impl->objects, queries.value());
     Pass pass(*this, impl->objects, std::move(queries.value()));
 
     const auto t0 = std::chrono::steady_clock::now();
@@ -858,6 +943,7 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   st.objects[index] = objects[index];
   Result<ObjectQueries> queries = ObjectQueries::make(st.objects);
   if (!queries.ok()) return queries.status();
+  attach_priors(level_, walls_, settings_, st.objects, queries.value());
   Pass pass(*this, st.objects, std::move(queries.value()));
 
   // Scene samples: only those inside the object or with a ray entering it, at its old or

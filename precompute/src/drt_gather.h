@@ -18,6 +18,7 @@
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
+#include <glm/vec2.hpp>
 
 #include "modrt/clutter_mesh.h"
 #include "modrt/dictionary.h"
@@ -33,11 +34,14 @@ namespace modrt::precompute::drt_detail {
 
 inline constexpr int kDirectionSets = 32;
 
-// Entry distance and entered face of a ray into a box, from outside.
+// Entry distance and entered face of a ray into a box, from outside (for a mesh: the chart,
+// and the entered triangle with the barycentrics of its second and third vertex).
 struct BoxEntry {
   bool hit = false;
   double t = 0.0;
   int face = -1;
+  std::uint32_t triangle = 0;
+  double u = 0.0, v = 0.0;
 };
 
 // A clutter box prepared for many ray queries from one origin: the origin in the box frame
@@ -88,6 +92,61 @@ struct BoxQuery {
   }
 };
 
+// A clutter object's lighting-prior basis for c (DRT §4.2's optional prior, as MRT §3.2):
+// `count` functions over its texels, B(t, k) = U(t, k) / sqrt(area_t) from the SVD of the
+// area-weighted prior light, so that Td_c = U^T diag(sqrt(area)) projects onto them (Td_c B
+// = I). texel_at finds the texel a ray enters, whose B row is the light the ray brings per c.
+struct ObjectBasis {
+  int count = 0;
+  std::vector<double> B;  // m x count, row-major
+  Matrix Td_c;            // count x m
+  // Hit -> texel. Box: per face its slot among the lit faces, corner and edge vectors.
+  int res = 0;
+  std::array<int, kFaceCount> slot{};
+  std::array<glm::dvec3, kFaceCount> p00{}, pu{}, pv{};
+  // Mesh: per atlas cell its texel (padding cells their source), and a texel per triangle.
+  const ClutterMeshData* mesh = nullptr;
+  std::vector<std::int32_t> cell;
+  std::vector<std::int32_t> triangle_texel;
+
+  void prepare(const ClutterObject& object) {
+    res = object.res;
+    if (object.kind == ClutterKind::mesh) {
+      mesh = object.mesh.get();
+      const ClutterMeshAtlas& a = mesh->atlas;
+      cell = a.cell_texel;
+      for (const auto& [to, from] : a.padding) cell[to] = a.cell_texel[from];
+      triangle_texel.assign(mesh->mesh.indices.size() / 3, -1);
+      for (std::size_t t = a.triangle.size(); t-- > 0;) triangle_texel[a.triangle[t]] = std::int32_t(t);
+      return;
+    }
+    for (int f = 0, s = 0; f < kFaceCount; ++f) {
+      slot[std::size_t(f)] = face_present(object.faces, f) ? s++ : -1;
+      p00[std::size_t(f)] = clutter_face_point(object.box, f, 0.0, 0.0);
+      pu[std::size_t(f)] = clutter_face_point(object.box, f, 1.0, 0.0) - p00[std::size_t(f)];
+      pv[std::size_t(f)] = clutter_face_point(object.box, f, 0.0, 1.0) - p00[std::size_t(f)];
+    }
+  }
+  // The texel where a ray from `origin` along `dir` enters through e; -1: an unlit box face.
+  int texel_at(const BoxEntry& e, const glm::dvec3& origin, const glm::dvec3& dir) const {
+    if (mesh) {
+      const std::uint32_t* idx = mesh->mesh.indices.data() + 3 * std::size_t(e.triangle);
+      const glm::dvec2 uv = (1.0 - e.u - e.v) * mesh->mesh.uvs[idx[0]] + e.u * mesh->mesh.uvs[idx[1]] +
+                            e.v * mesh->mesh.uvs[idx[2]];
+      const int i = std::clamp(int(std::floor(uv.x * res)), 0, res - 1);
+      const int j = std::clamp(int(std::floor(uv.y * res)), 0, res - 1);
+      const std::int32_t t = cell[std::size_t(j) * std::size_t(res) + std::size_t(i)];
+      return t >= 0 ? t : triangle_texel[e.triangle];
+    }
+    const std::size_t f = std::size_t(e.face);
+    if (slot[f] < 0) return -1;
+    const glm::dvec3 x = origin + e.t * dir - p00[f];
+    const int i = std::clamp(int(std::floor(glm::dot(x, pu[f]) / glm::dot(pu[f], pu[f]) * res)), 0, res - 1);
+    const int j = std::clamp(int(std::floor(glm::dot(x, pv[f]) / glm::dot(pv[f], pv[f]) * res)), 0, res - 1);
+    return (slot[f] * res + j) * res + i;
+  }
+};
+
 // One clutter object's ray queries: a box's analytic slab test, or a mesh's Embree scene
 // (ClutterMeshShape) behind the culling and sphere tests of its bounds. The entry's `face`
 // is a box face or a mesh chart; slot() turns it into the column of the object's c (-1: an
@@ -96,16 +155,34 @@ struct ObjectQuery {
   BoxQuery bounds;  // the box itself, or a mesh's axis-aligned bounds
   const ClutterMeshShape* mesh = nullptr;
   std::array<int, kFaceCount> slots{};
-  ObjectQuery(const ClutterObject& object, const ClutterMeshShape* shape) : bounds(object.box), mesh(shape) {
+  const ObjectBasis* basis = nullptr;  // a lighting prior for c; none: a constant per face / chart
+  int columns = 0;                     // entries of the object's c (per channel)
+  ObjectQuery(const ClutterObject& object, const ClutterMeshShape* shape)
+      : bounds(object.box), mesh(shape), columns(clutter_face_count(object)) {
     for (int f = 0, s = 0; f < kFaceCount; ++f)
       slots[std::size_t(f)] = face_present(object.faces, f) ? s++ : -1;
+  }
+  // The light a ray entering through e brings, per entry of c: add(column, weight) for the
+  // entered face's (chart's) constant, or for every prior function's value at the entered
+  // texel. An unlit box face brings nothing.
+  template <class Add>
+  void charge(const BoxEntry& e, const glm::dvec3& origin, const glm::dvec3& dir, Add&& add) const {
+    if (!basis) {
+      const int s = slot(e.face);
+      if (s >= 0) add(std::size_t(s), 1.0);
+      return;
+    }
+    const int t = basis->texel_at(e, origin, dir);
+    if (t < 0) return;
+    const double* row = basis->B.data() + std::size_t(t) * std::size_t(basis->count);
+    for (int k = 0; k < basis->count; ++k) add(std::size_t(k), row[k]);
   }
   bool in_front(const glm::dvec3& x, const glm::dvec3& n) const { return bounds.in_front(x, n); }
   // origin_local = bounds.local(origin), precomputed per origin for boxes.
   BoxEntry enter(const glm::dvec3& origin, const glm::dvec3& origin_local, const glm::dvec3& dir) const {
     if (!mesh) return bounds.enter(origin_local, dir);
     const ClutterMeshShape::Entry e = mesh->enter(origin, dir);
-    return {e.hit, e.t, e.chart};
+    return {e.hit, e.t, e.chart, e.triangle, e.u, e.v};
   }
   int slot(int face) const { return mesh ? face : slots[std::size_t(face)]; }
   // Whether surface point p (unit normal n; zero for a point in the air) is inside or on the
@@ -120,9 +197,11 @@ struct ObjectQuery {
   }
 };
 
-// The queries of a list of objects, owning the mesh objects' Embree scenes.
+// The queries of a list of objects, owning the mesh objects' Embree scenes and the objects'
+// lighting-prior bases (DrtBuilder attaches them).
 struct ObjectQueries {
   std::vector<std::unique_ptr<ClutterMeshShape>> meshes;
+  std::vector<std::unique_ptr<ObjectBasis>> bases;
   std::vector<ObjectQuery> queries;
   static Result<ObjectQueries> make(std::span<const ClutterObject> objects) {
     ObjectQueries q;

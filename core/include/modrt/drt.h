@@ -103,7 +103,7 @@ Status validate_clutter(const Level& level, std::span<const ClutterObject> objec
 
 struct DrtObjectOperators {
   std::uint32_t texel_count = 0;  // m
-  std::uint32_t face_count = 0;   // f
+  std::uint32_t face_count = 0;   // f: entries of c (lit faces, mesh charts or lighting-prior modes)
   // DRT §4.1 (and §5 inpainting): dUb row k applies to sample dUb_sample[k] with the b of
   // block dUb_block[k]; rows sorted by (sample, block), at most one row per pair.
   std::vector<std::uint32_t> dUb_sample;

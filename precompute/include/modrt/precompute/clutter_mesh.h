@@ -62,6 +62,9 @@ class ClutterMeshShape {
     bool hit = false;
     double t = 0.0;
     int chart = -1;
+    // The entered triangle and the barycentric weights of its second and third vertex there.
+    std::uint32_t triangle = 0;
+    double u = 0.0, v = 0.0;
   };
   // The first surface the ray crosses in front of its origin, when that crossing enters the
   // mesh (against the outward normal). A ray that starts inside (first crossing leaves) or

@@ -48,6 +48,14 @@ struct DrtBuildSettings {
   // Also build U_dyn (clutter-aware volume probes, DRT §5) from `rays` uniform-sphere rays
   // per probe of the dictionary's probe grid (probes inside clutter get no delta).
   bool probes = false;
+  // The basis of each object's c (DRT §4.2): 0 = constant light per face (box) or UV chart
+  // (mesh), the paper's choice; n > 0 = a lighting prior per object (the paper's optional
+  // prior, MRT §3.2's construction): n modes of the light of clutter_prior_grid^3 point lights
+  // in the owning block, so that light varying across a face or a one-chart mesh (a sphere
+  // lit from one side) reaches the scene and other clutter with its shape. c then has n
+  // entries per object (DrtObjectOperators::face_count = n).
+  int clutter_prior_modes = 0;
+  int clutter_prior_grid = 4;
   std::uint64_t seed = 0x647274ull;
 };
 
