@@ -926,6 +926,11 @@ TEST(GltfScene, ClutterErrorsNameTheNode) {
   flat.flat_uv_face = true;
   expect_error(load_text("clutter_flat.gltf", flat.text()), "clutter_flat.gltf",
                {"node 0 ('box')", "clutter mesh"});
+  ClutterBoxGltf huge;  // a finite shear (determinant 1) carrying a finite position past double's range
+  huge.node_fields = R"("matrix":[1,0,0,0, 1e300,1,0,0, 0,0,1,0, 0,0,0,1])";
+  huge.h = glm::vec3(0.1f, 1e10f, 0.15f);
+  expect_error(load_text("clutter_inf.gltf", huge.text()), "clutter_inf.gltf",
+               {"node 0 ('box')", "not finite"});
   ClutterBoxGltf empty;
   empty.clutter = "{}";
   expect_error(load_text("clutter_empty.gltf", empty.text()), "clutter_empty.gltf",

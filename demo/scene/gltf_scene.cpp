@@ -1047,6 +1047,11 @@ void Loader::make_clutter_objects() {
   for (ClutterNode& c : clutter_nodes_) {
     const std::string where = c.label + ": extras.modrt_clutter";
     if (c.mesh.indices.empty()) fail(ErrorCode::format_error, where + ": the node's mesh has no triangles");
+    // Before anything orders or averages positions: NaN would break the edge map's ordering.
+    for (std::size_t v = 0; v < c.mesh.positions.size(); ++v)
+      if (const glm::dvec3& p = c.mesh.positions[v];
+          !(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+        fail(ErrorCode::format_error, where + ": vertex " + num(v) + " of the merged mesh is not finite");
     glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
     for (const glm::dvec3& p : c.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
     int block = -1;
