@@ -62,6 +62,8 @@ ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object) {
       for (int i = 0; i < res; ++i) {
         g.position.push_back(clutter_face_point(object.box, f, (i + 0.5) / res, (j + 0.5) / res));
         g.normal.push_back(n);
+        g.tangent.push_back(glm::normalize(clutter_face_point(object.box, f, 1.0, 0.0) -
+                                           clutter_face_point(object.box, f, 0.0, 0.0)));
         g.face.push_back(f);
       }
   }
@@ -90,8 +92,9 @@ std::string check_mesh_data(const ClutterObject& o) {
   const std::size_t m = a.texels.position.size(), triangles = d.mesh.indices.size() / 3;
   if (a.res != o.res) return "res " + std::to_string(o.res) + " is not the atlas's " + std::to_string(a.res);
   if (m == 0) return "the atlas has no texels";
-  if (a.texels.normal.size() != m || a.texels.face.size() != m || a.area.size() != m ||
-      a.triangle.size() != m || a.cell_texel.size() != std::size_t(a.res) * std::size_t(a.res))
+  if (a.texels.normal.size() != m || a.texels.face.size() != m || a.texels.tangent.size() != m ||
+      a.area.size() != m || a.triangle.size() != m ||
+      a.cell_texel.size() != std::size_t(a.res) * std::size_t(a.res))
     return "atlas arrays of different lengths";
   if (a.chart_count < 1 || d.chart_of_triangle.size() != triangles || d.mesh.indices.size() % 3 != 0)
     return "charts do not match the triangles";
@@ -151,6 +154,8 @@ std::size_t DrtOperators::storage_bytes() const {
   for (const DrtObjectOperators& o : objects) {
     bytes += matrix_bytes(o.dUb) + matrix_bytes(o.Td_c) + matrix_bytes(o.dUc) + matrix_bytes(o.Uc) +
              matrix_bytes(o.Vc);
+    bytes += matrix_bytes(o.Uc_vec) + matrix_bytes(o.Vc_vec) + matrix_bytes(o.Cc_vec) +
+             (o.Cb_vec_blocks.size() + o.Cc_vec_objects.size()) * sizeof(std::uint32_t);
     bytes += matrix_bytes(o.Cc) + matrix_bytes(o.dUb_vec) + matrix_bytes(o.dUc_vec) + matrix_bytes(o.Udyn) +
              matrix_bytes(o.Udyn_c);
     bytes += (o.Udyn_probe.size() + o.Udyn_block.size() + o.Udyn_c_probe.size()) * sizeof(std::uint32_t);
@@ -170,6 +175,7 @@ DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt) {
     faces += o.face_count;
   }
   s.clutter_ld = s.clutter_lightmap = 3 * s.clutter_texels;
+  s.clutter_vector_lightmap = 12 * s.clutter_texels;
   s.c = 3 * faces;
   return s;
 }
@@ -254,6 +260,25 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
       if (o.Udyn_c_probe[r] >= probes || (r > 0 && o.Udyn_c_probe[r] <= o.Udyn_c_probe[r - 1]))
         return fail("Udyn_c probes out of range, not sorted or not unique");
     if (!all_finite(o.Udyn) || !all_finite(o.Udyn_c)) return fail("non-finite operator value");
+    for (std::uint32_t blk : o.Cb_vec_blocks)
+      if (blk >= level.blocks.size()) return fail("Cb_vec block index out of range");
+    if (!o.Uc_vec.empty() || !o.Vc_vec.empty()) {
+      if (o.Uc_vec.rows != 4 * o.texel_count || o.Vc_vec.rows != o.Uc_vec.cols ||
+          o.Vc_vec.cols != std::size_t(drt.kb) * o.Cb_vec_blocks.size())
+        return fail("Uc_vec / Vc_vec are not 4m x modes and modes x (kb * |Cb_vec_blocks|)");
+    }
+    std::size_t cc_vec_cols = 0;
+    for (std::size_t j = 0; j < o.Cc_vec_objects.size(); ++j) {
+      const std::uint32_t src = o.Cc_vec_objects[j];
+      if (src >= drt.objects.size() || src == k) return fail("Cc_vec source object out of range or itself");
+      if (j > 0 && src <= o.Cc_vec_objects[j - 1]) return fail("Cc_vec source objects not sorted and unique");
+      cc_vec_cols += drt.objects[src].face_count;
+    }
+    if ((!o.Cc_vec_objects.empty() || !o.Cc_vec.empty()) &&
+        (o.Cc_vec.rows != 4 * o.texel_count || o.Cc_vec.cols != cc_vec_cols))
+      return fail("Cc_vec is not 4m x (faces of its source objects)");
+    if (!all_finite(o.Uc_vec) || !all_finite(o.Vc_vec) || !all_finite(o.Cc_vec))
+      return fail("non-finite operator value");
     if (!all_finite(o.dUb) || !all_finite(o.Td_c) || !all_finite(o.dUc) || !all_finite(o.Uc) ||
         !all_finite(o.Vc) || !all_finite(o.Cc) || !all_finite(o.dUb_vec) || !all_finite(o.dUc_vec))
       return fail("non-finite operator value");
@@ -385,6 +410,46 @@ void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::
               acc[ch] += double(row[col]) * c[3 * (face0[src] + f) + std::size_t(ch)];
         for (int ch = 0; ch < 3; ++ch) out[3 * (texel0 + t) + std::size_t(ch)] += float(acc[ch]);
       }
+    }
+    texel0 += o.texel_count;
+  }
+}
+
+void drt_clutter_vector_lightmap(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                                 std::span<float> out) {
+  const std::size_t kb = drt.kb;
+  std::size_t texel0 = 0, face0 = 0;
+  std::vector<std::size_t> first_face;
+  for (const DrtObjectOperators& o : drt.objects) {
+    first_face.push_back(face0);
+    face0 += o.face_count;
+  }
+  std::vector<double> y;
+  for (const DrtObjectOperators& o : drt.objects) {
+    const std::uint32_t modes = o.Uc_vec.cols;
+    y.assign(3 * std::size_t(modes), 0.0);
+    for (std::uint32_t q = 0; q < modes; ++q) {
+      const std::span<const float> row = o.Vc_vec.row(q);
+      for (std::size_t blk = 0; blk < o.Cb_vec_blocks.size(); ++blk) {
+        const float* bb = b.data() + 3 * kb * o.Cb_vec_blocks[blk];
+        for (std::size_t k = 0; k < kb; ++k)
+          for (int ch = 0; ch < 3; ++ch)
+            y[3 * q + std::size_t(ch)] += double(row[blk * kb + k]) * bb[3 * k + std::size_t(ch)];
+      }
+    }
+    for (std::uint32_t r = 0; r < 4 * o.texel_count; ++r) {
+      double acc[3] = {0, 0, 0};
+      for (std::uint32_t q = 0; q < modes; ++q)
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += double(o.Uc_vec(r, q)) * y[3 * q + std::size_t(ch)];
+      if (!o.Cc_vec.empty()) {
+        const std::span<const float> row = o.Cc_vec.row(r);
+        std::size_t col = 0;
+        for (std::uint32_t src : o.Cc_vec_objects)
+          for (std::uint32_t f = 0; f < drt.objects[src].face_count; ++f, ++col)
+            for (int ch = 0; ch < 3; ++ch)
+              acc[ch] += double(row[col]) * c[3 * (first_face[src] + f) + std::size_t(ch)];
+      }
+      for (int ch = 0; ch < 3; ++ch) out[3 * (4 * texel0 + r) + std::size_t(ch)] = float(acc[ch]);
     }
     texel0 += o.texel_count;
   }

@@ -11,6 +11,7 @@
 #include <glm/geometric.hpp>
 
 #include "embree_rays.h"
+#include "modrt/precompute/sampling.h"
 
 namespace modrt::precompute {
 namespace {
@@ -80,6 +81,7 @@ struct Triangle {
   double uv_area2 = 0;      // signed, twice the UV area
   double world_per_uv = 0;  // world area / UV area
   glm::dvec3 normal{0};
+  glm::dvec3 tangent{0};  // unit dP/du, perpendicular to the normal
 };
 
 int find_root(std::vector<int>& parent, int i) {
@@ -180,6 +182,18 @@ Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res
     tri.uv_area2 = cross2(tri.uv[1] - tri.uv[0], tri.uv[2] - tri.uv[0]);
     tri.world_per_uv = world_area / (0.5 * std::abs(tri.uv_area2));
     tri.normal = n / (2.0 * world_area);
+    // dP/du from the UV parametrization (uv_area2 is nonzero: checked above).
+    const glm::dvec3 dp1 = tri.p[1] - tri.p[0], dp2 = tri.p[2] - tri.p[0];
+    const glm::dvec2 d1 = tri.uv[1] - tri.uv[0], d2 = tri.uv[2] - tri.uv[0];
+    glm::dvec3 dpdu = (dp1 * d2.y - dp2 * d1.y) / tri.uv_area2;
+    dpdu -= glm::dot(dpdu, tri.normal) * tri.normal;
+    const double len = glm::length(dpdu);
+    if (len > 0.0) {
+      tri.tangent = dpdu / len;
+    } else {
+      glm::dvec3 b;
+      tangent_frame(tri.normal, tri.tangent, b);
+    }
   }
 
   const std::vector<int> chart_of = clutter_mesh_charts(mesh);
@@ -239,6 +253,7 @@ Result<ClutterMeshAtlas> rasterize_clutter_mesh(const ClutterMesh& mesh, int res
     atlas.cell_texel[c] = std::int32_t(atlas.triangle.size());
     atlas.texels.position.push_back(w.x * tri.p[0] + w.y * tri.p[1] + w.z * tri.p[2]);
     atlas.texels.normal.push_back(tri.normal);
+    atlas.texels.tangent.push_back(tri.tangent);
     atlas.texels.face.push_back(chart_of[std::size_t(t)]);
     atlas.triangle.push_back(std::uint32_t(t));
     atlas.area.push_back(area[c]);

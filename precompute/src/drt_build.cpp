@@ -33,6 +33,7 @@ struct DrtBuildState::Impl {
   std::vector<SampleResult> vector_samples;      // vector scene pass (empty unless built)
   std::vector<SampleResult> probes;              // U_dyn pass (empty unless built)
   std::vector<std::vector<TexelResult>> texels;  // clutter pass, per object
+  std::vector<std::vector<TexelResult>> vector_texels;  // vector clutter pass (empty unless built)
   std::vector<ClutterTexelGeometry> geometry;    // per object
 };
 
@@ -392,6 +393,67 @@ struct DrtBuilder::Pass {
     return result;
   }
 
+  // Vector Cb and Cc (DRT §5) of texel i of object k: trace_texel's charging with
+  // uniform-hemisphere rays in the texel's frame (tangent, cross(normal, tangent), normal),
+  // each ray weighted by 2 pi / rays times the OHLSH coefficients of its direction. cb rows
+  // are 4 kb per block and cc slots 4 col + i (coefficient-major, assemble_cb_cc).
+  TexelResult trace_texel_vector(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg,
+                                 std::vector<LimpGather>& gather, Candidates& cand,
+                                 std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs,
+                                 std::vector<LevelHit>& walls) const {
+    TexelResult result;
+    const glm::dvec3 p = cg.position[i], n = cg.normal[i], t = cg.tangent[i];
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if (j != k && queries[j].contains(p, n)) return result;
+    const glm::dvec3 x = p + 1e-6 * n;
+    cand.clear();
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if ((j != k || queries[j].mesh) && (!b.settings_.cull || queries[j].in_front(p, n)))
+        cand.add(std::uint32_t(j), queries[j], x);
+    frame_directions(b.uniform_sets_, vector_seed() ^ 0x436200ull, texel_stream(k, i), t, glm::cross(n, t), n,
+                     local, dirs);
+    walls.resize(dirs.size());
+    b.walls_.intersect_many(x, dirs, walls);
+    const double w = 2.0 * std::numbers::pi / double(dirs.size());  // uniform pdf 1 / (2 pi)
+    for (std::size_t r = 0; r < dirs.size(); ++r) {
+      const LevelHit& wall = walls[r];
+      const std::array<double, kOhlshCount> a = ohlsh_weights(local[r]);
+      if (!cand.empty()) {
+        const Candidates::Nearest hit = cand.nearest(queries, dirs[r]);
+        if (hit.object >= 0 && !(wall.block >= 0 && wall.t < hit.entry.t)) {
+          if (std::size_t(hit.object) == k) continue;  // a concave mesh shadows itself
+          queries[std::size_t(hit.object)].charge(hit.entry, x, dirs[r], [&](std::size_t col, double value) {
+            for (int q = 0; q < kOhlshCount; ++q) {
+              const std::uint64_t key = cc_key(std::uint32_t(hit.object), int(kOhlshCount * col) + q);
+              auto it = std::find_if(result.cc.begin(), result.cc.end(),
+                                     [&](const auto& e) { return e.first == key; });
+              if (it == result.cc.end()) {
+                result.cc.emplace_back(key, w * a[std::size_t(q)] * value);
+              } else {
+                it->second += w * a[std::size_t(q)] * value;
+              }
+            }
+          });
+          continue;
+        }
+      }
+      if (wall.block >= 0)
+        for (int q = 0; q < kOhlshCount; ++q) gather[std::size_t(q)].add(wall, w * a[std::size_t(q)]);
+    }
+    const std::uint32_t kb = b.level_.kb;
+    for (int q = 0; q < kOhlshCount; ++q) {
+      BlockRows coefficient;
+      gather[std::size_t(q)].flush(coefficient);
+      for (const auto& [blk, values] : coefficient) {
+        std::vector<double>& dst = result.cb[blk];
+        dst.resize(kOhlshCount * std::size_t(kb), 0.0);
+        std::copy(values.begin(), values.end(), dst.begin() + std::ptrdiff_t(q) * kb);
+      }
+    }
+    std::sort(result.cc.begin(), result.cc.end());
+    return result;
+  }
+
   // Whether the result of a work item (rays from origin about n) can depend on `box`: the
   // origin lies in it (inside test of the trace) or one of its rays enters it (the only
   // rays whose nearest object can change). Exact: an item for which this is false for a
@@ -434,6 +496,22 @@ struct DrtBuilder::Pass {
     return depends_on(query, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i],
                       b.settings_.seed ^ 0x436200ull, texel_stream(k, i), dirs);
   }
+  // The same for the vector clutter pass's rays of texel i of object k.
+  bool texel_vector_depends_on(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg,
+                               const ObjectQuery& query, std::vector<glm::dvec3>& local,
+                               std::vector<glm::dvec3>& dirs) const {
+    const glm::dvec3 p = cg.position[i], n = cg.normal[i], t = cg.tangent[i];
+    if (query.contains(p, n)) return true;
+    if (b.settings_.cull && !query.in_front(p, n)) return false;
+    frame_directions(b.uniform_sets_, vector_seed() ^ 0x436200ull, texel_stream(k, i), t, glm::cross(n, t), n,
+                     local, dirs);
+    const std::vector<ObjectQuery> one{query};
+    Candidates cand;
+    cand.add(0, query, p + 1e-6 * n);
+    for (const glm::dvec3& dir : dirs)
+      if (cand.nearest(one, dir).object >= 0) return true;
+    return false;
+  }
   static std::uint64_t texel_stream(std::size_t k, std::size_t i) {
     return (std::uint64_t(k) << 32) | std::uint64_t(i);
   }
@@ -471,19 +549,24 @@ struct DrtBuilder::Pass {
                       });
   }
 
-  // Traces the texels listed in `work` (object, texel) into `texels`.
+  // Traces the texels listed in `work` (object, texel) into `texels`, and into
+  // `vector_texels` when it is not empty (the vector pass).
   void clutter_pass(std::vector<std::vector<TexelResult>>& texels,
+                    std::vector<std::vector<TexelResult>>& vector_texels,
                     const std::vector<ClutterTexelGeometry>& geometry,
                     const std::vector<std::pair<std::uint32_t, std::uint32_t>>& work) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work.size(), 16),
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         LimpGather& gather = gathers.local();
                         Candidates cand;
-                        std::vector<glm::dvec3> dirs;
+                        std::vector<glm::dvec3> dirs, local;
                         std::vector<LevelHit> walls;
                         for (std::size_t w = range.begin(); w != range.end(); ++w) {
                           const auto [k, i] = work[w];
                           texels[k][i] = trace_texel(k, i, geometry[k], gather, cand, dirs, walls);
+                          if (!vector_texels.empty())
+                            vector_texels[k][i] = trace_texel_vector(
+                                k, i, geometry[k], vector_gathers.local(), cand, local, dirs, walls);
                         }
                       });
   }
@@ -646,7 +729,6 @@ struct DrtBuilder::Pass {
   // Td_c, Cb (SVD-compressed to cb_modes) and Cc of object k from its traced texels.
   void assemble_clutter(std::size_t k, const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
     const ClutterObject& object = objects[k];
-    const std::size_t kb = b.level_.kb;
     const int f_count = queries[k].columns;
     op.texel_count = std::uint32_t(clutter_texel_count(object));
     op.face_count = std::uint32_t(f_count);
@@ -671,25 +753,37 @@ struct DrtBuilder::Pass {
           op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
     }
 
+    assemble_cb_cc(texels, 1, op.Cb_blocks, op.Uc, op.Vc, &op.Cb_sigma, op.Cb_truncation_error, op.Cc_objects,
+                   op.Cc);
+  }
+
+  // Cb (SVD-compressed to cb_modes) and Cc from traced texels with W rows each (1, or the 4
+  // OHLSH coefficients of the vector pass: cb rows W kb per block and cc slots W col + i,
+  // coefficient-major), into matrices with W rows per texel.
+  void assemble_cb_cc(const std::vector<TexelResult>& texels, std::size_t W,
+                      std::vector<std::uint32_t>& blocks, Matrix& U, Matrix& V, std::vector<float>* sigmas,
+                      float& truncation, std::vector<std::uint32_t>& cc_objects, Matrix& Cc) const {
+    const std::size_t kb = b.level_.kb;
     const std::size_t m = texels.size();
     std::map<std::uint32_t, std::size_t> column_of;
     for (const TexelResult& r : texels)
       for (const auto& [blk, values] : r.cb) column_of.emplace(blk, 0);
-    op.Cb_blocks.clear();
-    op.Cb_sigma.clear();
-    op.Uc = Matrix();
-    op.Vc = Matrix();
-    op.Cb_truncation_error = 0.0f;
+    blocks.clear();
+    if (sigmas) sigmas->clear();
+    U = Matrix();
+    V = Matrix();
+    truncation = 0.0f;
     for (auto& [blk, col] : column_of) {
-      col = op.Cb_blocks.size();
-      op.Cb_blocks.push_back(blk);
+      col = blocks.size();
+      blocks.push_back(blk);
     }
-    if (!op.Cb_blocks.empty()) {
-      MatrixXd Cb = MatrixXd::Zero(Eigen::Index(m), Eigen::Index(kb * op.Cb_blocks.size()));
+    if (!blocks.empty()) {
+      MatrixXd Cb = MatrixXd::Zero(Eigen::Index(W * m), Eigen::Index(kb * blocks.size()));
       for (std::size_t i = 0; i < m; ++i)
         for (const auto& [blk, values] : texels[i].cb)
-          for (std::size_t c = 0; c < kb; ++c)
-            Cb(Eigen::Index(i), Eigen::Index(column_of[blk] * kb + c)) = values[c];
+          for (std::size_t w = 0; w < W; ++w)
+            for (std::size_t c = 0; c < kb; ++c)
+              Cb(Eigen::Index(W * i + w), Eigen::Index(column_of[blk] * kb + c)) = values[w * kb + c];
       Eigen::BDCSVD<MatrixXd> svd(Cb, Eigen::ComputeThinU | Eigen::ComputeThinV);
       const VectorXd sigma = svd.singularValues();
       int modes = 0;
@@ -698,41 +792,51 @@ struct DrtBuilder::Pass {
       for (Eigen::Index q = 0; q < sigma.size(); ++q) {
         total += sigma[q] * sigma[q];
         if (q < modes) kept += sigma[q] * sigma[q];
-        op.Cb_sigma.push_back(float(sigma[q]));
+        if (sigmas) sigmas->push_back(float(sigma[q]));
       }
-      op.Cb_truncation_error = total > 0.0 ? float(std::sqrt(std::max(0.0, total - kept) / total)) : 0.0f;
+      truncation = total > 0.0 ? float(std::sqrt(std::max(0.0, total - kept) / total)) : 0.0f;
       if (modes > 0) {
-        op.Uc = to_float(svd.matrixU().leftCols(modes) * sigma.head(modes).asDiagonal());
-        op.Vc = to_float(svd.matrixV().leftCols(modes).transpose());
+        U = to_float(svd.matrixU().leftCols(modes) * sigma.head(modes).asDiagonal());
+        V = to_float(svd.matrixV().leftCols(modes).transpose());
       }
     }
 
-    // Cc: columns are the faces of every source object any texel saw, sources ascending.
-    op.Cc_objects.clear();
-    op.Cc = Matrix();
+    // Cc: columns are the c entries of every source object any texel saw, sources ascending.
+    cc_objects.clear();
+    Cc = Matrix();
     std::vector<std::size_t> col0(objects.size(), 0);
     for (const TexelResult& r : texels)
-      for (const auto& [key, w] : r.cc) op.Cc_objects.push_back(cc_object(key));
-    std::sort(op.Cc_objects.begin(), op.Cc_objects.end());
-    op.Cc_objects.erase(std::unique(op.Cc_objects.begin(), op.Cc_objects.end()), op.Cc_objects.end());
+      for (const auto& [key, w] : r.cc) cc_objects.push_back(cc_object(key));
+    std::sort(cc_objects.begin(), cc_objects.end());
+    cc_objects.erase(std::unique(cc_objects.begin(), cc_objects.end()), cc_objects.end());
     std::size_t cols = 0;
-    for (std::uint32_t src : op.Cc_objects) {
+    for (std::uint32_t src : cc_objects) {
       col0[src] = cols;
       cols += std::size_t(queries[src].columns);
     }
     if (cols > 0) {
-      op.Cc = Matrix(std::uint32_t(m), std::uint32_t(cols));
+      Cc = Matrix(std::uint32_t(W * m), std::uint32_t(cols));
       for (std::size_t i = 0; i < m; ++i)
         for (const auto& [key, w] : texels[i].cc)
-          op.Cc(std::uint32_t(i), std::uint32_t(col0[cc_object(key)] + cc_slot(key))) = float(w);
+          Cc(std::uint32_t(W * i + cc_slot(key) % W),
+             std::uint32_t(col0[cc_object(key)] + cc_slot(key) / W)) = float(w);
     }
+  }
+
+  // The vector Cb and Cc of object k (DRT §5) from its vector-traced texels.
+  void assemble_clutter_vector(const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
+    assemble_cb_cc(texels, kOhlshCount, op.Cb_vec_blocks, op.Uc_vec, op.Vc_vec, nullptr,
+                   op.Cb_vec_truncation_error, op.Cc_vec_objects, op.Cc_vec);
   }
 
   // The clutter operators of the objects flagged in `dirty`, in parallel over objects.
   void assemble_clutter_all(const std::vector<std::vector<TexelResult>>& texels,
+                            const std::vector<std::vector<TexelResult>>& vector_texels,
                             const std::vector<std::uint8_t>& dirty, DrtOperators& drt) const {
     tbb::parallel_for(std::size_t(0), objects.size(), [&](std::size_t k) {
-      if (dirty[k]) assemble_clutter(k, texels[k], drt.objects[k]);
+      if (!dirty[k]) return;
+      assemble_clutter(k, texels[k], drt.objects[k]);
+      if (!vector_texels.empty()) assemble_clutter_vector(vector_texels[k], drt.objects[k]);
     });
   }
 };
@@ -892,11 +996,16 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
     for (std::size_t k = 0; k < objects.size(); ++k) {
       impl->geometry.push_back(clutter_texel_geometry(objects[k]));
       impl->texels[k].resize(impl->geometry[k].position.size());
+      if (settings_.vector) {
+        impl->vector_texels.resize(objects.size());
+        impl->vector_texels[k].resize(impl->geometry[k].position.size());
+      }
       for (std::size_t i = 0; i < impl->texels[k].size(); ++i)
         work.emplace_back(std::uint32_t(k), std::uint32_t(i));
     }
-    pass.clutter_pass(impl->texels, impl->geometry, work);
-    pass.assemble_clutter_all(impl->texels, std::vector<std::uint8_t>(objects.size(), 1), drt);
+    pass.clutter_pass(impl->texels, impl->vector_texels, impl->geometry, work);
+    pass.assemble_clutter_all(impl->texels, impl->vector_texels, std::vector<std::uint8_t>(objects.size(), 1),
+                              drt);
     if (report) {
       report->scene_seconds += std::chrono::duration<double>(t1 - t0).count();
       report->clutter_seconds += seconds_since(t1);
@@ -988,6 +1097,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   const auto t1 = std::chrono::steady_clock::now();
   st.geometry[index] = clutter_texel_geometry(objects[index]);
   st.texels[index].assign(st.geometry[index].position.size(), TexelResult{});
+  if (!st.vector_texels.empty())
+    st.vector_texels[index].assign(st.geometry[index].position.size(), TexelResult{});
   std::vector<std::pair<std::uint32_t, std::uint32_t>> work, candidates;
   for (std::size_t k = 0; k < objects.size(); ++k)
     for (std::size_t i = 0; i < st.geometry[k].position.size(); ++i)
@@ -995,11 +1106,15 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   std::vector<std::uint8_t> affected(candidates.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 32),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      std::vector<glm::dvec3> dirs;
+                      std::vector<glm::dvec3> dirs, local;
                       for (std::size_t c = range.begin(); c != range.end(); ++c) {
                         const auto [k, i] = candidates[c];
-                        affected[c] = pass.texel_depends_on(k, i, st.geometry[k], old_box, dirs) ||
-                                      pass.texel_depends_on(k, i, st.geometry[k], new_box, dirs);
+                        affected[c] =
+                            pass.texel_depends_on(k, i, st.geometry[k], old_box, dirs) ||
+                            pass.texel_depends_on(k, i, st.geometry[k], new_box, dirs) ||
+                            (settings_.vector &&
+                             (pass.texel_vector_depends_on(k, i, st.geometry[k], old_box, local, dirs) ||
+                              pass.texel_vector_depends_on(k, i, st.geometry[k], new_box, local, dirs)));
                       }
                     });
   std::vector<std::uint8_t> dirty(objects.size(), 0);
@@ -1009,8 +1124,8 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
       work.push_back(candidates[c]);
       dirty[candidates[c].first] = 1;
     }
-  pass.clutter_pass(st.texels, st.geometry, work);
-  pass.assemble_clutter_all(st.texels, dirty, drt);
+  pass.clutter_pass(st.texels, st.vector_texels, st.geometry, work);
+  pass.assemble_clutter_all(st.texels, st.vector_texels, dirty, drt);
   if (report) {
     report->traced_samples += retraced;
     report->inside_samples += scene_report.inside_samples;

@@ -90,6 +90,10 @@ struct ClutterTexelGeometry {
   std::vector<glm::dvec3> position;  // texel centres
   std::vector<glm::dvec3> normal;    // outward
   std::vector<int> face;             // box face (mesh: chart) per texel
+  // Unit, perpendicular to the normal: the lightmap's u direction (box: the face's u axis;
+  // mesh: dP/du of the texel's triangle). The frame of the clutter's vector irradiance
+  // (drt_clutter_vector_lightmap) is (tangent, cross(normal, tangent), normal).
+  std::vector<glm::dvec3> tangent;
 };
 ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object);
 // World area each texel stands for (a box face's area / res^2; a mesh texel's share of its
@@ -145,6 +149,17 @@ struct DrtObjectOperators {
   Matrix Udyn;  // 9 entries x kb
   std::vector<std::uint32_t> Udyn_c_probe;
   Matrix Udyn_c;  // 9 entries x f
+  // Vector Cb and Cc (DRT §5, C_b vector): the clutter texels' indirect light as OHLSH E/pi
+  // (sh.h) in each texel's frame (ClutterTexelGeometry::tangent), rows 4 t + i. Cb_vec =
+  // Uc_vec Vc_vec (SVD-truncated like Cb) over the b of Cb_vec_blocks; Cc_vec's columns are
+  // the c entries of Cc_vec_objects (as Cc). Empty: not built (drt_clutter_vector_lightmap
+  // writes zeros for this object).
+  std::vector<std::uint32_t> Cb_vec_blocks;
+  Matrix Uc_vec;  // 4m x modes
+  Matrix Vc_vec;  // modes x (kb * |Cb_vec_blocks|)
+  float Cb_vec_truncation_error = 0.0f;
+  std::vector<std::uint32_t> Cc_vec_objects;
+  Matrix Cc_vec;  // 4m x (sum of the sources' face_count)
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };
@@ -164,6 +179,7 @@ struct DrtBufferSizes {
   std::size_t clutter_ld = 0;      // 3 * clutter_texels
   std::size_t clutter_lightmap = 0;
   std::size_t c = 0;  // 3 * sum of f
+  std::size_t clutter_vector_lightmap = 0;  // 12 * clutter_texels (drt_clutter_vector_lightmap)
 };
 DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt);
 
@@ -190,6 +206,11 @@ void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<con
 // without U_dyn operators.
 void drt_apply_probes(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
                       std::span<float> probes);
+// The clutter's vector irradiance (DRT §5, C_b vector): out = Uc_vec (Vc_vec b) + Cc_vec c,
+// 12 floats per clutter texel (3 (4 t + i) + channel, OHLSH E/pi in the texel's frame, as
+// level_compute_vector_irradiance); zeros for objects without vector clutter operators.
+void drt_clutter_vector_lightmap(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                                 std::span<float> out);
 // Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
 // lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
 void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);
