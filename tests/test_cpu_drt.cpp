@@ -7,11 +7,13 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <vector>
 
 #include "cpu_test_support.h"
 #include "drt_scenes.h"
+#include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/cpu_drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/drt_build.h"
@@ -292,6 +294,54 @@ TEST(CpuDrt, MergedRowsOfOverlappingObjectsMatchScalarReferenceForEveryIsa) {
 
 // Operators without U_dyn add nothing to the probes, whatever the dictionary's probe grid (the
 // CPU backend passes its probes on every frame).
+// The clutter's vector irradiance (Uc_vec Vc_vec b + Cc_vec c, DRT §5) on the four pillars,
+// which see each other (Cc_vec), every ISA, and through the CPU backend after an update.
+TEST(CpuDrt, ClutterVectorLightmapMatchesScalarReferenceForEveryIsa) {
+  const PillarFixture& f = pillars();
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  for (const DrtObjectOperators& o : f.drt.objects) {
+    ASSERT_FALSE(o.Uc_vec.empty());
+    ASSERT_FALSE(o.Cc_vec.empty());
+  }
+  std::mt19937 rng(15);
+  const std::vector<float> b =
+      random_vector(rng, 3 * std::size_t(f.level.kb) * f.level.blocks.size(), -0.2f, 1.0f);
+  const std::vector<float> c = random_vector(rng, sizes.c, 0.0f, 1.0f);
+  std::vector<float> ref(sizes.clutter_vector_lightmap, -1.0f);
+  drt_clutter_vector_lightmap(f.drt, b, c, ref);
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> out(sizes.clutter_vector_lightmap, -1.0f);
+    ASSERT_TRUE(rt->clutter_vector_lightmap(b, c, out).ok());
+    const Error e = compare(out, ref);
+    EXPECT_LE(e.rel_l2, 1e-5) << isa_name(isa);
+    Worst w;
+    w.add(e);
+    w.print("clutter vector lightmap", isa);
+    std::vector<float> short_out(sizes.clutter_vector_lightmap - 1);
+    EXPECT_EQ(rt->clutter_vector_lightmap(b, c, short_out).code(), ErrorCode::invalid_argument);
+  }
+  // Through the backend: the b of its update and the c of its clutter light.
+  Result<std::unique_ptr<Backend>> created = create_cpu_backend(f.level, dict());
+  ASSERT_TRUE(created.ok()) << created.status().to_string();
+  Backend* be = created.value().get();
+  std::vector<float> out(sizes.clutter_vector_lightmap);
+  EXPECT_EQ(be->read_clutter_vector_lightmap(out).code(), ErrorCode::invalid_argument);  // no clutter
+  ASSERT_TRUE(be->set_clutter(&f.drt).ok());
+  const std::vector<float> ld = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
+  const std::vector<float> clutter_ld = random_vector(rng, sizes.clutter_ld, 0.0f, 1.0f);
+  ASSERT_TRUE(be->set_clutter_light(clutter_ld, {}).ok());
+  ASSERT_TRUE(be->update(ld).ok());
+  ASSERT_TRUE(be->read_clutter_vector_lightmap(out).ok());
+  const LevelBufferSizes ls = level_buffer_sizes(f.level, dict());
+  std::vector<float> rb(ls.b), rr(ls.r), lm(ls.lightmap), rc(sizes.c);
+  ASSERT_TRUE(level_evaluate(f.level, dict(), ld, rb, rr, lm).ok());
+  ASSERT_TRUE(drt_compute_c(f.drt, clutter_ld, rc).ok());
+  drt_clutter_vector_lightmap(f.drt, rb, rc, ref);
+  EXPECT_LE(compare(out, ref).rel_l2, 1e-5);
+}
+
 TEST(CpuDrt, ProbesAreLeftAsTheyAreWithoutUdyn) {
   const DrtFixture& f = fixture();
   DrtOperators no_udyn = f.drt;

@@ -147,6 +147,13 @@ class CpuBackend final : public Backend {
     return Status::success();
   }
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
+  // Computed on request from the kept b and c (DRT §5, C_b vector).
+  Status read_clutter_vector_lightmap(std::span<float> out) override {
+    if (!drt_)
+      return Status::error(ErrorCode::invalid_argument, "cpu: read_clutter_vector_lightmap: no clutter set");
+    if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
+    return drt_->clutter_vector_lightmap(rt_.b(), c_, out);
+  }
   Status read_clutter_lightmap(std::span<float> out) override {
     if (!drt_)
       return Status::error(ErrorCode::invalid_argument, "cpu: read_clutter_lightmap: no clutter set");

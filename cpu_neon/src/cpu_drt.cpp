@@ -149,9 +149,11 @@ Result<CpuDrtRuntime> CpuDrtRuntime::create(const Level& level, const DrtOperato
   for (const DrtObjectOperators& o : drt.objects) {
     rt.texel0_.push_back(texel0);
     rt.face0_.push_back(face0);
-    scratch = std::max({scratch, 3 * std::size_t(o.texel_count), 3 * kb * o.Cb_blocks.size(),
-                        3 * std::size_t(o.Uc.cols), 3 * std::size_t(o.Cc.cols)});
-    modes = std::max<std::size_t>(modes, o.Uc.cols);
+    scratch =
+        std::max({scratch, 3 * std::size_t(o.texel_count), 3 * kb * o.Cb_blocks.size(),
+                  3 * std::size_t(o.Uc.cols), 3 * std::size_t(o.Cc.cols), 3 * kb * o.Cb_vec_blocks.size(),
+                  3 * std::size_t(o.Uc_vec.cols), 3 * std::size_t(o.Cc_vec.cols)});
+    modes = std::max<std::size_t>({modes, o.Uc.cols, o.Uc_vec.cols});
     texel0 += o.texel_count;
     face0 += o.face_count;
   }
@@ -235,6 +237,41 @@ Status CpuDrtRuntime::clutter_add_cc(std::span<const float> c, std::span<float> 
         for (std::size_t ch = 0; ch < 3; ++ch) planar_[ch * cols + col] = c[3 * (face0_[src] + f) + ch];
     gemv_rgb(isa_, o.Cc.data.data(), o.texel_count, cols, cols, planar_.data(), cols,
              out.data() + 3 * texel0_[i], true);
+  }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::clutter_vector_lightmap(std::span<const float> b, std::span<const float> c,
+                                              std::span<float> out) {
+  const std::size_t kb = level_->kb;
+  if (b.size() != 3 * kb * level_->blocks.size())
+    return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
+  if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
+  if (out.size() != sizes_.clutter_vector_lightmap)
+    return wrong_size("clutter vector lightmap", out.size(), sizes_.clutter_vector_lightmap);
+  for (std::size_t i = 0; i < drt_->objects.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    const std::size_t rows = 4 * std::size_t(o.texel_count), modes = o.Uc_vec.cols,
+                      cols = kb * o.Cb_vec_blocks.size();
+    float* dst = out.data() + 12 * texel0_[i];
+    if (modes == 0 || cols == 0) {
+      std::fill(dst, dst + 3 * rows, 0.0f);
+    } else {  // DRT §5: Vc_vec b over the blocks the clutter sees, then Uc_vec (as Cb).
+      for (std::size_t k = 0; k < o.Cb_vec_blocks.size(); ++k)
+        for (std::size_t j = 0; j < kb; ++j)
+          for (std::size_t ch = 0; ch < 3; ++ch)
+            planar_[ch * cols + k * kb + j] = b[3 * kb * o.Cb_vec_blocks[k] + 3 * j + ch];
+      gemv_rgb(isa_, o.Vc_vec.data.data(), modes, cols, cols, planar_.data(), cols, modes_.data(), false);
+      deinterleave_rgb(modes_.data(), modes, planar_.data(), modes);
+      gemv_rgb(isa_, o.Uc_vec.data.data(), rows, modes, modes, planar_.data(), modes, dst, false);
+    }
+    const std::size_t cc_cols = o.Cc_vec.cols;
+    if (cc_cols == 0) continue;
+    std::size_t col = 0;
+    for (std::uint32_t src : o.Cc_vec_objects)
+      for (std::size_t f = 0; f < drt_->objects[src].face_count; ++f, ++col)
+        for (std::size_t ch = 0; ch < 3; ++ch) planar_[ch * cc_cols + col] = c[3 * (face0_[src] + f) + ch];
+    gemv_rgb(isa_, o.Cc_vec.data.data(), rows, cc_cols, cc_cols, planar_.data(), cc_cols, dst, true);
   }
   return Status::success();
 }

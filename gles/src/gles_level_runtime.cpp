@@ -993,6 +993,14 @@ Status GlesLevelRuntime::set_clutter_albedo(std::span<const float> clutter_albed
   return check("uploading the clutter albedo");
 }
 
+Status GlesLevelRuntime::read_clutter_vector_lightmap(std::span<float>) {
+  if (!drt_)
+    return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_vector_lightmap: no clutter set");
+  return Status::error(ErrorCode::invalid_argument,
+                       "gles: read_clutter_vector_lightmap: the GLES backend does not compute the clutter's "
+                       "vector irradiance yet (use the CPU backend)");
+}
+
 Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap) {
   if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_lightmap: no clutter set");
   if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");

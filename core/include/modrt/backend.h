@@ -82,6 +82,12 @@ class Backend {
   virtual Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) = 0;
   // drt_buffer_sizes of the current clutter (all zero without).
   virtual const DrtBufferSizes& clutter_sizes() const = 0;
+  // The clutter's vector irradiance of the last update (clutter_sizes().clutter_vector_lightmap
+  // floats, core's drt_clutter_vector_lightmap layout: OHLSH E/pi in each clutter texel's
+  // frame, for normal-mapped clutter; zeros for objects built without vector operators).
+  // Fails without clutter, and on backends that do not compute it (GLES so far:
+  // invalid_argument saying so).
+  virtual Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) = 0;
   // The clutter lightmap of the last update (clutter_sizes().clutter_lightmap floats, core's
   // drt_clutter_lightmap layout). Fails without clutter.
   virtual Status read_clutter_lightmap(std::span<float> clutter_lightmap) = 0;

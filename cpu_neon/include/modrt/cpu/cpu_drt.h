@@ -49,6 +49,9 @@ class CpuDrtRuntime {
   // out (3 per clutter texel) += Cc c: light of other clutter objects (drt.h
   // drt_clutter_add_cc); nothing for objects without Cc.
   Status clutter_add_cc(std::span<const float> c, std::span<float> out);
+  // out (12 per clutter texel) = Uc_vec (Vc_vec b) + Cc_vec c: the clutter's vector
+  // irradiance (drt.h drt_clutter_vector_lightmap); zeros for objects without it.
+  Status clutter_vector_lightmap(std::span<const float> b, std::span<const float> c, std::span<float> out);
   // vector_lightmap (12 per level sample, level_compute_vector_irradiance's layout) +=
   // dUb_vec b + dUc_vec c (drt.h drt_apply_vector); nothing for objects without them.
   Status apply_vector(std::span<const float> b, std::span<const float> c, std::span<float> vector_lightmap);

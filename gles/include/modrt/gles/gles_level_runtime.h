@@ -124,6 +124,8 @@ class GlesLevelRuntime final : public Backend {
   Status set_clutter(const DrtOperators* drt) override;
   Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
   Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) override;
+  // Not computed by the GLES passes yet (docs/drt.md, "Not done yet"): fails saying so.
+  Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) override;
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
   Status read_clutter_lightmap(std::span<float> clutter_lightmap) override;
   // The clutter atlas (the atlas's format; RGB in .rgb), 0 without clutter. Object k's texels
