@@ -494,6 +494,33 @@ TEST_P(GlesDrtTest, MultiBounceFeedsTheClutterLightBackAsCore) {
   }
 }
 
+// The clutter's vector irradiance (Uc_vec (Vc_vec b) + Cc_vec c, DRT §5), rendered on
+// request, against core for every target / operator format, and equal to the CPU backend's.
+TEST_P(GlesDrtTest, ClutterVectorLightmapMatchesCore) {
+  const DrtFixture& f = fixture();
+  const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+  ASSERT_FALSE(f.drt.objects[0].Uc_vec.empty());
+  const Reference one = reference(f, f.ld, f.clutter_ld);
+  std::vector<float> c(d.c), ref(d.clutter_vector_lightmap);
+  ASSERT_TRUE(drt_compute_c(f.drt, f.clutter_ld, c).ok());
+  drt_clutter_vector_lightmap(f.drt, one.b, c, ref);
+  for (const FormatCase& fc : kFormats) {
+    std::unique_ptr<GlesLevelRuntime> rt = make({.target = fc.target, .operators = fc.operators});
+    ASSERT_TRUE(rt);
+    std::vector<float> out(d.clutter_vector_lightmap);
+    EXPECT_EQ(rt->read_clutter_vector_lightmap(out).code(), ErrorCode::invalid_argument);  // no clutter yet
+    ASSERT_TRUE(rt->set_clutter(&f.drt).ok());
+    ASSERT_TRUE(rt->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(rt->update(f.ld).ok());
+    ASSERT_TRUE(rt->read_clutter_vector_lightmap(out).ok()) << rt->description();
+    const double e = rel_l2(out, ref);
+    EXPECT_LE(e, fc.tolerance) << rt->description();
+    std::printf("  %-60s clutter vector lightmap rel L2 %.2e\n", rt->description(), e);
+    std::vector<float> wrong(d.clutter_vector_lightmap + 1);
+    EXPECT_EQ(rt->read_clutter_vector_lightmap(wrong).code(), ErrorCode::invalid_argument);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesDrtTest,
                          ::testing::Values(ContextRequest::egl_surfaceless, ContextRequest::osmesa,
                                            ContextRequest::egl_device));

@@ -1,5 +1,7 @@
 // DRT §4.3, second half: the clutter atlas, Uc y + Cc c + the clutter's direct light per
 // clutter texel (y = Vc b from drt_vc.frag; Cc c: light of other clutter objects' faces, drt.h).
+// With NO_DIRECT: the vector clutter's instance (Uc_vec y + Cc_vec c, 4 rows per clutter texel
+// in a linear target, no direct light).
 // Uc and Cc rows are packed four modes / columns per texel.
 uniform isampler2D u_texel_map;  // clutter-atlas sized: (clutter texel or -1, first Uc texel, first y, modes)
 uniform sampler2D u_uc;
@@ -31,7 +33,9 @@ void main() {
         acc += w[j] * load_signal(u_c, load_int(u_cc_faces, cc.z + 4 * g + j).x).rgb;
       }
     }
+#ifndef NO_DIRECT
     acc += load(u_direct, map.x).rgb;
+#endif
   }
   o_color = store_output(vec4(acc, 1.0));
 }

@@ -112,6 +112,56 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->faces_ = int(face0);
   d->modes_ = int(mode0);
 
+  // Vector clutter (DRT §5, C_b vector): the same tables for Uc_vec / Vc_vec / Cc_vec, with
+  // row r = 4 t + i of object i's texels at linear index 4 (texel0 + t) + i of its target.
+  std::vector<float> vc_vec, uc_vec, cc_vec;
+  std::vector<std::int32_t> mode_info_vec, cb_blocks_vec, cc_faces_vec, vec_map, vec_cc_map;
+  for (const DrtObjectOperators& o : drt.objects) d->has_vector_ |= !o.Uc_vec.empty() || !o.Cc_vec.empty();
+  std::size_t mode0_vec = 0;
+  const std::size_t vec_rows = 4 * d->sizes_.clutter_texels;
+  if (d->has_vector_) {
+    const std::size_t map_texels = std::size_t(linear_rows(vec_rows)) * std::size_t(kLinearWidth);
+    vec_map.assign(4 * map_texels, -1);
+    vec_cc_map.assign(4 * map_texels, 0);
+    for (std::size_t i = 0; i < drt.objects.size(); ++i) {
+      const DrtObjectOperators& o = drt.objects[i];
+      const std::size_t rows = 4 * std::size_t(o.texel_count), modes = o.Uc_vec.cols,
+                        nb = o.Cb_vec_blocks.size(), cb0 = cb_blocks_vec.size() / 4;
+      for (std::uint32_t blk : o.Cb_vec_blocks)
+        cb_blocks_vec.insert(cb_blocks_vec.end(), {std::int32_t(blk), 0, 0, 0});
+      for (std::size_t q = 0; q < modes; ++q) {
+        const std::size_t base = vc_vec.size() / 4;
+        vc_vec.resize(vc_vec.size() + 4 * nb * G, 0.0f);
+        for (std::size_t blk = 0; blk < nb; ++blk)
+          for (std::size_t k = 0; k < kb; ++k)
+            vc_vec[4 * (base + blk * G) + k] = o.Vc_vec(std::uint32_t(q), std::uint32_t(blk * kb + k));
+        mode_info_vec.insert(mode_info_vec.end(),
+                             {std::int32_t(base), std::int32_t(cb0), std::int32_t(nb), 0});
+      }
+      const std::size_t cc_cols = o.Cc_vec.empty() ? 0 : o.Cc_vec.cols, cc_face0 = cc_faces_vec.size() / 4;
+      for (std::uint32_t src : o.Cc_vec_objects)
+        for (std::uint32_t k = 0; k < drt.objects[src].face_count; ++k)
+          cc_faces_vec.insert(cc_faces_vec.end(), {std::int32_t(object_face0[src] + k), 0, 0, 0});
+      for (std::size_t r = 0; r < rows; ++r) {
+        const std::size_t at = 4 * (4 * d->texel0_[i] + r);
+        const std::size_t ub = uc_vec.size() / 4;
+        uc_vec.resize(uc_vec.size() + 4 * quads(modes), 0.0f);
+        for (std::size_t q = 0; q < modes; ++q)
+          uc_vec[4 * ub + q] = o.Uc_vec(std::uint32_t(r), std::uint32_t(q));
+        const std::int32_t map[4] = {std::int32_t(4 * d->texel0_[i] + r), std::int32_t(ub),
+                                     std::int32_t(mode0_vec), std::int32_t(modes)};
+        std::copy(map, map + 4, vec_map.begin() + std::ptrdiff_t(at));
+        const std::size_t cb = cc_vec.size() / 4;
+        cc_vec.resize(cc_vec.size() + 4 * quads(cc_cols), 0.0f);
+        for (std::size_t k = 0; k < cc_cols; ++k)
+          cc_vec[4 * cb + k] = o.Cc_vec(std::uint32_t(r), std::uint32_t(k));
+        const std::int32_t cmap[4] = {std::int32_t(cb), std::int32_t(cc_cols), std::int32_t(cc_face0), 0};
+        std::copy(cmap, cmap + 4, vec_cc_map.begin() + std::ptrdiff_t(at));
+      }
+      mode0_vec += modes;
+    }
+  }
+
   // Delta operators (DRT §4.1-4.2, §5): per item (level sample or probe) `rows` values from
   // b rows (item, block) and c rows (item). Rows of different objects for the same (item,
   // block) read the same b: they are summed (in double) into one, so that an item under many
@@ -279,6 +329,16 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->cc_faces_ = int_table("Cc column table", cc_faces);
   d->face_info_ = int_table("clutter face table", face_info);
   d->texel_xy_ = int_table("clutter texel positions", texel_xy);
+  if (d->has_vector_) {
+    d->vc_vec_ = float_table("Vc_vec", vc_vec);
+    d->uc_vec_ = float_table("Uc_vec", uc_vec);
+    d->cc_vec_ = float_table("Cc_vec", cc_vec);
+    d->mode_info_vec_ = int_table("Cb_vec mode table", mode_info_vec);
+    d->cb_blocks_vec_ = int_table("Cb_vec block list", cb_blocks_vec);
+    d->cc_faces_vec_ = int_table("Cc_vec column table", cc_faces_vec);
+    d->vec_map_ = int_table("vector clutter map", vec_map);
+    d->vec_cc_map_ = int_table("vector clutter Cc map", vec_cc_map);
+  }
   auto delta_tables = [&](const char* name, DeltaTables& t, DeltaPass& pass) {
     pass.dub = float_table(name, t.dub);
     pass.duc = float_table(name, t.duc);
@@ -347,7 +407,19 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                         d->clutter_);
       !s.ok())
     return s;
-  d->readback_.assign(4 * std::size_t(atlas_w) * std::size_t(atlas_h), 0.0f);
+  if (d->has_vector_) {
+    if (Status s = target("Vc_vec b", kLinearWidth, linear_rows(std::max<std::size_t>(mode0_vec, 1)),
+                          GL_RGBA32UI, "RGBA32UI", d->y_vec_);
+        !s.ok())
+      return s;
+    if (Status s = target("vector clutter", kLinearWidth, linear_rows(vec_rows), setup.output_format,
+                          setup.output_format_name, d->clutter_vec_);
+        !s.ok())
+      return s;
+  }
+  d->readback_.assign(4 * std::max(std::size_t(atlas_w) * std::size_t(atlas_h),
+                                   std::size_t(d->clutter_vec_.width) * std::size_t(d->clutter_vec_.height)),
+                      0.0f);
 
   // ---- programs ----
   auto program = [&](const char* name, const char* fragment, GLuint& out,
@@ -396,6 +468,19 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                   {"u_texel_map", "u_uc", "u_y", "u_direct", "u_cc_map", "u_cc", "u_cc_faces", "u_c"}, -1);
       !s.ok())
     return s;
+  if (d->has_vector_) {
+    if (Status s = program("drt_vc.frag (vector)", kDrtVcFrag, d->prog_vc_vec_,
+                           {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"},
+                           int(mode0_vec));
+        !s.ok())
+      return s;
+    if (Status s =
+            program("drt_clutter.frag (vector)", kDrtClutterFrag, d->prog_clutter_vec_,
+                    {"u_texel_map", "u_uc", "u_y", "u_direct", "u_cc_map", "u_cc", "u_cc_faces", "u_c"}, -1,
+                    "#define NO_DIRECT 1\n");
+        !s.ok())
+      return s;
+  }
   gl.glUseProgram(0);
   return d;
 }
@@ -474,6 +559,30 @@ void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {
   draw(prog_vc_, y_, {vc_, mode_info_, cb_blocks_, b[0], b[1], b[2]});
   draw(prog_clutter_, clutter_,
        {texel_map_, uc_, y_.texture, clutter_direct_, cc_map_, cc_, cc_faces_, c_.texture});
+}
+
+Status GlesDrt::read_clutter_vector_lightmap(const std::array<GLuint, 3>& b, std::span<float> out) {
+  if (out.size() != sizes_.clutter_vector_lightmap)
+    return wrong_size("clutter vector lightmap", out.size(), sizes_.clutter_vector_lightmap);
+  if (!has_vector_) {  // no object has vector operators: zeros (drt_clutter_vector_lightmap)
+    std::fill(out.begin(), out.end(), 0.0f);
+    return Status::success();
+  }
+  draw(prog_vc_vec_, y_vec_, {vc_vec_, mode_info_vec_, cb_blocks_vec_, b[0], b[1], b[2]});
+  draw(prog_clutter_vec_, clutter_vec_,
+       {vec_map_, uc_vec_, y_vec_.texture, clutter_direct_, vec_cc_map_, cc_vec_, cc_faces_vec_, c_.texture});
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, clutter_vec_.framebuffer);
+  gl_.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl_.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  if (output_bits_)
+    gl_.glReadPixels(0, 0, clutter_vec_.width, clutter_vec_.height, GL_RGBA_INTEGER, GL_UNSIGNED_INT,
+                     readback_.data());
+  else
+    gl_.glReadPixels(0, 0, clutter_vec_.width, clutter_vec_.height, GL_RGBA, GL_FLOAT, readback_.data());
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  for (std::size_t r = 0; r < out.size() / 3; ++r)
+    for (std::size_t ch = 0; ch < 3; ++ch) out[3 * r + ch] = readback_[4 * r + ch];
+  return Status::success();
 }
 
 Status GlesDrt::read_clutter_lightmap(std::span<float> out) {

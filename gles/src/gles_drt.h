@@ -77,6 +77,10 @@ class GlesDrt {
   std::array<int, 2> clutter_texel(std::size_t object, std::uint32_t t) const;
   // Copies the clutter atlas into core's layout (3 floats per clutter texel).
   Status read_clutter_lightmap(std::span<float> out);
+  // The clutter's vector irradiance (DRT §5: Uc_vec (Vc_vec b) + Cc_vec c) from b's planes and
+  // the c of the last run_scene, rendered on request into a linear target of 4 rows per
+  // clutter texel and copied into core's layout (12 floats per clutter texel).
+  Status read_clutter_vector_lightmap(const std::array<GLuint, 3>& b, std::span<float> out);
 
  private:
   struct Target {
@@ -111,6 +115,12 @@ class GlesDrt {
   bool feed_ = false;
   float rho_c_max_ = 0.0f, clutter_ld_max_ = 0.0f;
   Target c_, y_, clutter_, fed_;
+  // Vector clutter (only when some object has Uc_vec or Cc_vec): tables and targets of the
+  // second drt_vc / drt_clutter instance.
+  bool has_vector_ = false;
+  GLuint vc_vec_ = 0, uc_vec_ = 0, cc_vec_ = 0, mode_info_vec_ = 0, cb_blocks_vec_ = 0, cc_faces_vec_ = 0;
+  GLuint vec_map_ = 0, vec_cc_map_ = 0, prog_vc_vec_ = 0, prog_clutter_vec_ = 0;
+  Target y_vec_, clutter_vec_;
   DeltaPass scalar_, vector_, probes_;
   GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0;
   std::vector<GLuint> textures_, framebuffers_, programs_;

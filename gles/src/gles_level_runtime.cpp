@@ -993,12 +993,19 @@ Status GlesLevelRuntime::set_clutter_albedo(std::span<const float> clutter_albed
   return check("uploading the clutter albedo");
 }
 
-Status GlesLevelRuntime::read_clutter_vector_lightmap(std::span<float>) {
+Status GlesLevelRuntime::read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) {
   if (!drt_)
     return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_vector_lightmap: no clutter set");
-  return Status::error(ErrorCode::invalid_argument,
-                       "gles: read_clutter_vector_lightmap: the GLES backend does not compute the clutter's "
-                       "vector irradiance yet (use the CPU backend)");
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  gl_.glDisable(GL_BLEND);
+  gl_.glDisable(GL_DEPTH_TEST);
+  gl_.glDisable(GL_SCISSOR_TEST);
+  gl_.glBindVertexArray(vao_);
+  const Status s = drt_->read_clutter_vector_lightmap(b_.textures, clutter_vector_lightmap);
+  gl_.glUseProgram(0);
+  gl_.glBindVertexArray(0);
+  if (!s.ok()) return s;
+  return check("rendering and reading back the clutter's vector irradiance");
 }
 
 Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap) {

@@ -85,8 +85,7 @@ class Backend {
   // The clutter's vector irradiance of the last update (clutter_sizes().clutter_vector_lightmap
   // floats, core's drt_clutter_vector_lightmap layout: OHLSH E/pi in each clutter texel's
   // frame, for normal-mapped clutter; zeros for objects built without vector operators).
-  // Fails without clutter, and on backends that do not compute it (GLES so far:
-  // invalid_argument saying so).
+  // Computed on request from the last update's b and c. Fails without clutter.
   virtual Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) = 0;
   // The clutter lightmap of the last update (clutter_sizes().clutter_lightmap floats, core's
   // drt_clutter_lightmap layout). Fails without clutter.

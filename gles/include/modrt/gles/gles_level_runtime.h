@@ -124,7 +124,7 @@ class GlesLevelRuntime final : public Backend {
   Status set_clutter(const DrtOperators* drt) override;
   Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
   Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) override;
-  // Not computed by the GLES passes yet (docs/drt.md, "Not done yet"): fails saying so.
+  // Rendered on request (two passes) from the last update's b and c.
   Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) override;
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
   Status read_clutter_lightmap(std::span<float> clutter_lightmap) override;
