@@ -58,17 +58,13 @@ const Level& four_pillar_level() {
   return level;
 }
 
-void BM_DrtBuildFourPillars(benchmark::State& state) {
-  const test::ClutterScene s = test::maze_block_four_pillars();
-  DrtBuildSettings settings;
-  settings.rays = int(state.range(0));
-  settings.vector = settings.probes = state.range(1) != 0;
-  const DrtBuilder builder(four_pillar_level(), test::small_test_dictionary(), settings);
+// Full builds of `objects`, with the report's pass times, the storage and the CPU time.
+void time_builds(benchmark::State& state, const DrtBuilder& builder, std::span<const ClutterObject> objects) {
   DrtBuildReport report;
   std::size_t storage = 0;
   const double cpu0 = process_cpu_seconds();
   for (auto _ : state) {
-    Result<DrtOperators> drt = builder.build(s.clutter, &report);
+    Result<DrtOperators> drt = builder.build(objects, &report);
     if (!drt.ok()) {
       state.SkipWithError(drt.status().to_string().c_str());
       return;
@@ -81,6 +77,14 @@ void BM_DrtBuildFourPillars(benchmark::State& state) {
   state.counters["clutter_s"] = report.clutter_seconds / n;
   state.counters["bytes"] = double(storage);
   state.counters["cpu_s"] = (process_cpu_seconds() - cpu0) / n;
+}
+
+void BM_DrtBuildFourPillars(benchmark::State& state) {
+  const test::ClutterScene s = test::maze_block_four_pillars();
+  DrtBuildSettings settings;
+  settings.rays = int(state.range(0));
+  settings.vector = settings.probes = state.range(1) != 0;
+  time_builds(state, DrtBuilder(four_pillar_level(), test::small_test_dictionary(), settings), s.clutter);
 }
 BENCHMARK(BM_DrtBuildFourPillars)
     ->Args({1024, 0})
@@ -104,24 +108,7 @@ void BM_DrtBuildPillarMeshes(benchmark::State& state) {
   DrtBuildSettings settings;
   settings.rays = int(state.range(0));
   settings.clutter_prior_modes = int(state.range(1));
-  const DrtBuilder builder(four_pillar_level(), test::small_test_dictionary(), settings);
-  DrtBuildReport report;
-  std::size_t storage = 0;
-  const double cpu0 = process_cpu_seconds();
-  for (auto _ : state) {
-    Result<DrtOperators> drt = builder.build(meshes, &report);
-    if (!drt.ok()) {
-      state.SkipWithError(drt.status().to_string().c_str());
-      return;
-    }
-    storage = drt.value().storage_bytes();
-    benchmark::DoNotOptimize(drt);
-  }
-  const double n = double(state.iterations());
-  state.counters["scene_s"] = report.scene_seconds / n;
-  state.counters["clutter_s"] = report.clutter_seconds / n;
-  state.counters["bytes"] = double(storage);
-  state.counters["cpu_s"] = (process_cpu_seconds() - cpu0) / n;
+  time_builds(state, DrtBuilder(four_pillar_level(), test::small_test_dictionary(), settings), meshes);
 }
 BENCHMARK(BM_DrtBuildPillarMeshes)
     ->Args({1024, 0})

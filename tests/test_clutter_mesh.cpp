@@ -79,26 +79,8 @@ TEST(ClutterMesh, GridAlignedBoxMeshGivesTheBoxTexels) {
 // texel's point lies on its triangle, and at a fine enough grid every triangle is
 // represented.
 TEST(ClutterMesh, SphereAreasAreConservedAndTexelsLieOnTheirTriangles) {
-  ClutterMesh m;
-  const int rings = 12, segments = 24;
   const double r = 0.2;
-  for (int j = 0; j <= rings; ++j)
-    for (int i = 0; i <= segments; ++i) {
-      const double theta = std::numbers::pi * j / rings, phi = 2 * std::numbers::pi * i / segments;
-      // Pole rows: one vertex per segment, in the middle of its UV span, so no UV triangle is
-      // degenerate.
-      const double u = (j == 0 || j == rings) ? (i + 0.5) / segments : double(i) / segments;
-      m.positions.push_back(glm::dvec3(0.5) + r * glm::dvec3(std::sin(theta) * std::cos(phi), std::cos(theta),
-                                                             std::sin(theta) * std::sin(phi)));
-      m.uvs.push_back({0.02 + 0.96 * std::min(u, 1.0), 0.02 + 0.96 * j / rings});
-    }
-  auto vertex = [&](int i, int j) { return std::uint32_t(j * (segments + 1) + i); };
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < segments; ++i) {
-      if (j > 0) m.indices.insert(m.indices.end(), {vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1)});
-      if (j + 1 < rings)
-        m.indices.insert(m.indices.end(), {vertex(i, j), vertex(i + 1, j + 1), vertex(i, j + 1)});
-    }
+  const ClutterMesh m = test::uv_sphere_mesh(glm::dvec3(0.5), r, 12, 24);
   for (int res : {8, 16, 64}) {
     SCOPED_TRACE(res);
     Result<ClutterMeshAtlas> atlas = rasterize_clutter_mesh(m, res, "sphere");
