@@ -10,6 +10,7 @@
 #include <cstring>
 #include <memory>
 #include <numbers>
+#include <string>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -307,6 +308,29 @@ ClutterScene two_boxes_in_a_row() {
 // brings -Limp(wall behind) b + c(k, f); a clutter-texel ray brings Limp(wall) b when it
 // reaches a wall first and c(k, f) when it enters another object first. v holds Limp b per
 // level sample (3 per sample), c the face values (3 per face, objects in order).
+// Limp b (v: 3 per level sample) at a wall hit, bilinear on the hit face's texel grid.
+double wall_limp_b(const Level& level, std::span<const float> v, const LevelHit& hit, int ch) {
+  const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
+  const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
+  const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
+  double value = 0.0;
+  for (int k = 0; k < 4; ++k)
+    value +=
+        taps.w[k] * v[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]))) +
+                      std::size_t(ch)];
+  return value;
+}
+
+// The slot of box face `face` among the object's lit faces (its column of c), -1 when unlit.
+int lit_slot(const ClutterObject& o, int face) {
+  for (int f = 0, slot = 0; f < kFaceCount; ++f)
+    if (face_present(o.faces, f)) {
+      if (f == face) return slot;
+      ++slot;
+    }
+  return -1;
+}
+
 struct Estimate {
   double mean[3] = {0, 0, 0}, se[3] = {0, 0, 0};
 };
@@ -317,17 +341,7 @@ Estimate brute_force(const LevelScene& scene, const LevelScene& walls, std::span
   std::vector<std::size_t> face0(1, 0);
   for (const ClutterObject& o : scene.clutter())
     face0.push_back(face0.back() + std::size_t(clutter_face_count(o)));
-  auto wall_value = [&](const LevelHit& hit, int ch) {
-    const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
-    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
-    const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
-    double value = 0.0;
-    for (int k = 0; k < 4; ++k)
-      value +=
-          taps.w[k] * v[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]))) +
-                        std::size_t(ch)];
-    return value;
-  };
+  auto wall_value = [&](const LevelHit& hit, int ch) { return wall_limp_b(level, v, hit, ch); };
   Rng rng(0xb7f0ull, stream);
   glm::dvec3 t, b;
   tangent_frame(n, t, b);
@@ -469,6 +483,42 @@ TEST(Drt, ClutterSeesClutterAsTheBruteForceGatherDoes) {
 // with the largest scalar delta. Evaluated at the face normal, the vector delta stays within
 // 5 % (rel L2) of the scalar delta (OHLSH's linear approximation plus both estimates' noise;
 // measured 1 %).
+// An iid gather of the OHLSH coefficients of E/pi (uniform hemisphere rays, 2 pi / rays each)
+// of RGB radiance values, compared with an operator's 4 x RGB values within 4 combined
+// standard errors (the gather's and, scaled by build_se_factor, the build's own).
+struct OhlshGather {
+  double sum[4][3] = {}, sum2[4][3] = {};
+  int rays = 0;
+  void add(const glm::dvec3& local, const double value[3]) {
+    double y[9], a[4];
+    sh9_eval(local, y);
+    irradiance_from_radiance_sh9(y, y);
+    ohlsh_from_sh9(y, a);
+    for (int i = 0; i < 4; ++i)
+      for (int ch = 0; ch < 3; ++ch) {
+        const double x = 2.0 * std::numbers::pi * value[ch] * a[i];
+        sum[i][ch] += x;
+        sum2[i][ch] += x * x;
+      }
+    ++rays;
+  }
+  // got(i, ch): the operator's coefficient; returns the worst deviation in standard errors.
+  template <class Got>
+  double check(double build_se_factor, Got&& got, const std::string& what) const {
+    double worst = 0.0;
+    for (int i = 0; i < 4; ++i)
+      for (int ch = 0; ch < 3; ++ch) {
+        const double mean = sum[i][ch] / rays;
+        const double se = std::sqrt(std::max(0.0, sum2[i][ch] / rays - mean * mean) / rays);
+        const double tol = 4.0 * se * std::sqrt(1.0 + build_se_factor * build_se_factor) + 1e-6;
+        const double value = got(i, ch);
+        EXPECT_NEAR(value, mean, tol) << what << " coefficient " << i << " channel " << ch;
+        worst = std::max(worst, std::abs(value - mean) / (tol / 4.0));
+      }
+    return worst;
+  }
+};
+
 TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
   const ClutterScene s = two_boxes_in_a_row();
   const Level level = build_level(s.description, dict()).value();
@@ -523,7 +573,7 @@ TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
     u = glm::normalize(u - glm::dot(u, n) * n);
     glm::dvec3 w = rotate_direction(cf.v_axis, turns);
     w = glm::normalize(w - glm::dot(w, n) * n - glm::dot(w, u) * u);
-    double sum[4][3] = {}, sum2[4][3] = {};
+    OhlshGather gather;
     Rng rng(0x7665ull, smp);
     for (int r = 0; r < kRays; ++r) {
       const glm::dvec3 local = uniform_hemisphere(glm::dvec2(rng.next_double(), rng.next_double()));
@@ -531,49 +581,21 @@ TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
       const LevelHit first = scene.intersect(g.position[smp], dir);
       double value[3] = {0, 0, 0};
       if (first.clutter >= 0) {
-        const ClutterObject& o = s.clutter[std::size_t(first.clutter)];
-        int slot = -1;
-        for (int fc = 0, q = 0; fc < kFaceCount; ++fc)
-          if (face_present(o.faces, fc)) {
-            if (fc == first.face) slot = q;
-            ++q;
-          }
+        const int slot = lit_slot(s.clutter[std::size_t(first.clutter)], first.face);
         const LevelHit behind = walls.intersect(g.position[smp], dir);
         for (int ch = 0; ch < 3; ++ch) {
           if (slot >= 0)
             value[ch] += c[3 * (face0[std::size_t(first.clutter)] + std::size_t(slot)) + std::size_t(ch)];
-          if (behind.block >= 0) {
-            const LevelBlock& hb = level.blocks[std::size_t(behind.block)];
-            const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
-            const BilinearTaps taps = bilinear_taps(behind.u, behind.v, level.res);
-            for (int t = 0; t < 4; ++t)
-              value[ch] -=
-                  taps.w[t] *
-                  v[3 * (hb.sample_offset + std::size_t(layout.index(behind.face, taps.i[t], taps.j[t]))) +
-                    std::size_t(ch)];
-          }
+          if (behind.block >= 0) value[ch] -= wall_limp_b(level, v, behind, ch);
         }
       }
-      double y[9], a[4];
-      sh9_eval(local, y);
-      irradiance_from_radiance_sh9(y, y);
-      ohlsh_from_sh9(y, a);
-      for (int i = 0; i < 4; ++i)
-        for (int ch = 0; ch < 3; ++ch) {
-          const double x = 2.0 * std::numbers::pi * value[ch] * a[i];
-          sum[i][ch] += x;
-          sum2[i][ch] += x * x;
-        }
+      gather.add(local, value);
     }
-    for (int i = 0; i < 4; ++i)
-      for (int ch = 0; ch < 3; ++ch) {
-        const double mean = sum[i][ch] / kRays;
-        const double se = std::sqrt(std::max(0.0, sum2[i][ch] / kRays - mean * mean) / kRays);
-        const double tol = 4.0 * se * std::sqrt(1.0 + build_se_factor * build_se_factor) + 1e-6;
-        const double got = vec[3 * (4 * smp + std::size_t(i)) + std::size_t(ch)];
-        EXPECT_NEAR(got, mean, tol) << "sample " << smp << " coefficient " << i << " channel " << ch;
-        worst_z = std::max(worst_z, std::abs(got - mean) / (tol / 4.0));
-      }
+    worst_z = std::max(
+        worst_z, gather.check(
+                     build_se_factor,
+                     [&](int i, int ch) { return vec[3 * (4 * smp + std::size_t(i)) + std::size_t(ch)]; },
+                     "sample " + std::to_string(smp)));
     // Evaluated at the face normal, the vector delta approximates the scalar one.
     for (int ch = 0; ch < 3; ++ch) {
       double a[4];
@@ -645,7 +667,7 @@ TEST(Drt, VectorCbMatchesTheBruteForceGather) {
       const std::size_t gt = texel0[k] + t;
       const glm::dvec3 n = cg.normal[t], tu = cg.tangent[t], tv = glm::cross(n, tu);
       const glm::dvec3 x = cg.position[t] + 1e-6 * n;
-      double sum[4][3] = {}, sum2[4][3] = {};
+      OhlshGather gather;
       Rng rng(0x7663ull, gt);
       for (int r = 0; r < kRays; ++r) {
         const glm::dvec3 local = uniform_hemisphere(glm::dvec2(rng.next_double(), rng.next_double()));
@@ -653,46 +675,19 @@ TEST(Drt, VectorCbMatchesTheBruteForceGather) {
         const LevelHit hit = scene.intersect(x, dir);
         double value[3] = {0, 0, 0};
         if (hit.clutter >= 0 && std::size_t(hit.clutter) != k) {
-          const ClutterObject& o = s.clutter[std::size_t(hit.clutter)];
-          int slot = -1;
-          for (int fc = 0, q = 0; fc < kFaceCount; ++fc)
-            if (face_present(o.faces, fc)) {
-              if (fc == hit.face) slot = q;
-              ++q;
-            }
+          const int slot = lit_slot(s.clutter[std::size_t(hit.clutter)], hit.face);
           for (int ch = 0; ch < 3 && slot >= 0; ++ch)
             value[ch] = c[3 * (face0[std::size_t(hit.clutter)] + std::size_t(slot)) + std::size_t(ch)];
         } else if (hit.clutter < 0 && hit.block >= 0) {
-          const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
-          const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
-          const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
-          for (int ch = 0; ch < 3; ++ch)
-            for (int q = 0; q < 4; ++q)
-              value[ch] +=
-                  taps.w[q] *
-                  v[3 * (hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[q], taps.j[q]))) +
-                    std::size_t(ch)];
+          for (int ch = 0; ch < 3; ++ch) value[ch] = wall_limp_b(level, v, hit, ch);
         }
-        double y[9], a[4];
-        sh9_eval(local, y);
-        irradiance_from_radiance_sh9(y, y);
-        ohlsh_from_sh9(y, a);
-        for (int i = 0; i < 4; ++i)
-          for (int ch = 0; ch < 3; ++ch) {
-            const double xv = 2.0 * std::numbers::pi * value[ch] * a[i];
-            sum[i][ch] += xv;
-            sum2[i][ch] += xv * xv;
-          }
+        gather.add(local, value);
       }
-      for (int i = 0; i < 4; ++i)
-        for (int ch = 0; ch < 3; ++ch) {
-          const double mean = sum[i][ch] / kRays;
-          const double se = std::sqrt(std::max(0.0, sum2[i][ch] / kRays - mean * mean) / kRays);
-          const double tol = 4.0 * se * std::sqrt(1.0 + build_se_factor * build_se_factor) + 1e-6;
-          const double got = vec[3 * (4 * gt + std::size_t(i)) + std::size_t(ch)];
-          EXPECT_NEAR(got, mean, tol) << "object " << k << " texel " << t << " coefficient " << i;
-          worst_z = std::max(worst_z, std::abs(got - mean) / (tol / 4.0));
-        }
+      worst_z = std::max(
+          worst_z, gather.check(
+                       build_se_factor,
+                       [&](int i, int ch) { return vec[3 * (4 * gt + std::size_t(i)) + std::size_t(ch)]; },
+                       "object " + std::to_string(k) + " texel " + std::to_string(t)));
       for (int ch = 0; ch < 3; ++ch) {
         double a[4];
         for (int i = 0; i < 4; ++i) a[i] = vec[3 * (4 * gt + std::size_t(i)) + std::size_t(ch)];
