@@ -162,6 +162,8 @@ Result<CpuDrtRuntime> CpuDrtRuntime::create(const Level& level, const DrtOperato
   rt.probes_ = build_delta(drt, level.kb, DeltaKind::probes, rt.face0_);
   rt.planar_.assign(scratch, 0.0f);
   rt.modes_.assign(3 * std::max<std::size_t>(modes, 1), 0.0f);
+  rt.cc_values_.assign(rt.sizes_.clutter_lightmap, 0.0f);
+  rt.cc_from_.assign(rt.sizes_.c, 0.0f);
   return rt;
 }
 
@@ -226,18 +228,24 @@ Status CpuDrtRuntime::clutter_add_cc(std::span<const float> c, std::span<float> 
   if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
   if (out.size() != sizes_.clutter_lightmap)
     return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
-  for (std::size_t i = 0; i < drt_->objects.size(); ++i) {
-    const DrtObjectOperators& o = drt_->objects[i];
-    const std::size_t cols = o.Cc.cols;
-    if (cols == 0) continue;
-    // The c of the source objects' faces, planar in Cc's column order.
-    std::size_t col = 0;
-    for (std::uint32_t src : o.Cc_objects)
-      for (std::size_t f = 0; f < drt_->objects[src].face_count; ++f, ++col)
-        for (std::size_t ch = 0; ch < 3; ++ch) planar_[ch * cols + col] = c[3 * (face0_[src] + f) + ch];
-    gemv_rgb(isa_, o.Cc.data.data(), o.texel_count, cols, cols, planar_.data(), cols,
-             out.data() + 3 * texel0_[i], true);
+  if (!cc_valid_ || std::memcmp(c.data(), cc_from_.data(), c.size_bytes()) != 0) {
+    std::fill(cc_values_.begin(), cc_values_.end(), 0.0f);
+    for (std::size_t i = 0; i < drt_->objects.size(); ++i) {
+      const DrtObjectOperators& o = drt_->objects[i];
+      const std::size_t cols = o.Cc.cols;
+      if (cols == 0) continue;
+      // The c of the source objects' faces, planar in Cc's column order.
+      std::size_t col = 0;
+      for (std::uint32_t src : o.Cc_objects)
+        for (std::size_t f = 0; f < drt_->objects[src].face_count; ++f, ++col)
+          for (std::size_t ch = 0; ch < 3; ++ch) planar_[ch * cols + col] = c[3 * (face0_[src] + f) + ch];
+      gemv_rgb(isa_, o.Cc.data.data(), o.texel_count, cols, cols, planar_.data(), cols,
+               cc_values_.data() + 3 * texel0_[i], false);
+    }
+    std::copy(c.begin(), c.end(), cc_from_.begin());
+    cc_valid_ = true;
   }
+  for (std::size_t k = 0; k < out.size(); ++k) out[k] += cc_values_[k];
   return Status::success();
 }
 

@@ -106,6 +106,10 @@ class CpuDrtRuntime {
   std::vector<std::size_t> texel0_, face0_;  // per object: its first clutter texel and c face
   Delta lightmap_, vector_, probes_;
   std::vector<float> planar_, modes_;  // scratch: the largest planar input, Vc b per mode
+  // Cc c (3 per clutter texel) for the c it was computed from: c changes only with the
+  // clutter's light (and multi-bounce feedback), so most frames add the kept values.
+  std::vector<float> cc_values_, cc_from_;
+  bool cc_valid_ = false;
 };
 
 }  // namespace modrt::cpu
