@@ -127,6 +127,12 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->drt_startup_.objects = scene.clutter.size();
     run->drt_startup_.bytes = run->drt_->storage_bytes();
     if (Status s = run->backend_->set_clutter(run->drt_.get()); !s.ok()) return s;
+    // Multi-bounce feeds the clutter's own indirect light back too (docs/drt.md, "Multi-bounce").
+    std::vector<float> clutter_albedo;
+    for (const ClutterObject& object : scene.clutter)
+      for (int t = 0; t < clutter_texel_count(object); ++t)
+        for (int c = 0; c < 3; ++c) clutter_albedo.push_back(float(object.albedo[c]));
+    if (Status s = run->backend_->set_clutter_albedo(clutter_albedo); !s.ok()) return s;
     run->clutter_scene_ = std::make_unique<precompute::LevelScene>(lv, lv.res, scene.clutter);
     for (const ClutterObject& object : scene.clutter) {
       const ClutterTexelGeometry g = clutter_texel_geometry(object);
