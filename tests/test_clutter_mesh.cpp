@@ -240,6 +240,9 @@ TEST(ClutterMesh, BadMeshesAreRefusedWithNamedErrors) {
   m.positions[3].y = std::nan("");
   expect_refused(m, 32, "vertex 3");
   m = good;
+  m.positions[5].x = 1e38;  // finite in double, not as float (Embree's)
+  expect_refused(m, 32, "vertex 5 lies beyond float range");
+  m = good;
   m.uvs[2].x = 1.5;
   expect_refused(m, 32, "outside [0, 1]");
   m = good;

@@ -106,6 +106,9 @@ Status check_mesh(const ClutterMesh& mesh, bool uvs, const std::string& what) {
     const glm::dvec3& p = mesh.positions[v];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       return bad(what, "vertex " + std::to_string(v) + " has a NaN or Inf position");
+    // Embree and the runtime hold positions as float.
+    if (std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) > 1e30)
+      return bad(what, "vertex " + std::to_string(v) + " lies beyond float range (|coordinate| > 1e30)");
     if (!uvs) continue;
     const glm::dvec2& uv = mesh.uvs[v];
     if (!std::isfinite(uv.x) || !std::isfinite(uv.y))
