@@ -1310,6 +1310,49 @@ MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* nam
   return a;
 }
 
+// The clutter feedback cannot diverge: albedo 1 everywhere (clamped to max_albedo), bright
+// clutter light, 300 iterations: every value finite and within the energy bound, and the
+// iteration converges.
+TEST(Drt, MultiBounceWithClutterFeedbackStaysBounded) {
+  const ClutterScene s = box_room_two_boxes();
+  const Level level = build_level(s.description, dict()).value();
+  DrtBuildSettings settings;
+  settings.rays = 64;
+  const DrtOperators drt = DrtBuilder(level, dict(), settings).build(s.clutter).value();
+  const DrtBufferSizes d = drt_buffer_sizes(drt);
+  const LevelBufferSizes sz = level_buffer_sizes(level, dict());
+  const std::vector<float> ld(sz.lightmap, 0.3f), albedo(sz.lightmap, 1.0f),
+      clutter_albedo(d.clutter_ld, 1.0f);
+  const std::vector<float> clutter_ld(d.clutter_ld, 5.0f);
+  MultiBounceSettings mb;
+  mb.max_iterations = 300;
+  mb.tolerance = 1e-6f;
+  std::vector<float> b(sz.b), r(sz.r), lightmap(sz.lightmap), c(d.c);
+  const Result<MultiBounceReport> rep =
+      drt_multi_bounce(level, dict(), drt, ld, albedo, clutter_ld, clutter_albedo, mb, b, r, lightmap, c);
+  ASSERT_TRUE(rep.ok()) << rep.status().to_string();
+  EXPECT_TRUE(rep->albedo_clamped);
+  EXPECT_TRUE(rep->converged) << rep->iterations << " iterations";
+  const float bound = drt_feedback_bound(ld, mb.max_albedo, clutter_ld, mb.max_albedo);
+  for (float v : lightmap) ASSERT_TRUE(std::isfinite(v));
+  for (float v : c) {
+    ASSERT_TRUE(std::isfinite(v));
+    EXPECT_LE(v, clutter_ld[0] + mb.max_albedo * bound * 1.0001f);
+  }
+  std::printf(
+      "clutter feedback at albedo 1 (clamped to %.2f): converged after %d iterations, max c %.3f, bound "
+      "%.3f\n",
+      double(mb.max_albedo), rep->iterations, double(*std::max_element(c.begin(), c.end())), double(bound));
+  // Bad clutter albedo is refused naming it.
+  std::vector<float> bad = clutter_albedo;
+  bad[4] = std::nanf("");
+  const Result<MultiBounceReport> refused =
+      drt_multi_bounce(level, dict(), drt, ld, albedo, clutter_ld, bad, mb, b, r, lightmap, c);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().to_string().find("clutter_albedo"), std::string::npos)
+      << refused.status().to_string();
+}
+
 TEST(Drt, MultiBounceLowersTheErrorAgainstAMultiBouncePathTracer) {
   const MultiBounceAccuracy a =
       multi_bounce_accuracy(maze_block_four_pillars(), "maze block, four pillars", 4);
