@@ -277,6 +277,17 @@ TEST(GltfScene, DamagedPngChunkIsRefusedBeforeDecoding) {
   EXPECT_NE(scene.status().message().find("PNG chunk"), std::string::npos) << scene.status().message();
 }
 
+// fuzz_gltf found a clutter node whose mesh centre lies ~1e30 away: its cell was converted
+// to int (undefined behaviour) before the search for its block. Now it is no block's.
+TEST(GltfScene, ClutterFarOutsideTheLevelIsRefusedWithoutOverflow) {
+  GltfSceneOptions options;
+  options.level_path = std::string(MODRT_SCENES_DIR) + "/two_rooms.level.json";
+  Result<DemoScene> scene = load_gltf_scene(
+      std::string(MODRT_TEST_DATA_DIR) + "/fuzz_regressions/gltf_clutter_far_centre.gltf", options);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_NE(scene.status().message().find("modrt_clutter"), std::string::npos) << scene.status().message();
+}
+
 TEST(GltfScene, GlbRoundTrip) {
   tinygltf::TinyGLTF io;
   tinygltf::Model model;

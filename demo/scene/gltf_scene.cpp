@@ -1062,9 +1062,13 @@ void Loader::make_clutter_objects() {
       block = *c.block;
     } else {
       const glm::dvec3 centre = 0.5 * (lo + hi);
-      const glm::ivec3 cell(glm::floor(centre / level.cell_size));
-      for (std::size_t b = 0; b < level.blocks.size() && block < 0; ++b)
-        if (level.blocks[b].cell == cell) block = int(b);
+      const glm::dvec3 cell_f = glm::floor(centre / level.cell_size);
+      // A cell far outside int range is no block's (and must not be converted to int).
+      if (glm::all(glm::lessThan(glm::abs(cell_f), glm::dvec3(1e9)))) {
+        const glm::ivec3 cell(cell_f);
+        for (std::size_t b = 0; b < level.blocks.size() && block < 0; ++b)
+          if (level.blocks[b].cell == cell) block = int(b);
+      }
       if (block < 0)
         fail(ErrorCode::format_error, where +
                                           ": no block given and no block's cell contains the mesh's centre " +
