@@ -491,12 +491,8 @@ void drt_clutter_feedback(std::span<const float> clutter_ld, std::span<const flo
     out[i] = clutter_ld[i] + rho_c[i] * std::min(std::max(indirect[i], 0.0f), bound);
 }
 
-float drt_feedback_bound(std::span<const float> ld_direct, float rho_max, std::span<const float> clutter_ld,
-                         float rho_c_max) {
-  float ld_max = 0.0f;
-  for (float v : ld_direct) ld_max = std::max(ld_max, v);
-  for (float v : clutter_ld) ld_max = std::max(ld_max, v);
-  return ld_max / (1.0f - std::max(rho_max, rho_c_max));
+float drt_feedback_bound(float ld_max, float rho_max, float clutter_ld_max, float rho_c_max) {
+  return std::max(ld_max, clutter_ld_max) / (1.0f - std::max(rho_max, rho_c_max));
 }
 
 Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict,
@@ -527,7 +523,10 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
       v = std::min(v, settings.max_albedo);
       rho_c_max = std::max(rho_c_max, v);
     }
-    bound_c = drt_feedback_bound(ld_direct, rho_max, clutter_ld, rho_c_max);
+    const auto largest = [](std::span<const float> v) {
+      return v.empty() ? 0.0f : *std::max_element(v.begin(), v.end());
+    };
+    bound_c = drt_feedback_bound(largest(ld_direct), rho_max, largest(clutter_ld), rho_c_max);
     indirect.resize(sizes.clutter_lightmap);
     fed.resize(sizes.clutter_ld);
   }

@@ -29,7 +29,7 @@ class CpuBackend final : public Backend {
   Status update(std::span<const float> ld) override {
     if (drt_) {
       if (Status s = rt_.evaluate(ld, base_); !s.ok()) return s;
-      c_ = c_direct_;  // a new first bounce: the clutter's direct light only
+      if (!rho_c_.empty()) c_ = c_direct_;  // a new first bounce: the clutter's direct light only
       return finish_drt();
     }
     if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
@@ -62,7 +62,7 @@ class CpuBackend final : public Backend {
         if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
         if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
         drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_,
-                             drt_feedback_bound(ld_direct, rho_max_, clutter_ld_, rho_c_max_), clutter_fed_);
+                             drt_feedback_bound(ld_max, rho_max_, clutter_ld_max_, rho_c_max_), clutter_fed_);
         if (Status s = drt_->compute_c(clutter_fed_, c_); !s.ok()) return s;
       }
       feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(), ld_max / (1.0f - rho_max_),
@@ -125,6 +125,7 @@ class CpuBackend final : public Backend {
     if (!clutter_direct.empty())
       if (Status s = validate_light_signal(clutter_direct, n / 3, "clutter_direct"); !s.ok()) return s;
     clutter_ld_.assign(clutter_ld.begin(), clutter_ld.end());
+    clutter_ld_max_ = clutter_ld.empty() ? 0.0f : *std::max_element(clutter_ld.begin(), clutter_ld.end());
     clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
     if (Status s = drt_->compute_c(clutter_ld_, c_direct_); !s.ok()) return s;
     c_ = c_direct_;
@@ -140,6 +141,7 @@ class CpuBackend final : public Backend {
           !s.ok())
         return s;
     rho_c_.assign(clutter_albedo.begin(), clutter_albedo.end());
+    c_ = c_direct_;  // without feedback c stays the direct light's (update() keeps it then)
     rho_c_max_ = 0.0f;
     for (float& v : rho_c_) rho_c_max_ = std::max(rho_c_max_, v = std::min(v, max_albedo));
     clutter_indirect_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_lightmap, 0.0f);
@@ -213,7 +215,7 @@ class CpuBackend final : public Backend {
   // The clutter's feedback (set_clutter_albedo): c of its direct light alone, the clamped
   // clutter albedo, the last evaluation's Cb b + Cc c and the light fed back.
   std::vector<float> c_direct_, rho_c_, clutter_indirect_, clutter_fed_;
-  float rho_c_max_ = 0.0f;
+  float rho_c_max_ = 0.0f, clutter_ld_max_ = 0.0f;
   std::vector<float> rho_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;

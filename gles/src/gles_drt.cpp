@@ -449,6 +449,7 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                          int(d->sizes_.clutter_texels));
       !s.ok())
     return s;
+  d->u_feedback_bound_ = gl.glGetUniformLocation(d->prog_feedback_, "u_bound");
   for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
     if (!pass->entries) continue;
     if (Status s = program(
@@ -539,9 +540,8 @@ Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albe
 void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, float ld_max, float rho_max) {
   if (feedback && feed_) {
     // The clutter atlas still holds the last evaluation's light (run_clutter comes after).
-    const float bound = std::max(ld_max, clutter_ld_max_) / (1.0f - std::max(rho_max, rho_c_max_));
     gl_.glUseProgram(prog_feedback_);
-    gl_.glUniform1f(gl_.glGetUniformLocation(prog_feedback_, "u_bound"), bound);
+    gl_.glUniform1f(u_feedback_bound_, drt_feedback_bound(ld_max, rho_max, clutter_ld_max_, rho_c_max_));
     draw(prog_feedback_, fed_, {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture});
     draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});
     light_changed_ = true;      // the next update() starts again from the direct light

@@ -58,7 +58,7 @@ class GlesDrt {
   // c and the per-sample delta, from b's planes. c is Td_c clutter_ld (recomputed when the
   // light changed or after feedback); on a multi-bounce step (feedback) with a clutter albedo
   // it is Td_c of the light fed back from the clutter atlas of the last run, clamped with
-  // drt_feedback_bound(ld_direct of max ld_max, rho_max, ...).
+  // drt_feedback_bound(ld_max, rho_max, the clutter light's and albedo's maxima).
   void run_scene(const std::array<GLuint, 3>& b, bool feedback = false, float ld_max = 0.0f,
                  float rho_max = 0.0f);
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
@@ -123,6 +123,7 @@ class GlesDrt {
   Target y_vec_, clutter_vec_;
   DeltaPass scalar_, vector_, probes_;
   GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0;
+  GLint u_feedback_bound_ = -1;
   std::vector<GLuint> textures_, framebuffers_, programs_;
   std::vector<float> zeros_, readback_;
 };

@@ -236,9 +236,9 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
 // last evaluation (apply_feedback's clamp). All spans 3 per clutter texel.
 void drt_clutter_feedback(std::span<const float> clutter_ld, std::span<const float> rho_c,
                           std::span<const float> indirect, float bound, std::span<float> out);
-// The bound of that clamp: max(ld_direct, clutter_ld) / (1 - max(rho_max, rho_c_max)), the
-// most any texel can reach when every surface reflects at most the larger albedo.
-float drt_feedback_bound(std::span<const float> ld_direct, float rho_max, std::span<const float> clutter_ld,
-                         float rho_c_max);
+// The bound of that clamp: max(ld_max, clutter_ld_max) / (1 - max(rho_max, rho_c_max)), the
+// most any texel can reach when every surface reflects at most the larger albedo (ld_max and
+// clutter_ld_max: the largest values of ld_direct and clutter_ld).
+float drt_feedback_bound(float ld_max, float rho_max, float clutter_ld_max, float rho_c_max);
 
 }  // namespace modrt
