@@ -1098,6 +1098,48 @@ std::vector<float> probe_shading(const Level& level, std::span<const float> prob
   return out;
 }
 
+// Level samples inside clutter (invisible: left out of the error), per sample: inside a box
+// grown by 1e-6, or a mesh just off the sample along its normal (as the build decides).
+std::vector<std::uint8_t> samples_inside_clutter(const LevelSampleGeometry& g,
+                                                 std::span<const ClutterObject> clutter) {
+  std::vector<std::unique_ptr<ClutterMeshShape>> shapes;
+  for (const ClutterObject& o : clutter)
+    shapes.push_back(
+        o.kind == ClutterKind::mesh
+            ? std::make_unique<ClutterMeshShape>(
+                  ClutterMeshShape::create(o.mesh->mesh, o.mesh->chart_of_triangle, "mesh").value())
+            : nullptr);
+  std::vector<std::uint8_t> inside(g.position.size(), 0);
+  for (std::size_t i = 0; i < g.position.size(); ++i)
+    for (std::size_t k = 0; k < clutter.size(); ++k)
+      inside[i] |= shapes[k] ? shapes[k]->contains(g.position[i] + 1e-5 * g.normal[i])
+                             : clutter_contains(clutter[k].box, g.position[i], 1e-6);
+  return inside;
+}
+
+// The clutter texels as path-tracer points (just off the surface) and normals.
+void clutter_texel_points(std::span<const ClutterObject> clutter, std::vector<glm::dvec3>& points,
+                          std::vector<glm::dvec3>& normals) {
+  for (const ClutterObject& o : clutter) {
+    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
+    for (std::size_t t = 0; t < cg.position.size(); ++t) {
+      points.push_back(cg.position[t] + 1e-5 * cg.normal[t]);
+      normals.push_back(cg.normal[t]);
+    }
+  }
+}
+
+// The truth's own relative noise: sqrt(sum se^2 / sum value^2) over the points not skipped.
+double noise_floor(const IndirectEstimate& truth, const std::vector<std::uint8_t>& skip) {
+  double se = 0, v = 0;
+  for (std::size_t i = 0; i < truth.value.size(); ++i)
+    if (skip.empty() || !skip[i / 3]) {
+      se += double(truth.standard_error[i]) * truth.standard_error[i];
+      v += double(truth.value[i]) * truth.value[i];
+    }
+  return std::sqrt(se / v);
+}
+
 struct AccuracyResult {
   double mrt = 0, drt = 0, noise = 0, probes = 0, clutter = 0, clutter_noise = 0;
   // The same with every object built alone (each traced against the walls and itself: no
@@ -1146,26 +1188,9 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildS
   const SurfaceAlbedo albedo = level_surface_albedo(scene, s.description);
   const LevelSampleGeometry& g = scene.samples();
   const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, albedo, pt);
-  std::vector<std::uint8_t> skip(level.sample_count, 0);
-  std::vector<std::unique_ptr<ClutterMeshShape>> shapes;
-  for (const ClutterObject& o : s.clutter)
-    shapes.push_back(
-        o.kind == ClutterKind::mesh
-            ? std::make_unique<ClutterMeshShape>(
-                  ClutterMeshShape::create(o.mesh->mesh, o.mesh->chart_of_triangle, "mesh").value())
-            : nullptr);
-  for (std::size_t i = 0; i < g.position.size(); ++i)
-    for (std::size_t k = 0; k < s.clutter.size(); ++k)
-      skip[i] |= shapes[k] ? shapes[k]->contains(g.position[i] + 1e-5 * g.normal[i])
-                           : clutter_contains(s.clutter[k].box, g.position[i], 1e-6);
+  const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
   std::vector<glm::dvec3> cp, cn;
-  for (const ClutterObject& o : s.clutter) {
-    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
-    for (std::size_t t = 0; t < cg.position.size(); ++t) {
-      cp.push_back(cg.position[t] + 1e-5 * cg.normal[t]);
-      cn.push_back(cg.normal[t]);
-    }
-  }
+  clutter_texel_points(s.clutter, cp, cn);
   const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, albedo, pt);
   const LevelBufferSizes sz = level_buffer_sizes(level, dict());
   std::vector<float> probes(sz.probes);
@@ -1182,25 +1207,14 @@ AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildS
   AccuracyResult a;
   a.mrt = rel_l2(f.lightmap, truth.value, skip);
   a.drt = rel_l2(lightmap, truth.value, skip);
-  double se_sum = 0, value_sum = 0;
-  for (std::size_t i = 0; i < truth.value.size(); ++i)
-    if (!skip[i / 3]) {
-      se_sum += double(truth.standard_error[i]) * truth.standard_error[i];
-      value_sum += double(truth.value[i]) * truth.value[i];
-    }
-  a.noise = std::sqrt(se_sum / value_sum);
+  a.noise = noise_floor(truth, skip);
   a.probes = rel_l2(probe_lightmap, clutter_truth.value, none);
   a.clutter = rel_l2(clutter_lightmap, clutter_truth.value, none);
   a.drt_alone = rel_l2(lightmap_alone, truth.value, skip);
   a.clutter_alone = rel_l2(clutter_alone, clutter_truth.value, none);
   a.clutter_cb_only = rel_l2(clutter_cb_only, clutter_truth.value, none);
   a.probes_udyn = rel_l2(aware_lightmap, clutter_truth.value, none);
-  double se = 0, v = 0;
-  for (std::size_t i = 0; i < clutter_truth.value.size(); ++i) {
-    se += double(clutter_truth.standard_error[i]) * clutter_truth.standard_error[i];
-    v += double(clutter_truth.value[i]) * clutter_truth.value[i];
-  }
-  a.clutter_noise = std::sqrt(se / v);
+  a.clutter_noise = noise_floor(clutter_truth, {});
   std::printf(
       "%s: scene lightmap relL2 MRT %.4f, MRT+DRT %.4f (%.0f %% lower; objects alone %.4f; truth noise floor "
       "%.4f); clutter relL2 MRT probes %.4f (+ U_dyn %.4f), DRT Cb b + Cc c %.4f (Cb b only %.4f, objects "
@@ -1277,17 +1291,9 @@ MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* nam
   const SurfaceAlbedo surface_albedo = level_surface_albedo(scene, s.description);
   const LevelSampleGeometry& g = scene.samples();
   const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, surface_albedo, pt);
-  std::vector<std::uint8_t> skip(level.sample_count, 0);
-  for (std::size_t i = 0; i < g.position.size(); ++i)
-    for (const ClutterObject& o : s.clutter) skip[i] |= clutter_contains(o.box, g.position[i], 1e-6);
+  const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
   std::vector<glm::dvec3> cp, cn;
-  for (const ClutterObject& o : s.clutter) {
-    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
-    for (std::size_t t = 0; t < cg.position.size(); ++t) {
-      cp.push_back(cg.position[t] + 1e-5 * cg.normal[t]);
-      cn.push_back(cg.normal[t]);
-    }
-  }
+  clutter_texel_points(s.clutter, cp, cn);
   const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, surface_albedo, pt);
   MultiBounceAccuracy a;
   a.mrt = rel_l2(mrt, truth.value, skip);
@@ -1295,13 +1301,7 @@ MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* nam
   a.fed = rel_l2(fed, truth.value, skip);
   a.clutter_fed = rel_l2(clutter_fed, clutter_truth.value, std::vector<std::uint8_t>(cp.size(), 0));
   a.clutter = rel_l2(clutter_lightmap, clutter_truth.value, std::vector<std::uint8_t>(cp.size(), 0));
-  double se = 0, v = 0;
-  for (std::size_t i = 0; i < truth.value.size(); ++i)
-    if (!skip[i / 3]) {
-      se += double(truth.standard_error[i]) * truth.standard_error[i];
-      v += double(truth.value[i]) * truth.value[i];
-    }
-  a.noise = std::sqrt(se / v);
+  a.noise = noise_floor(truth, skip);
   std::printf(
       "%s, %d bounces: scene lightmap relL2 MRT %.4f, MRT+DRT %.4f with the clutter's indirect light "
       "fed back (%.0f %% lower), %.4f without; truth noise floor %.4f; clutter (Cb b + Cc c) %.4f "
@@ -1333,7 +1333,7 @@ TEST(Drt, MultiBounceWithClutterFeedbackStaysBounded) {
   ASSERT_TRUE(rep.ok()) << rep.status().to_string();
   EXPECT_TRUE(rep->albedo_clamped);
   EXPECT_TRUE(rep->converged) << rep->iterations << " iterations";
-  const float bound = drt_feedback_bound(ld, mb.max_albedo, clutter_ld, mb.max_albedo);
+  const float bound = drt_feedback_bound(ld[0], mb.max_albedo, clutter_ld[0], mb.max_albedo);
   for (float v : lightmap) ASSERT_TRUE(std::isfinite(v));
   for (float v : c) {
     ASSERT_TRUE(std::isfinite(v));

@@ -353,15 +353,9 @@ struct DrtBuilder::Pass {
                           Candidates& cand, std::vector<glm::dvec3>& dirs,
                           std::vector<LevelHit>& walls) const {
     TexelResult result;
-    const glm::dvec3 p = cg.position[i], n = cg.normal[i];
-    for (std::size_t j = 0; j < objects.size(); ++j)
-      if (j != k && queries[j].contains(p, n)) return result;
-    // Off the face so that a float ray does not start behind it.
-    const glm::dvec3 x = p + 1e-6 * n;
-    cand.clear();
-    for (std::size_t j = 0; j < objects.size(); ++j)
-      if ((j != k || queries[j].mesh) && (!b.settings_.cull || queries[j].in_front(p, n)))
-        cand.add(std::uint32_t(j), queries[j], x);
+    const glm::dvec3 n = cg.normal[i];
+    glm::dvec3 x;
+    if (!texel_candidates(k, cg.position[i], n, cand, x)) return result;
     texel_directions(sets(), b.settings_.seed ^ 0x436200ull, texel_stream(k, i), n, dirs);
     walls.resize(dirs.size());
     b.walls_.intersect_many(x, dirs, walls);
@@ -374,14 +368,7 @@ struct DrtBuilder::Pass {
           if (std::size_t(hit.object) == k) continue;  // a concave mesh shadows itself
           // An unlit face (resting on a wall) sends nothing.
           queries[std::size_t(hit.object)].charge(hit.entry, x, dirs[r], [&](std::size_t col, double value) {
-            const std::uint64_t key = cc_key(std::uint32_t(hit.object), int(col));
-            auto it = std::find_if(result.cc.begin(), result.cc.end(),
-                                   [&](const auto& e) { return e.first == key; });
-            if (it == result.cc.end()) {
-              result.cc.emplace_back(key, w * value);
-            } else {
-              it->second += w * value;
-            }
+            result.add_cc(cc_key(std::uint32_t(hit.object), int(col)), w * value);
           });
           continue;
         }
@@ -393,6 +380,22 @@ struct DrtBuilder::Pass {
     return result;
   }
 
+  // The start of texel gathers from surface point p (normal n) of object k: false when p lies
+  // inside another object (hidden: it gathers nothing); else the rays' origin x, just off the
+  // face so that a float ray does not start behind it, and the objects the rays test (the
+  // object itself too when it is a mesh, which can be concave).
+  bool texel_candidates(std::size_t k, const glm::dvec3& p, const glm::dvec3& n, Candidates& cand,
+                        glm::dvec3& x) const {
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if (j != k && queries[j].contains(p, n)) return false;
+    x = p + 1e-6 * n;
+    cand.clear();
+    for (std::size_t j = 0; j < objects.size(); ++j)
+      if ((j != k || queries[j].mesh) && (!b.settings_.cull || queries[j].in_front(p, n)))
+        cand.add(std::uint32_t(j), queries[j], x);
+    return true;
+  }
+
   // Vector Cb and Cc (DRT §5) of texel i of object k: trace_texel's charging with
   // uniform-hemisphere rays in the texel's frame (tangent, cross(normal, tangent), normal),
   // each ray weighted by 2 pi / rays times the OHLSH coefficients of its direction. cb rows
@@ -402,14 +405,9 @@ struct DrtBuilder::Pass {
                                  std::vector<glm::dvec3>& local, std::vector<glm::dvec3>& dirs,
                                  std::vector<LevelHit>& walls) const {
     TexelResult result;
-    const glm::dvec3 p = cg.position[i], n = cg.normal[i], t = cg.tangent[i];
-    for (std::size_t j = 0; j < objects.size(); ++j)
-      if (j != k && queries[j].contains(p, n)) return result;
-    const glm::dvec3 x = p + 1e-6 * n;
-    cand.clear();
-    for (std::size_t j = 0; j < objects.size(); ++j)
-      if ((j != k || queries[j].mesh) && (!b.settings_.cull || queries[j].in_front(p, n)))
-        cand.add(std::uint32_t(j), queries[j], x);
+    const glm::dvec3 n = cg.normal[i], t = cg.tangent[i];
+    glm::dvec3 x;
+    if (!texel_candidates(k, cg.position[i], n, cand, x)) return result;
     frame_directions(b.uniform_sets_, vector_seed() ^ 0x436200ull, texel_stream(k, i), t, glm::cross(n, t), n,
                      local, dirs);
     walls.resize(dirs.size());
@@ -423,16 +421,9 @@ struct DrtBuilder::Pass {
         if (hit.object >= 0 && !(wall.block >= 0 && wall.t < hit.entry.t)) {
           if (std::size_t(hit.object) == k) continue;  // a concave mesh shadows itself
           queries[std::size_t(hit.object)].charge(hit.entry, x, dirs[r], [&](std::size_t col, double value) {
-            for (int q = 0; q < kOhlshCount; ++q) {
-              const std::uint64_t key = cc_key(std::uint32_t(hit.object), int(kOhlshCount * col) + q);
-              auto it = std::find_if(result.cc.begin(), result.cc.end(),
-                                     [&](const auto& e) { return e.first == key; });
-              if (it == result.cc.end()) {
-                result.cc.emplace_back(key, w * a[std::size_t(q)] * value);
-              } else {
-                it->second += w * a[std::size_t(q)] * value;
-              }
-            }
+            for (int q = 0; q < kOhlshCount; ++q)
+              result.add_cc(cc_key(std::uint32_t(hit.object), int(kOhlshCount * col) + q),
+                            w * a[std::size_t(q)] * value);
           });
           continue;
         }
@@ -907,12 +898,8 @@ void attach_priors(const Level& level, const LevelScene& walls, const DrtBuildSe
                             const double r2 = glm::dot(d, d), r = std::sqrt(r2);
                             const double cosine = glm::dot(geo.normal[t], d) / r;
                             if (!(cosine > 0.0) || walls.occluded(x, lights[l])) continue;
-                            const glm::dvec3 dir = d / r;
-                            const std::vector<ObjectQuery> one{self};
-                            Candidates cand;
-                            cand.add(0, self, x);
-                            const Candidates::Nearest hit = cand.nearest(one, dir);
-                            if (hit.object >= 0 && hit.entry.t < r) continue;  // the object shadows itself
+                            const BoxEntry hit = self.enter(x, self.bounds.local(x), d / r);
+                            if (hit.hit && hit.t < r) continue;  // the object shadows itself
                             L(Eigen::Index(t), Eigen::Index(l)) = std::sqrt(area[t]) * cosine / r2;
                           }
                         }

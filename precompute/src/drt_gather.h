@@ -448,6 +448,15 @@ struct TexelResult {
   BlockRows cb;  // Limp sums of the walls its rays reach, per block
   // (source object, face slot) -> weight of the rays that enter that face first, ascending.
   std::vector<std::pair<std::uint64_t, double>> cc;
+  // Adds w to key's entry (few distinct keys per texel: a linear search).
+  void add_cc(std::uint64_t key, double w) {
+    auto it = std::find_if(cc.begin(), cc.end(), [&](const auto& e) { return e.first == key; });
+    if (it == cc.end()) {
+      cc.emplace_back(key, w);
+    } else {
+      it->second += w;
+    }
+  }
 };
 // A mesh can have many charts: 32 bits each.
 inline std::uint64_t cc_key(std::uint32_t object, int slot) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 #include <embree3/rtcore.h>
 #include "embree_rays.h"
@@ -50,6 +51,27 @@ void front_faces_only(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// One triangle geometry (xyz floats, three indices per triangle) attached to the scene; its id.
+unsigned attach_triangles(RTCDevice device, RTCScene scene, const std::vector<float>& vertices,
+                          const std::vector<unsigned>& indices, RTCFilterFunctionN filter, const char* what) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof(float), vertices.size() / 3));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), indices.size() / 3));
+  if (!vb || !ib) {
+    rtcReleaseGeometry(geom);
+    throw std::runtime_error(std::string("Embree: cannot allocate ") + what);
+  }
+  std::copy(vertices.begin(), vertices.end(), vb);
+  std::copy(indices.begin(), indices.end(), ib);
+  if (filter) rtcSetGeometryIntersectFilterFunction(geom, filter);
+  rtcCommitGeometry(geom);
+  const unsigned id = rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);
+  return id;
+}
+
 }  // namespace
 
 LevelScene::LevelScene(const Level& level, int subdivisions)
@@ -90,18 +112,7 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
         }
     }
   }
-  RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                         3 * sizeof(float), vertices.size() / 3));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), indices.size() / 3));
-  if (!vb || !ib) throw std::runtime_error("Embree: cannot allocate level geometry");
-  std::copy(vertices.begin(), vertices.end(), vb);
-  std::copy(indices.begin(), indices.end(), ib);
-  rtcSetGeometryIntersectFilterFunction(geom, front_faces_only);
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(impl_->scene, geom);
-  rtcReleaseGeometry(geom);
+  attach_triangles(impl_->device, impl_->scene, vertices, indices, front_faces_only, "level geometry");
   std::vector<float> mv;
   std::vector<unsigned> mi;
   impl_->clutter_mesh_first.assign(clutter_.size(), 0);
@@ -120,17 +131,8 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
     }
   }
   if (!mi.empty()) {
-    RTCGeometry mg = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* mvb = static_cast<float*>(rtcSetNewGeometryBuffer(mg, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                            3 * sizeof(float), mv.size() / 3));
-    auto* mib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(mg, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                               3 * sizeof(unsigned), mi.size() / 3));
-    if (!mvb || !mib) throw std::runtime_error("Embree: cannot allocate clutter mesh geometry");
-    std::copy(mv.begin(), mv.end(), mvb);
-    std::copy(mi.begin(), mi.end(), mib);
-    rtcCommitGeometry(mg);
-    impl_->clutter_mesh_geometry = rtcAttachGeometry(impl_->scene, mg);
-    rtcReleaseGeometry(mg);
+    impl_->clutter_mesh_geometry =
+        attach_triangles(impl_->device, impl_->scene, mv, mi, nullptr, "clutter mesh geometry");
   }
   const bool any_box = std::any_of(clutter_.begin(), clutter_.end(),
                                    [](const ClutterObject& o) { return o.kind == ClutterKind::box; });
@@ -148,17 +150,8 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
         ci.insert(ci.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
         impl_->clutter_cells.push_back({int(k), f, 0, 0});
       }
-    RTCGeometry cg = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* cvb = static_cast<float*>(rtcSetNewGeometryBuffer(cg, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                            3 * sizeof(float), cv.size() / 3));
-    auto* cib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(cg, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                               3 * sizeof(unsigned), ci.size() / 3));
-    if (!cvb || !cib) throw std::runtime_error("Embree: cannot allocate clutter geometry");
-    std::copy(cv.begin(), cv.end(), cvb);
-    std::copy(ci.begin(), ci.end(), cib);
-    rtcCommitGeometry(cg);
-    impl_->clutter_geometry = rtcAttachGeometry(impl_->scene, cg);
-    rtcReleaseGeometry(cg);
+    impl_->clutter_geometry =
+        attach_triangles(impl_->device, impl_->scene, cv, ci, nullptr, "clutter geometry");
   }
   rtcCommitScene(impl_->scene);
   if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw std::runtime_error("Embree: level scene build failed");
