@@ -67,42 +67,56 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   std::vector<std::int32_t> cc_faces;                     // per Cc column: its c index (face)
   std::vector<std::size_t> object_face0(1, 0);
   for (const DrtObjectOperators& o : drt.objects) object_face0.push_back(object_face0.back() + o.face_count);
+  // Row `row` of A (its first `cols` values) appended to `out`, four per texel (the matrix
+  // rows of Td_c, Uc, Cc and their vector twins); returns the row's first texel.
+  auto add_row = [](const Matrix& A, std::uint32_t row, std::size_t cols, std::vector<float>& out) {
+    const std::size_t base = out.size() / 4;
+    out.resize(out.size() + 4 * quads(cols), 0.0f);
+    for (std::size_t k = 0; k < cols; ++k) out[4 * base + k] = A(row, std::uint32_t(k));
+    return base;
+  };
+  // DRT §4.3: an object's Vc (or Vc_vec) rows, kb values per block at G texels a block, with
+  // one mode-table entry each (first Vc texel, first block-list entry, blocks).
+  auto add_modes = [&](const Matrix& V, const std::vector<std::uint32_t>& blocks, std::vector<float>& v_out,
+                       std::vector<std::int32_t>& mode_out, std::vector<std::int32_t>& blocks_out) {
+    const std::size_t nb = blocks.size(), b0 = blocks_out.size() / 4;
+    for (std::uint32_t blk : blocks) blocks_out.insert(blocks_out.end(), {std::int32_t(blk), 0, 0, 0});
+    for (std::uint32_t q = 0; q < V.rows; ++q) {
+      const std::size_t base = v_out.size() / 4;
+      v_out.resize(v_out.size() + 4 * nb * G, 0.0f);
+      for (std::size_t blk = 0; blk < nb; ++blk)
+        for (std::size_t k = 0; k < kb; ++k)
+          v_out[4 * (base + blk * G) + k] = V(q, std::uint32_t(blk * kb + k));
+      mode_out.insert(mode_out.end(), {std::int32_t(base), std::int32_t(b0), std::int32_t(nb), 0});
+    }
+  };
+  // Clutter-to-clutter light (drt.h, Cc): Cc's (or Cc_vec's) columns are the source objects'
+  // c entries; appends each column's index into c, returns the first column's table entry.
+  auto add_cc_columns = [&](const std::vector<std::uint32_t>& sources, std::vector<std::int32_t>& out) {
+    const std::size_t first = out.size() / 4;
+    for (std::uint32_t src : sources)
+      for (std::uint32_t k = 0; k < drt.objects[src].face_count; ++k)
+        out.insert(out.end(), {std::int32_t(object_face0[src] + k), 0, 0, 0});
+    return first;
+  };
   std::size_t texel0 = 0, face0 = 0, mode0 = 0;
   for (const DrtObjectOperators& o : drt.objects) {
     const std::size_t m = o.texel_count, f = o.face_count, modes = o.Uc.cols;
     d->texel0_.push_back(texel0);
-    for (std::size_t r = 0; r < f; ++r) {  // DRT §4.2
-      const std::size_t base = td_c.size() / 4;
-      td_c.resize(td_c.size() + 4 * quads(m), 0.0f);
-      for (std::size_t t = 0; t < m; ++t) td_c[4 * base + t] = o.Td_c(std::uint32_t(r), std::uint32_t(t));
+    for (std::uint32_t r = 0; r < f; ++r) {  // DRT §4.2
+      const std::size_t base = add_row(o.Td_c, r, m, td_c);
       face_info.insert(face_info.end(), {std::int32_t(base), std::int32_t(texel0), std::int32_t(m), 0});
     }
-    const std::size_t nb = o.Cb_blocks.size(), cb0 = cb_blocks.size() / 4;
-    for (std::uint32_t blk : o.Cb_blocks) cb_blocks.insert(cb_blocks.end(), {std::int32_t(blk), 0, 0, 0});
-    for (std::size_t q = 0; q < modes; ++q) {  // DRT §4.3
-      const std::size_t base = vc.size() / 4;
-      vc.resize(vc.size() + 4 * nb * G, 0.0f);
-      for (std::size_t blk = 0; blk < nb; ++blk)
-        for (std::size_t k = 0; k < kb; ++k)
-          vc[4 * (base + blk * G) + k] = o.Vc(std::uint32_t(q), std::uint32_t(blk * kb + k));
-      mode_info.insert(mode_info.end(), {std::int32_t(base), std::int32_t(cb0), std::int32_t(nb), 0});
-    }
-    for (std::size_t t = 0; t < m; ++t) {
-      const std::size_t base = uc.size() / 4;
-      uc.resize(uc.size() + 4 * quads(modes), 0.0f);
-      for (std::size_t q = 0; q < modes; ++q) uc[4 * base + q] = o.Uc(std::uint32_t(t), std::uint32_t(q));
+    add_modes(o.Vc, o.Cb_blocks, vc, mode_info, cb_blocks);
+    for (std::uint32_t t = 0; t < m; ++t) {
+      const std::size_t base = add_row(o.Uc, t, modes, uc);
       texel_values.push_back(
           {std::int32_t(texel0 + t), std::int32_t(base), std::int32_t(mode0), std::int32_t(modes)});
     }
-    // Clutter-to-clutter light (drt.h, Cc): the columns are the source objects' faces.
-    const std::size_t cc_cols = o.Cc.empty() ? 0 : o.Cc.cols, cc_face0 = cc_faces.size() / 4;
-    for (std::uint32_t src : o.Cc_objects)
-      for (std::uint32_t k = 0; k < drt.objects[src].face_count; ++k)
-        cc_faces.insert(cc_faces.end(), {std::int32_t(object_face0[src] + k), 0, 0, 0});
-    for (std::size_t t = 0; t < m; ++t) {
-      const std::size_t base = cc.size() / 4;
-      cc.resize(cc.size() + 4 * quads(cc_cols), 0.0f);
-      for (std::size_t k = 0; k < cc_cols; ++k) cc[4 * base + k] = o.Cc(std::uint32_t(t), std::uint32_t(k));
+    const std::size_t cc_cols = o.Cc.empty() ? 0 : o.Cc.cols,
+                      cc_face0 = add_cc_columns(o.Cc_objects, cc_faces);
+    for (std::uint32_t t = 0; t < m; ++t) {
+      const std::size_t base = add_row(o.Cc, t, cc_cols, cc);
       texel_cc.push_back({std::int32_t(base), std::int32_t(cc_cols), std::int32_t(cc_face0), 0});
     }
     texel0 += m;
@@ -125,37 +139,18 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     vec_cc_map.assign(4 * map_texels, 0);
     for (std::size_t i = 0; i < drt.objects.size(); ++i) {
       const DrtObjectOperators& o = drt.objects[i];
-      const std::size_t rows = 4 * std::size_t(o.texel_count), modes = o.Uc_vec.cols,
-                        nb = o.Cb_vec_blocks.size(), cb0 = cb_blocks_vec.size() / 4;
-      for (std::uint32_t blk : o.Cb_vec_blocks)
-        cb_blocks_vec.insert(cb_blocks_vec.end(), {std::int32_t(blk), 0, 0, 0});
-      for (std::size_t q = 0; q < modes; ++q) {
-        const std::size_t base = vc_vec.size() / 4;
-        vc_vec.resize(vc_vec.size() + 4 * nb * G, 0.0f);
-        for (std::size_t blk = 0; blk < nb; ++blk)
-          for (std::size_t k = 0; k < kb; ++k)
-            vc_vec[4 * (base + blk * G) + k] = o.Vc_vec(std::uint32_t(q), std::uint32_t(blk * kb + k));
-        mode_info_vec.insert(mode_info_vec.end(),
-                             {std::int32_t(base), std::int32_t(cb0), std::int32_t(nb), 0});
-      }
-      const std::size_t cc_cols = o.Cc_vec.empty() ? 0 : o.Cc_vec.cols, cc_face0 = cc_faces_vec.size() / 4;
-      for (std::uint32_t src : o.Cc_vec_objects)
-        for (std::uint32_t k = 0; k < drt.objects[src].face_count; ++k)
-          cc_faces_vec.insert(cc_faces_vec.end(), {std::int32_t(object_face0[src] + k), 0, 0, 0});
-      for (std::size_t r = 0; r < rows; ++r) {
+      const std::size_t rows = 4 * std::size_t(o.texel_count), modes = o.Uc_vec.cols;
+      add_modes(o.Vc_vec, o.Cb_vec_blocks, vc_vec, mode_info_vec, cb_blocks_vec);
+      const std::size_t cc_cols = o.Cc_vec.empty() ? 0 : o.Cc_vec.cols,
+                        cc_face0 = add_cc_columns(o.Cc_vec_objects, cc_faces_vec);
+      for (std::uint32_t r = 0; r < rows; ++r) {
         const std::size_t at = 4 * (4 * d->texel0_[i] + r);
-        const std::size_t ub = uc_vec.size() / 4;
-        uc_vec.resize(uc_vec.size() + 4 * quads(modes), 0.0f);
-        for (std::size_t q = 0; q < modes; ++q)
-          uc_vec[4 * ub + q] = o.Uc_vec(std::uint32_t(r), std::uint32_t(q));
+        const std::size_t ub = add_row(o.Uc_vec, r, modes, uc_vec),
+                          cb = add_row(o.Cc_vec, r, cc_cols, cc_vec);
         const std::int32_t map[4] = {std::int32_t(4 * d->texel0_[i] + r), std::int32_t(ub),
                                      std::int32_t(mode0_vec), std::int32_t(modes)};
-        std::copy(map, map + 4, vec_map.begin() + std::ptrdiff_t(at));
-        const std::size_t cb = cc_vec.size() / 4;
-        cc_vec.resize(cc_vec.size() + 4 * quads(cc_cols), 0.0f);
-        for (std::size_t k = 0; k < cc_cols; ++k)
-          cc_vec[4 * cb + k] = o.Cc_vec(std::uint32_t(r), std::uint32_t(k));
         const std::int32_t cmap[4] = {std::int32_t(cb), std::int32_t(cc_cols), std::int32_t(cc_face0), 0};
+        std::copy(map, map + 4, vec_map.begin() + std::ptrdiff_t(at));
         std::copy(cmap, cmap + 4, vec_cc_map.begin() + std::ptrdiff_t(at));
       }
       mode0_vec += modes;
@@ -571,33 +566,28 @@ Status GlesDrt::read_clutter_vector_lightmap(const std::array<GLuint, 3>& b, std
   draw(prog_vc_vec_, y_vec_, {vc_vec_, mode_info_vec_, cb_blocks_vec_, b[0], b[1], b[2]});
   draw(prog_clutter_vec_, clutter_vec_,
        {vec_map_, uc_vec_, y_vec_.texture, clutter_direct_, vec_cc_map_, cc_vec_, cc_faces_vec_, c_.texture});
-  gl_.glBindFramebuffer(GL_FRAMEBUFFER, clutter_vec_.framebuffer);
-  gl_.glReadBuffer(GL_COLOR_ATTACHMENT0);
-  gl_.glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  if (output_bits_)
-    gl_.glReadPixels(0, 0, clutter_vec_.width, clutter_vec_.height, GL_RGBA_INTEGER, GL_UNSIGNED_INT,
-                     readback_.data());
-  else
-    gl_.glReadPixels(0, 0, clutter_vec_.width, clutter_vec_.height, GL_RGBA, GL_FLOAT, readback_.data());
-  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  read_back(clutter_vec_);
   for (std::size_t r = 0; r < out.size() / 3; ++r)
     for (std::size_t ch = 0; ch < 3; ++ch) out[3 * r + ch] = readback_[4 * r + ch];
   return Status::success();
 }
 
-Status GlesDrt::read_clutter_lightmap(std::span<float> out) {
-  if (out.size() != sizes_.clutter_lightmap)
-    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
-  gl_.glBindFramebuffer(GL_FRAMEBUFFER, clutter_.framebuffer);
+void GlesDrt::read_back(const Target& target) {
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer);
   gl_.glReadBuffer(GL_COLOR_ATTACHMENT0);
   gl_.glPixelStorei(GL_PACK_ALIGNMENT, 4);
   // RGBA32UI holds float bit patterns: read as unsigned ints into float storage, exactly.
   if (output_bits_)
-    gl_.glReadPixels(0, 0, clutter_.width, clutter_.height, GL_RGBA_INTEGER, GL_UNSIGNED_INT,
-                     readback_.data());
+    gl_.glReadPixels(0, 0, target.width, target.height, GL_RGBA_INTEGER, GL_UNSIGNED_INT, readback_.data());
   else
-    gl_.glReadPixels(0, 0, clutter_.width, clutter_.height, GL_RGBA, GL_FLOAT, readback_.data());
+    gl_.glReadPixels(0, 0, target.width, target.height, GL_RGBA, GL_FLOAT, readback_.data());
   gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+Status GlesDrt::read_clutter_lightmap(std::span<float> out) {
+  if (out.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
+  read_back(clutter_);
   for (std::size_t i = 0; i < drt_->objects.size(); ++i)
     for (std::uint32_t t = 0; t < drt_->objects[i].texel_count; ++t) {
       const std::array<int, 2> xy = clutter_texel(i, t);

@@ -99,6 +99,8 @@ class GlesDrt {
   };
   explicit GlesDrt(const platform::GlFunctions& gl) : gl_(gl) {}
   void draw(GLuint program, const Target& target, std::initializer_list<GLuint> textures);
+  // A target in the output format (the clutter atlas or its vector twin) into readback_.
+  void read_back(const Target& target);
 
   const platform::GlFunctions& gl_;
   const DrtOperators* drt_ = nullptr;
