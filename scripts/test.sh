@@ -1,21 +1,24 @@
 #!/usr/bin/env bash
 # Build modrt with warnings as errors and run the test suite.
 #
-#   scripts/test.sh           # build-tests/: RelWithDebInfo, -DMODRT_WERROR=ON
-#   scripts/test.sh --asan    # build-asan/:  AddressSanitizer + UBSan, -O1 -g, WERROR
+#   scripts/test.sh                 # build-tests/: RelWithDebInfo, -DMODRT_WERROR=ON
+#   scripts/test.sh --asan          # build-asan/:  AddressSanitizer + UBSan, -O1 -g, WERROR
+#   scripts/test.sh --scalar-clang  # build-scalar-clang/: clang, -DMODRT_NO_SIMD=ON, WERROR
 #
 # Exits non-zero if the configure, the build or any test fails. Same settings as the
-# CMake presets "tests" and "asan".
+# CMake presets "tests", "asan" and "scalar-clang".
 set -euo pipefail
 
 usage() {
-  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 asan=0
+scalar_clang=0
 for arg in "$@"; do
   case "$arg" in
     --asan) asan=1 ;;
+    --scalar-clang) scalar_clang=1 ;;
     -h | --help) usage; exit 0 ;;
     *) echo "test.sh: unknown argument '$arg'" >&2; usage >&2; exit 2 ;;
   esac
@@ -39,6 +42,18 @@ if ((asan)); then
   # Exported before the build too: gtest_discover_tests runs the test binaries then.
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+elif ((scalar_clang)); then
+  # The second compiler and the scalar twins only: what GCC accepts clang may warn about, and
+  # the suite must pass without any SIMD kernel (the scalar path is every SIMD test's reference).
+  build_dir=build-scalar-clang
+  cmake_args=(
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo
+    -DCMAKE_C_COMPILER=clang
+    -DCMAKE_CXX_COMPILER=clang++
+    -DMODRT_NO_SIMD=ON
+    -DMODRT_WERROR=ON
+    -DMODRT_BUILD_TESTS=ON
+  )
 else
   build_dir=build-tests
   cmake_args=(

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "gl_objects.h"
+#include "gl_test_names.h"
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
@@ -416,17 +417,10 @@ void GlesBackend::check_skipping(float fraction) {
   EXPECT_EQ(a_inc, a_full);
 }
 
-std::string context_name(const ::testing::TestParamInfo<ContextRequest>& info) {
-  std::string name = platform::context_request_name(info.param);
-  for (char& ch : name)
-    if (ch == '-') ch = '_';
-  return name;
-}
-
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesBackend,
                          ::testing::Values(ContextRequest::egl_surfaceless, ContextRequest::osmesa,
                                            ContextRequest::egl_device),
-                         context_name);
+                         test::gl_context_test_name);
 
 }  // namespace
 }  // namespace modrt::gles

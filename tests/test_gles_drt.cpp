@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "gl_test_names.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/drt.h"
 #include "modrt/gles/gles_level_runtime.h"
@@ -523,7 +524,8 @@ TEST_P(GlesDrtTest, ClutterVectorLightmapMatchesCore) {
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesDrtTest,
                          ::testing::Values(ContextRequest::egl_surfaceless, ContextRequest::osmesa,
-                                           ContextRequest::egl_device));
+                                           ContextRequest::egl_device),
+                         test::gl_context_test_name);
 
 }  // namespace
 }  // namespace modrt::gles
