@@ -113,8 +113,24 @@ int main(int argc, char** argv) {
                           : output == "indirect" ? OutputMode::indirect
                                                  : OutputMode::combined;
 
-  // ---- dictionary, scene, level ----
+  // ---- scene, dictionary, level ----
+  // The scene first: a bad file is refused before a dictionary bake of many seconds.
   const Clock::time_point t_setup = Clock::now();
+  std::vector<std::string> warnings;
+  Result<DemoScene> scene = Status::success();
+  if (scene_file.empty()) {
+    scene = default_scene();
+  } else {
+    GltfSceneOptions gltf;
+    gltf.level_path = level_file;
+    gltf.warnings = &warnings;
+    scene = load_gltf_scene(scene_file, gltf);
+  }
+  for (const std::string& w : warnings) std::fprintf(stderr, "modrt-demo: warning: %s\n", w.c_str());
+  if (!scene.ok()) {
+    std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
+    return 1;
+  }
   Result<Dictionary> dict = Status::success();
   if (!dictionary_path.empty()) {
     dict = load_dictionary(dictionary_path);
@@ -136,21 +152,6 @@ int main(int argc, char** argv) {
   }
   if (!dict.ok()) {
     std::fprintf(stderr, "modrt-demo: dictionary: %s\n", dict.status().to_string().c_str());
-    return 1;
-  }
-  std::vector<std::string> warnings;
-  Result<DemoScene> scene = Status::success();
-  if (scene_file.empty()) {
-    scene = default_scene();
-  } else {
-    GltfSceneOptions gltf;
-    gltf.level_path = level_file;
-    gltf.warnings = &warnings;
-    scene = load_gltf_scene(scene_file, gltf);
-  }
-  for (const std::string& w : warnings) std::fprintf(stderr, "modrt-demo: warning: %s\n", w.c_str());
-  if (!scene.ok()) {
-    std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
     return 1;
   }
   if (!drt && !scene->clutter.empty()) {
