@@ -505,8 +505,12 @@ class Loader {
   Stream accessor_stream(int index, const std::string& what, std::size_t cap) const;
   std::vector<float> read_floats(int index, const std::string& what, int components) const;
   std::vector<std::uint32_t> read_indices(int index, const std::string& what) const;
+  std::size_t max_indices() const {  // per index accessor: 3 x max_vertices
+    return options_.max_vertices > std::numeric_limits<std::size_t>::max() / 3
+               ? std::numeric_limits<std::size_t>::max()
+               : 3 * options_.max_vertices;
+  }
   void add_light(const NodeInstance& inst, int light);
-  void check_light(const std::string& what, const glm::dvec3& position, const DemoLight& light) const;
   void check_light_positions() const;
   void add_default_light();
   std::size_t mesh_corners(int mesh) const;
@@ -564,12 +568,12 @@ std::size_t Loader::mesh_corners(int mesh) const {
   std::size_t corners = 0;
   for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
     const tinygltf::Primitive& prim = gm.primitives[pi];
-    const std::string what = "mesh " + num(mesh) + " primitive " + num(pi);
+    const std::string what = "mesh " + num(mesh) +
+                             (gm.name.empty() ? std::string() : " (" + quote(gm.name) + ")") + " primitive " +
+                             num(pi);
     std::size_t count = 0;
     if (prim.indices >= 0) {
-      count = accessor_stream(prim.indices, what + " indices",
-                              saturating_add(options_.max_vertices, 2 * options_.max_vertices))
-                  .count;
+      count = accessor_stream(prim.indices, what + " indices", max_indices()).count;
     } else if (const auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) {
       count = accessor_stream(it->second, what + " POSITION", options_.max_vertices).count;
     }
@@ -784,10 +788,7 @@ std::vector<float> Loader::read_floats(int index, const std::string& what, int c
 }
 
 std::vector<std::uint32_t> Loader::read_indices(int index, const std::string& what) const {
-  const std::size_t cap = options_.max_vertices > std::numeric_limits<std::size_t>::max() / 3
-                              ? std::numeric_limits<std::size_t>::max()
-                              : 3 * options_.max_vertices;
-  const Stream s = accessor_stream(index, what, cap);
+  const Stream s = accessor_stream(index, what, max_indices());
   const int ct = s.component_type;
   if (s.components != 1 ||
       (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&

@@ -59,8 +59,10 @@ struct GltfSceneOptions {
 // Reads a glTF 2.0 scene. Errors name the file and the problem: missing or unreadable file,
 // malformed JSON or glb, accessor or buffer view out of range, non-triangle primitive mode,
 // missing POSITION, index out of range, unsupported or undecodable image, missing image
-// file, size limit exceeded, no proxy blocks, level JSON errors (from load_level_json or
-// from the extras turned into level JSON). Never throws.
+// file, size limit exceeded (the vertex buffer estimate among them), a malformed URI escape,
+// a light far outside the level or too bright, no proxy blocks, level JSON errors (from
+// load_level_json or from the extras turned into level JSON). A scene without a light gets
+// the default light (docs/demo.md, "Default light"), with a warning. Never throws.
 Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOptions& options = {});
 
 // The sidecar level file checked for `gltf_path`: the same path with its extension replaced
