@@ -38,6 +38,7 @@
 #include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/dictionary.h"
 #include "modrt/file_io.h"
@@ -1022,7 +1023,8 @@ int main(int argc, char** argv) {
   app.add_option("--check-thresholds", thresholds_path,
                  "fail (exit 3) when MRT's in-prior relative L2 exceeds these");
   app.add_option("--write-thresholds", write_headroom,
-                 "instead of checking, write --check-thresholds FILE from this run x HEADROOM (e.g. 1.3)");
+                 "instead of checking, write --check-thresholds FILE from this run x HEADROOM (e.g. 1.3)")
+      ->check(modrt::demo::FiniteRange(0.0, 100.0));
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory")->capture_default_str();
   app.add_option("--frames", frames, "timed frames per method (median)")->check(CLI::Range(1, 100000));
   app.add_option("--scenes", only, "run only these scenes (closed_box, cornell_box, maze11, maze41)");

@@ -16,6 +16,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_checks.h"
 #include "demo_run.h"
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
@@ -74,13 +75,18 @@ int main(int argc, char** argv) {
   app.add_option("--bounces", bounces, "Extra indirect bounces (multi-bounce feedback steps) per frame")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
-  app.add_option("--exposure", exposure, "Exposure before tone mapping")->capture_default_str();
+  app.add_option("--exposure", exposure, "Exposure before tone mapping (multiplies the linear image)")
+      ->check(FiniteRange(1e-6, 1e6))
+      ->capture_default_str();
   app.add_option("--dictionary", dictionary_path, "Load this dictionary file instead of the cache");
   std::string level_file;
-  app.add_option("--scene", scene_file,
-                 "glTF 2.0 scene (.gltf or .glb; proxy blocks from --level, <scene>.level.json or nodes "
-                 "marked extras.modrt_block, docs/demo.md); default: the built-in scene");
-  app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks");
+  CLI::Option* scene_option =
+      app.add_option("--scene", scene_file,
+                     "glTF 2.0 scene (.gltf or .glb; proxy blocks from --level, <scene>.level.json or nodes "
+                     "marked extras.modrt_block, docs/demo.md); default: the built-in scene");
+  // The built-in scene has its own level: --level alone would be silently ignored.
+  app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks")
+      ->needs(scene_option);
   app.add_flag("!--no-exr", exr, "Do not write the linear EXR files");
   int drt_rays = DemoRunOptions{}.drt_rays;
   app.add_option("--drt-rays", drt_rays, "Rays per scene sample and clutter texel of the DRT operator build")
@@ -107,8 +113,24 @@ int main(int argc, char** argv) {
                           : output == "indirect" ? OutputMode::indirect
                                                  : OutputMode::combined;
 
-  // ---- dictionary, scene, level ----
+  // ---- scene, dictionary, level ----
+  // The scene first: a bad file is refused before a dictionary bake of many seconds.
   const Clock::time_point t_setup = Clock::now();
+  std::vector<std::string> warnings;
+  Result<DemoScene> scene = Status::success();
+  if (scene_file.empty()) {
+    scene = default_scene();
+  } else {
+    GltfSceneOptions gltf;
+    gltf.level_path = level_file;
+    gltf.warnings = &warnings;
+    scene = load_gltf_scene(scene_file, gltf);
+  }
+  for (const std::string& w : warnings) std::fprintf(stderr, "modrt-demo: warning: %s\n", w.c_str());
+  if (!scene.ok()) {
+    std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
+    return 1;
+  }
   Result<Dictionary> dict = Status::success();
   if (!dictionary_path.empty()) {
     dict = load_dictionary(dictionary_path);
@@ -130,21 +152,6 @@ int main(int argc, char** argv) {
   }
   if (!dict.ok()) {
     std::fprintf(stderr, "modrt-demo: dictionary: %s\n", dict.status().to_string().c_str());
-    return 1;
-  }
-  std::vector<std::string> warnings;
-  Result<DemoScene> scene = Status::success();
-  if (scene_file.empty()) {
-    scene = default_scene();
-  } else {
-    GltfSceneOptions gltf;
-    gltf.level_path = level_file;
-    gltf.warnings = &warnings;
-    scene = load_gltf_scene(scene_file, gltf);
-  }
-  for (const std::string& w : warnings) std::fprintf(stderr, "modrt-demo: warning: %s\n", w.c_str());
-  if (!scene.ok()) {
-    std::fprintf(stderr, "modrt-demo: scene: %s\n", scene.status().to_string().c_str());
     return 1;
   }
   if (!drt && !scene->clutter.empty()) {

@@ -80,7 +80,11 @@ DemoRun::~DemoRun() = default;
 Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const Dictionary& dict,
                                                  platform::GlContext& context,
                                                  const DemoRunOptions& options) {
-  if (scene.lights.empty()) return Status::error(ErrorCode::invalid_argument, "demo: the scene has no light");
+  if (scene.lights.empty())
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "demo: the scene has no light (load_gltf_scene adds a default one; a scene built in code "
+        "must have one)");
   std::unique_ptr<DemoRun> run(new DemoRun());
   run->scene_ = &scene;
   run->dict_ = &dict;
@@ -286,6 +290,15 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   t = Clock::now();
   s = renderer_->render_image(state, linear_rgb, srgb8);
   times_.render += ms_since(t);
+  if (!s.ok()) return s;
+  // Finite input gives a finite image (the loaders bound the lights, the runtimes the light
+  // values): NaN or Inf here is a fault, reported instead of saved as black or white pixels.
+  if (const auto bad =
+          std::count_if(linear_rgb.begin(), linear_rgb.end(), [](float v) { return !std::isfinite(v); });
+      bad > 0)
+    return Status::error(ErrorCode::non_finite, "demo: the rendered image has " + std::to_string(bad) +
+                                                    " of " + std::to_string(linear_rgb.size()) +
+                                                    " values that are not finite (NaN or Inf)");
   return s;
 }
 

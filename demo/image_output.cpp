@@ -55,11 +55,28 @@ Status write_rgb8_image(const std::string& path, int width, int height, std::spa
   return write_image(path, width, height, OIIO::TypeDesc::UINT8, rgb.data(), OIIO::TypeDesc::UINT8);
 }
 
-Status write_rgb_float_image(const std::string& path, int width, int height, std::span<const float> rgb) {
+std::size_t count_non_finite(std::span<const float> values) {
+  return std::size_t(std::count_if(values.begin(), values.end(), [](float v) { return !std::isfinite(v); }));
+}
+
+Status write_rgb_float_image(const std::string& path, int width, int height, std::span<const float> rgb,
+                             bool* wrote_float32) {
   if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
     return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
-  // Stored as half floats, the usual precision of linear HDR frames (11-bit mantissa).
-  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data(), OIIO::TypeDesc::HALF);
+  // A linear frame with NaN or Inf is a wrong render, not an image: refused rather than
+  // clamped, so that the fault shows (docs/demo.md, "Output").
+  if (const std::size_t bad = count_non_finite(rgb); bad > 0)
+    return Status::error(ErrorCode::non_finite, path + ": " + std::to_string(bad) + " of " +
+                                                    std::to_string(rgb.size()) +
+                                                    " values are not finite (NaN or Inf); not written");
+  // Half floats (11-bit mantissa, the usual precision of linear HDR frames) while every value
+  // fits their range; beyond it half would store Inf, so the frame is written as float32.
+  float largest = 0.0f;
+  for (const float v : rgb) largest = std::max(largest, std::abs(v));
+  const bool float32 = largest > kHalfMax;
+  if (wrote_float32) *wrote_float32 = float32;
+  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data(),
+                     float32 ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
 }
 
 }  // namespace modrt::demo

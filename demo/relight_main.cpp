@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_checks.h"
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/precompute/block_scene.h"
@@ -58,8 +59,14 @@ int main(int argc, char** argv) {
   app.add_option("--cache-dir", cache_dir, "where the baked dictionary is cached");
   app.add_option("--out", out_dir, "output directory for the PNG images");
   app.add_option("--shape", shape_name, "dictionary shape: closed, dead_end, corridor, corner, t_junction, crossing");
-  app.add_option("--light", light_pos, "sphere light centre x,y,z in block units")->delimiter(',')->expected(3);
-  app.add_option("--intensity", light_intensity, "light intensity (W/sr)");
+  // Bounds (docs/robustness.md, issue 18): a light within 1e6 block sizes of the block (the glTF
+  // loader's contract for lights against the level's extent); intensity up to 1e20 W/sr.
+  app.add_option("--light", light_pos, "sphere light centre x,y,z in block units")
+      ->delimiter(',')
+      ->expected(3)
+      ->check(modrt::demo::FiniteRange(-1e6, 1e6));
+  app.add_option("--intensity", light_intensity, "light intensity (W/sr)")
+      ->check(modrt::demo::FiniteRange(0.0, 1e20));
   app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
   app.add_option("--rays", settings.rays, "bake: gather rays per sample (only when baking)");
   CLI11_PARSE(app, argc, argv);

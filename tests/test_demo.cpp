@@ -4,11 +4,13 @@
 // frame under OSMesa matches the stored golden image (metric below). Uses the small test
 // dictionary, so frames render in well under a second each.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <random>
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "demo_run.h"
+#include "image_output.h"
 #include "modrt/level_geometry.h"
 #include "modrt/precompute/level_scene.h"
 #include "scene/clutter_shapes.h"
@@ -459,6 +462,64 @@ TEST(DemoRender, FirstFrameMatchesGoldenImage) {
   std::vector<std::uint8_t> dark(image);
   for (std::uint8_t& v : dark) v = std::uint8_t(v / 2);
   EXPECT_GT(delta_e(dark, golden).mean, 5.0);
+}
+
+// ---- issue 18 ----
+
+// A light of 1e8 cd (1.5e5 W/sr) put Inf into the half-float EXR, 1e20 cd every pixel: the
+// frame itself is finite (float32 targets) and is now written as float32 EXR.
+TEST(DemoRender, BrightLightRendersFiniteAndWritesFloat32Exr) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  for (const double candela : {1e8, 1e20}) {
+    DemoScene bright = walls_only();
+    bright.lights[0].intensity = float(candela / 683.0);
+    DemoRunOptions options;
+    options.renderer.width = 64, options.renderer.height = 36;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(bright, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    std::vector<float> linear(3 * 64 * 36);
+    std::vector<std::uint8_t> srgb(linear.size());
+    ASSERT_TRUE(run.value()->render(0, linear, srgb).ok());
+    EXPECT_EQ(count_non_finite(linear), 0u) << candela << " cd";
+    const float largest = *std::max_element(linear.begin(), linear.end());
+    EXPECT_GT(largest, kHalfMax) << candela << " cd";
+    bool float32 = false;
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("modrt_test_demo_bright_" + std::to_string(::getpid()) + ".exr"))
+                                 .string();
+    const Status w = write_rgb_float_image(path, 64, 36, linear, &float32);
+    std::filesystem::remove(path);
+    ASSERT_TRUE(w.ok()) << w.to_string();
+    EXPECT_TRUE(float32) << candela << " cd: largest value " << largest;
+    std::printf("  %.0e cd: largest linear value %.3g, EXR float32\n", candela, double(largest));
+  }
+}
+
+// glBufferData's failure was unchecked, and llvmpipe crashed drawing from the buffer it could
+// not allocate (a 2.9 GB glTF scene). A 1 TiB request fails in the driver and is an error.
+TEST(DemoRender, FailedBufferAllocationIsAnError) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan aborts on a 1 TiB allocation instead of returning null";
+#else
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  const platform::GlFunctions& gl = ctx->gl();
+  GLuint buffer = 0;
+  gl.glGenBuffers(1, &buffer);
+  gl.glBindBuffer(GL_ARRAY_BUFFER, buffer);
+  const Status s =
+      buffer_data_checked(gl, GL_ARRAY_BUFFER, std::size_t(1) << 40, nullptr, "a 1 TiB test buffer");
+  gl.glBindBuffer(GL_ARRAY_BUFFER, 0);
+  gl.glDeleteBuffers(1, &buffer);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("renderer: glBufferData of 1099511627776 bytes for a 1 TiB test buffer: GL_"),
+            std::string::npos)
+      << s.message();
+  std::printf("  %s\n", s.to_string().c_str());
+  // The context stays usable: no error is left pending.
+  EXPECT_EQ(gl.glGetError(), GLenum(GL_NO_ERROR));
+#endif
 }
 
 }  // namespace

@@ -9,7 +9,8 @@
 // linked (OpenImageIO writes the image).
 //
 //   modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A]
-// Exit status: 0 on success, 77 when no EGL display or ES 3 context can be created, else 1.
+// Exit status: 0 on success, 2 for a usage error (unknown flag, bad value: the message names
+// it), 77 when no EGL display or ES 3 context can be created, else 1.
 #define EGL_EGLEXT_PROTOTYPES
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -27,6 +28,9 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <CLI/CLI.hpp>
+
+#include "cli_checks.h"
 #include "modrt/modrt.hpp"
 
 namespace {
@@ -134,23 +138,29 @@ void main() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 4) {
+  // Every argument is checked: an unknown flag, a missing value or a value out of range is a
+  // usage error (exit 2) naming the flag, never silently ignored.
+  CLI::App app{
+      "modrt-embed-host: an app-owned EGL context handed to modrt's C API; renders the lightmap atlas"};
+  std::string dictionary_path, level_path, out_path;
+  int scale = 16;
+  float albedo_value = 0.7f;
+  app.add_option("dictionary", dictionary_path, "dictionary file (.modrt)")->required();
+  app.add_option("level", level_path, "built level file (.modrtlevel)")->required();
+  app.add_option("out", out_path, "output PNG")->required();
+  app.add_option("--scale", scale, "pixels per atlas texel")->check(CLI::Range(1, 64))->capture_default_str();
+  app.add_option("--albedo", albedo_value, "the one albedo of every sample")
+      ->check(modrt::demo::FiniteRange(0.0, 1.0))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (app.exit(e) == 0) return 0;  // --help
     std::fprintf(
         stderr,
         "usage: modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A]\n");
     return 2;
   }
-  int scale = 16;
-  float albedo_value = 0.7f;
-  for (int i = 4; i + 1 < argc; i += 2) {
-    if (std::strcmp(argv[i], "--scale") == 0)
-      scale = std::atoi(argv[i + 1]);
-    else if (std::strcmp(argv[i], "--albedo") == 0)
-      albedo_value = float(std::atof(argv[i + 1]));
-    else
-      return fail("arguments", std::string("unknown option ") + argv[i]);
-  }
-  if (scale < 1 || scale > 64) return fail("arguments", "--scale must be in 1..64");
 
   // 1. The app's GL context.
   EglContext egl;
@@ -164,13 +174,14 @@ int main(int argc, char** argv) {
 
   // 2. Assets: the dictionary from a file, the level from memory (an app's bundle asset).
   modrt::rt::Dictionary dict;
-  if (modrt::rt::Error e = modrt::rt::Dictionary::load_file(argv[1], dict))
+  if (modrt::rt::Error e = modrt::rt::Dictionary::load_file(dictionary_path.c_str(), dict))
     return fail("dictionary", e.message);
-  std::ifstream in(argv[2], std::ios::binary);
+  std::ifstream in(level_path, std::ios::binary);
   const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (!in.good() && !in.eof()) return fail("level", std::string("cannot read ") + argv[2]);
+  if (!in.good() && !in.eof()) return fail("level", "cannot read " + level_path);
   modrt::rt::Level level;
-  if (modrt::rt::Error e = modrt::rt::Level::load_memory(bytes.data(), bytes.size(), argv[2], level))
+  if (modrt::rt::Error e =
+          modrt::rt::Level::load_memory(bytes.data(), bytes.size(), level_path.c_str(), level))
     return fail("level", e.message);
   const modrt_level_info info = level.info();
 
@@ -264,12 +275,12 @@ int main(int argc, char** argv) {
       for (int c = 0; c < 3; ++c)
         rgb[(std::size_t(height - 1 - y) * std::size_t(width) + std::size_t(x)) * 3 + std::size_t(c)] =
             rgba[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 4 + std::size_t(c)];
-  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(argv[3]);
-  if (!out) return fail("image", std::string("cannot write ") + argv[3] + ": " + OIIO::geterror());
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(out_path);
+  if (!out) return fail("image", "cannot write " + out_path + ": " + OIIO::geterror());
   const OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-  if (!out->open(argv[3], spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+  if (!out->open(out_path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
     return fail("image", out->geterror());
-  std::printf("wrote %s (%dx%d, atlas x%d)\n", argv[3], width, height, scale);
+  std::printf("wrote %s (%dx%d, atlas x%d)\n", out_path.c_str(), width, height, scale);
 
   glDeleteVertexArrays(1, &vao);
   glDeleteProgram(program);

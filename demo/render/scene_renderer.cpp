@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -58,6 +59,26 @@ void append_sphere(std::vector<MappedVertex>& out, float radius) {
 }
 
 }  // namespace
+
+Status gl_error_status(const platform::GlFunctions& gl, const std::string& what) {
+  const GLenum e = gl.glGetError();
+  if (e == GL_NO_ERROR) return Status::success();
+  while (gl.glGetError() != GL_NO_ERROR) {  // only the first error is reported
+  }
+  return Status::error(e == GL_OUT_OF_MEMORY ? ErrorCode::resource_limit : ErrorCode::internal_error,
+                       "renderer: " + what + ": " + platform::gl_error_name(e) +
+                           (e == GL_OUT_OF_MEMORY ? " (the GL driver could not allocate it)" : ""));
+}
+
+Status buffer_data_checked(const platform::GlFunctions& gl, GLenum target, std::size_t bytes,
+                           const void* data, const std::string& what) {
+  if (Status s = gl_error_status(gl, "before allocating " + what); !s.ok()) return s;
+  if (bytes > std::size_t(std::numeric_limits<GLsizeiptr>::max()))
+    return Status::error(ErrorCode::resource_limit, "renderer: " + what + ": " + std::to_string(bytes) +
+                                                        " bytes do not fit in GLsizeiptr");
+  gl.glBufferData(target, GLsizeiptr(bytes), data, GL_STATIC_DRAW);
+  return gl_error_status(gl, "glBufferData of " + std::to_string(bytes) + " bytes for " + what);
+}
 
 struct SceneRenderer::Impl {
   const platform::GlFunctions& gl;
@@ -207,16 +228,23 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   gl.glUseProgram(0);
 
   // ---- geometry ----
+  // One vertex buffer: the mapped meshes, the dynamic and clutter meshes and the light marker.
+  // Its size was checked before anything was expanded (check_vertex_buffer_size, also in
+  // map_to_proxies); reserved once, so that growing it never holds twice the buffer.
+  if (Status s = check_vertex_buffer_size(scene); !s.ok())
+    return Status::error(s.code(), "renderer: " + s.message());
   std::vector<MappedVertex> vertices;
+  vertices.reserve(drawn_corner_count(scene));
   for (const MappedMesh& mm : mapped) {
     DrawRange d{GLint(vertices.size()), GLsizei(mm.vertices.size()),
                 scene.meshes[std::size_t(mm.mesh)].material, false};
     vertices.insert(vertices.end(), mm.vertices.begin(), mm.vertices.end());
     m.draws.push_back(d);
   }
+  auto next = [&] { return GLint(vertices.size()); };
   for (const Mesh& mesh : scene.meshes) {
     if (!mesh.dynamic) continue;
-    DrawRange d{GLint(vertices.size()), 0, mesh.material, true};
+    DrawRange d{next(), 0, mesh.material, true};
     for (std::uint32_t i : mesh.indices) {
       if (i >= mesh.position.size() || i >= mesh.normal.size())
         return Status::error(ErrorCode::invalid_argument,
@@ -227,7 +255,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
       if (i < mesh.uv.size()) v.uv = mesh.uv[i];
       vertices.push_back(v);
     }
-    d.count = GLsizei(vertices.size()) - d.first;
+    d.count = next() - d.first;
     m.draws.push_back(d);
   }
   // Clutter meshes: their lightmap coordinates are TEXCOORD_1 in texels of their object's
@@ -243,7 +271,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
       return Status::error(ErrorCode::invalid_argument,
                            "renderer: clutter mesh '" + mesh.name + "' needs one lightmap UV per vertex");
     const float res = float(scene.clutter[std::size_t(mesh.clutter)].mesh->atlas.res);
-    DrawRange d{GLint(vertices.size()), 0, mesh.material, false, mesh.clutter};
+    DrawRange d{next(), 0, mesh.material, false, mesh.clutter};
     for (std::uint32_t i : mesh.indices) {
       if (i >= mesh.position.size() || i >= mesh.normal.size())
         return Status::error(ErrorCode::invalid_argument,
@@ -256,7 +284,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
       v.lightmap = mesh.lightmap_uv[i] * res;
       vertices.push_back(v);
     }
-    d.count = GLsizei(vertices.size()) - d.first;
+    d.count = next() - d.first;
     m.draws.push_back(d);
   }
   for (const ClutterObject& object : scene.clutter) {
@@ -267,9 +295,9 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     m.clutter_texture.push_back(
         object.mesh ? m.texture(GL_RGBA32F, object.mesh->atlas.res, object.mesh->atlas.res) : 0);
   }
-  m.light_marker.first = GLint(vertices.size());
+  m.light_marker.first = next();
   append_sphere(vertices, 1.0f);
-  m.light_marker.count = GLsizei(vertices.size()) - m.light_marker.first;
+  m.light_marker.count = next() - m.light_marker.first;
   for (const DrawRange& d : m.draws)
     if (d.material < 0 || std::size_t(d.material) >= scene.materials.size())
       return Status::error(ErrorCode::invalid_argument, "renderer: a mesh uses material " +
@@ -281,8 +309,10 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   m.buffers.push_back(m.vbo);
   gl.glBindVertexArray(m.vao);
   gl.glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
-  gl.glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(MappedVertex)), vertices.data(),
-                  GL_STATIC_DRAW);
+  if (Status s = buffer_data_checked(gl, GL_ARRAY_BUFFER, vertices.size() * sizeof(MappedVertex),
+                                     vertices.data(), "the vertex buffer");
+      !s.ok())
+    return s;
   const struct {
     GLuint location;
     GLint size;
@@ -314,6 +344,11 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     while ((std::max(img.width, img.height) >> levels) > 0) ++levels;
     gl.glBindTexture(GL_TEXTURE_2D, t);
     gl.glTexStorage2D(GL_TEXTURE_2D, levels, GL_RGBA8, img.width, img.height);
+    if (Status s = gl_error_status(gl, "allocating the texture of image '" + img.name + "' (" +
+                                           std::to_string(img.width) + " x " + std::to_string(img.height) +
+                                           " RGBA8, mipmapped)");
+        !s.ok())
+      return s;
     gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, img.width, img.height, GL_RGBA, GL_UNSIGNED_BYTE,
                        img.rgba.data());
@@ -341,6 +376,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   m.textures.push_back(m.shadow_cube);
   gl.glBindTexture(GL_TEXTURE_CUBE_MAP, m.shadow_cube);
   gl.glTexStorage2D(GL_TEXTURE_CUBE_MAP, 1, GL_DEPTH_COMPONENT24, m.shadow_size, m.shadow_size);
+  if (Status s = gl_error_status(gl, "allocating the shadow cube map"); !s.ok()) return s;
   gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
@@ -410,10 +446,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   m.readback.resize(4 * std::max(std::size_t(options.width) * std::size_t(options.height),
                                  std::size_t(kLdWidth) * std::size_t(m.ld_rows)));
-  const GLenum e = gl.glGetError();
-  if (e != GL_NO_ERROR)
-    return Status::error(ErrorCode::internal_error,
-                         "renderer: creating GL objects: " + platform::gl_error_name(e));
+  if (Status s = gl_error_status(gl, "creating the sample images and render targets"); !s.ok()) return s;
   std::unique_ptr<SceneRenderer> r(new SceneRenderer(std::move(impl)));
   r->options_ = options;
   return r;
@@ -424,13 +457,6 @@ namespace {
 void bind_texture(const platform::GlFunctions& gl, int unit, GLenum target, GLuint texture) {
   gl.glActiveTexture(GLenum(GL_TEXTURE0 + unit));
   gl.glBindTexture(target, texture);
-}
-
-Status gl_status(const platform::GlFunctions& gl, const char* what) {
-  const GLenum e = gl.glGetError();
-  return e == GL_NO_ERROR ? Status::success()
-                          : Status::error(ErrorCode::internal_error, std::string("renderer: ") + what + ": " +
-                                                                         platform::gl_error_name(e));
 }
 
 }  // namespace
@@ -468,7 +494,7 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   gl.glDisable(GL_POLYGON_OFFSET_FILL);
   gl.glBindVertexArray(0);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  return gl_status(gl, "shadow pass");
+  return gl_error_status(gl, "shadow pass");
 }
 
 Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
@@ -495,7 +521,7 @@ Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
   gl.glReadPixels(0, 0, kLdWidth, m.ld_rows, GL_RGBA, GL_FLOAT, m.readback.data());
   gl.glBindVertexArray(0);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  if (Status s = gl_status(gl, "ld pass"); !s.ok()) return s;
+  if (Status s = gl_error_status(gl, "ld pass"); !s.ok()) return s;
   // Sanitised: the runtime rejects NaN or negative ld; a light inside a wall must not
   // become a failed frame.
   for (std::size_t s = 0; s < m.samples; ++s)
@@ -525,7 +551,7 @@ Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int
   gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, m.atlas_width, m.atlas_height, GL_RGBA, GL_FLOAT,
                      m.readback.data());
-  if (Status s = gl_status(gl, "uploading the atlas"); !s.ok()) return s;
+  if (Status s = gl_error_status(gl, "uploading the atlas"); !s.ok()) return s;
   return target;
 }
 
@@ -558,7 +584,7 @@ Status SceneRenderer::upload_clutter_lightmap(std::span<const float> clutter_lig
     gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas.res, atlas.res, GL_RGBA, GL_FLOAT, m.readback.data());
   }
   m.clutter_uploaded = true;
-  return gl_status(gl, "uploading the clutter lightmaps");
+  return gl_error_status(gl, "uploading the clutter lightmaps");
 }
 
 Status SceneRenderer::render_image(const FrameState& frame, std::span<float> linear_rgb,
@@ -647,7 +673,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glDrawArrays(GL_TRIANGLES, m.light_marker.first, m.light_marker.count);
   gl.glBindVertexArray(0);
   gl.glDisable(GL_CULL_FACE);
-  if (Status s = gl_status(gl, "scene pass"); !s.ok()) return s;
+  if (Status s = gl_error_status(gl, "scene pass"); !s.ok()) return s;
   gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
   gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
   gl.glReadPixels(0, 0, options_.width, options_.height, GL_RGBA, GL_FLOAT, m.readback.data());
@@ -676,7 +702,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     }
   gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
   gl.glUseProgram(0);
-  return gl_status(gl, "tone mapping");
+  return gl_error_status(gl, "tone mapping");
 }
 
 }  // namespace modrt::demo

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <glm/mat3x3.hpp>
@@ -52,6 +53,15 @@ struct FrameState {
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
 };
+
+// The first pending GL error as a Status ("renderer: <what>: GL_OUT_OF_MEMORY ..."; out of
+// memory is resource_limit, anything else internal_error), clearing the rest; success when none.
+Status gl_error_status(const platform::GlFunctions& gl, const std::string& what);
+// glBufferData(target, bytes, data, GL_STATIC_DRAW) on the bound buffer with its failure
+// checked: a driver that cannot allocate the buffer reports GL_OUT_OF_MEMORY, and drawing from
+// that buffer would crash (llvmpipe), so it becomes an error naming `what` and the size.
+Status buffer_data_checked(const platform::GlFunctions& gl, GLenum target, std::size_t bytes,
+                           const void* data, const std::string& what);
 
 class SceneRenderer {
  public:

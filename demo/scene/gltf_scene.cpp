@@ -25,10 +25,14 @@
 // inside): the header is included without TINYGLTF_IMPLEMENTATION.
 #include <tiny_gltf.h>
 
+#include <nlohmann/json.hpp>
+
 #include "default_scene.h"
 #include "modrt/file_io.h"
 #include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/level_json.h"
+#include "modrt/reference_runtime.h"
+#include "proxy_mapping.h"
 
 namespace modrt::demo {
 namespace fs = std::filesystem;
@@ -64,6 +68,11 @@ std::string short_double(double v) {
   std::snprintf(buf, sizeof buf, "%.6g", v);
   return buf;
 }
+
+// The brightest light taken (W/sr in its brightest channel): shading clamps the distance to a
+// light at its radius, so its irradiance there, I / r^2, must stay within the runtimes' light
+// limit (kMaxLightValue, 1e30); 2.5e27 W/sr (1.7e30 cd) at the default radius of 0.05.
+double max_light_intensity(double radius) { return double(kMaxLightValue) * radius * radius; }
 
 // tinygltf's warn/err texts are newline-separated sentences.
 std::vector<std::string> split_lines(const std::string& text) {
@@ -278,6 +287,117 @@ bool load_image_checked(tinygltf::Image* image, const int index, std::string* er
   return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size, nullptr);
 }
 
+// ---- external URIs (RFC 3986) ----
+
+// RFC 3986 percent-decoding (section 2.1) of a relative reference: "%" HEXDIG HEXDIG is that
+// byte, every other character stands for itself, '+' included (a space for '+' is HTML form
+// encoding, not URI syntax). Sets *problem for a malformed escape or an escaped NUL, which no
+// file name holds.
+std::string percent_decode(const std::string& uri, std::string* problem) {
+  std::string out;
+  for (std::size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] != '%') {
+      out += uri[i];
+      continue;
+    }
+    if (i + 2 >= uri.size() || !std::isxdigit(static_cast<unsigned char>(uri[i + 1])) ||
+        !std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
+      *problem =
+          "'%' at character " + num(i) + " is not followed by two hex digits (RFC 3986 percent-encoding)";
+      return {};
+    }
+    const char byte = char(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+    if (byte == '\0') {
+      *problem = "%00 (a NUL byte) cannot be part of a file name";
+      return {};
+    }
+    out += byte;
+    i += 2;
+  }
+  return out;
+}
+
+// Whether any JSON string in the text holds '+', '%' or a backslash-u escape (which could spell
+// either): only then can a URI need resolve_uris' rewrite, so other files are not parsed twice.
+bool strings_hold_uri_escapes(const unsigned char* p, std::size_t n) {
+  bool in_string = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = p[i];
+    if (!in_string) {
+      in_string = c == '"';
+    } else if (c == '\\') {
+      if (i + 1 < n && p[i + 1] == 'u') return true;
+      ++i;
+    } else if (c == '"') {
+      in_string = false;
+    } else if (c == '+' || c == '%') {
+      return true;
+    }
+  }
+  return false;
+}
+
+void put_le32(std::vector<unsigned char>& out, std::size_t at, std::uint32_t v) {
+  for (int b = 0; b < 4; ++b) out[at + std::size_t(b)] = static_cast<unsigned char>(v >> (8 * b));
+}
+
+// Debian 12's tinygltf (2.7) opens every external buffer and image through dlib::urldecode,
+// which decodes '+' as a space ("a_1e+30.bin" -> "File not found : a_1e 30.bin") and a
+// malformed escape as garbage bytes, and has no URI callback. So the file's URIs are resolved
+// here first: each buffer and image URI that is not a data: URI is percent-decoded (RFC 3986;
+// a malformed one is an error naming the field), and one holding '+' is written back escaped
+// for urldecode ('%' -> %25, '+' -> %2B), which then yields exactly the decoded name. The
+// bytes come back unchanged when no URI needs that (then tinygltf parses the file as given).
+std::vector<unsigned char> resolve_uris(std::vector<unsigned char> bytes, bool binary) {
+  std::size_t json_at = 0, json_size = bytes.size();
+  if (binary) {
+    if (bytes.size() < 20) return bytes;  // tinygltf reports the broken header
+    json_at = 20;
+    json_size = le32(bytes.data() + 12);
+    if (json_size > bytes.size() - 20) return bytes;
+  }
+  const unsigned char* json = bytes.data() + json_at;
+  if (!strings_hold_uri_escapes(json, json_size)) return bytes;
+  nlohmann::ordered_json doc = nlohmann::ordered_json::parse(json, json + json_size, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object()) return bytes;  // tinygltf reports the JSON error
+  bool changed = false;
+  for (const char* list : {"buffers", "images"}) {
+    if (!doc.contains(list) || !doc[list].is_array()) continue;
+    for (std::size_t i = 0; i < doc[list].size(); ++i) {
+      nlohmann::ordered_json& item = doc[list][i];
+      if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
+      const std::string uri = item["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      std::string problem;
+      const std::string name = percent_decode(uri, &problem);
+      if (!problem.empty())
+        fail(ErrorCode::format_error,
+             std::string(list) + "[" + num(i) + "].uri " + quote(uri) + ": " + problem);
+      if (uri.find('+') == std::string::npos) continue;  // urldecode gives the same name
+      std::string escaped;
+      for (const char c : name) escaped += c == '%' ? "%25" : c == '+' ? "%2B" : std::string(1, c);
+      item["uri"] = escaped;
+      changed = true;
+    }
+  }
+  if (!changed) return bytes;
+  std::string text = doc.dump();
+  if (!binary) return std::vector<unsigned char>(text.begin(), text.end());
+  // glb: the new JSON chunk (padded with spaces to 4 bytes), then the chunks that followed.
+  while (text.size() % 4 != 0) text += ' ';
+  const std::size_t rest_at = 20 + json_size, rest = bytes.size() - rest_at;
+  if (text.size() + rest > std::numeric_limits<std::uint32_t>::max() - 20)
+    fail(ErrorCode::resource_limit, "the glb file would exceed 4 GiB with its URIs re-escaped");
+  std::vector<unsigned char> out(20 + text.size() + rest);
+  std::memcpy(out.data(), bytes.data(), 12);
+  put_le32(out, 8, std::uint32_t(out.size()));
+  put_le32(out, 12, std::uint32_t(text.size()));
+  std::memcpy(out.data() + 16, "JSON", 4);
+  std::memcpy(out.data() + 20, text.data(), text.size());
+  std::memcpy(out.data() + 20 + text.size(), bytes.data() + rest_at, rest);
+  return out;
+}
+
 // ---- JSON text from tinygltf values (the extras become level JSON) ----
 
 void append_json_string(std::string& out, const std::string& s) {
@@ -385,7 +505,16 @@ class Loader {
   Stream accessor_stream(int index, const std::string& what, std::size_t cap) const;
   std::vector<float> read_floats(int index, const std::string& what, int components) const;
   std::vector<std::uint32_t> read_indices(int index, const std::string& what) const;
+  std::size_t max_indices() const {  // per index accessor: 3 x max_vertices
+    return options_.max_vertices > std::numeric_limits<std::size_t>::max() / 3
+               ? std::numeric_limits<std::size_t>::max()
+               : 3 * options_.max_vertices;
+  }
   void add_light(const NodeInstance& inst, int light);
+  void check_light_positions() const;
+  void add_default_light();
+  std::size_t mesh_corners(int mesh) const;
+  void check_vertex_buffer_estimate(const std::vector<NodeInstance>& instances) const;
   void set_camera(const NodeInstance& inst);
   LevelDescription level_from_extras(const std::string& path, const std::vector<BlockNode>& blocks) const;
   const tinygltf::Value* scene_level_extras() const;
@@ -409,7 +538,75 @@ class Loader {
   glm::dvec3 dynamic_key_{0.0};
   bool warned_morph_ = false, warned_texcoord_ = false;
   std::vector<ClutterNode> clutter_nodes_;
+  // Per scene_.lights entry: what it is (node and light) and its position in double, for the
+  // check against the level's extent once the level is known.
+  struct LightSource {
+    std::string what;
+    glm::dvec3 position{0.0};
+  };
+  std::vector<LightSource> light_sources_;
 };
+
+// A node marked as a proxy block that is not drawn (extras.modrt_block true, or an object
+// without "draw": true); malformed marks count as drawn here and are reported by load().
+bool undrawn_block(const tinygltf::Node& node) {
+  if (!node.extras.IsObject() || !node.extras.Has("modrt_block")) return false;
+  const tinygltf::Value& b = node.extras.Get("modrt_block");
+  if (b.IsBool()) return b.Get<bool>();
+  if (!b.IsObject()) return false;
+  return !(b.Has("draw") && b.Get("draw").IsBool() && b.Get("draw").Get<bool>());
+}
+
+std::size_t saturating_add(std::size_t a, std::size_t b) {
+  return b > std::numeric_limits<std::size_t>::max() - a ? std::numeric_limits<std::size_t>::max() : a + b;
+}
+
+// Triangle corners one instance of `mesh` draws, from the accessor counts (validated, not
+// read): the renderer's vertex buffer holds a vertex per corner (proxy_mapping.h).
+std::size_t Loader::mesh_corners(int mesh) const {
+  const tinygltf::Mesh& gm = model_.meshes[std::size_t(mesh)];
+  std::size_t corners = 0;
+  for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+    const tinygltf::Primitive& prim = gm.primitives[pi];
+    const std::string what = "mesh " + num(mesh) +
+                             (gm.name.empty() ? std::string() : " (" + quote(gm.name) + ")") + " primitive " +
+                             num(pi);
+    std::size_t count = 0;
+    if (prim.indices >= 0) {
+      count = accessor_stream(prim.indices, what + " indices", max_indices()).count;
+    } else if (const auto it = prim.attributes.find("POSITION"); it != prim.attributes.end()) {
+      count = accessor_stream(it->second, what + " POSITION", options_.max_vertices).count;
+    }
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN)
+      count = count > 2 ? 3 * (count - 2) : 0;
+    else if (mode != TINYGLTF_MODE_TRIANGLES)
+      count = 0;  // refused by add_mesh
+    corners = saturating_add(corners, count);
+  }
+  return corners;
+}
+
+// The renderer's vertex buffer for the whole scene, every instance counted, before any mesh
+// is expanded: a million nodes sharing a 36-corner cube need 2.9 GB (issue 18).
+void Loader::check_vertex_buffer_estimate(const std::vector<NodeInstance>& instances) const {
+  std::vector<std::size_t> corners_of_mesh(model_.meshes.size(), std::numeric_limits<std::size_t>::max());
+  std::size_t corners = kLightMarkerCorners, drawn = 0;
+  for (const NodeInstance& inst : instances) {
+    const tinygltf::Node& node = model_.nodes[std::size_t(inst.node)];
+    if (node.mesh < 0 || std::size_t(node.mesh) >= model_.meshes.size() || undrawn_block(node)) continue;
+    std::size_t& c = corners_of_mesh[std::size_t(node.mesh)];
+    if (c == std::numeric_limits<std::size_t>::max()) c = mesh_corners(node.mesh);
+    corners = saturating_add(corners, c);
+    ++drawn;
+  }
+  std::size_t meshes = 0;
+  for (const std::size_t c : corners_of_mesh) meshes += c != std::numeric_limits<std::size_t>::max();
+  if (const std::string problem = vertex_buffer_problem(corners, options_.max_vertex_buffer_bytes);
+      !problem.empty())
+    fail(ErrorCode::resource_limit, num(drawn) + " drawn node instances of " + num(meshes) +
+                                        " meshes (estimated before expanding them): " + problem);
+}
 
 std::vector<NodeInstance> Loader::traverse(const std::vector<int>& roots) const {
   std::vector<NodeInstance> out;
@@ -591,10 +788,7 @@ std::vector<float> Loader::read_floats(int index, const std::string& what, int c
 }
 
 std::vector<std::uint32_t> Loader::read_indices(int index, const std::string& what) const {
-  const std::size_t cap = options_.max_vertices > std::numeric_limits<std::size_t>::max() / 3
-                              ? std::numeric_limits<std::size_t>::max()
-                              : 3 * options_.max_vertices;
-  const Stream s = accessor_stream(index, what, cap);
+  const Stream s = accessor_stream(index, what, max_indices());
   const int ct = s.component_type;
   if (s.components != 1 ||
       (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
@@ -1125,7 +1319,11 @@ void Loader::add_light(const NodeInstance& inst, int light) {
     fail(ErrorCode::format_error,
          what + ": intensity " + short_double(l.intensity) + " must be finite and >= 0");
   DemoLight d;
-  d.path = {glm::vec3(inst.world[3])};
+  const glm::dvec3 position(inst.world[3]);
+  if (!(std::isfinite(position.x) && std::isfinite(position.y) && std::isfinite(position.z)))
+    fail(ErrorCode::format_error, node_label(node, inst.node) + ": " + what +
+                                      ": its world position is not finite (node transforms overflow)");
+  d.path = {glm::vec3(position)};
   if (l.type == "spot") {
     const double inner = l.spot.innerConeAngle, outer = l.spot.outerConeAngle;
     if (!(inner >= 0.0 && inner < outer && outer <= 0.5 * 3.14159265358979 + 1e-9))
@@ -1138,10 +1336,72 @@ void Loader::add_light(const NodeInstance& inst, int light) {
     d.inner_cone = float(inner);
     d.outer_cone = float(outer);
   }
+  // In double: a colour or intensity beyond float's range must be refused, not become Inf.
+  const double peak =
+      l.intensity * double(options_.light_intensity_scale) * std::max({color.r, color.g, color.b});
+  d.radius = options_.light_radius;
+  const double limit = max_light_intensity(d.radius);
+  if (peak > limit)
+    fail(ErrorCode::invalid_argument,
+         node_label(node, inst.node) + ": " + what + ": intensity " + short_double(l.intensity) +
+             " cd x colour " + short_double(std::max({color.r, color.g, color.b})) + " is " +
+             short_double(peak) + " W/sr, more than the limit of " + short_double(limit) +
+             " W/sr (its irradiance at the light's radius " + short_double(d.radius) +
+             " would exceed the runtime's light limit " + short_double(double(kMaxLightValue)) + ")");
   d.color = glm::vec3(color);
-  d.intensity = float(l.intensity) * options_.light_intensity_scale;
+  d.intensity = float(l.intensity * double(options_.light_intensity_scale));
+  scene_.lights.push_back(d);
+  light_sources_.push_back({node_label(node, inst.node) + ": " + what, position});
+}
+
+// Lights whose position is far outside the level (kMaxLightDistanceInLevelSizes).
+void Loader::check_light_positions() const {
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const BlockDescription& b : scene_.level.blocks)
+    for (const glm::dvec3& c : block_corners(scene_.level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
+  const double size = glm::length(hi - lo), reach = kMaxLightDistanceInLevelSizes * size;
+  for (const LightSource& l : light_sources_) {
+    const double distance =
+        glm::length(glm::max(glm::max(lo - l.position, l.position - hi), glm::dvec3(0.0)));
+    if (!(distance <= reach))
+      fail(ErrorCode::invalid_argument,
+           l.what + ": the light at " + short_vec3(l.position) + " is " + short_double(distance) +
+               " from the level's bounding box, more than " + short_double(kMaxLightDistanceInLevelSizes) +
+               " x the level's size (" + short_double(size) + "); a light must lie within " +
+               short_double(reach) + " of the level");
+  }
+}
+
+// A scene without a light (none in the glTF file or its level, or only directional ones,
+// which the demo skips): a white point light of cell_size^2 W/sr (the same irradiance at
+// the same distance in cells, whatever the unit), at 85 % of the height of the block whose
+// centre is nearest the middle of the level: inside the level (the middle of its bounding
+// box may lie in solid rock) and above the default camera, which stands at the middle of
+// block 0.
+void Loader::add_default_light() {
+  const LevelDescription& level = scene_.level;
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const BlockDescription& b : level.blocks)
+    for (const glm::dvec3& c : block_corners(level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
+  const glm::dvec3 middle = 0.5 * (lo + hi);
+  std::size_t best = 0;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const double d = glm::length(trilinear(block_corners(level, level.blocks[i]), glm::dvec3(0.5)) - middle);
+    if (d < best_distance) best_distance = d, best = i;
+  }
+  const glm::dvec3 position = trilinear(block_corners(level, level.blocks[best]), glm::dvec3(0.5, 0.85, 0.5));
+  DemoLight d;
+  d.path = {glm::vec3(position)};
+  d.intensity = float(level.cell_size * level.cell_size);
   d.radius = options_.light_radius;
   scene_.lights.push_back(d);
+  const std::string name = level.blocks[best].name;
+  warnings_.push_back(
+      "no point or spot light in the glTF scene or its level; lit by a default white point light of " +
+      short_double(double(d.intensity)) + " W/sr (cell_size^2) at " + short_vec3(position) + " in block " +
+      num(best) + (name.empty() ? std::string() : " (" + quote(name) + ")") +
+      " (docs/demo.md, \"Default light\")");
 }
 
 void Loader::set_camera(const NodeInstance& inst) {
@@ -1339,6 +1599,7 @@ DemoScene Loader::load(const std::string& path) {
 
   convert_materials();
   const std::vector<NodeInstance> instances = traverse(roots);
+  check_vertex_buffer_estimate(instances);
 
   // Dynamic meshes share one path key: the first dynamic node's world translation. Every
   // dynamic mesh keeps its world rotation and scale and is placed relative to that key.
@@ -1489,19 +1750,28 @@ DemoScene Loader::load(const std::string& path) {
 
   if (scene_.lights.empty()) {
     // The level file's lights stand in when the glTF file has no point light.
-    for (const LightDescription& l : scene_.level.lights) {
+    for (std::size_t i = 0; i < scene_.level.lights.size(); ++i) {
+      const LightDescription& l = scene_.level.lights[i];
+      const std::string what = "level light " + num(i);
       DemoLight d;
+      d.radius = l.radius > 0.0 ? float(l.radius) : options_.light_radius;
+      const double peak = l.intensity * std::max({l.color.r, l.color.g, l.color.b});
+      if (!(peak <= max_light_intensity(d.radius)))
+        fail(ErrorCode::invalid_argument, what + ": intensity x colour " + short_double(peak) +
+                                              " W/sr is more than the limit of " +
+                                              short_double(max_light_intensity(d.radius)) + " W/sr");
       d.path = {glm::vec3(l.position)};
       d.color = glm::vec3(l.color);
       d.intensity = float(l.intensity);
-      d.radius = l.radius > 0.0 ? float(l.radius) : options_.light_radius;
       scene_.lights.push_back(d);
+      light_sources_.push_back({what, l.position});
     }
-    if (scene_.lights.empty())
-      warnings_.push_back("no point or spot light in the glTF scene or its level; the demo needs one");
-  } else if (scene_.lights.size() > 1) {
-    warnings_.push_back(num(scene_.lights.size()) + " lights; modrt-demo renders the first one");
   }
+  check_light_positions();
+  if (scene_.lights.empty())
+    add_default_light();
+  else if (scene_.lights.size() > 1)
+    warnings_.push_back(num(scene_.lights.size()) + " lights; modrt-demo renders the first one");
   return std::move(scene_);
 }
 
@@ -1512,7 +1782,7 @@ Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOption
     // LoadBinaryFromMemory and LoadASCIIFromString take the length as unsigned int.
     const std::size_t cap =
         std::min<std::size_t>(options.max_file_bytes, std::numeric_limits<unsigned int>::max());
-    const std::vector<unsigned char> bytes = read_file_capped(path, cap);
+    std::vector<unsigned char> bytes = read_file_capped(path, cap);
     LoaderContext ctx{options.max_file_bytes, options.max_image_side};
     tinygltf::TinyGLTF gltf;
     tinygltf::FsCallbacks callbacks{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &read_whole_file_capped,
@@ -1537,6 +1807,10 @@ Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOption
         return Status::error(ErrorCode::format_error, path + ": JSON nested deeper than " +
                                                           num(kMaxJsonDepth) + " levels; not a glTF file");
     }
+    bytes = resolve_uris(std::move(bytes), binary);
+    if (bytes.size() > cap)
+      return Status::error(ErrorCode::resource_limit, path + ": the file is larger than the limit of " +
+                                                          num(cap) + " bytes with its URIs re-escaped");
     const bool ok =
         binary
             ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), base_dir)

@@ -13,8 +13,14 @@
 
 #include "demo_scene.h"
 #include "modrt/status.h"
+#include "proxy_mapping.h"
 
 namespace modrt::demo {
+
+// A light farther than this many level sizes (the diagonal of the blocks' bounding box) from
+// that box is refused, naming its node: it would light nothing measurable, and positions near
+// float's range break the ray tracer (a lamp at 1e19 aborted Embree, issue 18).
+inline constexpr double kMaxLightDistanceInLevelSizes = 1e6;
 
 // glTF point lights are photometric (candela); DemoLight::intensity is radiometric (W/sr).
 // The default divides by the luminous efficacy of 555 nm light, 683 lm/W, i.e. treats the
@@ -40,17 +46,23 @@ struct GltfSceneOptions {
   std::size_t max_vertices = 50'000'000;              // all meshes together, after normal splitting
   std::size_t max_file_bytes = std::size_t(1) << 30;  // the glTF/glb file and each external file
   int max_image_side = 16384;                         // texture side (llvmpipe GL_MAX_TEXTURE_SIZE)
-  // Non-fatal problems (directional light dropped, more than one light, no light, no
-  // camera, orthographic camera, skins, ignored extensions, tinygltf's own warnings) are
-  // appended here when set.
+  // The renderer's vertex buffer (a MappedVertex per drawn triangle corner, every instance of
+  // a mesh counted): estimated from the accessor counts before any mesh is expanded. The
+  // renderer refuses more than kMaxVertexBufferBytes whatever this says.
+  std::size_t max_vertex_buffer_bytes = kMaxVertexBufferBytes;
+  // Non-fatal problems (directional light dropped, more than one light, no light and so the
+  // default light, no camera, orthographic camera, skins, ignored extensions, tinygltf's own
+  // warnings) are appended here when set.
   std::vector<std::string>* warnings = nullptr;
 };
 
 // Reads a glTF 2.0 scene. Errors name the file and the problem: missing or unreadable file,
 // malformed JSON or glb, accessor or buffer view out of range, non-triangle primitive mode,
 // missing POSITION, index out of range, unsupported or undecodable image, missing image
-// file, size limit exceeded, no proxy blocks, level JSON errors (from load_level_json or
-// from the extras turned into level JSON). Never throws.
+// file, size limit exceeded (the vertex buffer estimate among them), a malformed URI escape,
+// a light far outside the level or too bright, no proxy blocks, level JSON errors (from
+// load_level_json or from the extras turned into level JSON). A scene without a light gets
+// the default light (docs/demo.md, "Default light"), with a warning. Never throws.
 Result<DemoScene> load_gltf_scene(const std::string& path, const GltfSceneOptions& options = {});
 
 // The sidecar level file checked for `gltf_path`: the same path with its extension replaced

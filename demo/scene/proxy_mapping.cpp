@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -24,7 +25,31 @@ double outside(const glm::dvec3& p) {
 
 }  // namespace
 
+std::size_t drawn_corner_count(const DemoScene& scene) {
+  std::size_t corners = kLightMarkerCorners;
+  for (const Mesh& mesh : scene.meshes) corners += mesh.indices.size();
+  return corners;
+}
+
+std::string vertex_buffer_problem(std::size_t corners, std::size_t limit) {
+  if (corners <= limit / sizeof(MappedVertex)) return {};  // division: no overflow
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "%zu triangle corners need a vertex buffer of %zu x %zu bytes = %.4g GB, more than the limit "
+                "of %zu bytes (%.4g GB)",
+                corners, corners, sizeof(MappedVertex), double(corners) * double(sizeof(MappedVertex)) * 1e-9,
+                limit, double(limit) * 1e-9);
+  return text;
+}
+
+Status check_vertex_buffer_size(const DemoScene& scene, std::size_t limit) {
+  const std::string problem = vertex_buffer_problem(drawn_corner_count(scene), limit);
+  return problem.empty() ? Status::success() : Status::error(ErrorCode::resource_limit, problem);
+}
+
 Result<std::vector<MappedMesh>> map_to_proxies(const DemoScene& scene, const Level& level) {
+  if (Status s = check_vertex_buffer_size(scene); !s.ok())
+    return Status::error(s.code(), "proxy mapping: " + s.message());
   if (level.atlas.tile_origin_x.size() != level.blocks.size() || level.res <= 0)
     return Status::error(ErrorCode::invalid_argument, "proxy mapping: the level has no lightmap atlas");
   const double res = level.res;
