@@ -245,13 +245,13 @@ def corridor_level(blocks):
             "lights": [{"position": [0.5, 0.5, 0.5], "radius": 0.05, "color": [1, 1, 1], "intensity": 1.0}]}
 
 
-def gltf_instances(doc, count):
-    """Adds `count` nodes instancing mesh 0 of a glTF (a grid inside the first block)."""
+def gltf_instances(doc, count, mesh):
+    """Adds `count` nodes instancing `mesh` of a glTF (a grid inside the first block)."""
     side = max(1, round(count ** (1.0 / 3.0)))
     new = []
     for i in range(count):
         x, y, z = i % side, (i // side) % side, i // (side * side)
-        new.append({"mesh": 0, "translation": [0.1 + 0.8 * x / side, 0.1 + 0.8 * y / side, 0.1 + 0.8 * z / side],
+        new.append({"mesh": mesh, "translation": [0.1 + 0.8 * x / side, 0.1 + 0.8 * y / side, 0.1 + 0.8 * z / side],
                     "scale": [0.01, 0.01, 0.01]})
     first = len(doc["nodes"])
     doc["nodes"].extend(new)
@@ -271,7 +271,7 @@ def make_input(spec, subst):
         for pointer, value in spec.get("set", {}).items():
             json_set(doc, pointer, to_json_value(value))
         if "instances" in spec:
-            gltf_instances(doc, int(spec["instances"]))
+            gltf_instances(doc, int(spec["instances"]), int(spec.get("mesh", 0)))
         if "external_buffer" in spec:  # buffer 0's data URI moved to a file beside the output
             uri = doc["buffers"][0]["uri"]
             import base64
