@@ -25,6 +25,8 @@ for name in dictionary level_file level_json gltf settings c_api; do
   rm -rf "$work"
   mkdir -p "$work"
   if [[ -d "tests/fuzz/corpus/$corpus_name" ]]; then cp "tests/fuzz/corpus/$corpus_name"/* "$work"/; fi
+  # Reproducers of earlier findings are replayed first (tests/data/fuzz_regressions/fuzz_<name>_*).
+  for f in tests/data/fuzz_regressions/fuzz_"$name"_*; do [[ -e $f ]] && cp "$f" "$work"/; done
   echo "=== fuzz_$name: ${seconds} s"
   # rss_limit/malloc_limit: a parser must refuse a huge size before allocating it.
   log="build-fuzz/fuzz_$name.log"

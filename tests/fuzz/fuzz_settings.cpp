@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <limits>
@@ -77,6 +78,11 @@ void check_settings(FuzzedDataProvider& in) {
       *counts[which] = fuzz_count(in);
   }
   if (!validate_settings(s).ok()) return;
+  if (std::getenv("MODRT_FUZZ_PRINT"))
+    std::fprintf(stderr, "settings res %u kd %u kb %u rays %u prior_grid %u light_samples %u sh_rays %u probe_grid %u "
+                 "lightfield %u/%u/%u krlf %u kr %u response_rays %u light_radius %.9g\n", s.res, s.kd, s.kb, s.rays,
+                 s.prior_grid, s.light_samples, s.sh_rays, s.probe_grid, s.lightfield_spatial,
+                 s.lightfield_directional, s.lightfield_supersample, s.krlf, s.kr, s.response_rays, s.light_radius);
   for (std::uint32_t* c : counts)
     if (*c > std::uint32_t(std::numeric_limits<int>::max())) std::abort();  // int() in the bake wraps
   if (!std::isfinite(s.light_radius) || s.light_radius < 0.0f) std::abort();
@@ -137,6 +143,10 @@ void check_lights(FuzzedDataProvider& in) {
   }
   desc.lights = {light};
   if (!validate_level(desc).ok()) return;
+  if (std::getenv("MODRT_FUZZ_PRINT"))  // replaying a reproducer: say what it is
+    std::fprintf(stderr, "light position (%.17g, %.17g, %.17g) radius %.17g colour (%.17g, %.17g, %.17g) intensity %.17g\n",
+                 light.position.x, light.position.y, light.position.z, light.radius, light.color.r, light.color.g,
+                 light.color.b, light.intensity);
   if (desc.cell_size != c->desc.cell_size) return;  // the corridor is built at cell size 1
   std::vector<float> ld;
   try {  // a thrown error reaches the programs' "direct light: ..." message: not a crash

@@ -8,7 +8,7 @@ timeout in its own temporary directory, and classifies each run:
 
   ok         exit 0 and every output checked: finite, non-negative, not all zero where
              light reaches the samples, under the case's bound
-  clean      a clean error: exit status 1 or 2, no signal, stderr names the field
+  clean      a clean error: exit status 1, 2 or CLI11's 100-125, no signal, stderr names the field
   crash      a signal, a sanitizer report, an uncaught exception, an unexpected exit status
   hang       the timeout expired
   wrong      silent wrong output: exit 0 with NaN / Inf / negative / all-zero / implausible
@@ -45,6 +45,10 @@ FAILING = {"crash", "hang", "wrong", "bad error", "broken"}
 CRASH_MARKERS = re.compile(r"AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:|"
                            r"terminate called|Assertion .* failed|Segmentation fault|core dumped")
 TOOL_USAGE_STATUS = 64  # modrt-hostile-tool: the case itself is broken
+# The programs' error exits: 1 (the operation failed), 2 (bad arguments), and CLI11's parse
+# errors (CLI11_PARSE returns CLI::Error::get_exit_code(): 100 + the error kind, e.g. 104
+# ConversionError, 105 ValidationError, 109 ArgumentMismatch).
+CLEAN_STATUS = [1, 2] + list(range(100, 126))
 
 
 # ---------------------------------------------------------------------------------------
@@ -498,7 +502,7 @@ class Runner:
             if status == 77 or (status != 0 and step["program"] == "modrt-demo" and "GL context:" in err):
                 return {"result": "skipped", "detail": "no GL context: %s" % tail, "seconds": seconds}
             if status != 0:
-                allowed = expect.get("status", [1, 2])
+                allowed = expect.get("status", CLEAN_STATUS)
                 if status not in allowed:
                     return {"result": "crash", "detail": "exit %d (expected %s): %s | %s" % (status, allowed, cmd, tail),
                             "seconds": seconds}
