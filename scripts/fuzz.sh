@@ -15,16 +15,18 @@ scripts/install-deps.sh
 
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DMODRT_FUZZ=ON -DMODRT_BUILD_GLES=OFF -DMODRT_BUILD_TESTS=OFF -DMODRT_BUILD_DEMO=OFF -DMODRT_BUILD_BENCH=OFF
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_dictionary fuzz_level_file fuzz_level_json fuzz_gltf
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_dictionary fuzz_level_file fuzz_level_json fuzz_gltf fuzz_settings fuzz_c_api
 
 mkdir -p build-fuzz/artifacts
-for name in dictionary level_file level_json gltf; do
+for name in dictionary level_file level_json gltf settings c_api; do
   corpus_name="$name"
   [[ $name == level_json ]] && corpus_name=level
   work="build-fuzz/corpus-$name"
   rm -rf "$work"
   mkdir -p "$work"
   if [[ -d "tests/fuzz/corpus/$corpus_name" ]]; then cp "tests/fuzz/corpus/$corpus_name"/* "$work"/; fi
+  # Reproducers of earlier findings are replayed first (tests/data/fuzz_regressions/fuzz_<name>_*).
+  for f in tests/data/fuzz_regressions/fuzz_"$name"_*; do [[ -e $f ]] && cp "$f" "$work"/; done
   echo "=== fuzz_$name: ${seconds} s"
   # rss_limit/malloc_limit: a parser must refuse a huge size before allocating it.
   log="build-fuzz/fuzz_$name.log"

@@ -3,6 +3,10 @@
 
 #include "simd_config.h"
 
+#if MODRT_CPU_X86
+#include <cpuid.h>
+#endif
+
 namespace modrt::cpu {
 namespace {
 
@@ -27,8 +31,11 @@ const std::vector<Isa>& isas() {
 
 bool detect_f16c() {
 #if MODRT_CPU_X86
+  // CPUID leaf 1, ECX bit 29: clang 14 has no "f16c" for __builtin_cpu_supports (the fuzz
+  // build of the C API failed on it). F16C is VEX-encoded, so the OS must enable AVX state too.
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
   __builtin_cpu_init();
-  return __builtin_cpu_supports("f16c");
+  return __get_cpuid(1, &eax, &ebx, &ecx, &edx) && (ecx & bit_F16C) != 0 && __builtin_cpu_supports("avx");
 #else
   return false;
 #endif
