@@ -496,7 +496,10 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
         ms = median_ms([&] { feedback_solve(dense, clamp.value(), ld, iterations, ld_work, out); },
                        cfg.frames, cfg.time_budget_s);
         add("dense_F", cfg.multi_bounces, 0, ms, out, std::to_string(cfg.dense_rays) + " rays/texel");
-        for (const auto& [k, ops] : svd_ops) {
+        for (const auto& entry : svd_ops) {
+          // Named copies, not a structured binding: clang 14 cannot capture one in a lambda (C++20 P1091).
+          const auto& k = entry.first;
+          const auto& ops = entry.second;
           std::vector<float> t(3 * std::size_t(ops.B.rows));
           const Apply low = [&](const float* in, float* o) {
             reference_gemv_rgb(ops.B, in, t.data(), false);
@@ -519,7 +522,9 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
       }
 
       progress.draw(ltag + ": MRT");
-      for (const auto& [k, lvl] : levels) {
+      for (const auto& entry : levels) {
+        const auto& k = entry.first;
+        const auto& lvl = entry.second;
         const Dictionary& d = truncated.at(k);
         const LevelBufferSizes sz = level_buffer_sizes(lvl, d);
         std::vector<float> b(sz.b), r(sz.r);
@@ -542,7 +547,9 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
       }
       if (cfg.cpu_backend) {
         progress.draw(ltag + ": MRT on modrt::cpu");
-        for (const auto& [k, lvl] : levels) {
+        for (const auto& entry : levels) {
+          const auto& k = entry.first;
+          const auto& lvl = entry.second;
           const std::string ktag = ltag + " MRT cpu kb " + std::to_string(k);
           Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(lvl, truncated.at(k));
           if (!rt.ok()) return Status::error(rt.status().code(), ktag + ": " + rt.status().to_string());
@@ -569,7 +576,9 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
         progress.draw(ltag + ": MRT on modrt::gles");
         if (Status c = gles.context->make_current(); !c.ok())
           return Status::error(c.code(), ltag + ": " + c.to_string());
-        for (const auto& [k, lvl] : levels) {
+        for (const auto& entry : levels) {
+          const auto& k = entry.first;
+          const auto& lvl = entry.second;
           const std::string ktag = ltag + " MRT gles kb " + std::to_string(k);
           gles::GlesRuntimeOptions options;
           options.skip_unchanged = false;  // every timed frame does the whole update
