@@ -8,6 +8,7 @@
 // skipped with the reason printed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -230,6 +231,30 @@ TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
       std::printf("  %-8s %-58s multi-bounce x%d rel L2 %.2e, vector irradiance %.2e\n", t.name.c_str(),
                   rt->description(), kSteps, e, ev);
     }
+  }
+}
+
+// Issue 18 item 7: the spike of test_cpu_backend's SpikeInLdGivesNoNegativeTexelOnEveryIsa
+// (which asserts that the unclamped lightmap rings below -1) gives no negative texel here
+// either, in every target format (the atlas pass clamps: core's lightmap policy), and every
+// output is finite (a float16 target saturates at 65504).
+TEST_P(GlesBackend, SpikeInLdGivesNoNegativeTexel) {
+  const TestLevel& t = test_level("maze11");
+  std::vector<float> ld(t.ld.size(), 0.0f);
+  ld[3 * 40 + 0] = 1e6f;
+  for (const FormatCase& f : kFormats) {
+    std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {.target = f.target, .operators = f.operators});
+    ASSERT_TRUE(rt);
+    ASSERT_TRUE(rt->update(ld).ok());
+    std::vector<float> lightmap(rt->sizes().lightmap), atlas(rt->sizes().atlas), probes(rt->sizes().probes);
+    ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(rt->read_atlas(atlas).ok());
+    ASSERT_TRUE(rt->read_probes(probes).ok());
+    EXPECT_GE(*std::min_element(lightmap.begin(), lightmap.end()), 0.0f) << rt->description();
+    EXPECT_GE(*std::min_element(atlas.begin(), atlas.end()), 0.0f) << rt->description();
+    for (const std::vector<float>* v : {&lightmap, &atlas, &probes})
+      EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); }))
+          << rt->description();
   }
 }
 

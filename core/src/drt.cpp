@@ -334,6 +334,7 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
     }
     face0 += o.face_count;
   }
+  clamp_lightmap(lightmap);  // the corrected lightmap is a lightmap too (reference_runtime.h)
 }
 
 void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<const float> b,
