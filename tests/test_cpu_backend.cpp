@@ -731,36 +731,40 @@ TEST(CpuLevelRuntime, Float16SkippingStaysWithinStatedBound) {
 }
 
 // An operator value beyond the half range fails create() with float16 (naming the operator,
-// the element and the value) and is fine with float32; 65504 itself fits.
+// the element and the value) and is fine with float32; 65504 itself fits. Since issue 18 the
+// value must also be plausible (operator_limits.h): a Td_b row of a mode with a tiny singular
+// value (Ub's column scaled down) is, 1e6 in a record's T or FLT_MAX in a probe response is
+// not, and creation refuses it with either storage, naming the gain it would give.
 TEST(CpuLevelRuntime, Float16RejectsOperatorsBeyondHalfRange) {
   const TestLevel& t = test_level("maze11");
   const CpuRuntimeOptions f16 = options(Isa::scalar, 1, {}, OperatorStorage::float16);
-  ASSERT_GT(t.level.records.size(), 17u);
-  {
-    Level level = t.level;
-    Matrix& T = level.records[17].T;
-    T(2, 5) = 1e6f;
-    const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), f16);
-    ASSERT_FALSE(rt.ok());
-    EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
-    EXPECT_NE(
-        rt.status().message().find("record 17 (T) value 1e+06 at row 2, column 5 exceeds float16 range"),
-        std::string::npos)
-        << rt.status().message();
-    EXPECT_TRUE(CpuLevelRuntime::create(level, dict()).ok());
-    T(2, 5) = -kHalfMax;
-    EXPECT_TRUE(CpuLevelRuntime::create(level, dict(), f16).ok());
-  }
   {
     Dictionary d = dict();
     const std::size_t shape = std::size_t(t.level.blocks[0].shape);
-    d.shapes[shape].Ub(3, 1) = -7e4f;
+    Matrix& Ub = d.shapes[shape].Ub;
+    for (std::uint32_t r = 0; r < Ub.rows; ++r) Ub(r, 1) *= 1e-6f;
+    d.shapes[shape].Td_b(1, 3) = 7e4f;
     const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, d, f16);
     ASSERT_FALSE(rt.ok());
-    EXPECT_NE(
-        rt.status().message().find("shape " + std::to_string(shape) + " Ub value -70000 at row 3, column 1"),
-        std::string::npos)
+    EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
+    EXPECT_NE(rt.status().message().find("shape " + std::to_string(shape) +
+                                         " Td_b value 70000 at row 1, column 3 exceeds float16 range"),
+              std::string::npos)
         << rt.status().message();
+    EXPECT_TRUE(CpuLevelRuntime::create(t.level, d).ok());
+    d.shapes[shape].Td_b(1, 3) = -kHalfMax;
+    EXPECT_TRUE(CpuLevelRuntime::create(t.level, d, f16).ok());
+  }
+  ASSERT_GT(t.level.records.size(), 17u);
+  {
+    Level level = t.level;
+    level.records[17].T(2, 5) = 1e6f;
+    for (const CpuRuntimeOptions& o : {options(Isa::scalar, 1), f16}) {
+      const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), o);
+      ASSERT_FALSE(rt.ok());
+      EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
+      EXPECT_NE(rt.status().message().find("gain ld -> r = "), std::string::npos) << rt.status().message();
+    }
   }
   {
     Level level = t.level;
@@ -768,8 +772,7 @@ TEST(CpuLevelRuntime, Float16RejectsOperatorsBeyondHalfRange) {
       if (!m.empty()) m.data.back() = std::numeric_limits<float>::max();
     const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), f16);
     ASSERT_FALSE(rt.ok());
-    EXPECT_NE(rt.status().message().find("probe response of face"), std::string::npos)
-        << rt.status().message();
+    EXPECT_NE(rt.status().message().find("gain ld -> probes = "), std::string::npos) << rt.status().message();
   }
 }
 
