@@ -190,7 +190,6 @@ Status CpuDrtRuntime::apply(std::span<const float> b, std::span<const float> c, 
   if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
   if (lightmap.size() != lightmap_size_) return wrong_size("lightmap", lightmap.size(), lightmap_size_);
   apply_delta(lightmap_, b, c, lightmap.data());
-  clamp_nonnegative(isa_, lightmap.data(), lightmap.size());  // as core's drt_apply
   return Status::success();
 }
 

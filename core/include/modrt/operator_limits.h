@@ -54,10 +54,11 @@ inline constexpr double kRbRlfGatherLimit = 4.0;
 // measured 2.03 (Urvol and probe_response), 1.17 (R_straight), 0.66 (T).
 inline constexpr double kInterfaceEntryLimit = 64.0;
 // Largest amplification from ld (max over samples and channels) to any intermediate or
-// output value, over every block and slot of a level; measured 352 (b, res 8), 58.7 (probes). Every ld the transport sees is at most
-// kMaxLightValue (validated; the CPU runtime validates its fed-back ld like any other, GLES
-// refuses a multi-bounce step whose fed-back ld could exceed it), so every partial sum stays
-// below kMaxOutputGain x kMaxLightValue = 1e36, a factor 340 under FLT_MAX = 3.4e38.
+// output value, over every block and slot of a level; measured 352 (b, res 8), 58.7 (probes).
+// Every ld the transport sees is at most kMaxLightValue (validated; the CPU runtime validates
+// its fed-back ld like any other, GLES refuses a multi-bounce step whose fed-back ld could
+// exceed it), so every partial sum stays below kMaxOutputGain x kMaxLightValue = 1e36, a
+// factor 340 under FLT_MAX = 3.4e38.
 inline constexpr double kMaxOutputGain = 1e6;
 
 // Upper bound on the prior's singular values implied by the bake's normalisation.
