@@ -23,7 +23,8 @@ inline constexpr float kMaxLightValue = 1e30f;
 
 // The lightmap policy (issue 18): a lightmap texel is E_ind / pi, never negative, but the
 // low-rank operators ring below 0 around a spike in ld. Every lightmap a runtime outputs (core,
-// the CPU runtime on every ISA, the GLES atlas pass; with DRT, again after its delta) is
+// the CPU runtime on every ISA, the GLES atlas pass; with DRT, again after its delta, see
+// drt_apply) is
 // clamped by max(lightmap, 0), the clamp multi-bounce feedback already applied before its
 // energy bound (apply_feedback uses this function). The atlas copies the clamped lightmap.
 // Probes (radiance SH9) and vector irradiance (OHLSH) are coefficients, legitimately
