@@ -258,6 +258,27 @@ TEST_P(GlesBackend, SpikeInLdGivesNoNegativeTexel) {
   }
 }
 
+// The fed-back ld is computed on the GPU, where nothing validates it: a step whose feedback
+// could exceed kMaxLightValue (max_albedo just below 1, bright ld) is refused (issue 18 item
+// 5: every update finite or an error), as the CPU runtime refuses such a fed-back ld.
+TEST_P(GlesBackend, MultiBounceRefusesFeedbackAboveTheLargestLightValue) {
+  const TestLevel& t = test_level("corridor");
+  std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
+  ASSERT_TRUE(rt);
+  const std::vector<float> albedo(t.albedo.size(), 1.0f);
+  ASSERT_TRUE(rt->set_albedo(albedo, 0.9999999f).ok());
+  std::vector<float> ld = t.ld;
+  ld[4] = 1e25f;
+  ASSERT_TRUE(rt->update(ld).ok());
+  const Status s = rt->multi_bounce_step(ld);
+  EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(s.message().find("gles: multi_bounce_step: the fed-back light can reach "), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("kMaxLightValue"), std::string::npos) << s.message();
+  std::printf("%s\n", s.message().c_str());
+  EXPECT_TRUE(rt->multi_bounce_step(t.ld).ok());  // ordinary light is fine
+}
+
 TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {
   const TestLevel& t = test_level("maze11");
   std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
