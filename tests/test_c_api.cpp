@@ -581,6 +581,61 @@ TEST(CApi, BadFilesReturnNamedErrors) {
                {"path is null"});
 }
 
+// Issue 18 item 11: a directory is not a dictionary (it reported "9223372036854775807 bytes").
+TEST(CApi, LoadingADirectoryIsANamedError) {
+  const std::filesystem::path dir = std::filesystem::path(MODRT_TEST_CACHE_DIR) / "c_api_directory.modrt";
+  std::filesystem::create_directories(dir);
+  modrt_dictionary* d = nullptr;
+  modrt_level* l = nullptr;
+  expect_error(modrt_dictionary_load_file(dir.c_str(), nullptr, &d), MODRT_ERROR_IO,
+               {dir.c_str(), "a directory, not a regular file"});
+  EXPECT_EQ(std::string(modrt_last_error()).find("9223372036854775807"), std::string::npos);
+  std::printf("%s\n", modrt_last_error());
+  EXPECT_EQ(d, nullptr);
+  expect_error(modrt_level_load_file(dir.c_str(), nullptr, &l), MODRT_ERROR_IO,
+               {dir.c_str(), "a directory, not a regular file"});
+  EXPECT_EQ(l, nullptr);
+}
+
+// ld at the largest accepted value gives a finite lightmap (the loaders' and creation's
+// operator bounds, operator_limits.h); a spike ringing negative gives no negative texel
+// (issue 18 items 5 and 7), on the CPU context and, where EGL works, the GLES one.
+void expect_spike_is_clean(modrt_backend backend) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  for (float spike : {1e6f, 1e30f}) {
+    std::vector<float> ld(t.ld.size(), 0.0f);
+    ld[3 * 40] = spike;
+    ASSERT_EQ(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+    const std::vector<float> lightmap = read_lightmap(c), atlas = read_atlas(c);
+    const std::string what = std::string(modrt_context_description(c)) + " spike " + std::to_string(spike);
+    for (const std::vector<float>* v : {&lightmap, &atlas}) {
+      EXPECT_GE(*std::min_element(v->begin(), v->end()), 0.0f) << what;
+      EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); })) << what;
+    }
+    EXPECT_GT(*std::max_element(lightmap.begin(), lightmap.end()), 0.0f) << what;
+  }
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, SpikeInLdGivesAFiniteNonNegativeLightmap) { expect_spike_is_clean(MODRT_BACKEND_CPU); }
+
+TEST(CApiGles, SpikeInLdGivesAFiniteNonNegativeLightmap) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  expect_spike_is_clean(MODRT_BACKEND_GLES);
+}
+
 TEST(CApi, BadCallsReturnNamedErrors) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
@@ -629,11 +684,17 @@ TEST(CApi, BadCallsReturnNamedErrors) {
                {"ld", std::to_string(ld.size() - 1).c_str(), std::to_string(ld.size()).c_str()});
   ld[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
   expect_error(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_ERROR_NON_FINITE,
-               {"sample 7", "channel 1"});
+               {"sample 7", "channel G", "NaN"});
   ld = t.ld;
   ld[3 * 5 + 2] = -1.0f;
   expect_error(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_ERROR_INVALID_ARGUMENT,
-               {"sample 5", "channel 2"});
+               {"sample 5", "channel B", "negative"});
+  // Above kMaxLightValue: refused at the call (issue 18 item 11: it used to be accepted here
+  // and refused by the next update).
+  ld = t.ld;
+  ld[3 * 6] = 2e30f;
+  expect_error(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_ld", "sample 6 channel R is 2e+30", "kMaxLightValue"});
   expect_error(modrt_context_set_ld(c, nullptr, ld.size()), MODRT_ERROR_INVALID_ARGUMENT, {"ld is null"});
 
   modrt_light light{};

@@ -469,6 +469,62 @@ TEST(CpuLevelRuntime, RejectsBadLightSignal) {
   EXPECT_EQ(rt->multi_bounce_step(t.ld, lightmap).code(), ErrorCode::invalid_argument);  // no albedo yet
 }
 
+// Issue 18 item 7: a huge spike on one sample of ld makes the low-rank operators ring below
+// zero; the lightmap policy (core reference_runtime.h) clamps every texel at 0, on every ISA,
+// with skipping on and off, and after multi-bounce steps; the atlas copies it. The unclamped
+// lightmap (Ub b + Ur r in double from core's b and r) is asserted negative, so this fails
+// without the clamp.
+TEST(CpuLevelRuntime, SpikeInLdGivesNoNegativeTexelOnEveryIsa) {
+  const TestLevel& t = test_level("maze11");
+  std::vector<float> ld(t.ld.size(), 0.0f);
+  ld[3 * 40 + 0] = 1e6f;
+  const LevelBufferSizes sizes = level_buffer_sizes(t.level, dict());
+  std::vector<float> b(sizes.b), r(sizes.r);
+  ASSERT_TRUE(level_compute_b(t.level, dict(), ld, b).ok());
+  level_compute_r(t.level, b, r);
+  double unclamped_min = 0.0;
+  for (std::size_t i = 0; i < t.level.blocks.size(); ++i) {
+    const LevelBlock& blk = t.level.blocks[i];
+    const Matrix& Ub = dict().shapes[std::size_t(blk.shape)].Ub;
+    std::vector<double> tile(3 * std::size_t(blk.sample_count), 0.0);
+    for (std::uint32_t s = 0; s < blk.sample_count; ++s)
+      for (std::uint32_t k = 0; k < t.level.kb; ++k)
+        for (std::size_t c = 0; c < 3; ++c) tile[3 * s + c] += double(Ub(s, k)) * b[3 * (t.level.kb * i + k) + c];
+    for (std::size_t q = 0; q < t.level.slots.size(); ++q) {
+      const ResponseSlot& slot = t.level.slots[q];
+      if (slot.block != i) continue;
+      const Matrix& Ur = dict().interfaces.Ur;
+      for (std::uint32_t row = 0; row < Ur.rows; ++row) {
+        const std::int32_t s = slot.ur_row_to_sample[row];
+        if (s < 0) continue;
+        for (std::uint32_t k = 0; k < t.level.kr; ++k)
+          for (std::size_t c = 0; c < 3; ++c)
+            tile[3 * std::size_t(s) + c] += double(Ur(row, k)) * r[3 * (t.level.kr * q + k) + c];
+      }
+    }
+    for (double v : tile) unclamped_min = std::min(unclamped_min, v);
+  }
+  ASSERT_LT(unclamped_min, -1.0) << "the spike should ring negative without the clamp";
+  std::printf("unclamped lightmap minimum %.4g (spike 1e6)\n", unclamped_min);
+  const std::vector<float> albedo(t.ld.size(), 0.6f);
+  for (Isa isa : supported_isas())
+    for (bool skip : {false, true}) {
+      CpuSkipOptions so;
+      so.enabled = skip;
+      Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, dict(), options(isa, 2, so));
+      ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+      std::vector<float> lightmap(rt->sizes().lightmap), atlas(rt->sizes().atlas);
+      ASSERT_TRUE(rt->evaluate(ld, lightmap).ok());
+      const std::string what = std::string(isa_name(isa)) + (skip ? " skip" : "");
+      EXPECT_GE(*std::min_element(lightmap.begin(), lightmap.end()), 0.0f) << what;
+      ASSERT_TRUE(rt->fill_atlas(lightmap, atlas).ok());
+      EXPECT_GE(*std::min_element(atlas.begin(), atlas.end()), 0.0f) << what;
+      ASSERT_TRUE(rt->set_albedo(albedo, 0.95f).ok());
+      for (int step = 0; step < 3; ++step) ASSERT_TRUE(rt->multi_bounce_step(ld, lightmap).ok());
+      EXPECT_GE(*std::min_element(lightmap.begin(), lightmap.end()), 0.0f) << what << " multi-bounce";
+    }
+}
+
 TEST(CpuLevelRuntime, RejectsMismatchedDictionaryAndOptions) {
   const TestLevel& t = test_level("maze11");
   {
@@ -675,36 +731,40 @@ TEST(CpuLevelRuntime, Float16SkippingStaysWithinStatedBound) {
 }
 
 // An operator value beyond the half range fails create() with float16 (naming the operator,
-// the element and the value) and is fine with float32; 65504 itself fits.
+// the element and the value) and is fine with float32; 65504 itself fits. Since issue 18 the
+// value must also be plausible (operator_limits.h): a Td_b row of a mode with a tiny singular
+// value (Ub's column scaled down) is, 1e6 in a record's T or FLT_MAX in a probe response is
+// not, and creation refuses it with either storage, naming the gain it would give.
 TEST(CpuLevelRuntime, Float16RejectsOperatorsBeyondHalfRange) {
   const TestLevel& t = test_level("maze11");
   const CpuRuntimeOptions f16 = options(Isa::scalar, 1, {}, OperatorStorage::float16);
-  ASSERT_GT(t.level.records.size(), 17u);
-  {
-    Level level = t.level;
-    Matrix& T = level.records[17].T;
-    T(2, 5) = 1e6f;
-    const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), f16);
-    ASSERT_FALSE(rt.ok());
-    EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
-    EXPECT_NE(
-        rt.status().message().find("record 17 (T) value 1e+06 at row 2, column 5 exceeds float16 range"),
-        std::string::npos)
-        << rt.status().message();
-    EXPECT_TRUE(CpuLevelRuntime::create(level, dict()).ok());
-    T(2, 5) = -kHalfMax;
-    EXPECT_TRUE(CpuLevelRuntime::create(level, dict(), f16).ok());
-  }
   {
     Dictionary d = dict();
     const std::size_t shape = std::size_t(t.level.blocks[0].shape);
-    d.shapes[shape].Ub(3, 1) = -7e4f;
+    Matrix& Ub = d.shapes[shape].Ub;
+    for (std::uint32_t r = 0; r < Ub.rows; ++r) Ub(r, 1) *= 1e-6f;
+    d.shapes[shape].Td_b(1, 3) = 7e4f;
     const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(t.level, d, f16);
     ASSERT_FALSE(rt.ok());
-    EXPECT_NE(
-        rt.status().message().find("shape " + std::to_string(shape) + " Ub value -70000 at row 3, column 1"),
-        std::string::npos)
+    EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
+    EXPECT_NE(rt.status().message().find("shape " + std::to_string(shape) +
+                                         " Td_b value 70000 at row 1, column 3 exceeds float16 range"),
+              std::string::npos)
         << rt.status().message();
+    EXPECT_TRUE(CpuLevelRuntime::create(t.level, d).ok());
+    d.shapes[shape].Td_b(1, 3) = -kHalfMax;
+    EXPECT_TRUE(CpuLevelRuntime::create(t.level, d, f16).ok());
+  }
+  ASSERT_GT(t.level.records.size(), 17u);
+  {
+    Level level = t.level;
+    level.records[17].T(2, 5) = 1e6f;
+    for (const CpuRuntimeOptions& o : {options(Isa::scalar, 1), f16}) {
+      const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), o);
+      ASSERT_FALSE(rt.ok());
+      EXPECT_EQ(rt.status().code(), ErrorCode::invalid_argument);
+      EXPECT_NE(rt.status().message().find("gain ld -> r = "), std::string::npos) << rt.status().message();
+    }
   }
   {
     Level level = t.level;
@@ -712,8 +772,7 @@ TEST(CpuLevelRuntime, Float16RejectsOperatorsBeyondHalfRange) {
       if (!m.empty()) m.data.back() = std::numeric_limits<float>::max();
     const Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict(), f16);
     ASSERT_FALSE(rt.ok());
-    EXPECT_NE(rt.status().message().find("probe response of face"), std::string::npos)
-        << rt.status().message();
+    EXPECT_NE(rt.status().message().find("gain ld -> probes = "), std::string::npos) << rt.status().message();
   }
 }
 

@@ -192,6 +192,26 @@ TEST(CpuKernels, FeedbackIsBitIdenticalToReference) {
   }
 }
 
+// clamp_nonnegative is core's clamp_lightmap on every ISA (the lightmap policy), every
+// length and alignment; -0 and denormals included.
+TEST(CpuKernels, ClampNonnegativeIsCoresClampLightmap) {
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(17);
+    for (std::size_t n : {0u, 1u, 3u, 4u, 5u, 7u, 8u, 9u, 31u, 33u, 1000u}) {
+      std::vector<float> v = random_vector(rng, n + 1, -1e6f, 1e6f);
+      if (n > 2) v[1] = -0.0f, v[2] = -1e-40f;
+      std::vector<float> ref(v.begin() + 1, v.end()), got = v;
+      clamp_lightmap(ref);
+      clamp_nonnegative(isa, got.data() + 1, n);  // unaligned start
+      EXPECT_EQ(got[0], v[0]) << "wrote before the span";
+      for (std::size_t i = 0; i < n; ++i) {
+        EXPECT_GE(got[i + 1], 0.0f) << isa_name(isa) << " " << n << " " << i;
+        EXPECT_EQ(got[i + 1], ref[i]) << isa_name(isa) << " " << n << " " << i;
+      }
+    }
+  }
+}
+
 // signal_change: the maxima equal the scalar twin's exactly; the sums are upper bounds on the
 // exact sums (long double), within 2e-5 of them.
 TEST(CpuKernels, SignalChangeBoundsTheExactSums) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -70,6 +71,17 @@ Dictionary make_dictionary(bool interfaces = true) {
     op.Ub = random_matrix(rng, n, kb);
     op.Td_b = random_matrix(rng, kb, n);
     op.Limp = random_matrix(rng, n, kb);
+    // Within the plausibility limits of operator_limits.h (prior scale sqrt(3)): columns of
+    // Ub and Limp of L2 norm <= 1.3, and ||Ub_k|| ||Td_b,k|| = 1/2 per mode.
+    for (float& v : op.Ub.data) v *= 0.125f;
+    for (float& v : op.Limp.data) v *= 0.125f;
+    for (std::uint32_t k = 0; k < kb; ++k) {
+      double u = 0.0, t = 0.0;
+      for (std::uint32_t r = 0; r < n; ++r) u += double(op.Ub(r, k)) * op.Ub(r, k);
+      for (float v : op.Td_b.row(k)) t += double(v) * v;
+      const float scale = float(0.5 / std::sqrt(u * t));
+      for (std::uint32_t c = 0; c < n; ++c) op.Td_b(k, c) *= scale;
+    }
     op.Ub_vec = random_matrix(rng, 4 * n, kb);
     op.Ubvol = random_matrix(rng, 9 * g * g * g, kb);
     for (std::uint32_t i = 0; i < d.settings.kd; ++i) op.sigma_M.push_back(std::abs(rng.value()));
@@ -268,13 +280,16 @@ TEST(DictionaryIo, Float16RoundTripIsCloseAndSmaller) {
 
 TEST(DictionaryIo, Float16OverflowIsAnError) {
   Dictionary d = make_dictionary();
-  d.shapes[2].Limp(1, 2) = 1e6f;
+  // A mode with a tiny singular value: Ub's column small, Td_b's row large (plausible, see
+  // operator_limits.h), beyond float16's 65504.
+  for (std::uint32_t r = 0; r < d.shapes[2].Ub.rows; ++r) d.shapes[2].Ub(r, 1) *= 1e-6f;
+  d.shapes[2].Td_b(1, 2) = 1e5f;
   DictionaryWriteOptions o;
   o.float16 = true;
   Result<std::vector<std::byte>> r = serialize_dictionary(d, o);
   ASSERT_FALSE(r.ok());
   EXPECT_TRUE(contains(r.status().message(), "shape 2 (corridor)")) << r.status().message();
-  EXPECT_TRUE(contains(r.status().message(), "Limp[1,2]")) << r.status().message();
+  EXPECT_TRUE(contains(r.status().message(), "Td_b[1,2]")) << r.status().message();
   TempDir dir;
   EXPECT_FALSE(save_dictionary(dir.file("d.modrt"), d, o).ok());
   EXPECT_FALSE(fs::exists(dir.file("d.modrt")));
@@ -596,6 +611,40 @@ TEST(FileIo, UnwritablePathIsAnIoError) {
             ErrorCode::io_error);
 }
 
+// Issue 18 item 11: one rule with level files: bytes after the last section are refused.
+TEST(DictionaryIo, TrailingBytesAreRefused) {
+  std::vector<std::byte> bytes = serialized(make_dictionary());
+  ASSERT_TRUE(parse_dictionary(bytes, "exact").ok());
+  bytes.push_back(std::byte{0});
+  Result<Dictionary> r = parse_dictionary(bytes, "appended.modrt");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), ErrorCode::format_error);
+  EXPECT_TRUE(contains(r.status().message(), "appended.modrt: 1 trailing bytes after the last section"))
+      << r.status().message();
+  bytes.resize(bytes.size() + 4095);  // resealing does not help: no section covers them
+  reseal(bytes);
+  EXPECT_TRUE(contains(parse_dictionary(bytes, "x").status().message(), "4096 trailing bytes"));
+}
+
+// Issue 18 items 5 and 11 on the synthetic dictionary: FLT_MAX and 1e6 poked into an
+// operator with the checksums resealed are refused naming it (test_operator_limits.cpp does
+// the same on real baked files).
+TEST(DictionaryIo, PokedOperatorIsRefusedNamingIt) {
+  const std::vector<std::byte> clean = serialized(make_dictionary());
+  for (const float value : {std::numeric_limits<float>::max(), 1e6f}) {
+    std::vector<std::byte> bytes = clean;
+    const std::size_t e = entry_at(find_section(bytes, DictionarySectionKind::Ubvol, 3));
+    wr32(bytes, std::size_t(rd64(bytes, e + 24)) + 4 * 2, std::bit_cast<std::uint32_t>(value));
+    reseal(bytes);
+    Result<Dictionary> r = parse_dictionary(bytes, "poked.modrt");
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.status().code(), ErrorCode::invalid_argument);
+    EXPECT_TRUE(contains(r.status().message(), "poked.modrt: shape 3 (corner): Ubvol[0,2]: |Ubvol| = "))
+        << r.status().message();
+    EXPECT_TRUE(contains(r.status().message(), "above the limit")) << r.status().message();
+  }
+}
+
 TEST(FileIo, ReadFileEnforcesTheLimit) {
   TempDir dir;
   const std::vector<std::byte> data(1000, std::byte{7});
@@ -610,6 +659,11 @@ TEST(FileIo, ReadFileEnforcesTheLimit) {
   EXPECT_TRUE(contains(r.status().message(), "999")) << r.status().message();
   EXPECT_EQ(read_file(dir.file("nope"), 10).status().code(), ErrorCode::io_error);
   EXPECT_EQ(read_file(dir.path().string(), 10).status().code(), ErrorCode::io_error);
+  // Issue 18 item 11: a directory is named as such (never a size of LONG_MAX).
+  for (const Status& s : {read_file(dir.path().string(), 10).status(), load_dictionary(dir.path().string()).status(),
+                          read_file_prefix(dir.path().string(), 10).status()})
+    EXPECT_TRUE(contains(s.message(), dir.path().string() + ": cannot read: a directory, not a regular file"))
+        << s.message();
   Result<std::vector<std::byte>> prefix = read_file_prefix(dir.file("f"), 10);
   ASSERT_TRUE(prefix.ok());
   EXPECT_EQ(prefix->size(), 10u);

@@ -8,6 +8,7 @@
 // skipped with the reason printed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -232,6 +233,51 @@ TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
                   rt->description(), kSteps, e, ev);
     }
   }
+}
+
+// Issue 18 item 7: the spike of test_cpu_backend's SpikeInLdGivesNoNegativeTexelOnEveryIsa
+// (which asserts that the unclamped lightmap rings below -1) gives no negative texel here
+// either, in every target format (the atlas pass clamps: core's lightmap policy), and every
+// output is finite (a float16 target saturates at 65504).
+TEST_P(GlesBackend, SpikeInLdGivesNoNegativeTexel) {
+  const TestLevel& t = test_level("maze11");
+  std::vector<float> ld(t.ld.size(), 0.0f);
+  ld[3 * 40 + 0] = 1e6f;
+  for (const FormatCase& f : kFormats) {
+    std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {.target = f.target, .operators = f.operators});
+    ASSERT_TRUE(rt);
+    ASSERT_TRUE(rt->update(ld).ok());
+    std::vector<float> lightmap(rt->sizes().lightmap), atlas(rt->sizes().atlas), probes(rt->sizes().probes);
+    ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(rt->read_atlas(atlas).ok());
+    ASSERT_TRUE(rt->read_probes(probes).ok());
+    EXPECT_GE(*std::min_element(lightmap.begin(), lightmap.end()), 0.0f) << rt->description();
+    EXPECT_GE(*std::min_element(atlas.begin(), atlas.end()), 0.0f) << rt->description();
+    for (const std::vector<float>* v : {&lightmap, &atlas, &probes})
+      EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); }))
+          << rt->description();
+  }
+}
+
+// The fed-back ld is computed on the GPU, where nothing validates it: a step whose feedback
+// could exceed kMaxLightValue (max_albedo just below 1, bright ld) is refused (issue 18 item
+// 5: every update finite or an error), as the CPU runtime refuses such a fed-back ld.
+TEST_P(GlesBackend, MultiBounceRefusesFeedbackAboveTheLargestLightValue) {
+  const TestLevel& t = test_level("corridor");
+  std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
+  ASSERT_TRUE(rt);
+  const std::vector<float> albedo(t.albedo.size(), 1.0f);
+  ASSERT_TRUE(rt->set_albedo(albedo, 0.9999999f).ok());
+  std::vector<float> ld = t.ld;
+  ld[4] = 1e25f;
+  ASSERT_TRUE(rt->update(ld).ok());
+  const Status s = rt->multi_bounce_step(ld);
+  EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(s.message().find("gles: multi_bounce_step: the fed-back light can reach "), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("kMaxLightValue"), std::string::npos) << s.message();
+  std::printf("%s\n", s.message().c_str());
+  EXPECT_TRUE(rt->multi_bounce_step(t.ld).ok());  // ordinary light is fine
 }
 
 TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {

@@ -122,6 +122,7 @@ Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<co
   EXPECT_TRUE(drt_compute_c(f.drt, clutter_ld, c).ok());
   ref.lightmap = ref.mrt;
   drt_apply(f.level, f.drt, ref.b, c, ref.lightmap);
+  clamp_lightmap(ref.lightmap);  // the corrected lightmap's clamp (reference_runtime.h), as drt_multi_bounce
   level_fill_atlas(f.level, ref.lightmap, ref.atlas);
   drt_clutter_lightmap(f.drt, ref.b, f.clutter_direct, ref.clutter);
   ref.clutter_without_cc = ref.clutter;

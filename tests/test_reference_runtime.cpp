@@ -65,7 +65,7 @@ TEST(ReferenceRuntime, EveryStageEqualsDoubleLinearAlgebra) {
       const Eigen::MatrixXd b_ref = to_eigen(op.Td_b) * channels(ld);
       EXPECT_LE((channels(b) - b_ref).norm(), 1e-5 * b_ref.norm() + 1e-7);
       const Eigen::MatrixXd B = channels(b);
-      const Eigen::MatrixXd l_ref = to_eigen(op.Ub) * B;
+      const Eigen::MatrixXd l_ref = (to_eigen(op.Ub) * B).cwiseMax(0.0);  // the lightmap policy
       EXPECT_LE((channels(lightmap) - l_ref).norm(), 1e-5 * l_ref.norm() + 1e-7);
       const Eigen::MatrixXd v_ref = to_eigen(op.Ub_vec) * B;
       EXPECT_LE((channels(vec) - v_ref).norm(), 1e-5 * v_ref.norm() + 1e-7);
@@ -95,6 +95,30 @@ TEST(ReferenceRuntime, MultiBounceSolvesTheFeedbackEquation) {
   const Eigen::MatrixXd b_ref = K.lu().solve(T * channels(ld));
   EXPECT_LE((channels(b) - b_ref).norm(), 1e-4 * b_ref.norm());
   EXPECT_LE((channels(lightmap) - U * b_ref).norm(), 1e-4 * (U * b_ref).norm());
+}
+
+// Issue 18 item 7: low-rank operators ring negative around a spike in ld; the lightmap is
+// clamped at 0 (nonnegative_light), also after multi-bounce. Without the clamp, this
+// operator's Ub b is negative on about half of the samples (asserted, so the test can fail).
+TEST(ReferenceRuntime, SpikeInLdGivesNoNegativeTexel) {
+  std::mt19937 rng(21);
+  const std::uint32_t n = 50, kb = 8;
+  const ShapeOperators op = synthetic(n, kb, 1, rng);
+  std::vector<float> ld(3 * n, 0.0f);
+  ld[3 * 17 + 1] = 1e6f;  // one sample, green
+  std::vector<float> b(3 * kb), lightmap(3 * n);
+  ASSERT_TRUE(compute_b(op, ld, b).ok());
+  const Eigen::MatrixXd unclamped = to_eigen(op.Ub) * channels(b);
+  ASSERT_LT(unclamped.minCoeff(), -1.0);  // the ringing is there
+  apply_Ub(op, b, lightmap);
+  for (std::size_t i = 0; i < lightmap.size(); ++i) {
+    EXPECT_GE(lightmap[i], 0.0f) << i;
+    EXPECT_FLOAT_EQ(lightmap[i], float(std::max(unclamped(Eigen::Index(i / 3), Eigen::Index(i % 3)), 0.0)));
+  }
+  const std::vector<float> albedo(3 * n, 0.5f);
+  Result<MultiBounceReport> r = multi_bounce(op, ld, albedo, {}, b, lightmap);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  for (float v : lightmap) EXPECT_GE(v, 0.0f);
 }
 
 TEST(ReferenceRuntime, DivergentOperatorIsHeldByTheEnergyBound) {

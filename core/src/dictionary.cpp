@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "modrt/operator_limits.h"
+
 namespace modrt {
 namespace {
 
@@ -174,7 +176,8 @@ Status validate_dictionary(const Dictionary& dict, const std::string& what) {
     }
     if (Status s = check_matrix(prefix, e.name, *e.m, e.rows, e.cols); !s.ok()) return s;
   }
-  return Status::success();
+  // Finite and of the right size; now plausible (operator_limits.h).
+  return check_measures(measure_dictionary_operators(dict), what);
 }
 
 }  // namespace modrt

@@ -491,12 +491,14 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
 
   // Validate every entry and index them by (kind, shape, sub-index).
   std::map<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>, Entry> found;
+  std::uint64_t payload_end = payload_start;
   for (std::size_t i = 0; i < h.section_count; ++i) {
     const Entry e = get_entry(bytes, kDictionaryHeaderBytes + i * kDictionarySectionEntryBytes);
     if (Status s = check_entry(e, i, h, bytes, payload_start, what); !s.ok()) return s;
     if (!found.emplace(std::make_tuple(e.kind, e.shape, e.sub), e).second)
       return format_error(what, "section " + std::to_string(i) + " (" +
                                     section_label(e.kind, e.shape, e.sub) + "): duplicate section");
+    payload_end = std::max(payload_end, e.offset + e.size);  // check_entry: inside the file
   }
 
   auto require = [&](DictionarySectionKind kind, std::uint32_t shape, std::uint32_t sub) -> Result<Entry> {
@@ -556,6 +558,12 @@ Result<Dictionary> parse_dictionary(std::span<const std::byte> bytes, const std:
   } catch (const std::bad_alloc&) {
     return Status::error(ErrorCode::resource_limit, what + ": out of memory while decoding the dictionary");
   }
+  // One rule with level files: nothing may follow the data (appended bytes are damage or a
+  // concatenation, never part of the format).
+  if (payload_end != bytes.size())
+    return format_error(what, std::to_string(bytes.size() - payload_end) +
+                                  " trailing bytes after the last section (it ends at byte " +
+                                  std::to_string(payload_end) + " of " + std::to_string(bytes.size()) + ")");
   // Sizes were checked above; this finds NaN/Inf (e.g. float16 infinities).
   if (Status s = validate_dictionary(dict, what); !s.ok()) return s;
   return dict;

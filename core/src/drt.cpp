@@ -533,6 +533,7 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
   std::vector<float> ld(ld_direct.begin(), ld_direct.end()), b_prev(b.size());
   if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
   drt_apply(level, drt, b, c, lightmap);
+  clamp_lightmap(lightmap);  // the corrected lightmap is a lightmap too (reference_runtime.h)
   for (int it = 1; it <= settings.max_iterations; ++it) {
     if (!rho_c.empty()) {
       drt_clutter_lightmap(drt, b, {}, indirect);
@@ -544,6 +545,7 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
     std::copy(b.begin(), b.end(), b_prev.begin());
     if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
     drt_apply(level, drt, b, c, lightmap);
+    clamp_lightmap(lightmap);
     report.iterations = it;
     if (feedback_converged(b, b_prev, settings.tolerance)) {
       report.converged = true;

@@ -83,9 +83,9 @@ Result<int> open_for_reading(const std::string& path, struct stat& st) {
     ::close(fd);
     return io_error(path, "cannot stat", err);
   }
-  if (S_ISDIR(st.st_mode)) {
+  if (Result<std::uint64_t> size = regular_file_size(fd, path); !size.ok()) {
     ::close(fd);
-    return io_error(path, "cannot read", EISDIR);
+    return size.status();
   }
   return fd;
 }
@@ -146,21 +146,32 @@ Status write_file_atomic(const std::string& path, std::span<const std::byte> byt
   return Status::success();
 }
 
+Result<std::uint64_t> regular_file_size(int fd, const std::string& path) {
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) return io_error(path, "cannot stat", errno);
+  if (S_ISREG(st.st_mode)) return std::uint64_t(st.st_size);
+  const char* kind = S_ISDIR(st.st_mode)    ? "a directory"
+                     : S_ISFIFO(st.st_mode) ? "a FIFO"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                                            : "a special file";
+  return Status::error(ErrorCode::io_error, path + ": cannot read: " + kind + ", not a regular file");
+}
+
 Result<std::vector<std::byte>> read_file(const std::string& path, std::uint64_t max_bytes) {
   struct stat st {};
   Result<int> opened = open_for_reading(path, st);
   if (!opened.ok()) return opened.status();
   Fd fd(opened.value());
   std::vector<std::byte> out;
-  if (S_ISREG(st.st_mode)) {
-    const std::uint64_t size = std::uint64_t(st.st_size);
-    if (size > max_bytes)
-      return Status::error(ErrorCode::resource_limit, path + ": file is " + std::to_string(size) +
-                                                          " bytes, larger than the limit of " +
-                                                          std::to_string(max_bytes) + " bytes");
-    out.reserve(std::size_t(size));
-  }
-  // Read one byte past the limit to notice files that grew or are not regular.
+  const std::uint64_t size = std::uint64_t(st.st_size);  // a regular file (open_for_reading)
+  if (size > max_bytes)
+    return Status::error(ErrorCode::resource_limit, path + ": file is " + std::to_string(size) +
+                                                        " bytes, larger than the limit of " +
+                                                        std::to_string(max_bytes) + " bytes");
+  out.reserve(std::size_t(size));
+  // Read one byte past the limit to notice files that grew since the stat.
   const std::uint64_t limit = max_bytes == UINT64_MAX ? max_bytes : max_bytes + 1;
   if (Status s = read_up_to(fd.get(), limit, out, path); !s.ok()) return s;
   if (out.size() > max_bytes)

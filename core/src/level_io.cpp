@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "modrt/file_io.h"
+#include "modrt/operator_limits.h"
 
 namespace modrt {
 namespace {
@@ -198,7 +199,8 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
                        "atlas tile of block " + std::to_string(i) + " face " + std::to_string(f) +
                            " lies outside the atlas");
     }
-  return Status::success();
+  // Finite; now plausible (operator_limits.h).
+  return check_measures(measure_level_operators(level), what);
 }
 
 }  // namespace

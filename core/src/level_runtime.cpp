@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "modrt/operator_limits.h"
+
 namespace modrt {
 namespace {
 
@@ -85,6 +87,7 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
       for (int c = 0; c < 3; ++c) dst[3 * std::size_t(sample) + c] += float(acc[c]);
     }
   }
+  clamp_lightmap(lightmap);  // the lightmap policy (reference_runtime.h)
 }
 
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
@@ -244,7 +247,8 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
     if (t >= texels) return mismatch("atlas sample texel out of range");
   for (const PaddingRecord& p : level.atlas.padding)
     if (p.dst >= texels || p.src >= texels) return mismatch("atlas padding record out of range");
-  return Status::success();
+  // Sizes are valid: bound the amplification ld -> outputs so that no update overflows.
+  return check_level_gain(level, dict);
 }
 
 }  // namespace modrt

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -50,11 +51,15 @@ Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::sp
   return clamp;
 }
 
+void clamp_lightmap(std::span<float> lightmap) {
+  for (float& v : lightmap) v = nonnegative_light(v);
+}
+
 bool apply_feedback(const FeedbackClamp& clamp, std::span<const float> ld_direct,
                     std::span<const float> lightmap, std::span<float> ld) {
   bool clamped = false;
   for (std::size_t i = 0; i < ld.size(); ++i) {
-    float l = std::max(lightmap[i], 0.0f);
+    float l = nonnegative_light(lightmap[i]);
     if (l > clamp.energy_bound) {
       l = clamp.energy_bound;
       clamped = true;
@@ -89,12 +94,14 @@ Status validate_light_signal(std::span<const float> rgb, std::size_t samples, co
       return Status::error(ErrorCode::invalid_argument,
                            std::string(what) + ": sample " + std::to_string(i / 3) + " channel " +
                                kChannel[i % 3] + " is negative (" + std::to_string(v) + ")");
-    if (v > kMaxLightValue)
-      return Status::error(
-          ErrorCode::invalid_argument,
-          std::string(what) + ": sample " + std::to_string(i / 3) + " channel " + kChannel[i % 3] + " is " +
-              std::to_string(v) +
-              ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+    if (v > kMaxLightValue) {
+      char value[32];
+      std::snprintf(value, sizeof value, "%g", double(v));
+      return Status::error(ErrorCode::invalid_argument,
+                           std::string(what) + ": sample " + std::to_string(i / 3) + " channel " +
+                               kChannel[i % 3] + " is " + value +
+                               ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+    }
   }
   return Status::success();
 }
@@ -111,6 +118,7 @@ Status compute_b(const ShapeOperators& op, std::span<const float> ld, std::span<
 
 void apply_Ub(const ShapeOperators& op, std::span<const float> b, std::span<float> lightmap) {
   apply_rgb(op.Ub, b, lightmap);
+  clamp_lightmap(lightmap);
 }
 
 void apply_Ub_vec(const ShapeOperators& op, std::span<const float> b, std::span<float> out) {
@@ -136,7 +144,7 @@ Result<MultiBounceReport> multi_bounce(const ShapeOperators& op, std::span<const
   std::vector<float> b_prev(b.size(), 0.0f);
   apply_rgb(op.Td_b, ld, b);
   for (int it = 1; it <= settings.max_iterations; ++it) {
-    apply_rgb(op.Ub, b, lightmap);
+    apply_Ub(op, b, lightmap);
     report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
     std::copy(b.begin(), b.end(), b_prev.begin());
     apply_rgb(op.Td_b, ld, b);
@@ -146,7 +154,7 @@ Result<MultiBounceReport> multi_bounce(const ShapeOperators& op, std::span<const
       break;
     }
   }
-  apply_rgb(op.Ub, b, lightmap);
+  apply_Ub(op, b, lightmap);
   return report;
 }
 

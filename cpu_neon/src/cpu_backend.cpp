@@ -188,6 +188,7 @@ class CpuBackend final : public Backend {
   Status finish_drt() {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
     if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
+    clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());  // the lightmap policy, as core
     if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
     if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
     return finish();

@@ -561,6 +561,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
       gemv_masked(ur_op_, Ur.rows, kr, map, r_planar_.data() + 3 * kr * s, contribution);
     add_scattered(Ur.rows, map, contribution, tile);
   }
+  clamp_nonnegative(isa_, tile, count);  // the lightmap policy (core reference_runtime.h)
 }
 
 void CpuLevelRuntime::finish_skip_stats() {
@@ -618,6 +619,8 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
     gemv_scatter(ur_op_, ur_rows, kr, level.slots[s].ur_row_to_sample.data(), r_planar_.data() + 3 * kr * s,
                  tile);
   }
+  // The lightmap policy (core reference_runtime.h): no negative texel.
+  clamp_nonnegative(isa_, tile, 3 * std::size_t(level.blocks[i].sample_count));
 }
 
 Status CpuLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {

@@ -8,6 +8,7 @@
 #include <limits>
 #include <type_traits>
 
+#include "modrt/reference_runtime.h"
 #include "simd_config.h"
 
 #if MODRT_CPU_X86
@@ -139,6 +140,10 @@ bool feedback_scalar(const float* ld_direct, const float* rho, const float* ligh
     ld[i] = ld_direct[i] + rho[i] * l;
   }
   return clamped;
+}
+
+void clamp_nonnegative_scalar(float* v, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) v[i] = nonnegative_light(v[i]);
 }
 
 // Margin that turns the rounded sums of squares into upper bounds (kernels.h).
@@ -290,6 +295,13 @@ MODRT_TARGET_AVX2 bool feedback_avx2(const float* ld_direct, const float* rho, c
   return feedback_scalar(ld_direct + i, rho + i, lightmap + i, bound, ld + i, count - i) || clamped;
 }
 
+MODRT_TARGET_AVX2 void clamp_nonnegative_avx2(float* v, std::size_t count) {
+  const __m256 zero = _mm256_setzero_ps();
+  std::size_t i = 0;
+  for (; i + 8 <= count; i += 8) _mm256_storeu_ps(v + i, _mm256_max_ps(_mm256_loadu_ps(v + i), zero));
+  clamp_nonnegative_scalar(v + i, count - i);
+}
+
 // ---- SSE4.1: 4 columns per step, same row blocking, separate mul + add ----
 MODRT_TARGET_SSE41 inline __m128 hsum4_sse(__m128 a, __m128 b, __m128 c, __m128 d) {
   return _mm_hadd_ps(_mm_hadd_ps(a, b), _mm_hadd_ps(c, d));
@@ -386,6 +398,13 @@ MODRT_TARGET_SSE41 bool feedback_sse41(const float* ld_direct, const float* rho,
   }
   const bool clamped = _mm_movemask_ps(hit) != 0;
   return feedback_scalar(ld_direct + i, rho + i, lightmap + i, bound, ld + i, count - i) || clamped;
+}
+
+MODRT_TARGET_SSE41 void clamp_nonnegative_sse41(float* v, std::size_t count) {
+  const __m128 zero = _mm_setzero_ps();
+  std::size_t i = 0;
+  for (; i + 4 <= count; i += 4) _mm_storeu_ps(v + i, _mm_max_ps(_mm_loadu_ps(v + i), zero));
+  clamp_nonnegative_scalar(v + i, count - i);
 }
 
 MODRT_TARGET_AVX2 inline float hsum8_avx(__m256 a) {
@@ -578,6 +597,13 @@ bool feedback_neon(const float* ld_direct, const float* rho, const float* lightm
   return feedback_scalar(ld_direct + i, rho + i, lightmap + i, bound, ld + i, count - i) || clamped;
 }
 
+void clamp_nonnegative_neon(float* v, std::size_t count) {
+  const float32x4_t zero = vdupq_n_f32(0.0f);
+  std::size_t i = 0;
+  for (; i + 4 <= count; i += 4) vst1q_f32(v + i, vmaxq_f32(vld1q_f32(v + i), zero));
+  clamp_nonnegative_scalar(v + i, count - i);
+}
+
 SignalChange signal_change_neon(const float* ld, const float* ref, std::size_t count) {
   float32x4_t mx = vdupq_n_f32(0.0f), md = mx;
   SignalChange out;
@@ -701,6 +727,19 @@ bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float
     case Isa::neon: return feedback_neon(ld_direct, rho, lightmap, bound, ld, count);
 #endif
     default: return feedback_scalar(ld_direct, rho, lightmap, bound, ld, count);
+  }
+}
+
+void clamp_nonnegative(Isa isa, float* v, std::size_t count) {
+  switch (isa_supported(isa) ? isa : Isa::scalar) {
+#if MODRT_CPU_X86
+    case Isa::avx2: return clamp_nonnegative_avx2(v, count);
+    case Isa::sse41: return clamp_nonnegative_sse41(v, count);
+#endif
+#if MODRT_CPU_NEON
+    case Isa::neon: return clamp_nonnegative_neon(v, count);
+#endif
+    default: return clamp_nonnegative_scalar(v, count);
   }
 }
 

@@ -32,8 +32,11 @@ void main() {
       acc += dot_rgb(u_ur, rows[k] * R_GROUPS, u_r_red, u_r_green, u_r_blue, slots[k] * R_GROUPS, R_GROUPS);
     }
 #if DRT
-    acc += load_signal(u_delta, s).rgb;  // SPEC §5 step 7, after steps 3 and 5 as in core
+    // SPEC §5 step 7, after steps 3 and 5 as in core: the level lightmap is clamped first
+    // (level_compute_lightmap), the corrected one again (drt_apply).
+    acc = max(acc, vec3(0.0)) + load_signal(u_delta, s).rgb;
 #endif
   }
-  o_color = store_output(vec4(acc, 1.0));
+  // The lightmap policy (core reference_runtime.h): max(lightmap, 0), never a negative texel.
+  o_color = store_output(vec4(max(acc, vec3(0.0)), 1.0));
 }

@@ -9,6 +9,8 @@
 // compiler can unroll and software-pipeline (the passes are texture-latency bound).
 //   OUTPUT_BITS       1: the atlas and probes are RGBA32UI targets holding float bit patterns
 //                     (TargetFormat::bits32); 0: RGBA32F or RGBA16F targets.
+//   OUTPUT_MAX        the target's largest finite value (65504 for RGBA16F, FLT_MAX otherwise):
+//                     store_output saturates there instead of writing Inf.
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -28,17 +30,18 @@ int fragment_index() { return (int(gl_FragCoord.y) << LINEAR_SHIFT) + int(gl_Fra
 vec4 load_signal(usampler2D t, int i) { return uintBitsToFloat(texelFetch(t, lin(i), 0)); }
 uvec4 store_signal(vec4 v) { return floatBitsToUint(v); }
 
-// Outputs a renderer samples (atlas, probes) use the runtime's TargetFormat.
+// Outputs a renderer samples (atlas, probes) use the runtime's TargetFormat; every value is
+// finite (saturated at +-OUTPUT_MAX, e.g. a float16 target's 65504, never Inf).
 #if OUTPUT_BITS
 #define OUTPUT_SAMPLER usampler2D
 #define OUTPUT_TYPE uvec4
 vec4 load_output_2d(usampler2D t, ivec2 p) { return uintBitsToFloat(texelFetch(t, p, 0)); }
-OUTPUT_TYPE store_output(vec4 v) { return floatBitsToUint(v); }
+OUTPUT_TYPE store_output(vec4 v) { return floatBitsToUint(clamp(v, vec4(-OUTPUT_MAX), vec4(OUTPUT_MAX))); }
 #else
 #define OUTPUT_SAMPLER sampler2D
 #define OUTPUT_TYPE vec4
 vec4 load_output_2d(sampler2D t, ivec2 p) { return texelFetch(t, p, 0); }
-OUTPUT_TYPE store_output(vec4 v) { return v; }
+OUTPUT_TYPE store_output(vec4 v) { return clamp(v, vec4(-OUTPUT_MAX), vec4(OUTPUT_MAX)); }
 #endif
 
 vec4 load(sampler2D t, int i) { return texelFetch(t, lin(i), 0); }

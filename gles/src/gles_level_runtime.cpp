@@ -1,6 +1,7 @@
 #include "modrt/gles/gles_level_runtime.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <numeric>
 #include <string>
@@ -423,7 +424,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       "\n#define R_GROUPS " + std::to_string(r_groups_) + "\n#define N_MAX " + std::to_string(n_max_) +
       "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define VECTOR_ROWS " +
       std::to_string(vector_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) + "\n#define B_CHUNKS " +
-      std::to_string(b_chunks_) + "\n";
+      std::to_string(b_chunks_) + "\n#define OUTPUT_MAX " +
+      (target_ == TargetFormat::float16 ? "65504.0" : "3.4028234e38") + "\n";
   defines_ = defines;
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
@@ -800,7 +802,18 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
     return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call update first");
   if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
   const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
-  feedback_bound_ = ld_max / (1.0f - rho_max_);
+  const float bound = ld_max / (1.0f - rho_max_);
+  // The fed-back ld (computed on the GPU, never validated there) is at most ld_max + rho_max
+  // x bound; the CPU runtime validates its fed-back ld like any ld (<= kMaxLightValue), so
+  // the same rule here keeps every pass within the float range operator_limits.h assumes.
+  if (const double fed = double(ld_max) + double(rho_max_) * double(bound); fed > kMaxLightValue) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%g", fed);
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string("gles: multi_bounce_step: the fed-back light can reach ") + text +
+                             ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+  }
+  feedback_bound_ = bound;
   feedback_ld_max_ = ld_max;
   if (timing_) timer_->reset();
   begin_pass(kUpload);

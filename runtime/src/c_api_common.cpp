@@ -7,6 +7,7 @@
 
 #include "c_api_internal.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
 #include "modrt/level_io.h"
 
 namespace modrt::capi {
@@ -90,6 +91,9 @@ modrt_status read_whole_file(const char* path, std::uint64_t max_bytes, FileImag
     std::FILE* f;
     ~Closer() { std::fclose(f); }
   } closer{f};
+  // A directory opens; its "size" would be LONG_MAX. Core's rule: regular files only.
+  if (Result<std::uint64_t> regular = regular_file_size(::fileno(f), path); !regular.ok())
+    return fail(regular.status());
   if (std::fseek(f, 0, SEEK_END) != 0)
     return fail(MODRT_ERROR_IO, std::string(path) + ": cannot seek: " + std::strerror(errno));
   const long end = std::ftell(f);

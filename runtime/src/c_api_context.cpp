@@ -352,16 +352,10 @@ modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_
     if (!context) return null_arg(fn, "context");
     if (!ld) return null_arg(fn, "ld");
     if (modrt_status s = check_count(fn, "ld", count, context->sizes.ld); s != MODRT_OK) return s;
-    // Checked here, so that a bad ld leaves the previous one in place.
-    for (size_t i = 0; i < count; ++i) {
-      const float v = ld[i];
-      if (!std::isfinite(v) || v < 0.0f) {
-        char text[200];
-        std::snprintf(text, sizeof text, "%s: ld sample %zu channel %zu is %g: ld must be finite and >= 0",
-                      fn, i / 3, i % 3, double(v));
-        return fail(std::isfinite(v) ? MODRT_ERROR_INVALID_ARGUMENT : MODRT_ERROR_NON_FINITE, text);
-      }
-    }
+    // Checked here, with the rule every update applies (finite, >= 0, <= kMaxLightValue), so
+    // that a bad ld is refused at the call and leaves the previous one in place.
+    if (Status s = validate_light_signal({ld, count}, count / 3, "ld"); !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     std::copy(ld, ld + count, context->ld.begin());
     if (context->direct) context->direct->invalidate();  // its incremental update assumed its own ld
     return MODRT_OK;

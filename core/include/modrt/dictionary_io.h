@@ -77,11 +77,14 @@
 // version (version_mismatch), header size, header CRC, settings (validate_settings), shape
 // count, section count and table bounds, table CRC, then each section (kind, shape,
 // sub-index, element type, dimensions against the settings, byte size, bounds, payload
-// CRC), duplicates and missing sections, and finally the decoded values
-// (validate_dictionary: no NaN/Inf). Nothing is allocated from an unchecked size.
+// CRC), duplicates, missing sections, no trailing bytes after the last section's payload
+// (the rule of level files too), and finally the decoded values (validate_dictionary: no
+// NaN/Inf, and every operator within the plausibility limits of operator_limits.h).
+// Nothing is allocated from an unchecked size.
 //
 // Error codes: format_error (malformed), version_mismatch (other format version: re-bake),
-// checksum_mismatch (a CRC differs), non_finite (NaN/Inf values), io_error, resource_limit
+// checksum_mismatch (a CRC differs), non_finite (NaN/Inf values), invalid_argument (an operator
+// above its limit), io_error, resource_limit
 // (file larger than kMaxDictionaryFileBytes). Messages start with the file name (the
 // `what` of parse_dictionary) and name the section, shape and problem.
 #pragma once

@@ -190,7 +190,10 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt);
 // c = Td_c clutter_ld per object (validates clutter_ld: finite, non-negative).
 Status drt_compute_c(const DrtOperators& drt, std::span<const float> clutter_ld, std::span<float> c);
 // SPEC §5 step 7: lightmap += dUb b + dUc c, on the affected samples only. b as
-// level_compute_b (3 kb per block), c as drt_compute_c.
+// level_compute_b (3 kb per block), c as drt_compute_c. This is the delta operator (applied
+// to zeros it gives the delta alone, which is negative where clutter blocks light), so it
+// does not clamp; what outputs the corrected lightmap clamps it (the lightmap policy,
+// reference_runtime.h: drt_multi_bounce, the CPU backend, the GLES atlas pass).
 void drt_apply(const Level& level, const DrtOperators& drt, std::span<const float> b,
                std::span<const float> c, std::span<float> lightmap);
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.

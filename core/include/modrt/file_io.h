@@ -26,6 +26,12 @@ Status write_file_atomic(const std::string& path, std::span<const std::byte> byt
 // be opened or read.
 Result<std::vector<std::byte>> read_file(const std::string& path, std::uint64_t max_bytes);
 
+// The size of the open file `fd` if it is a regular file; otherwise io_error
+// "<path>: cannot read: a directory, not a regular file" (or a FIFO, device, socket). Every
+// reader (read_file, read_file_prefix, the C API's file loaders) asks this first: a
+// directory opens, and through stdio even reports a size of LONG_MAX.
+Result<std::uint64_t> regular_file_size(int fd, const std::string& path);
+
 // Reads at most the first `count` bytes of a file (fewer when the file is shorter);
 // io_error when it cannot be opened or read.
 Result<std::vector<std::byte>> read_file_prefix(const std::string& path, std::uint64_t count);

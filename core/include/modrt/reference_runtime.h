@@ -6,6 +6,7 @@
 // probes [3*(9*p + j) + c]. Operators are scalar and applied per channel.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -20,13 +21,25 @@ namespace modrt {
 // (and Inf - Inf to NaN) from finite input. Brighter scenes are rescaled by the caller.
 inline constexpr float kMaxLightValue = 1e30f;
 
+// The lightmap policy (issue 18): a lightmap texel is E_ind / pi, never negative, but the
+// low-rank operators ring below 0 around a spike in ld. Every lightmap a runtime outputs (core,
+// the CPU runtime on every ISA, the GLES atlas pass; with DRT, again after its delta, see
+// drt_apply) is
+// clamped by max(lightmap, 0), the clamp multi-bounce feedback already applied before its
+// energy bound (apply_feedback uses this function). The atlas copies the clamped lightmap.
+// Probes (radiance SH9) and vector irradiance (OHLSH) are coefficients, legitimately
+// negative, and are not clamped; what is evaluated from them (the C API's probe sampler) is.
+inline float nonnegative_light(float v) { return std::max(v, 0.0f); }
+// lightmap[i] = nonnegative_light(lightmap[i]) for every float.
+void clamp_lightmap(std::span<float> lightmap);
+
 // Fails with non_finite (NaN/Inf) or invalid_argument (negative, above kMaxLightValue, wrong
 // size), naming the first offending sample and channel. `what` prefixes the message (e.g. "ld").
 Status validate_light_signal(std::span<const float> rgb, std::size_t samples, const char* what);
 
 // b = Td_b ld (MRT eq. 3). ld: 3n, b: 3kb. Validates ld.
 Status compute_b(const ShapeOperators& op, std::span<const float> ld, std::span<float> b);
-// lightmap = Ub b (E_ind / pi at the samples). b: 3kb, lightmap: 3n.
+// lightmap = clamp_lightmap(Ub b) (E_ind / pi at the samples). b: 3kb, lightmap: 3n.
 void apply_Ub(const ShapeOperators& op, std::span<const float> b, std::span<float> lightmap);
 // OHLSH vector irradiance = U_vec_b b. out: 3 * 4n.
 void apply_Ub_vec(const ShapeOperators& op, std::span<const float> b, std::span<float> out);

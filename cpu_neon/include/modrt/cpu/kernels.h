@@ -100,6 +100,10 @@ std::size_t float_to_half(const float* in, std::size_t count, std::uint16_t* out
 bool feedback_rgb(Isa isa, const float* ld_direct, const float* rho, const float* lightmap, float bound,
                   float* ld, std::size_t count);
 
+// v[i] = max(v[i], 0) for `count` floats: core's clamp_lightmap (the lightmap policy,
+// reference_runtime.h), bit-identical on every ISA for finite input.
+void clamp_nonnegative(Isa isa, float* v, std::size_t count);
+
 // How far a signal moved from a reference (the skip tests of CpuLevelRuntime), over `count`
 // floats with ld >= 0: max ld, max |ld - ref|, and upper bounds on sum ld^2 and on
 // sum (ld - ref)^2 (the SIMD variants sum in float within 64-element blocks and into double
