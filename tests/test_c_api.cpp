@@ -736,6 +736,10 @@ TEST(CApi, BadCallsReturnNamedErrors) {
   const float nan_pos[3] = {0.0f, std::numeric_limits<float>::quiet_NaN(), 0.0f};
   expect_error(modrt_context_probe_sh(c, nan_pos, MODRT_PROBE_RADIANCE, sh), MODRT_ERROR_NON_FINITE,
                {"position[1]"});
+  // Any int a C caller may pass as the enum (reading it as the C++ enum was UB: fuzz_c_api, UBSan).
+  const float inside[3] = {0.5f, 0.5f, 0.5f};
+  expect_error(modrt_context_probe_sh(c, inside, modrt_probe_kind(1000), sh), MODRT_ERROR_INVALID_ARGUMENT,
+               {"unknown probe kind 1000"});
 
   // Null handles, everywhere.
   modrt_sizes s;

@@ -211,9 +211,9 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
                                                       " (call modrt_context_options_init)");
       o = *options;
     }
-    if (o.backend != MODRT_BACKEND_CPU && o.backend != MODRT_BACKEND_GLES)
+    if (const int backend = c_enum_value(o.backend); backend != MODRT_BACKEND_CPU && backend != MODRT_BACKEND_GLES)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.backend " +
-                                                    std::to_string(int(o.backend)) + " is not a backend");
+                                                    std::to_string(backend) + " is not a backend");
     if (o.threads < 1 || o.threads > 256)
       return fail(MODRT_ERROR_INVALID_ARGUMENT,
                   std::string(fn) + ": options.threads " + std::to_string(o.threads) + " is not in 1..256");
@@ -319,11 +319,11 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
     for (size_t i = 0; i < count; ++i) {
       const modrt_light& in = lights[i];
       cpu::CpuLight l;
-      // An unknown type is passed on as such: the evaluator names it.
-      l.type = cpu::LightType(std::uint8_t(in.type));
-      if (in.type != MODRT_LIGHT_POINT && in.type != MODRT_LIGHT_SPOT && in.type != MODRT_LIGHT_DIRECTIONAL)
+      const int type = c_enum_value(in.type);
+      if (type != MODRT_LIGHT_POINT && type != MODRT_LIGHT_SPOT && type != MODRT_LIGHT_DIRECTIONAL)
         return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": light " + std::to_string(i) +
-                                                      ": unknown type " + std::to_string(int(in.type)));
+                                                      ": unknown type " + std::to_string(type));
+      l.type = cpu::LightType(std::uint8_t(type));
       l.position = glm::vec3(in.position[0], in.position[1], in.position[2]);
       l.direction = glm::vec3(in.direction[0], in.direction[1], in.direction[2]);
       l.color = glm::vec3(in.color[0], in.color[1], in.color[2]);
@@ -517,9 +517,10 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
     if (!context) return null_arg(fn, "context");
     if (!position) return null_arg(fn, "position");
     if (!out) return null_arg(fn, "out");
-    if (kind != MODRT_PROBE_RADIANCE && kind != MODRT_PROBE_IRRADIANCE_OVER_PI)
+    const int kind_value = c_enum_value(kind);
+    if (kind_value != MODRT_PROBE_RADIANCE && kind_value != MODRT_PROBE_IRRADIANCE_OVER_PI)
       return fail(MODRT_ERROR_INVALID_ARGUMENT,
-                  std::string(fn) + ": unknown probe kind " + std::to_string(int(kind)));
+                  std::string(fn) + ": unknown probe kind " + std::to_string(kind_value));
     if (!context->probes_on)
       return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
                                                ": no probes: the dictionary has no volume probes or "
@@ -537,7 +538,7 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
     }
 #endif
     if (Status s = context->sampler.sample(context->probes, glm::dvec3(position[0], position[1], position[2]),
-                                           kind == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
+                                           kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
         !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     return MODRT_OK;

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstring>
 #include <exception>
 #include <new>
 #include <string>
@@ -17,6 +18,18 @@
 #include "modrt/status.h"
 
 namespace modrt::capi {
+
+// The int a C caller stored in an enum field or passed as an enum argument. C allows any int
+// there, but in C++ reading an enum object whose value is outside the enumeration's range is
+// undefined (clang's -fsanitize=enum, found by fuzz_c_api), so the object is read as the int
+// the C ABI passes it as, and only that int is compared.
+template <class CEnum>
+int c_enum_value(const CEnum& value) {
+  static_assert(sizeof(CEnum) == sizeof(int), "a C enum is passed as an int");
+  int bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  return bits;
+}
 
 // The hook as given, or malloc/free. Copied into every handle, so the caller's struct need
 // not outlive the call.
