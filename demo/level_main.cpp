@@ -148,6 +148,11 @@ int main(int argc, char** argv) {
     std::printf("wrote %s\n", save_path.c_str());
   }
 
+  if (level->blocks.empty()) {
+    // Allowed (docs/level-format.md), and nothing to light: no samples, no images.
+    std::printf("%s: 0 blocks, 0 samples: the level is empty, nothing to light or write\n", level_name.c_str());
+    return 0;
+  }
   std::vector<float> albedo, ld;
   try {
     const auto td = std::chrono::steady_clock::now();
