@@ -40,6 +40,10 @@ Result<LevelDescription> load_description(const std::string& name) {
   return precompute::load_level_json(name);
 }
 
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
 float exposure_for(const std::vector<float>& rgb) {
   std::vector<float> v(rgb);
   std::sort(v.begin(), v.end());
@@ -134,6 +138,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  // Passes that ran past 2 s say so on stderr (stdout keeps the summary line).
+  if (build_ms > 2000.0) std::fprintf(stderr, "modrt-level: level build: %.1f s\n", build_ms / 1000.0);
   if (!save_path.empty()) {
     if (Status s = save_level(save_path, level.value()); !s.ok()) {
       std::fprintf(stderr, "modrt-level: %s\n", s.to_string().c_str());
@@ -142,11 +148,26 @@ int main(int argc, char** argv) {
     std::printf("wrote %s\n", save_path.c_str());
   }
 
+  if (level->blocks.empty()) {
+    // Allowed (docs/level-format.md), and nothing to light: no samples, no images.
+    std::printf("%s: 0 blocks, 0 samples: the level is empty, nothing to light or write\n", level_name.c_str());
+    return 0;
+  }
   std::vector<float> albedo, ld;
   try {
+    const auto td = std::chrono::steady_clock::now();
     const precompute::LevelScene scene(level.value(), level->res);
     albedo = precompute::level_albedo(level.value(), desc.value());
-    ld = precompute::level_direct_light(scene, desc->lights, albedo, 16);
+    // Progress on stderr once the pass has run 2 s (a long level takes minutes).
+    bool shown = false;
+    ld = precompute::level_direct_light(scene, desc->lights, albedo, 16, [&](double fraction) {
+      const double s = seconds_since(td);
+      if (s < 2.0 && !shown) return;
+      shown = true;
+      std::fprintf(stderr, "\rmodrt-level: direct light: %5.1f %% (%.1f s)%s", 100.0 * fraction, s,
+                   fraction >= 1.0 ? "\n" : "");
+      std::fflush(stderr);
+    });
   } catch (const std::exception& e) {
     std::fprintf(stderr, "modrt-level: direct light: %s\n", e.what());
     return 1;
@@ -170,6 +191,7 @@ int main(int argc, char** argv) {
   }
   level_fill_atlas(level.value(), lightmap, atlas);
   const double frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  if (frame_ms > 2000.0) std::fprintf(stderr, "modrt-level: reference runtime: %.1f s\n", frame_ms / 1000.0);
 
   std::vector<float> shaded(lightmap.size());
   for (std::size_t i = 0; i < shaded.size(); ++i) shaded[i] = ld[i] + albedo[i] * std::max(lightmap[i], 0.0f);
@@ -187,6 +209,12 @@ int main(int argc, char** argv) {
     }
     std::printf("wrote %s\n", path.c_str());
   }
+  // Ranges of the direct and indirect light (the hostile corpus checks them: finite, bounded).
+  const auto ld_range = std::minmax_element(ld.begin(), ld.end());
+  const auto lm_range = std::minmax_element(lightmap.begin(), lightmap.end());
+  if (!ld.empty())
+    std::printf("ld in [%.6g, %.6g], indirect lightmap in [%.6g, %.6g]\n", double(*ld_range.first),
+                double(*ld_range.second), double(*lm_range.first), double(*lm_range.second));
   std::printf("%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%d bounce iterations) %.1f ms\n",
               level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms, bounces,
               frame_ms);

@@ -3,6 +3,7 @@
 // light with the scalar reference runtime and writes the block's unfolded lightmaps.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "cli_checks.h"
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/light_policy.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
@@ -71,6 +73,20 @@ int main(int argc, char** argv) {
   app.add_option("--rays", settings.rays, "bake: gather rays per sample (only when baking)");
   CLI11_PARSE(app, argc, argv);
 
+  // The light (light_policy.h), before any bake: its centre in the block grown by one block on
+  // every side ([-1, 2]^3, where the prior's lights lie), its intensity in [0, kMaxLightIntensity].
+  const glm::dvec3 light_centre(light_pos[0], light_pos[1], light_pos[2]);
+  if (!light_position_in_level(light_centre, glm::dvec3(0.0), glm::dvec3(1.0), 1.0)) {
+    std::fprintf(stderr, "modrt-relight: --light %.9g,%.9g,%.9g: outside the block grown by one block, [-1, 2]^3\n",
+                 light_pos[0], light_pos[1], light_pos[2]);
+    return 2;
+  }
+  if (!(light_intensity >= 0.0 && light_intensity <= kMaxLightIntensity)) {
+    std::fprintf(stderr, "modrt-relight: --intensity %.9g: outside [0, %.9g]\n", light_intensity,
+                 kMaxLightIntensity);
+    return 2;
+  }
+
   const int shape = shape_by_name(shape_name);
   if (shape < 0) {
     std::fprintf(stderr, "modrt-relight: --shape %s: unknown shape\n", shape_name.c_str());
@@ -115,7 +131,7 @@ int main(int argc, char** argv) {
   try {
     const precompute::BlockScene scene(op.face_mask);
     precompute::direct_light(scene, layout,
-                             {{light_pos[0], light_pos[1], light_pos[2]}, 0.05, light_intensity}, 16, irradiance);
+                             {light_centre, 0.05, light_intensity}, 16, irradiance);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "modrt-relight: direct light: %s\n", e.what());
     return 1;

@@ -23,6 +23,7 @@
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/level_geometry.h"
+#include "modrt/light_policy.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
 
@@ -101,7 +102,8 @@ std::vector<float> analytic_ld(const Level& level, std::span<const float> albedo
           const double t = std::clamp((ca - co) / std::max(ci - co, 1e-4), 0.0, 1.0);
           spot = t * t * (3.0 - 2.0 * t);
         }
-        e = l.intensity * cosine * spot / std::max({d2, double(l.radius) * l.radius, 1e-12}) / kPi;
+        const double area = block_texel_area(level.blocks[std::size_t(g.block[s])].corners, level.res);
+        e = l.intensity * cosine * spot / light_falloff_d2(d2, double(l.radius), area) / kPi;
       }
       for (int c = 0; c < 3; ++c) acc[c] += double(albedo[3 * s + std::size_t(c)]) * l.color[c] * e;
     }

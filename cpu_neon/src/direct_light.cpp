@@ -12,6 +12,7 @@
 
 #include "modrt/cube.h"
 #include "modrt/level_geometry.h"
+#include "modrt/light_policy.h"
 
 #include "simd_config.h"
 
@@ -222,7 +223,7 @@ Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, P
     cos_outer = std::cos(outer);
     inv_range = 1.0 / std::max(std::cos(inner) - cos_outer, 1e-4);
   }
-  const double r2 = positioned ? std::max(double(light.radius) * light.radius, 1e-12) : 1.0;
+  const double r2 = positioned ? light_falloff_d2(0.0, double(light.radius), 0.0) : 1.0;
   const double c_max = std::max({1.0, double(light.color.x), double(light.color.y), double(light.color.z)});
   const double scale = double(light.intensity) * c_max / (kPi * r2);
   if (!(scale <= kMaxLightScale))
@@ -245,6 +246,9 @@ Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, P
   p.r2 = float(r2);
   p.color[0] = light.color.x, p.color[1] = light.color.y, p.color[2] = light.color.z;
   p.shadows = light.shadows;
+  // Out of reach (light_policy.h): contributes 0, as on every other path.
+  p.in_reach = !positioned || light_in_reach(glm::dvec3(light.position), double(light.radius));
+  if (!p.in_reach) p.k = 0.0f;
   out = p;
   return Status::success();
 }
@@ -313,6 +317,7 @@ Result<CpuDirectLight> CpuDirectLight::create(const Level& level, std::span<cons
     glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (const glm::dvec3& c : b.corners) lo = glm::min(lo, c), hi = glm::max(hi, c);
     size_sum += (hi.x - lo.x + hi.y - lo.y + hi.z - lo.z) / 3.0;
+    d.block_footprint_d2_.push_back(texel_footprint_d2(block_texel_area(b.corners, level.res)));
     for (int a = 0; a < 3; ++a) coord_max = std::max({coord_max, std::abs(lo[a]), std::abs(hi[a])});
   }
   d.h_ = d.block_count_ ? size_sum / double(d.block_count_) : 1.0;
@@ -702,8 +707,14 @@ void CpuDirectLight::update_bounds(std::size_t l) {
     culled_[l] = 0;
     return;
   }
+  if (!prepared_[l].in_reach) {
+    std::fill(bound, bound + block_count_, 0.0);
+    std::fill(reach, reach + block_count_, std::uint8_t(0));
+    culled_[l] = std::uint32_t(block_count_);
+    return;
+  }
   const glm::dvec3 L(light.position);
-  const double r2 = std::max(double(light.radius) * light.radius, 1e-12);
+  const double r2_light = light_falloff_d2(0.0, double(light.radius), 0.0);
   const double margin = margin_ + kPlaneMargin * std::max({std::abs(L.x), std::abs(L.y), std::abs(L.z)});
   const bool spot = light.type == LightType::spot;
   glm::dvec3 axis(0.0);
@@ -719,6 +730,7 @@ void CpuDirectLight::update_bounds(std::size_t l) {
   const bool walked = options_.shadows && light.shadows && portal_visibility(l, L);
   const bool portals = options_.influence && walked;
   for (std::size_t b = 0; b < block_count_; ++b) {
+    const double r2 = std::max(r2_light, block_footprint_d2_[b]);
     double g = 0.0;
     for (std::uint32_t fi = block_face_begin_[b]; fi < block_face_begin_[b + 1]; ++fi) {
       const Face& f = faces_[fi];
@@ -851,7 +863,9 @@ void CpuDirectLight::evaluate_block(std::size_t b, std::span<float> ld) {
   for (std::size_t l = 0; l < light_count_; ++l) {
     if (!reach_[l * block_count_ + b]) continue;
     ++stats_.pairs_evaluated;
-    const Prepared& p = prepared_[l];
+    // The falloff floor of this block's texels (light_policy.h light_falloff_d2).
+    Prepared p = prepared_[l];
+    if (p.pw != 0.0f) p.r2 = std::max(p.r2, float(block_footprint_d2_[b]));
     DirectLightKernels::run(isa_, p, px_.data() + off, py_.data() + off, pz_.data() + off, nx_.data() + off,
                             ny_.data() + off, nz_.data() + off, n, e);
     if (options_.shadows && p.shadows && frustum_exact_[l]) {

@@ -11,6 +11,7 @@
 
 #include "modrt/clutter_mesh.h"
 #include "modrt/level_geometry.h"
+#include "modrt/light_policy.h"
 #include "modrt/platform/gl_program.h"
 #include "modrt/reference_runtime.h"
 
@@ -206,6 +207,16 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   gl.glUseProgram(m.ld_program);
   platform::assign_sampler_units(gl, m.ld_program,
                                  {"u_shadow", "u_sample_position", "u_sample_normal", "u_sample_albedo"});
+  {
+    // The footprint floor of the ld pass (light_policy.h), from the smallest block texels: a
+    // lower bound on every block's own floor, equal to it in an unwarped level.
+    double floor_d2 = 0.0;
+    for (std::size_t b = 0; b < level.blocks.size(); ++b) {
+      const double d2 = texel_footprint_d2(block_texel_area(level.blocks[b].corners, level.res));
+      floor_d2 = b == 0 ? d2 : std::min(floor_d2, d2);
+    }
+    gl.glUniform1f(m.loc(m.ld_program, "u_falloff_floor_d2"), float(floor_d2));
+  }
   gl.glUseProgram(m.scene_program);
   platform::assign_sampler_units(gl, m.scene_program,
                                  {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",

@@ -13,7 +13,9 @@
 namespace modrt::precompute {
 
 void sphere_light_points(const glm::dvec3& center, double radius, int samples, std::vector<glm::dvec3>& out) {
-  if (radius > 0.0 && samples > 1)
+  if (!light_in_reach(center, radius))
+    out.clear();
+  else if (radius > 0.0 && samples > 1)
     sphere_surface_points(center, radius, samples, out);
   else
     out.assign(1, center);
@@ -25,9 +27,10 @@ void direct_light(const BlockScene& scene, const SampleLayout& layout, const Sph
   sphere_light_points(light.center, light.radius, samples, points);
   auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
   const int n = layout.sample_count();
+  const double texel_area = layout.res > 0 ? 1.0 / (double(layout.res) * layout.res) : 0.0;
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& range) {
     for (int s = range.begin(); s != range.end(); ++s)
-      out[std::size_t(s)] = sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, occluded);
+      out[std::size_t(s)] = sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, texel_area, occluded);
   });
 }
 

@@ -1131,6 +1131,7 @@ std::vector<float> clutter_direct_light(const LevelScene& scene, std::span<const
   auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
   for (const ClutterObject& object : scene.clutter()) {
     const ClutterTexelGeometry cg = clutter_texel_geometry(object);
+    const std::vector<double> texel_area = clutter_texel_area(object);
     const std::size_t base = out.size();
     out.resize(base + 3 * cg.position.size(), 0.0f);
     for (const LightDescription& light : lights) {
@@ -1143,7 +1144,7 @@ std::vector<float> clutter_direct_light(const LevelScene& scene, std::span<const
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
               // Off the face: the clutter is two-sided, its own face must not shadow it.
               const glm::dvec3 x = cg.position[i] + 1e-5 * cg.normal[i];
-              const double E_over_pi = sphere_light_E_over_pi(x, cg.normal[i], sphere, points, occluded);
+              const double E_over_pi = sphere_light_E_over_pi(x, cg.normal[i], sphere, points, texel_area[i], occluded);
               if (E_over_pi <= 0.0) continue;
               for (int c = 0; c < 3; ++c)
                 out[base + 3 * i + std::size_t(c)] += float(object.albedo[c] * light.color[c] * E_over_pi);

@@ -14,9 +14,11 @@
 #include <utility>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <nlohmann/json.hpp>
 
 #include "modrt/file_io.h"
+#include "modrt/light_policy.h"
 
 namespace modrt::precompute {
 namespace {
@@ -191,7 +193,8 @@ class Parser {
   // RGB with each channel in [lo, hi].
   glm::dvec3 rgb(const json& j, const std::string& path, double hi) const {
     array(j, path, 3, "numbers [r, g, b]");
-    const char* range = hi == 1.0 ? "[0, 1]" : "[0, inf)";
+    const std::string range_text = "[0, " + fmt_double(hi) + "]";
+    const char* range = range_text.c_str();
     glm::dvec3 c;
     for (int ch = 0; ch < 3; ++ch) c[ch] = number_in(j[std::size_t(ch)], index_path(path, std::size_t(ch)), 0.0, hi, range);
     return c;
@@ -266,16 +269,40 @@ class Parser {
     return b;
   }
 
-  LightDescription light(const json& j, const std::string& path) const {
+  // A light (light_policy.h): the centre within the level's box [lo, hi] grown by its largest
+  // extent (light_position_in_level; `empty`: no blocks, only the traceable bound), the radius at
+  // most that growth, intensity x max(1, colour) <= kMaxLightIntensity.
+  LightDescription light(const json& j, const std::string& path, const glm::dvec3& lo, const glm::dvec3& hi,
+                         double cell_size, bool empty) const {
     expect(j, path, json::value_t::object, "an object (a light)");
     check_fields(j, path, {"position", "radius", "color", "intensity"});
     LightDescription l;
-    l.position = vec3(require(j, path, "position"), key_path(path, "position"));
-    const double inf = std::numeric_limits<double>::infinity();
-    if (const json* v = find(j, "radius")) l.radius = number_in(*v, key_path(path, "radius"), 0.0, inf, "[0, inf)");
-    if (const json* v = find(j, "color")) l.color = rgb(*v, key_path(path, "color"), inf);
+    const std::string position_path = key_path(path, "position");
+    l.position = vec3(require(j, path, "position"), position_path);
+    const double grow = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, cell_size});
+    auto text = [](const glm::dvec3& v) {
+      return "[" + fmt_double(v.x) + ", " + fmt_double(v.y) + ", " + fmt_double(v.z) + "]";
+    };
+    if (empty ? !traceable(l.position) : !light_position_in_level(l.position, lo, hi, cell_size))
+      fail(ErrorCode::invalid_argument, position_path,
+           text(l.position) + " is outside " +
+               (empty ? "[-" + fmt_double(kMaxTraceCoordinate) + ", " + fmt_double(kMaxTraceCoordinate) + "]^3"
+                      : "the level's box " + text(lo) + " - " + text(hi) + " grown by " + fmt_double(grow)));
+    const double max_radius = empty ? kMaxTraceCoordinate : grow;
+    if (const json* v = find(j, "radius"))
+      l.radius = number_in(*v, key_path(path, "radius"), 0.0, max_radius,
+                           ("[0, " + fmt_double(max_radius) + "]").c_str());
+    if (const json* v = find(j, "color")) l.color = rgb(*v, key_path(path, "color"), kMaxLightIntensity);
+    const std::string range = "[0, " + fmt_double(kMaxLightIntensity) + "]";
     if (const json* v = find(j, "intensity"))
-      l.intensity = number_in(*v, key_path(path, "intensity"), 0.0, inf, "[0, inf)");
+      l.intensity = number_in(*v, key_path(path, "intensity"), 0.0, kMaxLightIntensity, range.c_str());
+    const double power = l.intensity * std::max({1.0, l.color.x, l.color.y, l.color.z});
+    if (!(power <= kMaxLightIntensity))
+      fail(ErrorCode::invalid_argument, key_path(path, "intensity"),
+           "intensity x max(1, color) = " + fmt_double(power) + " exceeds " + fmt_double(kMaxLightIntensity));
+    if (!light_in_reach(l.position, l.radius))
+      fail(ErrorCode::invalid_argument, key_path(path, "radius"),
+           fmt_double(l.radius) + " puts the sphere beyond +-" + fmt_double(kMaxTraceCoordinate));
     return l;
   }
 
@@ -308,7 +335,20 @@ class Parser {
       level.blocks.push_back(block(blocks[i], index_path("blocks", i), default_albedo));
     if (const json* lights = find(root, "lights")) {
       array(*lights, "lights", 0, "");
-      for (std::size_t i = 0; i < lights->size(); ++i) level.lights.push_back(light((*lights)[i], index_path("lights", i)));
+      // The level's box: every block's cell (x cell_size) or warp corners.
+      glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+      for (const BlockDescription& b : level.blocks) {
+        if (b.warped) {
+          for (const glm::dvec3& c : b.corners) lo = glm::min(lo, c), hi = glm::max(hi, c);
+        } else {
+          lo = glm::min(lo, glm::dvec3(b.cell) * level.cell_size);
+          hi = glm::max(hi, (glm::dvec3(b.cell) + 1.0) * level.cell_size);
+        }
+      }
+      const bool empty = level.blocks.empty();
+      if (empty) lo = hi = glm::dvec3(0.0);
+      for (std::size_t i = 0; i < lights->size(); ++i)
+        level.lights.push_back(light((*lights)[i], index_path("lights", i), lo, hi, level.cell_size, empty));
     }
     return level;
   }

@@ -1,13 +1,18 @@
 #include "modrt/precompute/level_scene.h"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <mutex>
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
 #include <embree3/rtcore.h>
 #include "embree_rays.h"
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -18,6 +23,12 @@
 #include "modrt/precompute/sampling.h"
 
 namespace modrt::precompute {
+
+namespace {
+struct RunBox {
+  glm::dvec3 lo, hi;
+};
+}  // namespace
 
 struct LevelScene::Impl {
   RTCDevice device = nullptr;
@@ -35,6 +46,11 @@ struct LevelScene::Impl {
   std::vector<Cell> clutter_mesh_cells;
   std::vector<glm::dvec3> clutter_mesh_normals;
   std::vector<std::size_t> clutter_mesh_first;
+  // Runs (occluded_from): maximal straight chains of box-shaped blocks joined through missing
+  // faces along one world axis; their union is an axis-aligned box with no wall inside it.
+  // Per block and world axis, its run, or -1 (a warped block).
+  std::vector<RunBox> runs;
+  std::vector<std::array<int, 3>> block_runs;
 };
 
 namespace {
@@ -70,6 +86,60 @@ unsigned attach_triangles(RTCDevice device, RTCScene scene, const std::vector<fl
   const unsigned id = rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
   return id;
+}
+
+// An unwarped block: its corners are those of the box [corners[0], corners[7]].
+bool block_box(const LevelBlock& b, glm::dvec3& lo, glm::dvec3& hi) {
+  lo = b.corners[0];
+  hi = b.corners[7];
+  if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z)) return false;
+  for (int k = 0; k < 8; ++k)
+    if (b.corners[std::size_t(k)] != glm::dvec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z))
+      return false;
+  return true;
+}
+
+// The runs of Impl: along each world axis, chains of box blocks whose shared face is missing
+// and whose boxes meet exactly (same cross-section).
+void build_runs(const Level& level, std::vector<RunBox>& runs, std::vector<std::array<int, 3>>& block_runs) {
+  const std::size_t n = level.blocks.size();
+  std::vector<RunBox> box(n);
+  std::vector<std::uint8_t> is_box(n);
+  // Per block and world face: the neighbour through it when the face is missing, else -1.
+  std::vector<std::array<int, kFaceCount>> open(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const LevelBlock& b = level.blocks[i];
+    is_box[i] = block_box(b, box[i].lo, box[i].hi);
+    const FaceMask mask = dictionary_shape_mask(b.shape);
+    for (int f = 0; f < kFaceCount; ++f)
+      open[i][std::size_t(rotate_face(f, b.quarter_turns))] = face_present(mask, f) ? -1 : b.neighbour[std::size_t(f)];
+  }
+  block_runs.assign(n, {-1, -1, -1});
+  // The box block through world face w of block i that continues its run, or -1.
+  auto next = [&](std::size_t i, int w) -> int {
+    const int nb = open[i][std::size_t(w)];
+    if (nb < 0 || std::size_t(nb) >= n || !is_box[std::size_t(nb)]) return -1;
+    const int a = w / 2;
+    const RunBox &p = box[i], &q = box[std::size_t(nb)];
+    for (int c = 0; c < 3; ++c)
+      if (c != a && (p.lo[c] != q.lo[c] || p.hi[c] != q.hi[c])) return -1;
+    const bool meet = (w & 1) ? q.lo[a] == p.hi[a] : q.hi[a] == p.lo[a];
+    return meet && open[std::size_t(nb)][std::size_t(w ^ 1)] == int(i) ? nb : -1;
+  };
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!is_box[i] || block_runs[i][std::size_t(a)] >= 0) continue;
+      std::size_t start = i;  // walk to the run's -a end (coordinates strictly decrease: no cycle)
+      for (int k; (k = next(start, 2 * a)) >= 0;) start = std::size_t(k);
+      const int id = int(runs.size());
+      RunBox run = box[start];
+      for (int k = int(start); k >= 0; k = next(std::size_t(k), 2 * a + 1)) {
+        block_runs[std::size_t(k)][std::size_t(a)] = id;
+        run.lo = glm::min(run.lo, box[std::size_t(k)].lo);
+        run.hi = glm::max(run.hi, box[std::size_t(k)].hi);
+      }
+      runs.push_back(run);
+    }
 }
 
 }  // namespace
@@ -112,7 +182,9 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
         }
     }
   }
-  attach_triangles(impl_->device, impl_->scene, vertices, indices, front_faces_only, "level geometry");
+  // An empty level (allowed, docs/level-format.md) has no walls: an empty scene, every ray misses.
+  if (!indices.empty())
+    attach_triangles(impl_->device, impl_->scene, vertices, indices, front_faces_only, "level geometry");
   std::vector<float> mv;
   std::vector<unsigned> mi;
   impl_->clutter_mesh_first.assign(clutter_.size(), 0);
@@ -153,6 +225,7 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
     impl_->clutter_geometry =
         attach_triangles(impl_->device, impl_->scene, cv, ci, nullptr, "clutter geometry");
   }
+  if (clutter_.empty()) build_runs(level, impl_->runs, impl_->block_runs);
   rtcCommitScene(impl_->scene);
   if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw std::runtime_error("Embree: level scene build failed");
 }
@@ -178,11 +251,12 @@ void LevelScene::intersect_many(const glm::dvec3& origin, std::span<const glm::d
     alignas(32) int valid[W];
     for (std::size_t k = 0; k < W; ++k) {
       const std::size_t i = base + k;
-      valid[k] = i < dirs.size() ? -1 : 0;
-      const glm::dvec3 d = i < dirs.size() ? dirs[i] : glm::dvec3(0, 0, 1);
-      rh.ray.org_x[k] = float(origin.x);
-      rh.ray.org_y[k] = float(origin.y);
-      rh.ray.org_z[k] = float(origin.z);
+      // Padding lanes and rays that cannot be traced (embree_rays.h) stay invalid: a miss.
+      valid[k] = i < dirs.size() && traceable_ray(origin, dirs[i], t_near, 1e30) ? -1 : 0;
+      const glm::dvec3 d = valid[k] ? dirs[i] : glm::dvec3(0, 0, 1), o = valid[k] ? origin : glm::dvec3(0.0);
+      rh.ray.org_x[k] = float(o.x);
+      rh.ray.org_y[k] = float(o.y);
+      rh.ray.org_z[k] = float(o.z);
       rh.ray.dir_x[k] = float(d.x);
       rh.ray.dir_y[k] = float(d.y);
       rh.ray.dir_z[k] = float(d.z);
@@ -252,6 +326,26 @@ bool LevelScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, do
   return embree_occluded(impl_->scene, origin, target, t_near);
 }
 
+bool LevelScene::occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
+  // Inside one run's box (convex, no wall inside), a segment from a point of the closed box to a
+  // point strictly inside it crosses no wall: no ray. The margins (1e-9 of the coordinates) keep
+  // targets on or near the box's boundary for Embree.
+  if (block >= 0 && std::size_t(block) < impl_->block_runs.size() && traceable(target) && traceable(origin)) {
+    for (const int r : impl_->block_runs[std::size_t(block)]) {
+      if (r < 0) continue;
+      const RunBox& box = impl_->runs[std::size_t(r)];
+      bool inside = true;
+      for (int a = 0; a < 3 && inside; ++a) {
+        const double margin = 1e-9 * (std::abs(box.lo[a]) + std::abs(box.hi[a]) + (box.hi[a] - box.lo[a]));
+        inside = target[a] > box.lo[a] + margin && target[a] < box.hi[a] - margin &&
+                 origin[a] >= box.lo[a] - margin && origin[a] <= box.hi[a] + margin;
+      }
+      if (inside) return false;
+    }
+  }
+  return embree_occluded(impl_->scene, origin, target, t_near);
+}
+
 std::vector<float> level_albedo(const Level& level, const LevelDescription& description) {
   std::vector<float> albedo(3 * std::size_t(level.sample_count));
   for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
@@ -266,25 +360,49 @@ std::vector<float> level_albedo(const Level& level, const LevelDescription& desc
   return albedo;
 }
 
+std::vector<double> level_texel_areas(const Level& level) {
+  std::vector<double> area;
+  area.reserve(level.blocks.size());
+  for (const LevelBlock& b : level.blocks) area.push_back(block_texel_area(b.corners, level.res));
+  return area;
+}
+
 std::vector<float> level_direct_light(const LevelScene& scene, std::span<const LightDescription> lights,
-                                      std::span<const float> albedo, int light_samples) {
+                                      std::span<const float> albedo, int light_samples,
+                                      const std::function<void(double)>& progress) {
   const LevelSampleGeometry& g = scene.samples();
   const std::size_t n = g.position.size();
   std::vector<float> ld(3 * n, 0.0f);
-  auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
+  const std::vector<double> texel_area = level_texel_areas(scene.level());
+  const double total = double(n) * double(lights.size());
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  auto last_report = std::chrono::steady_clock::now();
   for (const LightDescription& light : lights) {
     const SphereLight sphere{light.position, light.radius, light.intensity};
     std::vector<glm::dvec3> points;
     sphere_light_points(light.position, light.radius, light_samples, points);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t s = range.begin(); s != range.end(); ++s) {
-        const double E_over_pi = sphere_light_E_over_pi(g.position[s], g.normal[s], sphere, points, occluded);
+        const int block = g.block[s];
+        auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded_from(block, a, b); };
+        const double E_over_pi = sphere_light_E_over_pi(g.position[s], g.normal[s], sphere, points,
+                                                         texel_area[std::size_t(g.block[s])], occluded);
         if (E_over_pi <= 0.0) continue;
         for (int c = 0; c < 3; ++c)
           ld[3 * s + std::size_t(c)] += float(double(albedo[3 * s + std::size_t(c)]) * light.color[c] * E_over_pi);
       }
+      const std::size_t now_done = done += range.size();
+      if (!progress) return;
+      const std::unique_lock lock(progress_mutex, std::try_to_lock);
+      const auto now = std::chrono::steady_clock::now();
+      if (lock.owns_lock() && now - last_report >= std::chrono::milliseconds(500)) {
+        last_report = now;
+        progress(double(now_done) / std::max(total, 1.0));
+      }
     });
   }
+  if (progress) progress(1.0);
   return ld;
 }
 

@@ -20,14 +20,17 @@ DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescrip
     sphere_light_points(description.lights[i].position, description.lights[i].radius, light_samples,
                         points[i]);
   const SurfaceAlbedo albedo = level_surface_albedo(scene, description);
-  return
-      [&scene, &description, points, albedo](const LevelHit& hit, const glm::dvec3& x, const glm::dvec3& n) {
+  // The texels' footprint of the hit's block bounds the falloff as in ld (light_policy.h).
+  const std::vector<double> texel_area = level_texel_areas(scene.level());
+  return [&scene, &description, points, albedo, texel_area](const LevelHit& hit, const glm::dvec3& x,
+                                                            const glm::dvec3& n) {
         auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
+        const double area = hit.block >= 0 ? texel_area[std::size_t(hit.block)] : 0.0;
         glm::dvec3 sum(0.0);
         for (std::size_t i = 0; i < description.lights.size(); ++i) {
           const LightDescription& l = description.lights[i];
           sum += l.color * sphere_light_E_over_pi(x, n, SphereLight{l.position, l.radius, l.intensity},
-                                                  points[i], occluded);
+                                                  points[i], area, occluded);
         }
         return albedo(hit) * sum;
       };

@@ -7,6 +7,10 @@ uniform float u_light_radius;
 uniform vec3 u_spot_direction;  // spot lights: unit axis
 uniform vec3 u_spot_cos;        // (cos outer cone, cos inner cone, 0); outer -2 for a point light
 uniform highp samplerCubeShadow u_shadow;
+// The ld pass: the texel-footprint floor of the inverse-square falloff, A / (2 pi) for the
+// level's smallest block texel area A (modrt/light_policy.h: light_falloff_d2,
+// texel_footprint_d2); the camera image shades points, not texels: 0.
+uniform float u_falloff_floor_d2;
 
 // Cube-map depth of a point at offset v from the light: the perspective depth of the face
 // it projects to (its major axis), as the shadow pass wrote it.
@@ -28,5 +32,6 @@ vec3 direct_e_over_pi(vec3 position, vec3 normal) {
   // Normal offset against acne, scaled with distance (texel footprint grows with it).
   vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
   float visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
-  return u_light_rgb * (cone * visible * cosine / max(d2, u_light_radius * u_light_radius) / 3.14159265);
+  float falloff = max(max(d2, u_light_radius * u_light_radius), u_falloff_floor_d2);
+  return u_light_rgb * (cone * visible * cosine / falloff / 3.14159265);
 }

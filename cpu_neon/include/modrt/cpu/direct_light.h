@@ -4,8 +4,12 @@
 //
 // Light models (E is irradiance at a sample x with unit inward normal n; w the unit direction
 // and d the distance from x to the light; V visibility of the light's centre, 1 without shadows):
-//   point        E = I V max(0, n.w) / max(d^2, r^2, 1e-12)       (precompute's SphereLight with
-//                one visibility sample: r only bounds the 1/d^2 peak; it casts hard shadows)
+//   point        E = I V max(0, n.w) / max(d^2, r^2, A_b / (2 pi), 1e-12)  (precompute's
+//                SphereLight with one visibility sample: r only bounds the 1/d^2 peak; it casts
+//                hard shadows). A_b is the footprint area of the texels of the sample's block b
+//                (modrt/light_policy.h: light_falloff_d2, block_texel_area): the bound a texel's
+//                footprint puts on a point light's irradiance. A point or spot light whose
+//                sphere is out of reach (light_in_reach: a coordinate beyond 1e15) gives 0.
 //   spot         the point model times s(cos a), a the angle between the spot axis and -w,
 //                s = smoothstep from cos(outer) (0) to cos(inner) (1): t = (cos a - cos outer) /
 //                max(cos inner - cos outer, 1e-4), s = t^2 (3 - 2t), t clamped to [0, 1]
@@ -29,7 +33,8 @@
 //   margin; a bent face always counts as facing it) or, for a spot, when every face's bounding
 //   sphere lies outside the outer cone (angle between the axis and the sphere's centre minus the
 //   sphere's half-angle > outer angle, with a margin);
-//   else max over facing faces of s(bound on cos a) / (pi max(dist(light, face box)^2, r^2, 1e-12)).
+//   else max over facing faces of s(bound on cos a) / (pi max(dist(light, face box)^2, r^2,
+//   A_b / (2 pi), 1e-12)); 0 for a light out of reach.
 // With shadows, in a closed level (every missing face joins two blocks), g is also 0 for blocks
 // no straight line from the light reaches through a chain of portals (connected missing faces):
 // a portal walk from the light's block clips each portal by the frustum of the portals before
@@ -165,6 +170,7 @@ class CpuDirectLight {
     float cos_outer = -2.0f, inv_range = 1.0f, k = 0.0f, r2 = 1e-12f;
     float color[3] = {0, 0, 0};
     bool shadows = false;
+    bool in_reach = true;  // light_in_reach (a directional light always is)
   };
   static Status prepare_light(std::size_t index, const CpuLight& light, Prepared& out);
   void update_bounds(std::size_t light);
@@ -180,6 +186,8 @@ class CpuDirectLight {
   std::size_t block_count_ = 0, sample_count_ = 0, max_block_samples_ = 0;
   double h_ = 1.0;     // mean block size
   double margin_ = 0;  // rounding margin of the facing test (world units)
+  // Per block: the footprint floor of the falloff, A_b / (2 pi) (light_policy.h).
+  std::vector<double> block_footprint_d2_;
   // Per block: sample range; per block and channel: max albedo.
   std::vector<std::uint32_t> block_offset_, block_samples_;
   std::vector<float> block_albedo_max_;

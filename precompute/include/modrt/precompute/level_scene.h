@@ -3,6 +3,7 @@
 // exact one-bounce indirect light F_level ld (SPEC §7: no low rank, no modularity).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -38,6 +39,11 @@ class LevelScene {
 
   LevelHit intersect(const glm::dvec3& origin, const glm::dvec3& dir, double t_near = 1e-6) const;
   bool occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near = 1e-6) const;
+  // occluded() for an origin on or in block `block`, the same answer, without a ray when the
+  // segment stays inside one straight run of unwarped blocks joined through missing faces (a
+  // box with no wall inside; a level without clutter only). In a long straight corridor every
+  // shadow ray would otherwise walk the BVH along the whole corridor (issue 18, item 10).
+  bool occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target, double t_near = 1e-6) const;
   // intersect() for many directions from one origin, traced as 8-wide coherent packets
   // (the gathers of DRT trace 1024 rays per texel); out[i] is the hit of dirs[i].
   void intersect_many(const glm::dvec3& origin, std::span<const glm::dvec3> dirs, std::span<LevelHit> out,
@@ -58,10 +64,17 @@ class LevelScene {
   std::vector<ClutterObject> clutter_;
 };
 
+// Per block, the footprint area of its texels (light_policy.h block_texel_area): the floor of
+// the inverse-square falloff of lights near them.
+std::vector<double> level_texel_areas(const Level& level);
+
 // ld = albedo * E / pi at every level sample for the given lights (RGB, 3N), with shadow
 // rays against the whole level (`light_samples` points per sphere light).
+// `progress`, when set, is called with the fraction done (0 to 1) at most once every 0.5 s,
+// from whichever thread finished the work (calls are serialised), and once with 1 at the end.
 std::vector<float> level_direct_light(const LevelScene& scene, std::span<const LightDescription> lights,
-                                      std::span<const float> albedo, int light_samples);
+                                      std::span<const float> albedo, int light_samples,
+                                      const std::function<void(double)>& progress = {});
 
 // E_ind / pi = F_level ld at every level sample by `rays` cosine-weighted stratified gather
 // rays; hits sample ld bilinearly on the hit face's texel grid (RGB, 3N).
