@@ -1043,15 +1043,17 @@ Synthetic with_lamp(const std::string& lamp_fields, const std::string& light = R
 
 TEST(GltfScene, LightsFarOutsideTheLevelOrTooBrightAreRefused) {
   // A lamp at x = 1e19 in a clutter scene aborted Embree in the DRT clutter direct light. The
-  // contract: a light lies within 1e6 level sizes of the level's bounding box (here the unit
-  // cell, size sqrt(3)).
+  // contract (light_position_in_level, light_policy.h): a light lies in the level's bounding box
+  // (here the unit cell) grown by its largest extent (1) on every side.
   expect_error(load_text("far_lamp.gltf", with_lamp(R"("translation":[1e19,0.5,0.5],)").text()),
                "far_lamp.gltf",
-               {"node 2 ('lamp')", "light 0 ('bulb')", "(1e+19, 0.5, 0.5)",
-                "1e+06 x the level's size (1.73205)", "within 1.73205e+06"});
+               {"node 2 ('lamp')", "light 0 ('bulb')", "(1e+19, 0.5, 0.5)", "outside the level's box",
+                "grown by its largest extent 1"});
+  expect_error(load_text("out_lamp.gltf", with_lamp(R"("translation":[2.1,0.5,0.5],)").text()),
+               "out_lamp.gltf", {"(2.1, 0.5, 0.5)", "outside the level's box"});
   // Just inside the bound it loads.
   const Result<DemoScene> near =
-      load_text("near_lamp.gltf", with_lamp(R"("translation":[1.7e6,0.5,0.5],)").text());
+      load_text("near_lamp.gltf", with_lamp(R"("translation":[1.9,0.5,0.5],)").text());
   ASSERT_TRUE(near.ok()) << near.status().to_string();
   EXPECT_EQ(near->lights.size(), 1u);
   // A world position that overflows double through the node hierarchy (finite numbers each).
@@ -1060,11 +1062,11 @@ TEST(GltfScene, LightsFarOutsideTheLevelOrTooBrightAreRefused) {
   inf.nodes +=
       R"(,{"name":"cap","translation":[1e300,0,0],"extensions":{"KHR_lights_punctual":{"light":0}}}])";
   expect_error(load_text("inf_lamp.gltf", inf.text()), "inf_lamp.gltf", {"node 3 ('cap')", "not finite"});
-  // 1e300 cd is finite in double, Inf in float: refused by the light-value bound (I / r^2 at
-  // the radius within kMaxLightValue), not turned into an Inf image.
+  // 1e300 cd is finite in double, Inf in float: refused by the intensity bound of every
+  // authored light (kMaxLightIntensity, 1e18 W/sr), not turned into an Inf image.
   expect_error(
       load_text("bright_lamp.gltf", with_lamp("", R"("intensity":1e300)").text()), "bright_lamp.gltf",
-      {"node 2 ('lamp')", "light 0 ('bulb')", "intensity 1e+300 cd", "more than the limit of 2.5e+27 W/sr"});
+      {"node 2 ('lamp')", "light 0 ('bulb')", "intensity 1e+300 cd", "more than the limit of 1e+18 W/sr"});
   expect_error(load_text("bright_colour.gltf", with_lamp("", R"("intensity":1,"color":[1e300,1,1])").text()),
                "bright_colour.gltf", {"colour 1e+300", "limit"});
   // 1e20 cd (1.5e17 W/sr) is a legal if blinding light: it loads (the frame then needs float32

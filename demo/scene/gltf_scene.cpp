@@ -29,6 +29,7 @@
 
 #include "default_scene.h"
 #include "modrt/file_io.h"
+#include "modrt/light_policy.h"
 #include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/level_json.h"
 #include "modrt/reference_runtime.h"
@@ -69,10 +70,11 @@ std::string short_double(double v) {
   return buf;
 }
 
-// The brightest light taken (W/sr in its brightest channel): shading clamps the distance to a
-// light at its radius, so its irradiance there, I / r^2, must stay within the runtimes' light
-// limit (kMaxLightValue, 1e30); 2.5e27 W/sr (1.7e30 cd) at the default radius of 0.05.
-double max_light_intensity(double radius) { return double(kMaxLightValue) * radius * radius; }
+// The brightest light taken: intensity (W/sr) x max(1, brightest colour channel) within
+// kMaxLightIntensity, the bound every parser of authored lights applies (light_policy.h).
+bool light_intensity_allowed(double intensity, const glm::dvec3& color) {
+  return intensity * std::max({1.0, color.r, color.g, color.b}) <= kMaxLightIntensity;
+}
 
 // tinygltf's warn/err texts are newline-separated sentences.
 std::vector<std::string> split_lines(const std::string& text) {
@@ -1337,39 +1339,34 @@ void Loader::add_light(const NodeInstance& inst, int light) {
     d.outer_cone = float(outer);
   }
   // In double: a colour or intensity beyond float's range must be refused, not become Inf.
-  const double peak =
-      l.intensity * double(options_.light_intensity_scale) * std::max({color.r, color.g, color.b});
+  const double watts_per_sr = l.intensity * double(options_.light_intensity_scale);
   d.radius = options_.light_radius;
-  const double limit = max_light_intensity(d.radius);
-  if (peak > limit)
+  if (!light_intensity_allowed(watts_per_sr, glm::dvec3(color)))
     fail(ErrorCode::invalid_argument,
-         node_label(node, inst.node) + ": " + what + ": intensity " + short_double(l.intensity) +
-             " cd x colour " + short_double(std::max({color.r, color.g, color.b})) + " is " +
-             short_double(peak) + " W/sr, more than the limit of " + short_double(limit) +
-             " W/sr (its irradiance at the light's radius " + short_double(d.radius) +
-             " would exceed the runtime's light limit " + short_double(double(kMaxLightValue)) + ")");
+         node_label(node, inst.node) + ": " + what + ": intensity " + short_double(l.intensity) + " cd (" +
+             short_double(watts_per_sr) + " W/sr) x max(1, colour " +
+             short_double(std::max({color.r, color.g, color.b})) + ") is more than the limit of " +
+             short_double(kMaxLightIntensity) + " W/sr (kMaxLightIntensity, light_policy.h)");
   d.color = glm::vec3(color);
   d.intensity = float(l.intensity * double(options_.light_intensity_scale));
   scene_.lights.push_back(d);
   light_sources_.push_back({node_label(node, inst.node) + ": " + what, position});
 }
 
-// Lights whose position is far outside the level (kMaxLightDistanceInLevelSizes).
+// Lights outside the level's bounding box grown by its largest extent (light_position_in_level,
+// the contract of every authored light): they light nothing a closed level shows, and positions
+// near float's range broke the ray tracer (a lamp at x = 1e19 aborted Embree, issue 18).
 void Loader::check_light_positions() const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
   for (const BlockDescription& b : scene_.level.blocks)
     for (const glm::dvec3& c : block_corners(scene_.level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
-  const double size = glm::length(hi - lo), reach = kMaxLightDistanceInLevelSizes * size;
-  for (const LightSource& l : light_sources_) {
-    const double distance =
-        glm::length(glm::max(glm::max(lo - l.position, l.position - hi), glm::dvec3(0.0)));
-    if (!(distance <= reach))
+  for (const LightSource& l : light_sources_)
+    if (!light_position_in_level(l.position, lo, hi, scene_.level.cell_size))
       fail(ErrorCode::invalid_argument,
-           l.what + ": the light at " + short_vec3(l.position) + " is " + short_double(distance) +
-               " from the level's bounding box, more than " + short_double(kMaxLightDistanceInLevelSizes) +
-               " x the level's size (" + short_double(size) + "); a light must lie within " +
-               short_double(reach) + " of the level");
-  }
+           l.what + ": the light at " + short_vec3(l.position) + " is outside the level's box " +
+               short_vec3(lo) + " - " + short_vec3(hi) + " grown by its largest extent " +
+               short_double(std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, scene_.level.cell_size})) +
+               " (light_position_in_level, light_policy.h)");
 }
 
 // A scene without a light (none in the glTF file or its level, or only directional ones,
@@ -1755,11 +1752,10 @@ DemoScene Loader::load(const std::string& path) {
       const std::string what = "level light " + num(i);
       DemoLight d;
       d.radius = l.radius > 0.0 ? float(l.radius) : options_.light_radius;
-      const double peak = l.intensity * std::max({l.color.r, l.color.g, l.color.b});
-      if (!(peak <= max_light_intensity(d.radius)))
-        fail(ErrorCode::invalid_argument, what + ": intensity x colour " + short_double(peak) +
-                                              " W/sr is more than the limit of " +
-                                              short_double(max_light_intensity(d.radius)) + " W/sr");
+      if (!light_intensity_allowed(l.intensity, l.color))
+        fail(ErrorCode::invalid_argument, what + ": intensity " + short_double(l.intensity) +
+                                              " W/sr x max(1, colour) is more than the limit of " +
+                                              short_double(kMaxLightIntensity) + " W/sr (light_policy.h)");
       d.path = {glm::vec3(l.position)};
       d.color = glm::vec3(l.color);
       d.intensity = float(l.intensity);

@@ -17,11 +17,6 @@
 
 namespace modrt::demo {
 
-// A light farther than this many level sizes (the diagonal of the blocks' bounding box) from
-// that box is refused, naming its node: it would light nothing measurable, and positions near
-// float's range break the ray tracer (a lamp at 1e19 aborted Embree, issue 18).
-inline constexpr double kMaxLightDistanceInLevelSizes = 1e6;
-
 // glTF point lights are photometric (candela); DemoLight::intensity is radiometric (W/sr).
 // The default divides by the luminous efficacy of 555 nm light, 683 lm/W, i.e. treats the
 // light as if all its power were at the eye's peak sensitivity.
