@@ -11,6 +11,7 @@
 
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
@@ -64,6 +65,10 @@ int main(int argc, char** argv) {
   app.add_option("--rays", settings.rays, "bake: gather rays per sample (only when baking)");
   CLI11_PARSE(app, argc, argv);
 
+  if (Status s = check_writable_directory(out_dir); !s.ok()) {  // before a first-run bake
+    std::fprintf(stderr, "modrt-relight: --out: %s\n", s.to_string().c_str());
+    return 1;
+  }
   const int shape = shape_by_name(shape_name);
   if (shape < 0) {
     std::fprintf(stderr, "modrt-relight: --shape %s: unknown shape\n", shape_name.c_str());
