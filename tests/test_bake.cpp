@@ -14,6 +14,11 @@
 #include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
+#include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/interfaces.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/maze.h"
+#include "modrt/precompute/path_tracer.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/reference_runtime.h"
 #include "modrt/sh.h"
@@ -305,6 +310,50 @@ TEST(Bake, MemoryEstimateCountsThePriorLatticeAndRayBuffers) {
   EXPECT_EQ(r.status().code(), ErrorCode::resource_limit);
   EXPECT_NE(r.status().message().find("prior lattice"), std::string::npos) << r.status().message();
   EXPECT_NE(r.status().message().find("prior_grid 16"), std::string::npos) << r.status().message();
+}
+
+// Issue 18 item 4: the other settings structs hold ints that a caller's wrapped count
+// reaches as a negative or huge value; each has one validation function with stated bounds
+// that its library entry point calls.
+TEST(Bake, EverySettingsStructBoundsItsCounts) {
+  InterfaceSettings is;
+  EXPECT_TRUE(validate_interface_settings(is).ok());
+  is.response_rays = -1;  // int(4294967295u)
+  EXPECT_EQ(validate_interface_settings(is).message(),
+            "interface settings: response_rays = -1: must be in [1, 1048576]");
+  is = {};
+  is.directional = int(kMaxSettingsLightfieldDirectional) + 1;
+  EXPECT_EQ(validate_interface_settings(is).message(), "interface settings: directional = 129: must be in [1, 128]");
+  ShapeLimps no_limps{};
+  EXPECT_THROW((void)bake_interfaces(no_limps, 2, is), std::invalid_argument);
+
+  DrtBuildSettings drt;
+  EXPECT_TRUE(validate_drt_build_settings(drt).ok());
+  drt.rays = -1;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: rays = -1: must be in [1, 1048576]");
+  drt = {};
+  drt.cb_modes = 100000;  // a cap on the modes kept (test_drt's "no truncation"): allowed
+  EXPECT_TRUE(validate_drt_build_settings(drt).ok());
+  drt.cb_modes = 0;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: cb_modes = 0: must be in [1, 1048576]");
+  drt = {};
+  drt.clutter_prior_grid = 100000;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(),
+            "DRT build settings: clutter_prior_grid = 100000: must be in [1, 16]");
+
+  PathTracerSettings pt;
+  EXPECT_TRUE(validate_path_tracer_settings(pt).ok());
+  pt.paths = 0;
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: paths = 0: must be in [1, 1048576]");
+  pt = {};
+  pt.bounces = -2;
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: bounces = -2: must be in [0, 1024]");
+
+  LevelBuildSettings lb;
+  lb.dmax = kMaxLevelDmax + 1;
+  const Result<Level> level = build_level(corridor_level(), Dictionary{}, lb);
+  ASSERT_FALSE(level.ok());
+  EXPECT_EQ(level.status().message(), "build_level: dmax = 65: must be in [0, 64]");
 }
 
 TEST(Bake, NanLightSignalIsRejected) {

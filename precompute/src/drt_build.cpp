@@ -842,10 +842,10 @@ Status validate_drt_build_settings(const DrtBuildSettings& s) {
   };
   if (s.rays < 1 || std::int64_t(s.rays) > std::int64_t(kMaxSettingsRays))
     return bad("rays", std::to_string(s.rays), range(1, kMaxSettingsRays));
-  if (s.cb_modes < 1 || std::int64_t(s.cb_modes) > std::int64_t(kMaxSettingsModes))
-    return bad("cb_modes", std::to_string(s.cb_modes), range(1, kMaxSettingsModes));
-  if (s.clutter_prior_modes < 0 || std::int64_t(s.clutter_prior_modes) > std::int64_t(kMaxSettingsModes))
-    return bad("clutter_prior_modes", std::to_string(s.clutter_prior_modes), range(0, kMaxSettingsModes));
+  if (s.cb_modes < 1 || s.cb_modes > kMaxDrtModeCap)
+    return bad("cb_modes", std::to_string(s.cb_modes), range(1, kMaxDrtModeCap));
+  if (s.clutter_prior_modes < 0 || s.clutter_prior_modes > kMaxDrtModeCap)
+    return bad("clutter_prior_modes", std::to_string(s.clutter_prior_modes), range(0, kMaxDrtModeCap));
   if (s.clutter_prior_grid < 1 || std::int64_t(s.clutter_prior_grid) > std::int64_t(kMaxSettingsPriorGrid))
     return bad("clutter_prior_grid", std::to_string(s.clutter_prior_grid), range(1, kMaxSettingsPriorGrid));
   if (!(s.drop_tolerance >= 0.0 && s.drop_tolerance <= 1.0))

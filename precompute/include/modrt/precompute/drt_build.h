@@ -59,10 +59,12 @@ struct DrtBuildSettings {
   std::uint64_t seed = 0x647274ull;
 };
 
-// rays in [1, kMaxSettingsRays], cb_modes in [1, kMaxSettingsModes], clutter_prior_modes in
-// [0, kMaxSettingsModes], clutter_prior_grid in [1, kMaxSettingsPriorGrid] (dictionary.h),
-// drop_tolerance in [0, 1]; invalid_argument naming the setting. DrtBuilder checks it
-// before allocating anything; build and rebuild_object return its error.
+// rays in [1, kMaxSettingsRays], clutter_prior_grid in [1, kMaxSettingsPriorGrid]
+// (dictionary.h), cb_modes in [1, kMaxDrtModeCap] and clutter_prior_modes in [0,
+// kMaxDrtModeCap] (caps: each is min'ed with the rank found, so a value above it keeps every
+// mode and sizes nothing), drop_tolerance in [0, 1]; invalid_argument naming the setting.
+// DrtBuilder checks it before allocating anything; build and rebuild_object return its error.
+inline constexpr int kMaxDrtModeCap = 1 << 20;
 Status validate_drt_build_settings(const DrtBuildSettings& settings);
 
 struct DrtBuildReport {
