@@ -2,11 +2,13 @@
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <Eigen/SVD>
 
 #include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
 #include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
@@ -80,8 +82,26 @@ int main(int argc, char** argv) {
   }
 
   if (Status v = validate_settings(s); !v.ok()) {
-    std::fprintf(stderr, "modrt-bake: %s\n", v.to_string().c_str());
+    // The library's message names the setting ("settings.prior_grid = ..."); name the flag too.
+    static const std::pair<const char*, const char*> kFlags[] = {
+        {"res", "--res"}, {"kd", "--kd"}, {"kb", "--kb"}, {"rays", "--rays"},
+        {"enrichment_iterations", "--enrich"}, {"prior_grid", "--prior-grid"},
+        {"light_samples", "--light-samples"}, {"light_radius", "--light-radius"},
+        {"sh_rays", "--sh-rays"}, {"probe_grid", "--probe-grid"},
+        {"lightfield_spatial", "--lightfield-spatial"}, {"lightfield_directional", "--lightfield-directional"},
+        {"krlf", "--krlf"}, {"kr", "--kr"}, {"response_rays", "--response-rays"}};
+    std::string flag;
+    for (const auto& [field, name] : kFlags)
+      if (v.message().rfind(std::string("settings.") + field + " = ", 0) == 0) flag = std::string(name) + ": ";
+    std::fprintf(stderr, "modrt-bake: %s%s\n", flag.c_str(), v.to_string().c_str());
     return 2;
+  }
+  // Found now, not after the bake: an output that cannot be written.
+  if (!energy_table_only) {
+    if (Status w = check_writable_file(out); !w.ok()) {
+      std::fprintf(stderr, "modrt-bake: --out: %s\n", w.to_string().c_str());
+      return 1;
+    }
   }
   if (energy_table_only) {
     try {

@@ -15,6 +15,7 @@
 
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/dictionary_cache.h"
@@ -109,11 +110,23 @@ int main(int argc, char** argv) {
   app.add_option("--dictionary", dictionary_path, "dictionary file (default: bake on first use into the cache)");
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
   app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
-  app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")->check(CLI::Range(0, 64));
+  app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")
+      ->check(CLI::Range(0, precompute::kMaxLevelDmax));
   app.add_option(
       "--save", save_path,
       "also write the built level to this .modrtlevel file (core/level_io.h), the form an app loads");
   CLI11_PARSE(app, argc, argv);
+  // Outputs that cannot be written are found before the dictionary bake and the level build.
+  if (Status s = check_writable_directory(out_dir); !s.ok()) {
+    std::fprintf(stderr, "modrt-level: --out: %s\n", s.to_string().c_str());
+    return 1;
+  }
+  if (!save_path.empty()) {
+    if (Status s = check_writable_file(save_path); !s.ok()) {
+      std::fprintf(stderr, "modrt-level: --save: %s\n", s.to_string().c_str());
+      return 1;
+    }
+  }
 
   Result<LevelDescription> desc = load_description(level_name);
   if (!desc.ok()) {

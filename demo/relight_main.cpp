@@ -14,6 +14,7 @@
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/light_policy.h"
+#include "modrt/file_io.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
@@ -79,6 +80,10 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (Status s = check_writable_directory(out_dir); !s.ok()) {  // before a first-run bake
+    std::fprintf(stderr, "modrt-relight: --out: %s\n", s.to_string().c_str());
+    return 1;
+  }
   const int shape = shape_by_name(shape_name);
   if (shape < 0) {
     std::fprintf(stderr, "modrt-relight: --shape %s: unknown shape\n", shape_name.c_str());

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Eigen/SVD>
@@ -11,6 +14,11 @@
 #include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
+#include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/interfaces.h"
+#include "modrt/precompute/level_build.h"
+#include "modrt/precompute/maze.h"
+#include "modrt/precompute/path_tracer.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/reference_runtime.h"
 #include "modrt/sh.h"
@@ -220,6 +228,132 @@ TEST(Bake, BadSettingsAreClearErrors) {
   s = fast_settings(4);
   s.kb = s.kd + 1;
   EXPECT_FALSE(bake_dictionary(s).ok());
+}
+
+// Issue 18 items 2 and 4: counts beyond their bounds wrapped in the bake's int() casts
+// (prior_grid 4294967295 -> an empty prior and a crash in the SVD; rays / sh_rays
+// 4294967295 -> a bake that "succeeded" in 0 s with a zero indirect lightmap). The library
+// refuses them, naming the setting and its range, before any work.
+TEST(Bake, CountsBeyondTheirBoundsAreRefusedNamingTheSetting) {
+  struct Case {
+    std::uint32_t DictionarySettings::* field;
+    std::uint32_t value;
+    const char* message;
+  };
+  const Case cases[] = {
+      {&DictionarySettings::prior_grid, 4294967295u, "settings.prior_grid = 4294967295: must be in [1, 16]"},
+      {&DictionarySettings::prior_grid, 100000u, "settings.prior_grid = 100000: must be in [1, 16]"},
+      {&DictionarySettings::rays, 4294967295u, "settings.rays = 4294967295: must be in [1, 1048576]"},
+      {&DictionarySettings::sh_rays, 4294967295u, "settings.sh_rays = 4294967295: must be in [1, 1048576]"},
+      {&DictionarySettings::light_samples, 4294967295u,
+       "settings.light_samples = 4294967295: must be in [1, 1024]"},
+      {&DictionarySettings::kd, 4294967295u, "settings.kd = 4294967295: must be in [1, 4096]"},
+      {&DictionarySettings::response_rays, 2147483648u,
+       "settings.response_rays = 2147483648: must be in [1, 1048576]"},
+      {&DictionarySettings::kr, 4294967295u, "settings.kr = 4294967295: must be in [1, 4096]"},
+      {&DictionarySettings::krlf, 4294967295u, "settings.krlf = 4294967295: must be in [1, 4096]"},
+  };
+  for (const Case& c : cases) {
+    DictionarySettings s = fast_settings(2);
+    s.*c.field = c.value;
+    const Result<Dictionary> r = bake_dictionary(s);
+    ASSERT_FALSE(r.ok()) << c.message;
+    EXPECT_EQ(r.status().code(), ErrorCode::invalid_argument);
+    EXPECT_EQ(r.status().message(), c.message);
+    // The per-shape entry point validates too (it is called without bake_dictionary).
+    try {
+      (void)bake_shape(kAllFaces, s, true);
+      ADD_FAILURE() << "bake_shape accepted " << c.message;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()), c.message);
+    }
+  }
+  // The bounds themselves are accepted (the prior at its bound is refused by memory only
+  // when the budget says so; see the next test).
+  DictionarySettings s = fast_settings(2);
+  s.rays = kMaxSettingsRays;
+  s.sh_rays = kMaxSettingsRays;
+  EXPECT_TRUE(validate_settings(s).ok());
+}
+
+// Issue 18 item 2: estimate_bake_bytes ignored the prior lattice (n x 5 grid^3 lights), so
+// a huge prior_grid went past the memory budget unseen (4.9 GB in 15 s). Every large buffer
+// is counted, the arithmetic saturates instead of wrapping, and the budget refusal names
+// the prior lattice.
+TEST(Bake, MemoryEstimateCountsThePriorLatticeAndRayBuffers) {
+  DictionarySettings s;  // res 16: n = 1536 samples
+  const double n = 6.0 * 16 * 16;
+  s.prior_grid = kMaxSettingsPriorGrid;
+  const BakeMemoryEstimate big = estimate_bake_memory(s);
+  const double lights = 5.0 * 16 * 16 * 16;
+  EXPECT_GE(double(big.prior), 2.0 * 8.0 * n * lights);  // Ld and its SVD copy
+  EXPECT_GE(double(big.transport), 2.0 * 8.0 * n * n);
+  EXPECT_EQ(big.total, big.transport + big.prior + big.thread_buffers + big.shape_operators + big.lightfield);
+  EXPECT_EQ(estimate_bake_bytes(s), big.total);
+  s.prior_grid = 6;
+  EXPECT_LT(estimate_bake_memory(s).prior, big.prior / 10);
+  // Ray buffers grow with the largest ray count (16 bytes per direction per thread).
+  DictionarySettings rays = s;
+  rays.sh_rays = kMaxSettingsRays;
+  EXPECT_GE(estimate_bake_memory(rays).thread_buffers, std::uint64_t(16) * kMaxSettingsRays);
+  // Unvalidated counts saturate rather than wrap.
+  DictionarySettings huge;
+  huge.prior_grid = 4294967295u;
+  EXPECT_EQ(estimate_bake_bytes(huge), std::numeric_limits<std::uint64_t>::max());
+  huge = {};
+  huge.res = 4294967295u;
+  EXPECT_EQ(estimate_bake_bytes(huge), std::numeric_limits<std::uint64_t>::max());
+  // A budget between the small and the large prior refuses the large one before baking.
+  s.prior_grid = kMaxSettingsPriorGrid;
+  const Result<Dictionary> r = bake_dictionary(s, {}, big.total - 1);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), ErrorCode::resource_limit);
+  EXPECT_NE(r.status().message().find("prior lattice"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("prior_grid 16"), std::string::npos) << r.status().message();
+}
+
+// Issue 18 item 4: the other settings structs hold ints that a caller's wrapped count
+// reaches as a negative or huge value; each has one validation function with stated bounds
+// that its library entry point calls.
+TEST(Bake, EverySettingsStructBoundsItsCounts) {
+  InterfaceSettings is;
+  EXPECT_TRUE(validate_interface_settings(is).ok());
+  is.response_rays = -1;  // int(4294967295u)
+  EXPECT_EQ(validate_interface_settings(is).message(),
+            "interface settings: response_rays = -1: must be in [1, 1048576]");
+  is = {};
+  is.directional = int(kMaxSettingsLightfieldDirectional) + 1;
+  EXPECT_EQ(validate_interface_settings(is).message(), "interface settings: directional = 129: must be in [1, 128]");
+  ShapeLimps no_limps{};
+  EXPECT_THROW((void)bake_interfaces(no_limps, 2, is), std::invalid_argument);
+
+  DrtBuildSettings drt;
+  EXPECT_TRUE(validate_drt_build_settings(drt).ok());
+  drt.rays = -1;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: rays = -1: must be in [1, 1048576]");
+  drt = {};
+  drt.cb_modes = 100000;  // a cap on the modes kept (test_drt's "no truncation"): allowed
+  EXPECT_TRUE(validate_drt_build_settings(drt).ok());
+  drt.cb_modes = 0;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: cb_modes = 0: must be in [1, 1048576]");
+  drt = {};
+  drt.clutter_prior_grid = 100000;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(),
+            "DRT build settings: clutter_prior_grid = 100000: must be in [1, 16]");
+
+  PathTracerSettings pt;
+  EXPECT_TRUE(validate_path_tracer_settings(pt).ok());
+  pt.paths = 0;
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: paths = 0: must be in [1, 1048576]");
+  pt = {};
+  pt.bounces = -2;
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: bounces = -2: must be in [0, 1024]");
+
+  LevelBuildSettings lb;
+  lb.dmax = kMaxLevelDmax + 1;
+  const Result<Level> level = build_level(corridor_level(), Dictionary{}, lb);
+  ASSERT_FALSE(level.ok());
+  EXPECT_EQ(level.status().message(), "build_level: dmax = 65: must be in [0, 64]");
 }
 
 TEST(Bake, NanLightSignalIsRejected) {

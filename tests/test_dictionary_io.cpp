@@ -716,6 +716,25 @@ TEST(DictionarySettingsValidation, BadValuesNameTheField) {
   s.sh_rays = 0;
   expect_bad(s, "sh_rays");
   s = {};
+  s.rays = kMaxSettingsRays + 1;  // issue 18: every count has an upper bound
+  expect_bad(s, "rays");
+  s = {};
+  s.sh_rays = 4294967295u;
+  expect_bad(s, "sh_rays");
+  s = {};
+  s.prior_grid = kMaxSettingsPriorGrid + 1;
+  expect_bad(s, "prior_grid");
+  s = {};
+  s.light_samples = kMaxSettingsLightSamples + 1;
+  expect_bad(s, "light_samples");
+  s = {};
+  s.kd = kMaxSettingsModes + 1;
+  s.kb = 1;
+  expect_bad(s, "kd");
+  s = {};
+  s.response_rays = kMaxSettingsRays + 1;
+  expect_bad(s, "response_rays");
+  s = {};
   s.krlf = 0;
   expect_bad(s, "krlf");
   s.lightfield_spatial = 0;  // interface settings are unused then

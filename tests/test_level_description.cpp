@@ -556,6 +556,55 @@ TEST(LevelJson, VersionAndRanges) {
                ErrorCode::invalid_argument, {"lights[0].radius", "-1"});
 }
 
+// Issue 18 item 11: cell_size 1e-300 and 1e308 passed the JSON checks and failed later as
+// "ld_direct: sample 0"; 1e-20 silently lost every shadow (ray offsets larger than the
+// geometry). The JSON parser and validate_level refuse a cell_size outside
+// [kMinCellSize, kMaxCellSize], naming the field.
+TEST(LevelJson, ImplausibleCellSizeIsRefusedNamingTheField) {
+  for (const char* v : {"1e-300", "1e308", "1e-20", "0.0009", "1e7"}) {
+    const Result<LevelDescription> r =
+        parse_level_json(minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v), "c.json");
+    ASSERT_FALSE(r.ok()) << v;
+    EXPECT_EQ(r.status().code(), ErrorCode::invalid_argument) << v;
+    EXPECT_NE(r.status().message().find("c.json: cell_size: "), std::string::npos) << r.status().message();
+    EXPECT_NE(r.status().message().find("is outside [0.001, 1000000]"), std::string::npos) << r.status().message();
+  }
+  for (const char* v : {"0.001", "1000000", "2.5"})
+    EXPECT_TRUE(
+        parse_level_json(minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v), "c.json")
+            .ok())
+        << v;
+  // Levels built in code meet the same bound in validate_level.
+  LevelDescription level = corridor_level();
+  for (double c : {1e-300, 1e308, 1e-20}) {
+    level.cell_size = c;
+    expect_error(validate_level(level), ErrorCode::invalid_argument, {"cell_size is ", "must be in [0.001, 1000000]"});
+  }
+  level.cell_size = kMinCellSize;
+  EXPECT_TRUE(validate_level(level).ok());
+  level.cell_size = kMaxCellSize;
+  EXPECT_TRUE(validate_level(level).ok());
+}
+
+// Warp corners far from their cell (1e300 passed "finite" and reached the ray tracer) are
+// refused naming the block and the corner.
+TEST(LevelValidation, WarpCornerFarFromItsCellIsRefused) {
+  LevelDescription level;
+  level.blocks = {block_at(0, 0, 0)};
+  level.blocks[0].warped = true;
+  level.blocks[0].corners = grid_cell_corners({0, 0, 0}, 1.0);
+  level.blocks[0].corners[7] = glm::dvec3(1e300, 1.0, 1.0);
+  expect_error(validate_level(level), ErrorCode::invalid_argument,
+               {"block 0", "warp corner 7 (1,1,1)", "from its grid corner", "at most 1024 x cell_size = 1024"});
+  level.blocks[0].corners[7] = glm::dvec3(1e20, 1.0, 1.0);  // past Embree's float limit
+  expect_error(validate_level(level), ErrorCode::invalid_argument, {"warp corner 7 (1,1,1)"});
+  // A long block (stretched 1000 cells along x; the stress suite warps 100:1:1) is fine.
+  for (int k : {1, 3, 5, 7}) level.blocks[0].corners[std::size_t(k)].x = 1000.0;
+  EXPECT_TRUE(validate_level(level).ok()) << validate_level(level).status().to_string();
+  level.cell_size = 0.5;  // the bound scales with the cell: 1000 is now too far from x = 0.5
+  expect_error(validate_level(level), ErrorCode::invalid_argument, {"warp corner 1", "at most 1024 x cell_size = 512"});
+}
+
 TEST(LevelJson, ValidationErrorsComeThrough) {
   LevelDescription level = corridor_level();
   level.blocks[0].warped = true;

@@ -19,12 +19,6 @@ Status check_range(const char* field, std::uint32_t v, std::uint32_t lo, std::ui
   return bad_setting(field, std::to_string(v), rule.c_str());
 }
 
-Status check_min(const char* field, std::uint32_t v, std::uint32_t lo) {
-  if (v >= lo) return Status::success();
-  const std::string rule = "must be >= " + std::to_string(lo);
-  return bad_setting(field, std::to_string(v), rule.c_str());
-}
-
 std::string float_text(float v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", double(v));
@@ -78,32 +72,38 @@ Status check_vector(const std::string& prefix, const char* name, const std::vect
 }  // namespace
 
 Status validate_settings(const DictionarySettings& s) {
-  if (Status st = check_range("res", s.res, 1, 256); !st.ok()) return st;
-  if (Status st = check_min("kd", s.kd, 1); !st.ok()) return st;
+  if (Status st = check_range("res", s.res, 1, kMaxSettingsRes); !st.ok()) return st;
+  if (Status st = check_range("kd", s.kd, 1, kMaxSettingsModes); !st.ok()) return st;
   if (s.kb < 1 || s.kb > s.kd)
     return bad_setting("kb", std::to_string(s.kb),
                        ("must be in [1, kd] = [1, " + std::to_string(s.kd) + "]").c_str());
-  if (Status st = check_min("rays", s.rays, 1); !st.ok()) return st;
-  if (Status st = check_range("enrichment_iterations", s.enrichment_iterations, 0, 16); !st.ok()) return st;
-  if (Status st = check_min("prior_grid", s.prior_grid, 1); !st.ok()) return st;
-  if (Status st = check_min("light_samples", s.light_samples, 1); !st.ok()) return st;
+  if (Status st = check_range("rays", s.rays, 1, kMaxSettingsRays); !st.ok()) return st;
+  if (Status st = check_range("enrichment_iterations", s.enrichment_iterations, 0, kMaxSettingsEnrichment);
+      !st.ok())
+    return st;
+  if (Status st = check_range("prior_grid", s.prior_grid, 1, kMaxSettingsPriorGrid); !st.ok()) return st;
+  if (Status st = check_range("light_samples", s.light_samples, 1, kMaxSettingsLightSamples); !st.ok())
+    return st;
   if (!std::isfinite(s.light_radius) || !(s.light_radius > 0.0f) || !(s.light_radius < 0.5f))
     return bad_setting("light_radius", float_text(s.light_radius), "must be finite and in (0, 0.5)");
-  if (Status st = check_min("sh_rays", s.sh_rays, 1); !st.ok()) return st;
-  if (Status st = check_range("probe_grid", s.probe_grid, 1, 32); !st.ok()) return st;
+  if (Status st = check_range("sh_rays", s.sh_rays, 1, kMaxSettingsRays); !st.ok()) return st;
+  if (Status st = check_range("probe_grid", s.probe_grid, 1, kMaxSettingsProbeGrid); !st.ok()) return st;
   // Interface settings matter only when interface operators are baked.
   if (s.lightfield_spatial > 0) {
-    if (Status st = check_range("lightfield_spatial", s.lightfield_spatial, 1, 64); !st.ok()) return st;
-    if (Status st = check_range("lightfield_directional", s.lightfield_directional, 1, 128); !st.ok())
+    if (Status st = check_range("lightfield_spatial", s.lightfield_spatial, 1, kMaxSettingsLightfieldSpatial); !st.ok()) return st;
+    if (Status st = check_range("lightfield_directional", s.lightfield_directional, 1,
+                                kMaxSettingsLightfieldDirectional); !st.ok())
       return st;
-    if (Status st = check_range("lightfield_supersample", s.lightfield_supersample, 1, 16); !st.ok())
+    if (Status st = check_range("lightfield_supersample", s.lightfield_supersample, 1,
+                                kMaxSettingsLightfieldSupersample); !st.ok())
       return st;
-    if (Status st = check_range("krlf", s.krlf, 1, 4096); !st.ok()) return st;
-    if (Status st = check_range("kr", s.kr, 1, 4096); !st.ok()) return st;
-    if (Status st = check_range("interface_enrichment_iterations", s.interface_enrichment_iterations, 0, 16);
+    if (Status st = check_range("krlf", s.krlf, 1, kMaxSettingsModes); !st.ok()) return st;
+    if (Status st = check_range("kr", s.kr, 1, kMaxSettingsModes); !st.ok()) return st;
+    if (Status st = check_range("interface_enrichment_iterations", s.interface_enrichment_iterations, 0,
+                                kMaxSettingsEnrichment);
         !st.ok())
       return st;
-    if (Status st = check_min("response_rays", s.response_rays, 1); !st.ok()) return st;
+    if (Status st = check_range("response_rays", s.response_rays, 1, kMaxSettingsRays); !st.ok()) return st;
   }
   return Status::success();
 }

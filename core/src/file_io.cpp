@@ -5,9 +5,12 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <system_error>
 
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -90,6 +93,62 @@ Result<int> open_for_reading(const std::string& path, struct stat& st) {
   return fd;
 }
 
+// path + ".tmp.<pid>.<counter>": unique per process and call; the pid lets
+// remove_stale_temporaries tell a dead writer's leftovers from a save in progress.
+std::string temporary_name(const std::string& path) {
+  static std::atomic<std::uint64_t> counter{0};
+  return path + ".tmp." + std::to_string(long(::getpid())) + "." + std::to_string(counter++);
+}
+
+// The writer's pid of a temporary named "<file>.tmp.<pid>.<n>" (file = the part before), or
+// 0 when `name` is not one.
+long temporary_owner(const std::string& name, std::string& file) {
+  const std::size_t dot = name.rfind('.');
+  if (dot == std::string::npos || dot + 1 == name.size()) return 0;
+  const std::size_t pid_dot = dot == 0 ? std::string::npos : name.rfind('.', dot - 1);
+  if (pid_dot == std::string::npos || pid_dot + 1 == dot || pid_dot < 4) return 0;
+  if (name.compare(pid_dot - 4, 4, ".tmp") != 0) return 0;
+  auto digits = [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i)
+      if (name[i] < '0' || name[i] > '9') return false;
+    return e > b && e - b <= 18;
+  };
+  if (!digits(dot + 1, name.size()) || !digits(pid_dot + 1, dot)) return 0;
+  file = name.substr(0, pid_dot - 4);
+  return std::stol(name.substr(pid_dot + 1, dot - pid_dot - 1));
+}
+
+bool process_alive(long pid) {
+  if (pid <= 0 || pid > long(std::numeric_limits<pid_t>::max())) return false;
+  return ::kill(pid_t(pid), 0) == 0 || errno != ESRCH;  // EPERM: alive, another user's
+}
+
+// Whether files can be created in `dir` (created when missing). Messages name the
+// directory; `prefix` (the file to be written, or empty) goes in front.
+Status check_directory_writable(const std::string& prefix, const std::filesystem::path& dir) {
+  const std::string lead = prefix.empty() ? std::string() : prefix + ": ";
+  std::error_code ec;
+  const std::filesystem::path d = dir.empty() ? std::filesystem::path(".") : dir;
+  if (std::filesystem::exists(d, ec) && !std::filesystem::is_directory(d, ec))
+    return Status::error(ErrorCode::io_error, lead + d.string() + " is not a directory");
+  std::filesystem::create_directories(d, ec);
+  if (ec)
+    return Status::error(ErrorCode::io_error, lead + "cannot create directory " + d.string() + ": " + ec.message());
+  const std::string probe = temporary_name((d / ".modrt-write-probe").string());
+  int fd;
+  do {
+    fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int err = errno;
+    return Status::error(ErrorCode::io_error,
+                         lead + "cannot create files in directory " + d.string() + ": " + os_error(err));
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return Status::success();
+}
+
 struct CrcTable {
   std::array<std::uint32_t, 256> entries{};
   CrcTable() {
@@ -114,8 +173,9 @@ Status write_file_atomic(const std::string& path, std::span<const std::byte> byt
                                                     target.parent_path().string() + ": " + ec.message());
   }
 
-  static std::atomic<std::uint64_t> counter{0};
-  const std::string tmp = path + ".tmp." + std::to_string(long(::getpid())) + "." + std::to_string(counter++);
+  remove_stale_temporaries(target.has_parent_path() ? target.parent_path().string() : std::string("."),
+                           target.filename().string());
+  const std::string tmp = temporary_name(path);
   int raw;
   do {
     raw = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_TRUNC | O_CLOEXEC, 0644);
@@ -157,6 +217,67 @@ Result<std::uint64_t> regular_file_size(int fd, const std::string& path) {
                      : S_ISSOCK(st.st_mode) ? "a socket"
                                             : "a special file";
   return Status::error(ErrorCode::io_error, path + ": cannot read: " + kind + ", not a regular file");
+}
+
+Status check_writable_file(const std::string& path) {
+  if (path.empty()) return Status::error(ErrorCode::io_error, "output path is empty");
+  const std::filesystem::path target(path);
+  std::error_code ec;
+  if (std::filesystem::is_directory(target, ec))
+    return Status::error(ErrorCode::io_error, path + ": cannot write: is a directory");
+  return check_directory_writable(path, target.parent_path());
+}
+
+Status check_writable_directory(const std::string& dir) {
+  if (dir.empty()) return Status::error(ErrorCode::io_error, "output directory is empty");
+  return check_directory_writable({}, std::filesystem::path(dir));
+}
+
+std::size_t remove_stale_temporaries(const std::string& dir, const std::string& file_name) {
+  std::error_code ec;
+  std::filesystem::directory_iterator it(dir.empty() ? std::string(".") : dir, ec), end;
+  std::size_t removed = 0;
+  for (; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    std::string file;
+    const long pid = temporary_owner(name, file);
+    if (pid == 0 || (!file_name.empty() && file != file_name) || process_alive(pid)) continue;
+    std::error_code type_ec;
+    if (!it->is_regular_file(type_ec)) continue;
+    if (::unlink(it->path().c_str()) == 0) ++removed;
+  }
+  return removed;
+}
+
+Result<FileLock> FileLock::acquire(const std::string& lock_path) {
+  int fd;
+  do {
+    fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) return io_error(lock_path, "cannot open lock file", errno);
+  int rc;
+  do {
+    rc = ::flock(fd, LOCK_EX);
+  } while (rc != 0 && errno == EINTR);
+  if (rc != 0) {
+    const int err = errno;
+    ::close(fd);
+    return io_error(lock_path, "cannot lock", err);
+  }
+  return FileLock(fd);
+}
+
+FileLock& FileLock::operator=(FileLock&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = other.fd_;
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the last descriptor of the description releases the lock
 }
 
 Result<std::vector<std::byte>> read_file(const std::string& path, std::uint64_t max_bytes) {

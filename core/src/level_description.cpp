@@ -1,6 +1,7 @@
 // modrt — level description helpers and validation (SPEC §4, MRT §6.2).
 #include "modrt/level_description.h"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -121,6 +122,15 @@ Status check_block(const LevelDescription& level, std::size_t index) {
       if (!finite(b.corners[k]))
         return fail(label() + ": warp " + corner_label(k) + " is not finite " + fmt_vec(b.corners[k]));
     }
+    const std::array<glm::dvec3, 8> grid = grid_cell_corners(b.cell, level.cell_size);
+    for (int k = 0; k < 8; ++k) {
+      const double offset = glm::length(b.corners[k] - grid[k]);
+      if (!(offset <= kMaxWarpOffsetCells * level.cell_size))
+        return fail(label() + ": warp " + corner_label(k) + " at " + fmt_vec(b.corners[k]) + " is " +
+                    fmt_double(offset) + " from its grid corner " + fmt_vec(grid[k]) + "; at most " +
+                    fmt_double(kMaxWarpOffsetCells) + " x cell_size = " +
+                    fmt_double(kMaxWarpOffsetCells * level.cell_size) + " is allowed");
+    }
     const double s = level.cell_size;
     const double threshold = 1e-6 * s * s * s;
     double worst = 0.0;
@@ -178,8 +188,9 @@ Result<LevelConnectivity> validate_level(const LevelDescription& level) {
   if (level.version != kLevelFormatVersion)
     return fail("level version " + std::to_string(level.version) + " is not supported; this build reads version " +
                 std::to_string(kLevelFormatVersion));
-  if (!std::isfinite(level.cell_size) || !(level.cell_size > 0.0))
-    return fail("cell_size is " + fmt_double(level.cell_size) + "; it must be finite and > 0");
+  if (!(level.cell_size >= kMinCellSize && level.cell_size <= kMaxCellSize))
+    return fail("cell_size is " + fmt_double(level.cell_size) + "; it must be in [" + fmt_double(kMinCellSize) +
+                ", " + fmt_double(kMaxCellSize) + "] (world units per grid cell)");
 
   for (std::size_t i = 0; i < level.lights.size(); ++i) {
     const LightDescription& l = level.lights[i];

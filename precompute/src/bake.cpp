@@ -1,12 +1,15 @@
 #include "modrt/precompute/bake.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
+#include "modrt/checked_arithmetic.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/interfaces.h"
@@ -132,29 +135,61 @@ ShapeOperators to_operators(const ShapeBake& bake) {
   return op;
 }
 
-std::uint64_t estimate_bake_bytes(const DictionarySettings& s) {
-  const double n = 6.0 * double(s.res) * s.res, n_dead = 5.0 * double(s.res) * s.res;
-  const double F = 8.0 * n * n;
-  const double lightfield = s.lightfield_spatial > 0
-                                ? 8.0 * n_dead * double(s.lightfield_spatial) * s.lightfield_spatial *
-                                      double(s.lightfield_directional) * s.lightfield_directional
-                                : 0.0;
-  const double total = 2.0 * (F + lightfield);
-  return total >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : std::uint64_t(total);
+BakeMemoryEstimate estimate_bake_memory(const DictionarySettings& s) {
+  constexpr std::uint64_t kDouble = sizeof(double);
+  const std::uint64_t res2 = saturating_product({s.res, s.res});
+  const std::uint64_t n = saturating_product({6, res2}), n_dead = saturating_product({5, res2});
+  BakeMemoryEstimate e;
+  // F (n x n) and the product M = F P S with its SVD working copy (reduce_transfer).
+  e.transport = saturating_product({2, kDouble, n, n});
+  // The prior of the cross shape (four open sides) lights its own cell and its four
+  // neighbours: 5 grid^3 lights. Ld (n x lights), BDCSVD's working copy of it, its thin U
+  // (n x min(n, lights)) and the light positions (lattice and all, 2 x 24 bytes per light).
+  const std::uint64_t lights = saturating_product({5, s.prior_grid, s.prior_grid, s.prior_grid});
+  e.prior = saturating_add(saturating_add(saturating_product({2, kDouble, n, lights}),
+                                          saturating_product({kDouble, n, std::min(n, lights)})),
+                           saturating_product({48, lights}));
+  // Per worker thread: the stratified directions of one sample (16 bytes per ray, the
+  // largest ray count of F, SH and interface response) and one prior light's visibility
+  // points (24 bytes per sample).
+  const std::uint64_t rays = std::max({s.rays, s.sh_rays, s.lightfield_spatial > 0 ? s.response_rays : 0u});
+  const std::uint64_t threads = std::max(1u, std::thread::hardware_concurrency());
+  e.thread_buffers = saturating_product(
+      {threads, saturating_add(saturating_product({16, rays}), saturating_product({24, s.light_samples}))});
+  // Kept per shape until the dictionary is assembled: Ub, Limp, Td_b and P (n x kd), Ub_vec
+  // (4n x kb) and the probes' Ubvol (9 g^3 x kb); six shapes.
+  const std::uint64_t probes = saturating_product({9, s.probe_grid, s.probe_grid, s.probe_grid});
+  e.shape_operators = saturating_product(
+      {6, kDouble,
+       saturating_add(saturating_product({n, saturating_add(saturating_product({7, s.kb}), s.kd)}),
+                      saturating_product({probes, s.kb}))});
+  // With interfaces, the dead end's lightfield response (n_dead x S^2 D^2) and its copy.
+  if (s.lightfield_spatial > 0)
+    e.lightfield = saturating_product({2, kDouble, n_dead, s.lightfield_spatial, s.lightfield_spatial,
+                                       s.lightfield_directional, s.lightfield_directional});
+  e.total = saturating_add(saturating_add(saturating_add(e.transport, e.prior), e.thread_buffers),
+                           saturating_add(e.shape_operators, e.lightfield));
+  return e;
 }
+
+std::uint64_t estimate_bake_bytes(const DictionarySettings& s) { return estimate_bake_memory(s).total; }
 
 Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress,
                                    std::uint64_t memory_budget) {
   if (Status s = validate_settings(settings); !s.ok()) return s;
-  if (const std::uint64_t need = estimate_bake_bytes(settings); need > memory_budget) {
-    char text[256];
-    std::snprintf(
-        text, sizeof text,
-        "bake: res %u with a %u x %u x %u^2 interface lightfield needs about %.1f GiB, over the memory "
-        "budget of %.1f GiB: lower res, lightfield_spatial or lightfield_directional, or raise the budget",
-        settings.res, settings.lightfield_spatial, settings.lightfield_spatial,
-        settings.lightfield_directional, double(need) / double(1u << 30),
-        double(memory_budget) / double(1u << 30));
+  if (const BakeMemoryEstimate need = estimate_bake_memory(settings); need.total > memory_budget) {
+    constexpr double kGiB = double(1u << 30);
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "bake: res %u, prior_grid %u, %u rays and a %u x %u x %u^2 interface lightfield need about "
+                  "%.1f GiB (transport %.1f, prior lattice %.1f, ray buffers %.1f, operators %.1f, lightfield "
+                  "%.1f), over the memory budget of %.1f GiB: lower res, prior_grid, the ray counts, "
+                  "lightfield_spatial or lightfield_directional, or raise the budget",
+                  settings.res, settings.prior_grid, std::max(settings.rays, settings.sh_rays),
+                  settings.lightfield_spatial, settings.lightfield_spatial, settings.lightfield_directional,
+                  double(need.total) / kGiB, double(need.transport) / kGiB, double(need.prior) / kGiB,
+                  double(need.thread_buffers) / kGiB, double(need.shape_operators) / kGiB,
+                  double(need.lightfield) / kGiB, double(memory_budget) / kGiB);
     return Status::error(ErrorCode::resource_limit, text);
   }
   try {
@@ -163,7 +198,8 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
     std::vector<ShapeBake> bakes;
     for (int s = 0; s < kDictionaryShapeCount; ++s) {
       bakes.push_back(bake_shape(dictionary_shape_mask(s), settings, true, progress));
-      bakes.back().F.resize(0, 0);  // the largest intermediate; not needed any more
+      bakes.back().F.resize(0, 0);  // the largest intermediates; not needed any more
+      bakes.back().Ld.resize(0, 0);
       dict.shapes.push_back(to_operators(bakes.back()));
     }
     if (settings.lightfield_spatial > 0) {

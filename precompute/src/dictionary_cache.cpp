@@ -32,21 +32,50 @@ std::string cache_file_name(const DictionarySettings& s) {
   return name;
 }
 
+namespace {
+
+// The cached dictionary at `path` when it loads and holds exactly `settings`; otherwise a
+// Status saying why not (not_found-like io_error when absent).
+Result<Dictionary> load_cached(const std::string& path, const DictionarySettings& settings,
+                               const std::function<void(const std::string&)>& log) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    return Status::error(ErrorCode::io_error, path + ": not in the cache");
+  Result<Dictionary> loaded = load_dictionary(path);
+  if (loaded.ok() && loaded->settings == settings) return loaded;
+  const std::string why = loaded.ok() ? std::string("other settings") : loaded.status().to_string();
+  if (log) log("cached dictionary " + path + " is unusable (" + why + "); re-baking");
+  return Status::error(ErrorCode::io_error, path + ": " + why);
+}
+
+}  // namespace
+
+Status check_cache_dir(const std::string& cache_dir) {
+  if (Status s = check_writable_directory(cache_dir); !s.ok())
+    return Status::error(s.code(), "dictionary cache: " + s.message());
+  return Status::success();
+}
+
 Result<Dictionary> load_or_bake_dictionary(const DictionarySettings& settings, const std::string& cache_dir,
                                            const BakeProgress& progress,
                                            const std::function<void(const std::string&)>& log) {
+  if (Status s = validate_settings(settings); !s.ok()) return s;
   const std::string path = (std::filesystem::path(cache_dir) / cache_file_name(settings)).string();
-  std::error_code ec;
-  if (std::filesystem::exists(path, ec)) {
-    Result<Dictionary> loaded = load_dictionary(path);
-    if (loaded.ok() && loaded->settings == settings) {
-      if (log) log("loaded cached dictionary " + path);
-      return loaded;
-    }
-    if (log)
-      log("cached dictionary " + path + " is unusable (" +
-          (loaded.ok() ? std::string("other settings") : loaded.status().to_string()) + "); re-baking");
+  // A read-only cache that holds the entry is fine.
+  if (Result<Dictionary> cached = load_cached(path, settings, {}); cached.ok()) {
+    if (log) log("loaded cached dictionary " + path);
+    return cached;
   }
+  // From here on the entry is written: refuse an unwritable cache now, not after the bake.
+  if (Status s = check_cache_dir(cache_dir); !s.ok()) return s;
+  // One bake per entry: a concurrent first run waits here, then loads the first one's file.
+  Result<FileLock> lock = FileLock::acquire(path + ".lock");
+  if (!lock.ok()) return Status::error(lock.status().code(), "dictionary cache: " + lock.status().message());
+  if (Result<Dictionary> cached = load_cached(path, settings, log); cached.ok()) {
+    if (log) log("loaded cached dictionary " + path);
+    return cached;
+  }
+  remove_stale_temporaries(cache_dir);  // a bake killed during its save
   if (log) log("baking dictionary into " + path);
   Result<Dictionary> baked = bake_dictionary(settings, progress);
   if (!baked.ok()) return baked;

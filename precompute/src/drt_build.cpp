@@ -832,18 +832,41 @@ struct DrtBuilder::Pass {
   }
 };
 
+Status validate_drt_build_settings(const DrtBuildSettings& s) {
+  auto bad = [](const char* field, const std::string& value, const std::string& range) {
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string("DRT build settings: ") + field + " = " + value + ": must be in " + range);
+  };
+  auto range = [](std::int64_t lo, std::int64_t hi) {
+    return "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  };
+  if (s.rays < 1 || std::int64_t(s.rays) > std::int64_t(kMaxSettingsRays))
+    return bad("rays", std::to_string(s.rays), range(1, kMaxSettingsRays));
+  if (s.cb_modes < 1 || s.cb_modes > kMaxDrtModeCap)
+    return bad("cb_modes", std::to_string(s.cb_modes), range(1, kMaxDrtModeCap));
+  if (s.clutter_prior_modes < 0 || s.clutter_prior_modes > kMaxDrtModeCap)
+    return bad("clutter_prior_modes", std::to_string(s.clutter_prior_modes), range(0, kMaxDrtModeCap));
+  if (s.clutter_prior_grid < 1 || std::int64_t(s.clutter_prior_grid) > std::int64_t(kMaxSettingsPriorGrid))
+    return bad("clutter_prior_grid", std::to_string(s.clutter_prior_grid), range(1, kMaxSettingsPriorGrid));
+  if (!(s.drop_tolerance >= 0.0 && s.drop_tolerance <= 1.0))
+    return bad("drop_tolerance", std::to_string(s.drop_tolerance), "[0, 1]");
+  return Status::success();
+}
+
 DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuildSettings& settings)
     : level_(level),
       dict_(dict),
       settings_(settings),
-      walls_(level, level.res),
-      direction_sets_(make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x736574ull)) {
+      settings_status_(validate_drt_build_settings(settings)),
+      walls_(level, level.res) {
+  if (!settings_status_.ok()) return;  // build and rebuild_object report it; nothing allocated
+  direction_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x736574ull);
   if (settings.vector)
     uniform_sets_ =
-        make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x756e69ull, Directions::hemisphere);
+        make_direction_sets(settings.rays, settings.seed ^ 0x756e69ull, Directions::hemisphere);
   if (settings.probes)
     sphere_sets_ =
-        make_direction_sets(std::max(1, settings.rays), settings.seed ^ 0x737068ull, Directions::sphere);
+        make_direction_sets(settings.rays, settings.seed ^ 0x737068ull, Directions::sphere);
 }
 
 namespace {
@@ -949,6 +972,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, DrtBuildReport* report,
                                        DrtBuildState* state) const {
+  if (!settings_status_.ok()) return settings_status_;
   if (Status s = validate_clutter(level_, objects); !s.ok()) return s;
   if (Status s = check_dictionary(level_, dict_, settings_.vector); !s.ok()) return s;
   DrtOperators drt;
@@ -1012,6 +1036,7 @@ Result<DrtObjectOperators> DrtBuilder::build_object(const ClutterObject& object,
 
 Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::size_t index,
                                   DrtOperators& drt, DrtBuildState& state, DrtBuildReport* report) const {
+  if (!settings_status_.ok()) return settings_status_;
   auto fail = [&](const std::string& what) {
     return Status::error(ErrorCode::invalid_argument,
                          "DRT rebuild of object " + std::to_string(index) + ": " + what);

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -390,8 +393,34 @@ MatrixXd probe_response_to_lightfield(const MatrixXd& in, const InterfaceSetting
   return out;
 }
 
+Status validate_interface_settings(const InterfaceSettings& s) {
+  const struct {
+    const char* name;
+    int value, lo;
+    std::uint32_t hi;
+  } counts[] = {{"spatial", s.spatial, 1, kMaxSettingsLightfieldSpatial},
+                {"directional", s.directional, 1, kMaxSettingsLightfieldDirectional},
+                {"supersample", s.supersample, 1, kMaxSettingsLightfieldSupersample},
+                {"krlf", s.krlf, 1, kMaxSettingsModes},
+                {"kr", s.kr, 1, kMaxSettingsModes},
+                {"enrichment_iterations", s.enrichment_iterations, 0, kMaxSettingsEnrichment},
+                {"response_rays", s.response_rays, 1, kMaxSettingsRays},
+                {"probe_grid", s.probe_grid, 1, kMaxSettingsProbeGrid},
+                {"probe_rays", s.probe_rays, 1, kMaxSettingsRays}};
+  for (const auto& c : counts)
+    if (c.value < c.lo || std::int64_t(c.value) > std::int64_t(c.hi))
+      return Status::error(ErrorCode::invalid_argument, std::string("interface settings: ") + c.name + " = " +
+                                                            std::to_string(c.value) + ": must be in [" +
+                                                            std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
+  return Status::success();
+}
+
 InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceSettings& settings,
                               const std::function<void(const std::string&, double)>& on_stage) {
+  if (Status s = validate_interface_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
+  if (res < 1 || res > int(kMaxSettingsRes))
+    throw std::invalid_argument("interface settings: res = " + std::to_string(res) + ": must be in [1, " +
+                                std::to_string(kMaxSettingsRes) + "]");
   auto start = std::chrono::steady_clock::now();
   auto stage = [&](const char* name) {
     const auto now = std::chrono::steady_clock::now();

@@ -202,8 +202,16 @@ std::uint64_t estimate_level_bytes(const LevelDescription& description, const Di
   return bytes >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : std::uint64_t(bytes);
 }
 
+Status validate_level_build_settings(const LevelBuildSettings& settings) {
+  if (settings.dmax < 0 || settings.dmax > kMaxLevelDmax)
+    return Status::error(ErrorCode::invalid_argument, "build_level: dmax = " + std::to_string(settings.dmax) +
+                                                          ": must be in [0, " + std::to_string(kMaxLevelDmax) + "]");
+  return Status::success();
+}
+
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
                           const LevelBuildSettings& settings) {
+  if (Status s = validate_level_build_settings(settings); !s.ok()) return s;
   if (const std::uint64_t need = estimate_level_bytes(description, dict, settings);
       need > settings.memory_budget_bytes) {
     char text[256];
@@ -222,7 +230,6 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     return Status::error(
         ErrorCode::invalid_argument,
         "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
-  if (settings.dmax < 0) return Status::error(ErrorCode::invalid_argument, "build_level: dmax must be >= 0");
 
   Level level;
   level.res = int(dict.settings.res);

@@ -324,8 +324,8 @@ class Parser {
     level.version = version;
     if (const json* v = find(root, "name")) level.name = string(*v, "name");
     if (const json* v = find(root, "cell_size"))
-      level.cell_size = number_in(*v, "cell_size", std::numeric_limits<double>::min(),
-                                  std::numeric_limits<double>::max(), "(0, inf)");
+      level.cell_size = number_in(*v, "cell_size", kMinCellSize, kMaxCellSize,
+                                  ("[" + fmt_double(kMinCellSize) + ", " + fmt_double(kMaxCellSize) + "]").c_str());
     glm::dvec3 default_albedo = kDefaultAlbedo;
     if (const json* v = find(root, "default_albedo")) default_albedo = rgb(*v, "default_albedo", 1.0);
 

@@ -1,7 +1,10 @@
 #include "modrt/precompute/path_tracer.h"
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -99,6 +102,22 @@ double cosine_density(const glm::dvec3& x, const glm::dvec3& nx, const glm::dvec
 
 }  // namespace
 
+Status validate_path_tracer_settings(const PathTracerSettings& s) {
+  const struct {
+    const char* name;
+    int value, lo;
+    std::int64_t hi;
+  } counts[] = {{"paths", s.paths, 1, kMaxSettingsRays},
+                {"bounces", s.bounces, 0, kMaxPathBounces},
+                {"light_samples", s.light_samples, 1, kMaxSettingsLightSamples}};
+  for (const auto& c : counts)
+    if (c.value < c.lo || std::int64_t(c.value) > c.hi)
+      return Status::error(ErrorCode::invalid_argument, std::string("path tracer settings: ") + c.name + " = " +
+                                                            std::to_string(c.value) + ": must be in [" +
+                                                            std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
+  return Status::success();
+}
+
 IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dvec3> positions,
                                 std::span<const glm::dvec3> normals, const DirectRadiance& direct,
                                 const SurfaceAlbedo& albedo, const PathTracerSettings& settings) {
@@ -107,7 +126,8 @@ IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dv
   out.value.assign(3 * count, 0.0f);
   out.standard_error.assign(3 * count, 0.0f);
   const std::span<const glm::dvec3> sources = settings.light_vertex_sources;
-  const int paths = std::max(1, settings.paths);
+  if (Status s = validate_path_tracer_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
+  const int paths = settings.paths;
   auto surface_point = [&](const glm::dvec3& origin, const glm::dvec3& dir) {
     SurfacePoint p;
     p.hit = scene.intersect(origin, dir);

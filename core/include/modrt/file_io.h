@@ -21,6 +21,41 @@ namespace modrt {
 // the temporary file is removed and io_error is returned.
 Status write_file_atomic(const std::string& path, std::span<const std::byte> bytes);
 
+// Whether write_file_atomic(path, ...) can succeed, checked before expensive work (a bake,
+// a level build) rather than after it: `path` must not be a directory, its parent directory
+// is created when missing (as write_file_atomic would) and must be a directory in which a
+// file can be created (a probe temporary is created and removed: this sees permissions,
+// read-only file systems and ACLs alike). io_error naming the path and the reason.
+Status check_writable_file(const std::string& path);
+// The same for a directory that files will be written into (created when missing).
+Status check_writable_directory(const std::string& dir);
+
+// Removes the temporaries that write_file_atomic left next to files in `dir` when its
+// process died before renaming (a kill during a save): names "<file>.tmp.<pid>.<n>" whose
+// pid is no longer alive (kill(pid, 0) fails with ESRCH). A live pid's temporaries are kept
+// (a save in progress). `file_name` non-empty limits it to that file's temporaries. Returns
+// the number removed; errors are ignored (a temporary that cannot be removed stays).
+std::size_t remove_stale_temporaries(const std::string& dir, const std::string& file_name = {});
+
+// An exclusive advisory lock (flock(2)) on a lock file, held until destruction. flock
+// belongs to the open file description, so two threads or two processes that each acquire
+// it exclude each other; the kernel releases it when the holder dies. The lock file is
+// created when missing and left in place (removing it would race with the next locker).
+class FileLock {
+ public:
+  // Blocks until the lock is held; io_error when the lock file cannot be opened.
+  static Result<FileLock> acquire(const std::string& lock_path);
+  FileLock(FileLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  FileLock& operator=(FileLock&& other) noexcept;
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  ~FileLock();
+
+ private:
+  explicit FileLock(int fd) : fd_(fd) {}
+  int fd_ = -1;
+};
+
 // Reads a whole file. Files larger than max_bytes are refused with resource_limit (the
 // message gives both sizes) before anything is allocated; io_error when the file cannot
 // be opened or read.

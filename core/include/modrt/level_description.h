@@ -44,6 +44,18 @@ struct LevelDescription {
   std::vector<LightDescription> lights;
 };
 
+// Plausible level geometry (validate_level, and the JSON parser for cell_size). The
+// precompute's ray queries use absolute offsets of 1e-6 world units (LevelScene's t_near)
+// and Embree works in float: below kMinCellSize those offsets exceed a thousandth of a cell
+// (at 1e-20 they jumped over the geometry and every shadow vanished); at kMaxCellSize the
+// largest level (2^20 cells per axis) stays near 1e12, far inside what Embree accepts
+// (|coordinates| < 1.8e19). A warped corner lies within kMaxWarpOffsetCells cell sizes of
+// its grid cell's corner: long blocks (the stress suite's 100:1:1) and shears pass, a corner
+// at 1e300 does not, and the level's extent keeps the same margin from Embree's limit.
+inline constexpr double kMinCellSize = 1e-3;
+inline constexpr double kMaxCellSize = 1e6;
+inline constexpr double kMaxWarpOffsetCells = 1024.0;
+
 // The unwarped corners of a grid cell: (cell + (x, y, z)) * cell_size.
 std::array<glm::dvec3, 8> grid_cell_corners(const glm::ivec3& cell, double cell_size);
 // Corners actually used for a block (warped corners or its grid cell's cube).
@@ -63,7 +75,9 @@ struct LevelConnectivity {
 // side only; floor or ceiling missing (not in the 2D dictionary); albedo outside [0,1] or
 // non-finite; non-finite or degenerate/inverted warp corners (trilinear Jacobian
 // determinant <= 1e-6 * cell_size^3 anywhere on the 3x3x3 lattice); warped neighbours whose
-// shared face corners disagree; bad version; non-finite light; cell_size <= 0.
+// shared face corners disagree; a warp corner more than kMaxWarpOffsetCells cell sizes from
+// its grid corner; bad version; non-finite light; cell_size outside [kMinCellSize,
+// kMaxCellSize].
 Result<LevelConnectivity> validate_level(const LevelDescription& level);
 
 }  // namespace modrt

@@ -56,10 +56,19 @@ InterfaceSettings interface_settings(const DictionarySettings& settings);
 
 // Bakes the six-shape 2D cube dictionary and, unless settings.lightfield_spatial == 0, the
 // interface operators (shape index -1 in progress reports). Never throws: errors come back as a Status.
-// The bake's peak memory, estimated up front from the settings (bytes, double precision):
-// each shape's one-bounce operator F (n x n, n = 6 res^2) and, with interfaces, the dead
-// end's lightfield response (n_dead x S^2 D^2), each counted twice for the SVD's working copy.
-std::uint64_t estimate_bake_bytes(const DictionarySettings& settings);
+// The bake's peak memory, estimated up front from the settings (bytes, double precision,
+// saturating at UINT64_MAX), by its parts: each shape's one-bounce operator F (n x n, n =
+// 6 res^2) with the working copy of M = F P S; the prior lattice (n x 5 grid^3 lights, with
+// the SVD's copy and thin U); per worker thread the ray directions of one sample (the
+// largest of rays, sh_rays, response_rays) and one light's light_samples points; the
+// operators kept per shape; with interfaces, the dead end's lightfield response
+// (n_dead x S^2 D^2) and its copy.
+struct BakeMemoryEstimate {
+  std::uint64_t transport = 0, prior = 0, thread_buffers = 0, shape_operators = 0, lightfield = 0;
+  std::uint64_t total = 0;
+};
+BakeMemoryEstimate estimate_bake_memory(const DictionarySettings& settings);
+std::uint64_t estimate_bake_bytes(const DictionarySettings& settings);  // estimate_bake_memory().total
 inline constexpr std::uint64_t kDefaultBakeMemoryBudget = std::uint64_t(8) << 30;  // 8 GiB
 
 // Fails with resource_limit, before allocating anything, when estimate_bake_bytes exceeds

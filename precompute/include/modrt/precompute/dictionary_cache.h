@@ -14,9 +14,17 @@ std::string default_cache_dir();
 // File name that identifies the settings, e.g. "dict-res16-kd64-kb32-r16384-<hash>.modrt".
 std::string cache_file_name(const DictionarySettings& settings);
 
-// Loads <cache_dir>/<cache_file_name> when it exists and holds exactly `settings`;
-// otherwise bakes, saves atomically and returns the new dictionary. A cache file that fails
-// to load (corrupt, other format version) is reported through `log` and re-baked.
+// Whether dictionaries can be written into `cache_dir` (created when missing); io_error
+// naming the directory otherwise. Tools call it before any long work.
+Status check_cache_dir(const std::string& cache_dir);
+
+// Loads <cache_dir>/<cache_file_name> when it exists and holds exactly `settings` (a
+// read-only cache is fine then); otherwise checks that the cache is writable (io_error
+// naming it, before baking), takes an exclusive flock on "<entry>.lock" (a concurrent first
+// run waits, then loads the entry the first one saved instead of baking again), removes
+// temporaries that killed savers left in the cache (remove_stale_temporaries), bakes, and
+// saves atomically. A cache file that fails to load (corrupt, other format version) is
+// reported through `log` and re-baked.
 Result<Dictionary> load_or_bake_dictionary(const DictionarySettings& settings, const std::string& cache_dir,
                                            const BakeProgress& progress = {},
                                            const std::function<void(const std::string&)>& log = {});

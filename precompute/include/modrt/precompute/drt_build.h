@@ -59,6 +59,14 @@ struct DrtBuildSettings {
   std::uint64_t seed = 0x647274ull;
 };
 
+// rays in [1, kMaxSettingsRays], clutter_prior_grid in [1, kMaxSettingsPriorGrid]
+// (dictionary.h), cb_modes in [1, kMaxDrtModeCap] and clutter_prior_modes in [0,
+// kMaxDrtModeCap] (caps: each is min'ed with the rank found, so a value above it keeps every
+// mode and sizes nothing), drop_tolerance in [0, 1]; invalid_argument naming the setting.
+// DrtBuilder checks it before allocating anything; build and rebuild_object return its error.
+inline constexpr int kMaxDrtModeCap = 1 << 20;
+Status validate_drt_build_settings(const DrtBuildSettings& settings);
+
 struct DrtBuildReport {
   std::size_t traced_samples = 0;  // scene samples that shot rays
   std::size_t culled_samples = 0;  // scene samples with every object behind them
@@ -90,7 +98,8 @@ class DrtBuildState {
 
 class DrtBuilder {
  public:
-  // Throws std::runtime_error when Embree fails (as LevelScene).
+  // Throws std::runtime_error when Embree fails (as LevelScene). Settings that fail
+  // validate_drt_build_settings make build / rebuild_object return that error.
   DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuildSettings& settings = {});
 
   // Validates the objects (validate_clutter) and the dictionary's Limp sizes. `state`, when
@@ -115,6 +124,7 @@ class DrtBuilder {
   const Level& level_;
   const Dictionary& dict_;
   DrtBuildSettings settings_;
+  Status settings_status_;  // validate_drt_build_settings(settings_)
   LevelScene walls_;
   // Cosine-weighted stratified direction sets in the local frame (z = normal), shared by the
   // gathers (drt_build.cpp, DirectionSets).

@@ -21,6 +21,8 @@
 #include <string>
 
 #include "modrt/cube.h"
+#include "modrt/dictionary.h"
+#include "modrt/status.h"
 #include "modrt/precompute/linalg.h"
 
 namespace modrt::precompute {
@@ -37,6 +39,11 @@ struct InterfaceSettings {
   int probe_rays = 1024;     // sphere rays per probe
   std::uint64_t seed = 0x1f1f;
 };
+
+// Every count in [1, its DictionarySettings bound] (kMaxSettings*, dictionary.h; the
+// enrichment passes in [0, 16]); invalid_argument naming the setting. bake_interfaces
+// checks it (these settings are ints: a caller's count that wrapped arrives negative).
+Status validate_interface_settings(const InterfaceSettings& settings);
 
 // A face's lightfield frame: origin, in-plane axes and the direction light travels.
 struct LightfieldFrame {

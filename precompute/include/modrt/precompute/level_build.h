@@ -22,6 +22,11 @@ struct LevelBuildSettings {
   std::uint64_t memory_budget_bytes = std::uint64_t(4) << 30;  // 4 GiB
 };
 
+// dmax in [0, kMaxLevelDmax] (paths through more interfaces carry no light worth storing;
+// modrt-level's --dmax has the same range); invalid_argument naming it. build_level checks it.
+inline constexpr int kMaxLevelDmax = 64;
+Status validate_level_build_settings(const LevelBuildSettings& settings);
+
 // The estimate build_level compares with memory_budget_bytes (bytes).
 std::uint64_t estimate_level_bytes(const LevelDescription& description, const Dictionary& dict,
                                    const LevelBuildSettings& settings = {});

@@ -10,7 +10,9 @@
 #include <span>
 #include <vector>
 
+#include "modrt/dictionary.h"
 #include "modrt/level_description.h"
+#include "modrt/status.h"
 #include "modrt/precompute/level_scene.h"
 
 namespace modrt::precompute {
@@ -53,10 +55,16 @@ SurfaceAlbedo level_surface_albedo(const LevelScene& scene, const LevelDescripti
 // The centres of the description's lights, as light-vertex sources.
 std::vector<glm::dvec3> level_light_centres(const LevelDescription& description);
 
+// paths in [1, kMaxSettingsRays], bounces in [0, kMaxPathBounces], light_samples in
+// [1, kMaxSettingsLightSamples] (dictionary.h); invalid_argument naming the setting.
+inline constexpr int kMaxPathBounces = 1024;
+Status validate_path_tracer_settings(const PathTracerSettings& settings);
+
 // E_ind / pi at each (position, normal): cosine-weighted paths of `bounces` segments; the
 // radiance a segment brings back is direct(y) + albedo(y) * (the next segment's estimate).
 // With light-vertex sources, each segment's direct(y) is shared with a light-vertex sample
-// by MIS (see PathTracerSettings).
+// by MIS (see PathTracerSettings). Throws std::invalid_argument for settings that fail
+// validate_path_tracer_settings.
 IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dvec3> positions,
                                 std::span<const glm::dvec3> normals, const DirectRadiance& direct,
                                 const SurfaceAlbedo& albedo, const PathTracerSettings& settings);
