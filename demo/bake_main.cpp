@@ -20,16 +20,19 @@ using namespace modrt;
 
 // MRT Table 2: modes needed for 80/90/95% of the energy of F, Ld and M (closed cube).
 void print_energy_table(const DictionarySettings& settings) {
-  std::printf("\nsingular-value energy (closed cube, n = 6 x %u^2 samples; MRT Table 2: 164/22/1, 240/41/5, 313/62/8)\n",
-              settings.res);
+  std::printf(
+      "\nsingular-value energy (closed cube, n = 6 x %u^2 samples; MRT Table 2: 164/22/1, 240/41/5, "
+      "313/62/8)\n",
+      settings.res);
   precompute::ShapeBake bake = precompute::bake_shape(dictionary_shape_mask(0), settings, false);
   const Eigen::BDCSVD<precompute::MatrixXd> svd_F(precompute::MatrixXd(bake.F));
   const Eigen::BDCSVD<precompute::MatrixXd> svd_Ld(bake.Ld);
   // The prior normalises each light's pattern (docs/precompute.md); the paper's Ld keeps
   // raw intensities, so print both.
   const precompute::BlockScene scene(dictionary_shape_mask(0));
-  const Eigen::BDCSVD<precompute::MatrixXd> svd_raw(precompute::light_prior_matrix(
-      scene, bake.layout, int(settings.prior_grid), settings.light_radius, int(settings.light_samples), false));
+  const Eigen::BDCSVD<precompute::MatrixXd> svd_raw(
+      precompute::light_prior_matrix(scene, bake.layout, int(settings.prior_grid), settings.light_radius,
+                                     int(settings.light_samples), false));
   const precompute::VectorXd& sF = svd_F.singularValues();
   const precompute::VectorXd& sL = svd_Ld.singularValues();
   const precompute::VectorXd& sR = svd_raw.singularValues();
@@ -52,8 +55,9 @@ int main(int argc, char** argv) {
   bool energy_table = false;
   bool energy_table_only = false;
   app.add_option("-o,--out", out, "output dictionary file (written atomically)");
-  app.add_option("--preset", preset, "settings preset: default (res 16, kb 32) or mobile (res 6, kb 12); "
-                                     "explicit flags override it")
+  app.add_option("--preset", preset,
+                 "settings preset: default (res 16, kb 32) or mobile (res 6, kb 12); "
+                 "explicit flags override it")
       ->check(CLI::IsMember({"default", "mobile"}));
   auto* res = app.add_option("--res", s.res, "texels per face edge");
   auto* kb = app.add_option("--kb", s.kb, "indirect modes kept (columns of Ub)");
@@ -84,15 +88,25 @@ int main(int argc, char** argv) {
   if (Status v = validate_settings(s); !v.ok()) {
     // The library's message names the setting ("settings.prior_grid = ..."); name the flag too.
     static const std::pair<const char*, const char*> kFlags[] = {
-        {"res", "--res"}, {"kd", "--kd"}, {"kb", "--kb"}, {"rays", "--rays"},
-        {"enrichment_iterations", "--enrich"}, {"prior_grid", "--prior-grid"},
-        {"light_samples", "--light-samples"}, {"light_radius", "--light-radius"},
-        {"sh_rays", "--sh-rays"}, {"probe_grid", "--probe-grid"},
-        {"lightfield_spatial", "--lightfield-spatial"}, {"lightfield_directional", "--lightfield-directional"},
-        {"krlf", "--krlf"}, {"kr", "--kr"}, {"response_rays", "--response-rays"}};
+        {"res", "--res"},
+        {"kd", "--kd"},
+        {"kb", "--kb"},
+        {"rays", "--rays"},
+        {"enrichment_iterations", "--enrich"},
+        {"prior_grid", "--prior-grid"},
+        {"light_samples", "--light-samples"},
+        {"light_radius", "--light-radius"},
+        {"sh_rays", "--sh-rays"},
+        {"probe_grid", "--probe-grid"},
+        {"lightfield_spatial", "--lightfield-spatial"},
+        {"lightfield_directional", "--lightfield-directional"},
+        {"krlf", "--krlf"},
+        {"kr", "--kr"},
+        {"response_rays", "--response-rays"}};
     std::string flag;
     for (const auto& [field, name] : kFlags)
-      if (v.message().rfind(std::string("settings.") + field + " = ", 0) == 0) flag = std::string(name) + ": ";
+      if (v.message().rfind(std::string("settings.") + field + " = ", 0) == 0)
+        flag = std::string(name) + ": ";
     std::fprintf(stderr, "modrt-bake: %s%s\n", flag.c_str(), v.to_string().c_str());
     return 2;
   }
@@ -112,13 +126,14 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::printf("baking: res %u, kd %u, kb %u, %u rays, %u enrichment pass(es), probes %u^3, %u SH rays\n", s.res, s.kd,
-              s.kb, s.rays, s.enrichment_iterations, s.probe_grid, s.sh_rays);
+  std::printf("baking: res %u, kd %u, kb %u, %u rays, %u enrichment pass(es), probes %u^3, %u SH rays\n",
+              s.res, s.kd, s.kb, s.rays, s.enrichment_iterations, s.probe_grid, s.sh_rays);
   const auto start = std::chrono::steady_clock::now();
   precompute::BakeProgress progress;
   progress.on_stage = [](const std::string& stage, int shape, double seconds) {
     if (shape >= 0)
-      std::printf("  shape %d (%s): %-18s %7.2f s\n", shape, dictionary_shape_name(shape), stage.c_str(), seconds);
+      std::printf("  shape %d (%s): %-18s %7.2f s\n", shape, dictionary_shape_name(shape), stage.c_str(),
+                  seconds);
     else
       std::printf("  %-36s %7.2f s\n", stage.c_str(), seconds);
     std::fflush(stdout);

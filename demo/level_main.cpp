@@ -71,7 +71,8 @@ std::vector<float> floor_map(const Level& level, const std::vector<float>& signa
       auto it = at.find({int(std::floor(wx)), int(std::floor(wz))});
       if (it == at.end()) continue;
       const LevelBlock& b = level.blocks[it->second];
-      const glm::dvec3 local = rotate_point(glm::dvec3(wx, b.cell.y, wz) - glm::dvec3(b.cell), -b.quarter_turns);
+      const glm::dvec3 local =
+          rotate_point(glm::dvec3(wx, b.cell.y, wz) - glm::dvec3(b.cell), -b.quarter_turns);
       const FaceFrame& fr = face_frame(kFaceNegY);
       const double u = glm::dot(local - fr.origin, fr.u_axis) * res - 0.5;
       const double v = glm::dot(local - fr.origin, fr.v_axis) * res - 0.5;
@@ -83,8 +84,9 @@ std::vector<float> floor_map(const Level& level, const std::vector<float>& signa
         for (int bj = 0; bj < 2; ++bj)
           for (int ai = 0; ai < 2; ++ai) {
             const int i = std::clamp(x0 + ai, 0, res - 1), j = std::clamp(y0 + bj, 0, res - 1);
-            sum += (ai ? ax : 1 - ax) * (bj ? ay : 1 - ay) *
-                   signal[3 * (b.sample_offset + std::size_t(layout.index(kFaceNegY, i, j))) + std::size_t(c)];
+            sum +=
+                (ai ? ax : 1 - ax) * (bj ? ay : 1 - ay) *
+                signal[3 * (b.sample_offset + std::size_t(layout.index(kFaceNegY, i, j))) + std::size_t(c)];
           }
         img[3 * (std::size_t(py) * std::size_t(w) + std::size_t(px)) + std::size_t(c)] = float(sum);
       }
@@ -101,15 +103,19 @@ Status write(const std::string& path, int w, int h, const std::vector<float>& rg
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"modrt-level: relight a level (MRT scalar reference runtime) and write floor maps and the atlas"};
-  std::string level_name = "maze11", out_dir = "out", dictionary_path, cache_dir = precompute::default_cache_dir();
+  CLI::App app{
+      "modrt-level: relight a level (MRT scalar reference runtime) and write floor maps and the atlas"};
+  std::string level_name = "maze11", out_dir = "out", dictionary_path,
+              cache_dir = precompute::default_cache_dir();
   std::string save_path;
   int bounces = 8, dmax = 8;
   app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
   app.add_option("--out", out_dir, "output directory");
-  app.add_option("--dictionary", dictionary_path, "dictionary file (default: bake on first use into the cache)");
+  app.add_option("--dictionary", dictionary_path,
+                 "dictionary file (default: bake on first use into the cache)");
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
-  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
+  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")
+      ->check(CLI::Range(0, 10000));
   app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")
       ->check(CLI::Range(0, precompute::kMaxLevelDmax));
   app.add_option(
@@ -150,7 +156,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "modrt-level: %s: %s\n", level_name.c_str(), level.status().to_string().c_str());
     return 1;
   }
-  const double build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   // Passes that ran past 2 s say so on stderr (stdout keeps the summary line).
   if (build_ms > 2000.0) std::fprintf(stderr, "modrt-level: level build: %.1f s\n", build_ms / 1000.0);
   if (!save_path.empty()) {
@@ -163,7 +170,8 @@ int main(int argc, char** argv) {
 
   if (level->blocks.empty()) {
     // Allowed (docs/level-format.md), and nothing to light: no samples, no images.
-    std::printf("%s: 0 blocks, 0 samples: the level is empty, nothing to light or write\n", level_name.c_str());
+    std::printf("%s: 0 blocks, 0 samples: the level is empty, nothing to light or write\n",
+                level_name.c_str());
     return 0;
   }
   std::vector<float> albedo, ld;
@@ -196,14 +204,16 @@ int main(int argc, char** argv) {
   } else {
     MultiBounceSettings mb;
     mb.max_iterations = bounces;
-    Result<MultiBounceReport> rep = level_multi_bounce(level.value(), dict.value(), ld, albedo, mb, b, r, lightmap);
+    Result<MultiBounceReport> rep =
+        level_multi_bounce(level.value(), dict.value(), ld, albedo, mb, b, r, lightmap);
     if (!rep.ok()) {
       std::fprintf(stderr, "modrt-level: %s\n", rep.status().to_string().c_str());
       return 1;
     }
   }
   level_fill_atlas(level.value(), lightmap, atlas);
-  const double frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  const double frame_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   if (frame_ms > 2000.0) std::fprintf(stderr, "modrt-level: reference runtime: %.1f s\n", frame_ms / 1000.0);
 
   std::vector<float> shaded(lightmap.size());
@@ -213,9 +223,12 @@ int main(int argc, char** argv) {
   const std::vector<float> shaded_map = floor_map(level.value(), shaded, 64, w, h);
   const std::string base = out_dir + "/" + (level_name.find('/') == std::string::npos ? level_name : "level");
   for (const auto& [path, status] :
-       {std::pair{base + "_floor_indirect.png", write(base + "_floor_indirect.png", w, h, indirect_map, exposure_for(indirect_map))},
-        std::pair{base + "_floor_shaded.png", write(base + "_floor_shaded.png", w, h, shaded_map, exposure_for(shaded_map))},
-        std::pair{base + "_atlas.png", write(base + "_atlas.png", level->atlas.width, level->atlas.height, atlas, exposure_for(atlas))}}) {
+       {std::pair{base + "_floor_indirect.png",
+                  write(base + "_floor_indirect.png", w, h, indirect_map, exposure_for(indirect_map))},
+        std::pair{base + "_floor_shaded.png",
+                  write(base + "_floor_shaded.png", w, h, shaded_map, exposure_for(shaded_map))},
+        std::pair{base + "_atlas.png", write(base + "_atlas.png", level->atlas.width, level->atlas.height,
+                                             atlas, exposure_for(atlas))}}) {
     if (!status.ok()) {
       std::fprintf(stderr, "modrt-level: %s\n", status.to_string().c_str());
       return 1;
@@ -228,8 +241,10 @@ int main(int argc, char** argv) {
   if (!ld.empty())
     std::printf("ld in [%.6g, %.6g], indirect lightmap in [%.6g, %.6g]\n", double(*ld_range.first),
                 double(*ld_range.second), double(*lm_range.first), double(*lm_range.second));
-  std::printf("%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%d bounce iterations) %.1f ms\n",
-              level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms, bounces,
-              frame_ms);
+  std::printf(
+      "%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%d bounce "
+      "iterations) %.1f ms\n",
+      level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms, bounces,
+      frame_ms);
   return 0;
 }

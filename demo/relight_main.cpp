@@ -13,8 +13,8 @@
 #include "cli_checks.h"
 #include "image_output.h"
 #include "modrt/dictionary_io.h"
-#include "modrt/light_policy.h"
 #include "modrt/file_io.h"
+#include "modrt/light_policy.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
@@ -58,16 +58,21 @@ int main(int argc, char** argv) {
   double light_intensity = 1.0;
   int bounces = 8;
   DictionarySettings settings;
-  app.add_option("--dictionary", dictionary_path, "dictionary file to load (default: bake on first use into the cache)");
+  app.add_option("--dictionary", dictionary_path,
+                 "dictionary file to load (default: bake on first use into the cache)");
   app.add_option("--cache-dir", cache_dir, "where the baked dictionary is cached");
   app.add_option("--out", out_dir, "output directory for the PNG images");
-  app.add_option("--shape", shape_name, "dictionary shape: closed, dead_end, corridor, corner, t_junction, crossing");
+  app.add_option("--shape", shape_name,
+                 "dictionary shape: closed, dead_end, corridor, corner, t_junction, crossing");
   // Bounds (light_policy.h): the light's centre is checked against the block after parsing;
   // its intensity within kMaxLightIntensity, as for every authored light.
-  app.add_option("--light", light_pos, "sphere light centre x,y,z in block units")->delimiter(',')->expected(3);
+  app.add_option("--light", light_pos, "sphere light centre x,y,z in block units")
+      ->delimiter(',')
+      ->expected(3);
   app.add_option("--intensity", light_intensity, "light intensity (W/sr)")
       ->check(modrt::demo::FiniteRange(0.0, kMaxLightIntensity));
-  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")->check(CLI::Range(0, 10000));
+  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")
+      ->check(CLI::Range(0, 10000));
   app.add_option("--rays", settings.rays, "bake: gather rays per sample (only when baking)");
   CLI11_PARSE(app, argc, argv);
 
@@ -75,7 +80,8 @@ int main(int argc, char** argv) {
   // every side ([-1, 2]^3, where the prior's lights lie; NaN and Inf are outside).
   const glm::dvec3 light_centre(light_pos[0], light_pos[1], light_pos[2]);
   if (!light_position_in_level(light_centre, glm::dvec3(0.0), glm::dvec3(1.0), 1.0)) {
-    std::fprintf(stderr, "modrt-relight: --light %.9g,%.9g,%.9g: outside the block grown by one block, [-1, 2]^3\n",
+    std::fprintf(stderr,
+                 "modrt-relight: --light %.9g,%.9g,%.9g: outside the block grown by one block, [-1, 2]^3\n",
                  light_pos[0], light_pos[1], light_pos[2]);
     return 2;
   }
@@ -97,7 +103,8 @@ int main(int argc, char** argv) {
     precompute::BakeProgress progress;
     progress.on_stage = [](const std::string& stage, int s, double seconds) {
       if (s >= 0)
-        std::printf("  bake shape %d (%s): %-18s %6.2f s\n", s, dictionary_shape_name(s), stage.c_str(), seconds);
+        std::printf("  bake shape %d (%s): %-18s %6.2f s\n", s, dictionary_shape_name(s), stage.c_str(),
+                    seconds);
       else
         std::printf("  bake %-30s %6.2f s\n", stage.c_str(), seconds);
       std::fflush(stdout);
@@ -118,8 +125,12 @@ int main(int argc, char** argv) {
   std::vector<float> albedo(3 * n);
   for (std::size_t s = 0; s < n; ++s) {
     const int f = layout.face_of(int(s));
-    const float rgb[3] = {f == kFaceNegX ? 0.75f : f == kFacePosX ? 0.15f : 0.75f,
-                          f == kFaceNegX ? 0.15f : f == kFacePosX ? 0.75f : 0.75f,
+    const float rgb[3] = {f == kFaceNegX   ? 0.75f
+                          : f == kFacePosX ? 0.15f
+                                           : 0.75f,
+                          f == kFaceNegX   ? 0.15f
+                          : f == kFacePosX ? 0.75f
+                                           : 0.75f,
                           f == kFaceNegX || f == kFacePosX ? 0.15f : 0.75f};
     for (int c = 0; c < 3; ++c) albedo[3 * s + std::size_t(c)] = rgb[c];
   }
@@ -127,8 +138,7 @@ int main(int argc, char** argv) {
   std::vector<double> irradiance(n);
   try {
     const precompute::BlockScene scene(op.face_mask);
-    precompute::direct_light(scene, layout,
-                             {light_centre, 0.05, light_intensity}, 16, irradiance);
+    precompute::direct_light(scene, layout, {light_centre, 0.05, light_intensity}, 16, irradiance);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "modrt-relight: direct light: %s\n", e.what());
     return 1;
@@ -152,8 +162,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "modrt-relight: %s\n", report.status().to_string().c_str());
       return 1;
     }
-    std::printf("multi-bounce: %d iteration(s)%s%s\n", report->iterations, report->converged ? ", converged" : "",
-                report->albedo_clamped ? ", albedo clamped" : "");
+    std::printf("multi-bounce: %d iteration(s)%s%s\n", report->iterations,
+                report->converged ? ", converged" : "", report->albedo_clamped ? ", albedo clamped" : "");
   }
   const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
 
@@ -168,7 +178,8 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::printf("shape %s (n = %zu samples, kb = %u): reference runtime %.1f us\n", shape_name.c_str(), n, op.kb(), us);
+  std::printf("shape %s (n = %zu samples, kb = %u): reference runtime %.1f us\n", shape_name.c_str(), n,
+              op.kb(), us);
   std::printf("wrote %s (indirect E/pi) and %s (direct + indirect radiance)\n", lightmap_path.c_str(),
               shaded_path.c_str());
   return 0;

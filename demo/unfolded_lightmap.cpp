@@ -14,7 +14,8 @@ constexpr Cell kCells[] = {{kFacePosY, 0, 0}, {kFaceNegZ, 0, 1}, {kFacePosX, 1, 
 
 }  // namespace
 
-UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float> signal, int pixels_per_texel) {
+UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float> signal,
+                              int pixels_per_texel) {
   const int res = layout.res;
   const int cell = res * pixels_per_texel;
   UnfoldedImage img;
@@ -25,7 +26,8 @@ UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float>
     const bool present = face_present(layout.mask, c.face);
     for (int py = 0; py < cell; ++py)
       for (int px = 0; px < cell; ++px) {
-        float* dst = &img.rgb[(std::size_t(c.row * cell + py) * img.width + std::size_t(c.col * cell + px)) * 3];
+        float* dst =
+            &img.rgb[(std::size_t(c.row * cell + py) * img.width + std::size_t(c.col * cell + px)) * 3];
         if (!present) {
           dst[0] = dst[1] = dst[2] = 0.02f;
           continue;
@@ -40,7 +42,8 @@ UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float>
           for (int b = 0; b < 2; ++b)
             for (int a = 0; a < 2; ++a) {
               const int i = std::clamp(x0 + a, 0, res - 1), j = std::clamp(y0 + b, 0, res - 1);
-              v += (a ? ax : 1 - ax) * (b ? ay : 1 - ay) * signal[3 * std::size_t(layout.index(c.face, i, j)) + ch];
+              v += (a ? ax : 1 - ax) * (b ? ay : 1 - ay) *
+                   signal[3 * std::size_t(layout.index(c.face, i, j)) + ch];
             }
           dst[ch] = float(v);
         }

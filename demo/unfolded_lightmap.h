@@ -19,6 +19,7 @@ struct UnfoldedImage {
 
 // `signal` is 3n interleaved RGB over layout's samples; each texel is drawn as
 // `pixels_per_texel` pixels, bilinearly filtered within the face.
-UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float> signal, int pixels_per_texel);
+UnfoldedImage unfold_lightmap(const SampleLayout& layout, std::span<const float> signal,
+                              int pixels_per_texel);
 
 }  // namespace modrt::demo

@@ -49,7 +49,8 @@ std::vector<VectorXd> random_light_patterns(FaceMask mask, const SampleLayout& l
   std::vector<VectorXd> out;
   std::vector<double> ld(std::size_t(layout.sample_count()));
   for (int i = 0; i < count; ++i) {
-    const glm::dvec3 c(0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double());
+    const glm::dvec3 c(0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double(),
+                       0.1 + 0.8 * rng.next_double());
     const double radius = (i % 2) ? 0.05 : 0.0;  // alternate sphere and point lights
     direct_light(scene, layout, SphereLight{c, radius, 1.0}, radius > 0 ? 16 : 1, ld);
     out.push_back(Eigen::Map<VectorXd>(ld.data(), Eigen::Index(ld.size())));
@@ -57,7 +58,8 @@ std::vector<VectorXd> random_light_patterns(FaceMask mask, const SampleLayout& l
   return out;
 }
 
-std::vector<double> mrt_errors(const RowMatrixXd& F, const ReducedTransfer& t, const std::vector<VectorXd>& lights) {
+std::vector<double> mrt_errors(const RowMatrixXd& F, const ReducedTransfer& t,
+                               const std::vector<VectorXd>& lights) {
   std::vector<double> err;
   for (const VectorXd& ld : lights) err.push_back(relative_l2(t.Ub * (t.Td_b * ld), F * ld));
   return err;
@@ -236,7 +238,7 @@ TEST(Bake, BadSettingsAreClearErrors) {
 // refuses them, naming the setting and its range, before any work.
 TEST(Bake, CountsBeyondTheirBoundsAreRefusedNamingTheSetting) {
   struct Case {
-    std::uint32_t DictionarySettings::* field;
+    std::uint32_t DictionarySettings::*field;
     std::uint32_t value;
     const char* message;
   };
@@ -323,19 +325,22 @@ TEST(Bake, EverySettingsStructBoundsItsCounts) {
             "interface settings: response_rays = -1: must be in [1, 1048576]");
   is = {};
   is.directional = int(kMaxSettingsLightfieldDirectional) + 1;
-  EXPECT_EQ(validate_interface_settings(is).message(), "interface settings: directional = 129: must be in [1, 128]");
+  EXPECT_EQ(validate_interface_settings(is).message(),
+            "interface settings: directional = 129: must be in [1, 128]");
   ShapeLimps no_limps{};
   EXPECT_THROW((void)bake_interfaces(no_limps, 2, is), std::invalid_argument);
 
   DrtBuildSettings drt;
   EXPECT_TRUE(validate_drt_build_settings(drt).ok());
   drt.rays = -1;
-  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: rays = -1: must be in [1, 1048576]");
+  EXPECT_EQ(validate_drt_build_settings(drt).message(),
+            "DRT build settings: rays = -1: must be in [1, 1048576]");
   drt = {};
   drt.cb_modes = 100000;  // a cap on the modes kept (test_drt's "no truncation"): allowed
   EXPECT_TRUE(validate_drt_build_settings(drt).ok());
   drt.cb_modes = 0;
-  EXPECT_EQ(validate_drt_build_settings(drt).message(), "DRT build settings: cb_modes = 0: must be in [1, 1048576]");
+  EXPECT_EQ(validate_drt_build_settings(drt).message(),
+            "DRT build settings: cb_modes = 0: must be in [1, 1048576]");
   drt = {};
   drt.clutter_prior_grid = 100000;
   EXPECT_EQ(validate_drt_build_settings(drt).message(),
@@ -344,10 +349,12 @@ TEST(Bake, EverySettingsStructBoundsItsCounts) {
   PathTracerSettings pt;
   EXPECT_TRUE(validate_path_tracer_settings(pt).ok());
   pt.paths = 0;
-  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: paths = 0: must be in [1, 1048576]");
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(),
+            "path tracer settings: paths = 0: must be in [1, 1048576]");
   pt = {};
   pt.bounces = -2;
-  EXPECT_EQ(validate_path_tracer_settings(pt).message(), "path tracer settings: bounces = -2: must be in [0, 1024]");
+  EXPECT_EQ(validate_path_tracer_settings(pt).message(),
+            "path tracer settings: bounces = -2: must be in [0, 1024]");
 
   LevelBuildSettings lb;
   lb.dmax = kMaxLevelDmax + 1;

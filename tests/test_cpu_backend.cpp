@@ -489,7 +489,8 @@ TEST(CpuLevelRuntime, SpikeInLdGivesNoNegativeTexelOnEveryIsa) {
     std::vector<double> tile(3 * std::size_t(blk.sample_count), 0.0);
     for (std::uint32_t s = 0; s < blk.sample_count; ++s)
       for (std::uint32_t k = 0; k < t.level.kb; ++k)
-        for (std::size_t c = 0; c < 3; ++c) tile[3 * s + c] += double(Ub(s, k)) * b[3 * (t.level.kb * i + k) + c];
+        for (std::size_t c = 0; c < 3; ++c)
+          tile[3 * s + c] += double(Ub(s, k)) * b[3 * (t.level.kb * i + k) + c];
     for (std::size_t q = 0; q < t.level.slots.size(); ++q) {
       const ResponseSlot& slot = t.level.slots[q];
       if (slot.block != i) continue;

@@ -40,7 +40,8 @@ TEST(Cube, QuarterTurnMapsWallsTexelForTexel) {
 
 TEST(Cube, DictionaryHasSixShapesAndTwelveInterfaces) {
   int missing = 0;
-  for (int s = 0; s < kDictionaryShapeCount; ++s) missing += kFaceCount - face_count(dictionary_shape_mask(s));
+  for (int s = 0; s < kDictionaryShapeCount; ++s)
+    missing += kFaceCount - face_count(dictionary_shape_mask(s));
   EXPECT_EQ(missing, 12);
   // Every floor+ceiling mask canonicalises, and the rotation reproduces it.
   int seen[kDictionaryShapeCount] = {};

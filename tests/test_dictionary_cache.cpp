@@ -106,7 +106,8 @@ TEST(DictionaryCache, UnwritableCacheIsRefusedBeforeBaking) {
     const Result<Dictionary> r2 = load_or_bake_dictionary(tiny_settings(), ro, counting_progress(bakes));
     fs::permissions(ro, fs::perms::owner_all);
     ASSERT_FALSE(r2.ok());
-    EXPECT_TRUE(contains(r2.status().message(), "cannot create files in directory " + ro)) << r2.status().message();
+    EXPECT_TRUE(contains(r2.status().message(), "cannot create files in directory " + ro))
+        << r2.status().message();
     EXPECT_EQ(bakes.load(), 0);
   }
   EXPECT_TRUE(check_cache_dir(dir.file("new/nested")).ok());  // missing directories are created
@@ -121,7 +122,8 @@ TEST(DictionaryCache, ReadOnlyCacheHoldingTheEntryStillLoads) {
   // Loading needs no write access: the fast path reads before checking writability (the
   // directory is made read-only where that binds, i.e. not for root).
   fs::permissions(dir.str(), fs::perms::owner_read | fs::perms::owner_exec);
-  const Result<Dictionary> again = load_or_bake_dictionary(tiny_settings(), dir.str(), counting_progress(bakes));
+  const Result<Dictionary> again =
+      load_or_bake_dictionary(tiny_settings(), dir.str(), counting_progress(bakes));
   fs::permissions(dir.str(), fs::perms::owner_all);
   ASSERT_TRUE(again.ok()) << again.status().to_string();
   EXPECT_EQ(bakes.load(), 1);
@@ -134,7 +136,8 @@ TEST(DictionaryCache, ConcurrentFirstRunsBakeOnce) {
   std::vector<std::string> logs;
   auto run = [&] {
     // Each call opens its own descriptor of the lock file, as two processes would.
-    return load_or_bake_dictionary(tiny_settings(), dir.str(), counting_progress(bakes, std::chrono::milliseconds(300)),
+    return load_or_bake_dictionary(tiny_settings(), dir.str(),
+                                   counting_progress(bakes, std::chrono::milliseconds(300)),
                                    [&](const std::string& m) {
                                      const std::lock_guard<std::mutex> lock(log_mutex);
                                      logs.push_back(m);

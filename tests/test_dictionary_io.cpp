@@ -660,8 +660,9 @@ TEST(FileIo, ReadFileEnforcesTheLimit) {
   EXPECT_EQ(read_file(dir.file("nope"), 10).status().code(), ErrorCode::io_error);
   EXPECT_EQ(read_file(dir.path().string(), 10).status().code(), ErrorCode::io_error);
   // Issue 18 item 11: a directory is named as such (never a size of LONG_MAX).
-  for (const Status& s : {read_file(dir.path().string(), 10).status(), load_dictionary(dir.path().string()).status(),
-                          read_file_prefix(dir.path().string(), 10).status()})
+  for (const Status& s :
+       {read_file(dir.path().string(), 10).status(), load_dictionary(dir.path().string()).status(),
+        read_file_prefix(dir.path().string(), 10).status()})
     EXPECT_TRUE(contains(s.message(), dir.path().string() + ": cannot read: a directory, not a regular file"))
         << s.message();
   Result<std::vector<std::byte>> prefix = read_file_prefix(dir.file("f"), 10);

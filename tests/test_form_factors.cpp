@@ -22,8 +22,8 @@ TEST(FormFactors, ClosedFormsMatchTabulatedValues) {
   EXPECT_NEAR(parallel_rectangles_form_factor(1, 1, 1), 0.19982, 1e-5);
   EXPECT_NEAR(perpendicular_rectangles_form_factor(1, 1, 1), 0.20004, 1e-5);
   // Reciprocity A1 F12 = A2 F21 for unequal perpendicular rectangles.
-  EXPECT_NEAR(2.0 * perpendicular_rectangles_form_factor(2, 1, 1), 1.0 * perpendicular_rectangles_form_factor(1, 2, 1),
-              1e-12);
+  EXPECT_NEAR(2.0 * perpendicular_rectangles_form_factor(2, 1, 1),
+              1.0 * perpendicular_rectangles_form_factor(1, 2, 1), 1e-12);
 }
 
 TEST(FormFactors, LambertContourIntegratesToClosedForms) {
@@ -58,7 +58,8 @@ TEST(TransportF, FloorToCeilingAndWallMatchUnitSquareFormFactorsWithin1Percent) 
   const double parallel = face_to_face(kFacePosY);
   const double perpendicular = face_to_face(kFaceNegX);
   std::printf("floor->ceiling %.5f (analytic %.5f), floor->-X %.5f (analytic %.5f)\n", parallel,
-              parallel_rectangles_form_factor(1, 1, 1), perpendicular, perpendicular_rectangles_form_factor(1, 1, 1));
+              parallel_rectangles_form_factor(1, 1, 1), perpendicular,
+              perpendicular_rectangles_form_factor(1, 1, 1));
   EXPECT_NEAR(parallel / parallel_rectangles_form_factor(1, 1, 1), 1.0, 0.01);
   EXPECT_NEAR(perpendicular / perpendicular_rectangles_form_factor(1, 1, 1), 1.0, 0.01);
   // Own face receives nothing (planar face cannot see itself).

@@ -1,11 +1,10 @@
 // GLES backend conformance (gles/): the lightmaps, atlas, b, r, probes and vector irradiance
 // read back from the fragment-shader passes equal core's scalar reference, for a single
-// block, a corridor and the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts this
-// machine offers (EGL surfaceless GLES 3.2 and OSMesa GL 4.5 core running the ES 3.0
-// shaders), and through EGL device (a GPU where there is one, else Mesa's software device).
-// Tolerances (relative L2 over all values): 1e-4 for float32 and bits32 targets,
-// 2e-3 for float16 targets or float16 operators. A context kind that cannot be created is
-// skipped with the reason printed.
+// block, a corridor and the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts
+// this machine offers (EGL surfaceless GLES 3.2 and OSMesa GL 4.5 core running the ES 3.0 shaders), and
+// through EGL device (a GPU where there is one, else Mesa's software device). Tolerances (relative L2 over
+// all values): 1e-4 for float32 and bits32 targets, 2e-3 for float16 targets or float16 operators. A context
+// kind that cannot be created is skipped with the reason printed.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -56,9 +56,10 @@ void expect_consistent(const LevelDescription& level, const LevelConnectivity& c
         continue;
       }
       EXPECT_EQ(conn.neighbour[std::size_t(j)][f ^ 1], int(i)) << "block " << i << " face " << f;
-      EXPECT_EQ(conn.connected[std::size_t(j)][f ^ 1], conn.connected[i][f]) << "block " << i << " face " << f;
-      const bool both_missing = !face_present(level.blocks[i].faces, f) &&
-                                !face_present(level.blocks[std::size_t(j)].faces, f ^ 1);
+      EXPECT_EQ(conn.connected[std::size_t(j)][f ^ 1], conn.connected[i][f])
+          << "block " << i << " face " << f;
+      const bool both_missing =
+          !face_present(level.blocks[i].faces, f) && !face_present(level.blocks[std::size_t(j)].faces, f ^ 1);
       EXPECT_EQ(conn.connected[i][f], both_missing) << "block " << i << " face " << f;
       const glm::ivec3 d = level.blocks[std::size_t(j)].cell - level.blocks[i].cell;
       EXPECT_EQ(std::abs(d.x) + std::abs(d.y) + std::abs(d.z), 1);
@@ -108,7 +109,8 @@ void expect_equal_levels(const LevelDescription& a, const LevelDescription& b) {
     EXPECT_EQ(x.warped, y.warped) << "block " << i;
     EXPECT_EQ(x.name, y.name) << "block " << i;
     for (int k = 0; k < 8; ++k) EXPECT_EQ(x.corners[k], y.corners[k]) << "block " << i << " corner " << k;
-    for (int f = 0; f < kFaceCount; ++f) EXPECT_EQ(x.albedo[f], y.albedo[f]) << "block " << i << " face " << f;
+    for (int f = 0; f < kFaceCount; ++f)
+      EXPECT_EQ(x.albedo[f], y.albedo[f]) << "block " << i << " face " << f;
   }
   ASSERT_EQ(a.lights.size(), b.lights.size());
   for (std::size_t i = 0; i < a.lights.size(); ++i) {
@@ -146,8 +148,7 @@ TEST(LevelValidation, GridCornersBlockCornersAndTrilinear) {
   EXPECT_EQ(c[4], glm::dvec3(2, 4, -4));
   EXPECT_EQ(c[7], glm::dvec3(4, 6, -4));
   EXPECT_EQ(trilinear(c, glm::dvec3(0.5)), glm::dvec3(3, 5, -5));
-  for (int k = 0; k < 8; ++k)
-    EXPECT_EQ(trilinear(c, glm::dvec3(k & 1, (k >> 1) & 1, (k >> 2) & 1)), c[k]);
+  for (int k = 0; k < 8; ++k) EXPECT_EQ(trilinear(c, glm::dvec3(k & 1, (k >> 1) & 1, (k >> 2) & 1)), c[k]);
 
   LevelDescription level;
   level.cell_size = 2.0;
@@ -269,8 +270,8 @@ TEST(LevelValidation, WarpedNeighboursMustShareFaceCorners) {
 
   level.blocks[1].corners[2] += glm::dvec3(0.05, 0.0, 0.0);  // (0,1,0) of block 1 is on the shared -Z face
   expect_error(validate_level(level), ErrorCode::invalid_argument,
-               {"block 0", "block 1", "disagree", "+Z of block 0", "-Z of block 1", "corner 6 (0,1,1) of block 0",
-                "corner 2 (0,1,0) of block 1"});
+               {"block 0", "block 1", "disagree", "+Z of block 0", "-Z of block 1",
+                "corner 6 (0,1,1) of block 0", "corner 2 (0,1,0) of block 1"});
 
   // Both warped consistently: fine again.
   level.blocks[0].warped = true;
@@ -285,7 +286,8 @@ TEST(LevelValidation, ClosedWarpedNeighboursAreCheckedToo) {
   level.blocks[0].warped = true;
   level.blocks[0].corners = grid_cell_corners({0, 0, 0}, 1.0);
   level.blocks[0].corners[1].x = 1.2;  // bulges into block 1
-  expect_error(validate_level(level), ErrorCode::invalid_argument, {"disagree", "corner 1 (1,0,0) of block 0"});
+  expect_error(validate_level(level), ErrorCode::invalid_argument,
+               {"disagree", "corner 1 (1,0,0) of block 0"});
 }
 
 TEST(LevelValidation, NonFiniteCorner) {
@@ -303,7 +305,8 @@ TEST(LevelValidation, AlbedoOutOfRange) {
   expect_error(validate_level(level), ErrorCode::invalid_argument,
                {"block 1", "albedo", "face -X", "green", "1.5", "outside [0, 1]"});
   level.blocks[1].albedo[kFaceNegX].y = -0.1;
-  expect_error(validate_level(level), ErrorCode::invalid_argument, {"block 1", "albedo", "-0.1", "outside [0, 1]"});
+  expect_error(validate_level(level), ErrorCode::invalid_argument,
+               {"block 1", "albedo", "-0.1", "outside [0, 1]"});
   level.blocks[1].albedo[kFaceNegX].y = std::numeric_limits<double>::infinity();
   expect_error(validate_level(level), ErrorCode::invalid_argument, {"albedo", "not finite"});
 }
@@ -459,10 +462,11 @@ TEST(LevelJson, MalformedJson) {
 }
 
 TEST(LevelJson, WrongTypes) {
-  expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"cell_size\": \"big\""), "t.json"),
-               ErrorCode::format_error, {"t.json", "cell_size", "expected a number", "a string"});
-  expect_error(parse_level_json(minimal_with("[0, 0, 0]", "[0, \"0\", 0]"), "t.json"), ErrorCode::format_error,
-               {"blocks[0].cell[1]", "expected an integer"});
+  expect_error(
+      parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"cell_size\": \"big\""), "t.json"),
+      ErrorCode::format_error, {"t.json", "cell_size", "expected a number", "a string"});
+  expect_error(parse_level_json(minimal_with("[0, 0, 0]", "[0, \"0\", 0]"), "t.json"),
+               ErrorCode::format_error, {"blocks[0].cell[1]", "expected an integer"});
   expect_error(parse_level_json(minimal_with("[0, 0, 0]", "[0, 0.5, 0]"), "t.json"), ErrorCode::format_error,
                {"blocks[0].cell[1]", "expected an integer", "0.5"});
   expect_error(parse_level_json(minimal_with("\"missing\": [\"+X\"]", "\"missing\": \"+X\""), "t.json"),
@@ -474,35 +478,40 @@ TEST(LevelJson, WrongTypes) {
 }
 
 TEST(LevelJson, UnknownFaceName) {
-  expect_error(parse_level_json(minimal_with("[\"+X\"]", "[\"+X\", \"+W\"]"), "faces.json"), ErrorCode::format_error,
-               {"faces.json", "blocks[0].missing[1]", "unknown face name \"+W\""});
+  expect_error(parse_level_json(minimal_with("[\"+X\"]", "[\"+X\", \"+W\"]"), "faces.json"),
+               ErrorCode::format_error, {"faces.json", "blocks[0].missing[1]", "unknown face name \"+W\""});
   expect_error(parse_level_json(minimal_with("\"missing\": [\"-X\"]",
                                              "\"missing\": [\"-X\"], \"albedo\": {\"+W\": [1, 1, 1]}"),
                                 "faces.json"),
                ErrorCode::format_error, {"blocks[1].albedo.\"+W\"", "unknown face name"});
-  expect_error(parse_level_json(minimal_with("[\"+X\"]", "[\"+X\", \"+X\"]"), "faces.json"), ErrorCode::format_error,
-               {"blocks[0].missing[1]", "twice"});
+  expect_error(parse_level_json(minimal_with("[\"+X\"]", "[\"+X\", \"+X\"]"), "faces.json"),
+               ErrorCode::format_error, {"blocks[0].missing[1]", "twice"});
 }
 
 TEST(LevelJson, UnknownField) {
-  expect_error(parse_level_json(minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"albdo\": [1, 1, 1]"),
-                                "typo.json"),
-               ErrorCode::format_error, {"typo.json", "blocks[0].albdo", "unknown field \"albdo\"", "did you mean \"albedo\""});
-  expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"cellsize\": 1"), "typo.json"),
-               ErrorCode::format_error, {"cellsize", "unknown field", "cell_size"});
-  expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"lights\": [{\"positon\": [0,0,0]}]"),
-                                "typo.json"),
-               ErrorCode::format_error, {"lights[0].positon", "unknown field"});
+  expect_error(
+      parse_level_json(minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"albdo\": [1, 1, 1]"),
+                       "typo.json"),
+      ErrorCode::format_error,
+      {"typo.json", "blocks[0].albdo", "unknown field \"albdo\"", "did you mean \"albedo\""});
+  expect_error(
+      parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"cellsize\": 1"), "typo.json"),
+      ErrorCode::format_error, {"cellsize", "unknown field", "cell_size"});
+  expect_error(
+      parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"lights\": [{\"positon\": [0,0,0]}]"),
+                       "typo.json"),
+      ErrorCode::format_error, {"lights[0].positon", "unknown field"});
 }
 
 TEST(LevelJson, MissingAndDuplicateFields) {
-  expect_error(parse_level_json(R"({"format": "modrt-level", "version": 1})", "m.json"), ErrorCode::format_error,
-               {"m.json", "missing required field \"blocks\""});
+  expect_error(parse_level_json(R"({"format": "modrt-level", "version": 1})", "m.json"),
+               ErrorCode::format_error, {"m.json", "missing required field \"blocks\""});
   expect_error(parse_level_json(R"({"version": 1, "blocks": []})", "m.json"), ErrorCode::format_error,
                {"missing required field \"format\""});
   expect_error(parse_level_json(R"({"format": "something-else", "version": 1, "blocks": []})", "m.json"),
                ErrorCode::format_error, {"format", "something-else"});
-  expect_error(parse_level_json(minimal_with("{ \"cell\": [0, 0, 0]", "{ \"missing\": [], \"cell\": [0, 0, 0]"), "m.json"),
+  expect_error(parse_level_json(
+                   minimal_with("{ \"cell\": [0, 0, 0]", "{ \"missing\": [], \"cell\": [0, 0, 0]"), "m.json"),
                ErrorCode::format_error, {"blocks[0].missing", "duplicate key"});
   expect_error(parse_level_json(R"({"format": "modrt-level", "version": 1, "blocks": [
                    {"cell": [0, 0, 0], "corners": [[0,0,0],[1,0,0],[0,1,0],[1,1,0],[0,0,1],[1,0,1],[0,1,1],[1,1,1]]},
@@ -515,8 +524,10 @@ TEST(LevelJson, MissingAndDuplicateFields) {
                                 "m.json"),
                ErrorCode::format_error, {"lights[1].radius", "duplicate key"});
   expect_error(parse_level_json(minimal_with("[0, 0, 0], \"missing\": [\"+X\"]", "[0, 0, 0]"), "m.json"),
-               ErrorCode::invalid_argument, {"m.json", "block 1", "-X is missing", "block 0", "+X face present"});
-  expect_error(parse_level_json(minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"present\": []"), "m.json"),
+               ErrorCode::invalid_argument,
+               {"m.json", "block 1", "-X is missing", "block 0", "+X face present"});
+  expect_error(parse_level_json(
+                   minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"present\": []"), "m.json"),
                ErrorCode::format_error, {"blocks[0]", "not both"});
   expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 1, \"lights\": [{}]"), "m.json"),
                ErrorCode::format_error, {"lights[0]", "missing required field \"position\""});
@@ -525,17 +536,20 @@ TEST(LevelJson, MissingAndDuplicateFields) {
 TEST(LevelJson, WrongArrayLength) {
   expect_error(parse_level_json(minimal_with("[0, 0, 0]", "[0, 0]"), "len.json"), ErrorCode::format_error,
                {"len.json", "blocks[0].cell", "array of 3", "got 2"});
-  expect_error(parse_level_json(minimal_with("\"missing\": [\"-X\"]", "\"missing\": [\"-X\"], \"corners\": [[0,0,0]]"),
-                                "len.json"),
-               ErrorCode::format_error, {"blocks[1].corners", "array of 8", "got 1"});
-  expect_error(parse_level_json(minimal_with("\"missing\": [\"-X\"]", "\"missing\": [\"-X\"], \"albedo\": [1, 1]"),
-                                "len.json"),
-               ErrorCode::format_error, {"blocks[1].albedo", "array of 3"});
+  expect_error(
+      parse_level_json(minimal_with("\"missing\": [\"-X\"]", "\"missing\": [\"-X\"], \"corners\": [[0,0,0]]"),
+                       "len.json"),
+      ErrorCode::format_error, {"blocks[1].corners", "array of 8", "got 1"});
+  expect_error(
+      parse_level_json(minimal_with("\"missing\": [\"-X\"]", "\"missing\": [\"-X\"], \"albedo\": [1, 1]"),
+                       "len.json"),
+      ErrorCode::format_error, {"blocks[1].albedo", "array of 3"});
 }
 
 TEST(LevelJson, VersionAndRanges) {
   expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 99"), "v.json"),
-               ErrorCode::version_mismatch, {"v.json", "version 99 is not supported; this build reads version 1"});
+               ErrorCode::version_mismatch,
+               {"v.json", "version 99 is not supported; this build reads version 1"});
   // A newer version is reported as such even if it has fields this build does not know.
   expect_error(parse_level_json(minimal_with("\"version\": 1", "\"version\": 2, \"fog\": 1"), "v.json"),
                ErrorCode::version_mismatch, {"version 2 is not supported"});
@@ -545,15 +559,17 @@ TEST(LevelJson, VersionAndRanges) {
                                              "\"missing\": [\"+X\"], \"albedo\": {\"-X\": [0.5, 1.5, 0.5]}"),
                                 "r.json"),
                ErrorCode::invalid_argument, {"r.json", "blocks[0].albedo.\"-X\"[1]", "1.5", "[0, 1]"});
-  expect_error(parse_level_json(minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"albedo\": [-0.1, 0, 0]"),
-                                "r.json"),
-               ErrorCode::invalid_argument, {"blocks[0].albedo[0]", "-0.1"});
-  expect_error(parse_level_json(minimal_with("[1, 0, 0]", "[1, 0, 99999999999]"), "r.json"), ErrorCode::invalid_argument,
-               {"blocks[1].cell[2]", "outside"});
-  expect_error(parse_level_json(minimal_with("\"version\": 1",
-                                             "\"version\": 1, \"lights\": [{\"position\": [0,0,0], \"radius\": -1}]"),
-                                "r.json"),
-               ErrorCode::invalid_argument, {"lights[0].radius", "-1"});
+  expect_error(
+      parse_level_json(
+          minimal_with("\"missing\": [\"+X\"]", "\"missing\": [\"+X\"], \"albedo\": [-0.1, 0, 0]"), "r.json"),
+      ErrorCode::invalid_argument, {"blocks[0].albedo[0]", "-0.1"});
+  expect_error(parse_level_json(minimal_with("[1, 0, 0]", "[1, 0, 99999999999]"), "r.json"),
+               ErrorCode::invalid_argument, {"blocks[1].cell[2]", "outside"});
+  expect_error(
+      parse_level_json(minimal_with("\"version\": 1",
+                                    "\"version\": 1, \"lights\": [{\"position\": [0,0,0], \"radius\": -1}]"),
+                       "r.json"),
+      ErrorCode::invalid_argument, {"lights[0].radius", "-1"});
 }
 
 // Issue 18 item 11: cell_size 1e-300 and 1e308 passed the JSON checks and failed later as
@@ -562,23 +578,26 @@ TEST(LevelJson, VersionAndRanges) {
 // [kMinCellSize, kMaxCellSize], naming the field.
 TEST(LevelJson, ImplausibleCellSizeIsRefusedNamingTheField) {
   for (const char* v : {"1e-300", "1e308", "1e-20", "0.0009", "1e7"}) {
-    const Result<LevelDescription> r =
-        parse_level_json(minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v), "c.json");
+    const Result<LevelDescription> r = parse_level_json(
+        minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v), "c.json");
     ASSERT_FALSE(r.ok()) << v;
     EXPECT_EQ(r.status().code(), ErrorCode::invalid_argument) << v;
     EXPECT_NE(r.status().message().find("c.json: cell_size: "), std::string::npos) << r.status().message();
-    EXPECT_NE(r.status().message().find("is outside [0.001, 1000000]"), std::string::npos) << r.status().message();
+    EXPECT_NE(r.status().message().find("is outside [0.001, 1000000]"), std::string::npos)
+        << r.status().message();
   }
   for (const char* v : {"0.001", "1000000", "2.5"})
     EXPECT_TRUE(
-        parse_level_json(minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v), "c.json")
+        parse_level_json(minimal_with("\"version\": 1", std::string("\"version\": 1, \"cell_size\": ") + v),
+                         "c.json")
             .ok())
         << v;
   // Levels built in code meet the same bound in validate_level.
   LevelDescription level = corridor_level();
   for (double c : {1e-300, 1e308, 1e-20}) {
     level.cell_size = c;
-    expect_error(validate_level(level), ErrorCode::invalid_argument, {"cell_size is ", "must be in [0.001, 1000000]"});
+    expect_error(validate_level(level), ErrorCode::invalid_argument,
+                 {"cell_size is ", "must be in [0.001, 1000000]"});
   }
   level.cell_size = kMinCellSize;
   EXPECT_TRUE(validate_level(level).ok());
@@ -594,15 +613,17 @@ TEST(LevelValidation, WarpCornerFarFromItsCellIsRefused) {
   level.blocks[0].warped = true;
   level.blocks[0].corners = grid_cell_corners({0, 0, 0}, 1.0);
   level.blocks[0].corners[7] = glm::dvec3(1e300, 1.0, 1.0);
-  expect_error(validate_level(level), ErrorCode::invalid_argument,
-               {"block 0", "warp corner 7 (1,1,1)", "from its grid corner", "at most 1024 x cell_size = 1024"});
+  expect_error(
+      validate_level(level), ErrorCode::invalid_argument,
+      {"block 0", "warp corner 7 (1,1,1)", "from its grid corner", "at most 1024 x cell_size = 1024"});
   level.blocks[0].corners[7] = glm::dvec3(1e20, 1.0, 1.0);  // past Embree's float limit
   expect_error(validate_level(level), ErrorCode::invalid_argument, {"warp corner 7 (1,1,1)"});
   // A long block (stretched 1000 cells along x; the stress suite warps 100:1:1) is fine.
   for (int k : {1, 3, 5, 7}) level.blocks[0].corners[std::size_t(k)].x = 1000.0;
   EXPECT_TRUE(validate_level(level).ok()) << validate_level(level).status().to_string();
   level.cell_size = 0.5;  // the bound scales with the cell: 1000 is now too far from x = 0.5
-  expect_error(validate_level(level), ErrorCode::invalid_argument, {"warp corner 1", "at most 1024 x cell_size = 512"});
+  expect_error(validate_level(level), ErrorCode::invalid_argument,
+               {"warp corner 1", "at most 1024 x cell_size = 512"});
 }
 
 TEST(LevelJson, ValidationErrorsComeThrough) {
@@ -617,8 +638,9 @@ TEST(LevelJson, ValidationErrorsComeThrough) {
 struct TempDir {
   fs::path path;
   TempDir() {
-    path = fs::temp_directory_path() /
-           ("modrt_level_test_" + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+    path =
+        fs::temp_directory_path() /
+        ("modrt_level_test_" + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
     fs::create_directories(path);
   }
   ~TempDir() {
@@ -647,7 +669,8 @@ TEST(LevelJson, SaveAndLoadFiles) {
 
 fs::path levels_dir() {
   std::vector<fs::path> candidates;
-  if (const char* env = std::getenv("MODRT_SOURCE_DIR")) candidates.push_back(fs::path(env) / "data" / "levels");
+  if (const char* env = std::getenv("MODRT_SOURCE_DIR"))
+    candidates.push_back(fs::path(env) / "data" / "levels");
   candidates.push_back(fs::path(__FILE__).parent_path().parent_path() / "data" / "levels");
   std::error_code ec;
   for (fs::path p = fs::current_path(ec); !p.empty(); p = p.parent_path()) {
@@ -682,10 +705,8 @@ TEST(LevelJson, DataFilesLoadAndValidate) {
   LevelDescription maze11_warped = maze_or_die(warped);
   maze11_warped.name = "maze11_warped";
   const std::pair<const char*, LevelDescription> presets[] = {
-      {"corridor2.json", corridor_level()},
-      {"l_corner.json", l_corner_level()},
-      {"maze11.json", maze_level(11).value()},
-      {"maze41.json", maze_level(41).value()},
+      {"corridor2.json", corridor_level()},    {"l_corner.json", l_corner_level()},
+      {"maze11.json", maze_level(11).value()}, {"maze41.json", maze_level(41).value()},
       {"maze11_warped.json", maze11_warped},
   };
   for (const auto& [file, preset] : presets) {
@@ -783,7 +804,8 @@ TEST(MazeGenerator, Deterministic) {
   EXPECT_NE(level_to_json(a), level_to_json(c));
   bool layout_differs = false;
   for (std::size_t i = 0; i < a.blocks.size(); ++i)
-    layout_differs = layout_differs || a.blocks[i].cell != c.blocks[i].cell || a.blocks[i].faces != c.blocks[i].faces;
+    layout_differs =
+        layout_differs || a.blocks[i].cell != c.blocks[i].cell || a.blocks[i].faces != c.blocks[i].faces;
   EXPECT_TRUE(layout_differs);
 }
 

@@ -115,9 +115,11 @@ TEST(LightPolicy, LightsOutOfReachGiveZeroOnEveryPath) {
     glm::dvec3 position;
     double radius;
   };
-  for (const Case& c : {Case{{1e20, 0.5, 0.5}, 0.05}, Case{{1e19, 0.5, 0.5}, 0.0}, Case{{0.5, 0.5, 0.5}, 1e20},
-                        Case{{0.5, -1e16, 0.5}, 0.05}, Case{{kInf, 0.5, 0.5}, 0.05}}) {
-    SCOPED_TRACE(std::to_string(c.position.x) + " " + std::to_string(c.position.y) + " r " + std::to_string(c.radius));
+  for (const Case& c :
+       {Case{{1e20, 0.5, 0.5}, 0.05}, Case{{1e19, 0.5, 0.5}, 0.0}, Case{{0.5, 0.5, 0.5}, 1e20},
+        Case{{0.5, -1e16, 0.5}, 0.05}, Case{{kInf, 0.5, 0.5}, 0.05}}) {
+    SCOPED_TRACE(std::to_string(c.position.x) + " " + std::to_string(c.position.y) + " r " +
+                 std::to_string(c.radius));
     EXPECT_FALSE(light_in_reach(c.position, c.radius));
     const LightDescription light{c.position, c.radius, glm::dvec3(1.0), 1.0};
     const std::vector<float> ld = precompute::level_direct_light(scene, {&light, 1}, albedo, 16);
@@ -149,7 +151,8 @@ TEST(LightPolicy, LightsOutOfReachGiveZeroOnEveryPath) {
 }
 
 TEST(LightPolicy, LevelJsonLightFieldsAreCheckedAtParseTime) {
-  const std::string head = R"({"format": "modrt-level", "version": 1, "blocks": [{"cell": [0, 0, 0]}], "lights": [)";
+  const std::string head =
+      R"({"format": "modrt-level", "version": 1, "blocks": [{"cell": [0, 0, 0]}], "lights": [)";
   struct Case {
     const char* light;
     const char* field;  // the path the message names
@@ -161,7 +164,8 @@ TEST(LightPolicy, LevelJsonLightFieldsAreCheckedAtParseTime) {
            Case{R"({"position": [0.5, 0.5, 0.5], "radius": 1e20})", "lights[0].radius"},
            Case{R"({"position": [0.5, 0.5, 0.5], "intensity": 1e308})", "lights[0].intensity"},
            Case{R"({"position": [0.5, 0.5, 0.5], "color": [1, 1e308, 1]})", "lights[0].color[1]"},
-           Case{R"({"position": [0.5, 0.5, 0.5], "color": [1e10, 1, 1], "intensity": 1e10})", "lights[0].intensity"},
+           Case{R"({"position": [0.5, 0.5, 0.5], "color": [1e10, 1, 1], "intensity": 1e10})",
+                "lights[0].intensity"},
        }) {
     const Result<LevelDescription> r = precompute::parse_level_json(head + c.light + "]}", "t.json");
     ASSERT_FALSE(r.ok()) << c.light;
@@ -170,8 +174,9 @@ TEST(LightPolicy, LevelJsonLightFieldsAreCheckedAtParseTime) {
     EXPECT_NE(m.find(std::string("t.json: ") + c.field + ":"), std::string::npos) << m;
   }
   // Inside the grown box, and at the bounds of intensity: accepted.
-  for (const char* ok : {R"({"position": [1.9, -0.9, 0.5]})", R"({"position": [0.5, 0.5, 0.5], "intensity": 1e18})",
-                         R"({"position": [0.5, 0.5, 0.5], "radius": 1.0})"}) {
+  for (const char* ok :
+       {R"({"position": [1.9, -0.9, 0.5]})", R"({"position": [0.5, 0.5, 0.5], "intensity": 1e18})",
+        R"({"position": [0.5, 0.5, 0.5], "radius": 1.0})"}) {
     const Result<LevelDescription> r = precompute::parse_level_json(head + ok + "]}", "t.json");
     EXPECT_TRUE(r.ok()) << ok << ": " << r.status().to_string();
   }
@@ -179,7 +184,8 @@ TEST(LightPolicy, LevelJsonLightFieldsAreCheckedAtParseTime) {
 
 TEST(LightPolicy, EmptyLevelBuildsAndLightsToNothing) {
   const Result<LevelDescription> d = precompute::parse_level_json(
-      R"({"format": "modrt-level", "version": 1, "blocks": [], "lights": [{"position": [0.5, 0.5, 0.5]}]})", "e.json");
+      R"({"format": "modrt-level", "version": 1, "blocks": [], "lights": [{"position": [0.5, 0.5, 0.5]}]})",
+      "e.json");
   ASSERT_TRUE(d.ok()) << d.status().to_string();
   Result<Level> level = precompute::build_level(d.value(), dict());
   ASSERT_TRUE(level.ok()) << level.status().to_string();
@@ -275,15 +281,17 @@ TEST(LightPolicy, RunShortcutAgreesWithEmbree) {
   loops.blocks = 30;
   loops.seed = 5;
   loops.loop_fraction = 0.5;
-  for (const LevelDescription& d : {straight_corridor(12), precompute::corridor_level(), precompute::maze_level(41).value(),
-                                    precompute::generate_maze(loops).value(), precompute::generate_maze(warped).value()}) {
+  for (const LevelDescription& d :
+       {straight_corridor(12), precompute::corridor_level(), precompute::maze_level(41).value(),
+        precompute::generate_maze(loops).value(), precompute::generate_maze(warped).value()}) {
     const Level level = build(d);
     const precompute::LevelScene scene(level, level.res);
     const LevelSampleGeometry& g = scene.samples();
     precompute::Rng rng(7, 0);
     std::size_t differ = 0, tested = 0, free = 0;
     for (std::size_t s = 0; s < g.position.size(); s += 3) {
-      const LevelBlock& b = level.blocks[std::size_t(rng.next_double() * double(level.blocks.size())) % level.blocks.size()];
+      const LevelBlock& b =
+          level.blocks[std::size_t(rng.next_double() * double(level.blocks.size())) % level.blocks.size()];
       const glm::dvec3 target = block_to_world(b, {rng.next_double(), rng.next_double(), rng.next_double()});
       if (glm::dot(target - g.position[s], g.normal[s]) <= 0.0) continue;
       const bool a = scene.occluded_from(g.block[s], g.position[s], target);
@@ -292,7 +300,8 @@ TEST(LightPolicy, RunShortcutAgreesWithEmbree) {
       free += !a;
       ++tested;
     }
-    std::printf("  %s: %zu segments, %zu unoccluded, %zu differ from Embree\n", d.name.c_str(), tested, free, differ);
+    std::printf("  %s: %zu segments, %zu unoccluded, %zu differ from Embree\n", d.name.c_str(), tested, free,
+                differ);
     EXPECT_GT(free, 0u);
     EXPECT_EQ(differ, 0u) << d.name;
   }

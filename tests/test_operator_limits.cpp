@@ -81,7 +81,8 @@ void report(const std::string& name, const std::vector<OperatorMeasure>& measure
   for (const OperatorMeasure& m : measures) {
     EXPECT_LE(m.value, m.limit) << name << ": " << m.where << ": " << m.what;
     std::string key = m.what;
-    if (m.where.rfind("interfaces", 0) == 0 || m.where.rfind("entry face", 0) == 0) key = m.where.substr(0, 12) + " " + key;
+    if (m.where.rfind("interfaces", 0) == 0 || m.where.rfind("entry face", 0) == 0)
+      key = m.where.substr(0, 12) + " " + key;
     auto& w = worst[key];
     if (m.value / m.limit > w.first / std::max(w.second, 1e-300) || w.second == 0.0) w = {m.value, m.limit};
   }

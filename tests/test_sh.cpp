@@ -95,7 +95,8 @@ modrt::Sh9 project(const std::function<double(const glm::dvec3&)>& f) {
     for (const QuadNode& q : quad) {
       const modrt::Sh9 y = modrt::sh9_eval(q.dir);
       const double v = f(q.dir);
-      for (int k = 0; k < kSh9Count; ++k) c[static_cast<std::size_t>(k)] += q.weight * v * y[static_cast<std::size_t>(k)];
+      for (int k = 0; k < kSh9Count; ++k)
+        c[static_cast<std::size_t>(k)] += q.weight * v * y[static_cast<std::size_t>(k)];
     }
   }
   return c;
@@ -152,9 +153,15 @@ TEST(SphericalHarmonics, ConstantsAreExact) {
 TEST(SphericalHarmonics, MatchesGraphicsTable) {
   for (const glm::dvec3& d : test_directions()) {
     const double x = d.x, y = d.y, z = d.z;
-    const std::array<double, 9> expect = {0.282095,           0.488603 * y, 0.488603 * z,
-                                          0.488603 * x,       1.092548 * x * y, 1.092548 * y * z,
-                                          0.315392 * (3 * z * z - 1), 1.092548 * x * z, 0.546274 * (x * x - y * y)};
+    const std::array<double, 9> expect = {0.282095,
+                                          0.488603 * y,
+                                          0.488603 * z,
+                                          0.488603 * x,
+                                          1.092548 * x * y,
+                                          1.092548 * y * z,
+                                          0.315392 * (3 * z * z - 1),
+                                          1.092548 * x * z,
+                                          0.546274 * (x * x - y * y)};
     double out[9];
     modrt::sh9_eval(d, out);
     const modrt::Sh9 arr = modrt::sh9_eval(d);
@@ -190,8 +197,8 @@ TEST(SphericalHarmonics, ProjectConstant) {
 
 TEST(SphericalHarmonics, ProjectClampedCosine) {
   const modrt::Sh9 c = project([](const glm::dvec3& d) { return std::max(0.0, d.z); });
-  const std::array<double, 9> expect = {std::sqrt(kPi) / 2.0, 0, std::sqrt(kPi / 3.0), 0, 0, 0,
-                                        std::sqrt(5.0 * kPi) / 8.0, 0, 0};
+  const std::array<double, 9> expect = {
+      std::sqrt(kPi) / 2.0, 0, std::sqrt(kPi / 3.0), 0, 0, 0, std::sqrt(5.0 * kPi) / 8.0, 0, 0};
   for (std::size_t k = 0; k < 9; ++k) EXPECT_NEAR(c[k], expect[k], 1e-12) << k;
   // These are Â_l / sqrt(4π/(2l+1)), which ties the lobe to the convolution factors.
   for (int k : {0, 2, 6}) {
@@ -210,8 +217,8 @@ TEST(SphericalHarmonics, SumReconstructsProjectedFunction) {
   std::array<float, 9> cf{};
   for (std::size_t k = 0; k < 9; ++k) cf[k] = static_cast<float>(c[k]);
   for (const glm::dvec3& d : test_directions())
-    EXPECT_NEAR(static_cast<double>(modrt::sh9_eval_sum(cf.data(), glm::vec3(d))), modrt::sh9_eval_sum(c.data(), d),
-                1e-5);
+    EXPECT_NEAR(static_cast<double>(modrt::sh9_eval_sum(cf.data(), glm::vec3(d))),
+                modrt::sh9_eval_sum(c.data(), d), 1e-5);
 }
 
 TEST(Irradiance, ConstantRadianceGivesOne) {

@@ -34,7 +34,7 @@ constexpr FaceMask kShapeMasks[kDictionaryShapeCount] = {
     FaceMask(kAllFaces & ~(bit(kFaceNegZ) | bit(kFacePosX) | bit(kFacePosZ))),
     kFloorCeiling,
 };
-constexpr const char* kShapeNames[kDictionaryShapeCount] = {"closed", "dead_end", "corridor",
+constexpr const char* kShapeNames[kDictionaryShapeCount] = {"closed", "dead_end",   "corridor",
                                                             "corner", "t_junction", "crossing"};
 
 int wrap_turns(int quarter_turns) { return ((quarter_turns % 4) + 4) % 4; }

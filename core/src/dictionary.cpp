@@ -90,12 +90,16 @@ Status validate_settings(const DictionarySettings& s) {
   if (Status st = check_range("probe_grid", s.probe_grid, 1, kMaxSettingsProbeGrid); !st.ok()) return st;
   // Interface settings matter only when interface operators are baked.
   if (s.lightfield_spatial > 0) {
-    if (Status st = check_range("lightfield_spatial", s.lightfield_spatial, 1, kMaxSettingsLightfieldSpatial); !st.ok()) return st;
+    if (Status st = check_range("lightfield_spatial", s.lightfield_spatial, 1, kMaxSettingsLightfieldSpatial);
+        !st.ok())
+      return st;
     if (Status st = check_range("lightfield_directional", s.lightfield_directional, 1,
-                                kMaxSettingsLightfieldDirectional); !st.ok())
+                                kMaxSettingsLightfieldDirectional);
+        !st.ok())
       return st;
     if (Status st = check_range("lightfield_supersample", s.lightfield_supersample, 1,
-                                kMaxSettingsLightfieldSupersample); !st.ok())
+                                kMaxSettingsLightfieldSupersample);
+        !st.ok())
       return st;
     if (Status st = check_range("krlf", s.krlf, 1, kMaxSettingsModes); !st.ok()) return st;
     if (Status st = check_range("kr", s.kr, 1, kMaxSettingsModes); !st.ok()) return st;

@@ -133,7 +133,8 @@ Status check_directory_writable(const std::string& prefix, const std::filesystem
     return Status::error(ErrorCode::io_error, lead + d.string() + " is not a directory");
   std::filesystem::create_directories(d, ec);
   if (ec)
-    return Status::error(ErrorCode::io_error, lead + "cannot create directory " + d.string() + ": " + ec.message());
+    return Status::error(ErrorCode::io_error,
+                         lead + "cannot create directory " + d.string() + ": " + ec.message());
   const std::string probe = temporary_name((d / ".modrt-write-probe").string());
   int fd;
   do {
@@ -296,9 +297,9 @@ Result<std::vector<std::byte>> read_file(const std::string& path, std::uint64_t 
   const std::uint64_t limit = max_bytes == UINT64_MAX ? max_bytes : max_bytes + 1;
   if (Status s = read_up_to(fd.get(), limit, out, path); !s.ok()) return s;
   if (out.size() > max_bytes)
-    return Status::error(ErrorCode::resource_limit, path + ": file is more than " + std::to_string(max_bytes) +
-                                                        " bytes, larger than the limit of " +
-                                                        std::to_string(max_bytes) + " bytes");
+    return Status::error(ErrorCode::resource_limit,
+                         path + ": file is more than " + std::to_string(max_bytes) +
+                             " bytes, larger than the limit of " + std::to_string(max_bytes) + " bytes");
   return out;
 }
 

@@ -18,7 +18,7 @@ namespace {
 constexpr int kMaxCell = (1 << 20) - 1;
 
 // Direction of each face's outward normal in the grid (cube.h numbering).
-constexpr int kFaceStep[kFaceCount][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0},
+constexpr int kFaceStep[kFaceCount][3] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
                                           {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
 
 int opposite_face(int face) { return face ^ 1; }
@@ -128,8 +128,8 @@ Status check_block(const LevelDescription& level, std::size_t index) {
       if (!(offset <= kMaxWarpOffsetCells * level.cell_size))
         return fail(label() + ": warp " + corner_label(k) + " at " + fmt_vec(b.corners[k]) + " is " +
                     fmt_double(offset) + " from its grid corner " + fmt_vec(grid[k]) + "; at most " +
-                    fmt_double(kMaxWarpOffsetCells) + " x cell_size = " +
-                    fmt_double(kMaxWarpOffsetCells * level.cell_size) + " is allowed");
+                    fmt_double(kMaxWarpOffsetCells) +
+                    " x cell_size = " + fmt_double(kMaxWarpOffsetCells * level.cell_size) + " is allowed");
     }
     const double s = level.cell_size;
     const double threshold = 1e-6 * s * s * s;
@@ -186,11 +186,11 @@ glm::dvec3 trilinear(const std::array<glm::dvec3, 8>& c, const glm::dvec3& p) {
 
 Result<LevelConnectivity> validate_level(const LevelDescription& level) {
   if (level.version != kLevelFormatVersion)
-    return fail("level version " + std::to_string(level.version) + " is not supported; this build reads version " +
-                std::to_string(kLevelFormatVersion));
+    return fail("level version " + std::to_string(level.version) +
+                " is not supported; this build reads version " + std::to_string(kLevelFormatVersion));
   if (!(level.cell_size >= kMinCellSize && level.cell_size <= kMaxCellSize))
-    return fail("cell_size is " + fmt_double(level.cell_size) + "; it must be in [" + fmt_double(kMinCellSize) +
-                ", " + fmt_double(kMaxCellSize) + "] (world units per grid cell)");
+    return fail("cell_size is " + fmt_double(level.cell_size) + "; it must be in [" +
+                fmt_double(kMinCellSize) + ", " + fmt_double(kMaxCellSize) + "] (world units per grid cell)");
 
   for (std::size_t i = 0; i < level.lights.size(); ++i) {
     const LightDescription& l = level.lights[i];
@@ -235,8 +235,9 @@ Result<LevelConnectivity> validate_level(const LevelDescription& level) {
       if (a_missing != b_missing) {
         const std::size_t m = a_missing ? i : j, p = a_missing ? j : i;
         const int mf = a_missing ? f : g, pf = a_missing ? g : f;
-        return fail(block_label(level, m) + ": face " + face_name(mf) + " is missing but " + block_label(level, p) +
-                    " has its " + face_name(pf) + " face present (a shared face must be missing on both sides or "
+        return fail(block_label(level, m) + ": face " + face_name(mf) + " is missing but " +
+                    block_label(level, p) + " has its " + face_name(pf) +
+                    " face present (a shared face must be missing on both sides or "
                     "present on both)");
       }
       conn.connected[i][f] = a_missing && b_missing;
@@ -256,9 +257,9 @@ Result<LevelConnectivity> validate_level(const LevelDescription& level) {
       }
       if (!bad.empty())
         return fail(block_label(level, i) + " and " + block_label(level, j) +
-                    ": warped corners of the shared face (" + face_name(f) + " of block " + std::to_string(i) +
-                    " / " + face_name(g) + " of block " + std::to_string(j) + ") disagree (tolerance " +
-                    fmt_double(tolerance) + "): " + bad);
+                    ": warped corners of the shared face (" + face_name(f) + " of block " +
+                    std::to_string(i) + " / " + face_name(g) + " of block " + std::to_string(j) +
+                    ") disagree (tolerance " + fmt_double(tolerance) + "): " + bad);
     }
   }
   return conn;

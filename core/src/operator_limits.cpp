@@ -57,8 +57,9 @@ std::vector<OperatorMeasure> measure_dictionary_operators(const Dictionary& dict
     OperatorMeasure limp{where, "||Limp_k||_2", 0.0, kLimpScaleLimit * scale};
     for (std::uint32_t k = 0; k < op.Ub.cols && k < op.Td_b.rows; ++k) {
       const double u = column_norm2(op.Ub, k), t2 = row_norm(op.Td_b, k, 2), t1 = row_norm(op.Td_b, k, 1);
-      if (u * t2 > mode.value) mode.value = u * t2, mode.where = where + "Ub column " + std::to_string(k) +
-                                                                 " x Td_b row " + std::to_string(k);
+      if (u * t2 > mode.value)
+        mode.value = u * t2,
+        mode.where = where + "Ub column " + std::to_string(k) + " x Td_b row " + std::to_string(k);
       if (u > ub.value) ub.value = u, ub.where = where + "Ub column " + std::to_string(k);
       if (t1 > td.value) td.value = t1, td.where = where + "Td_b row " + std::to_string(k);
     }
@@ -95,9 +96,9 @@ std::vector<OperatorMeasure> measure_level_operators(const Level& level) {
     const Matrix& T = level.records[i].T;
     for (std::size_t j = 0; j < T.data.size(); ++j)
       if (std::abs(double(T.data[j])) > t.value)
-        t.value = std::abs(double(T.data[j])),
-        t.where = "record " + std::to_string(i) + ": T[" + std::to_string(j / std::max(T.cols, 1u)) + "," +
-                  std::to_string(j % std::max(T.cols, 1u)) + "]";
+        t.value = std::abs(double(T.data[j])), t.where = "record " + std::to_string(i) + ": T[" +
+                                                         std::to_string(j / std::max(T.cols, 1u)) + "," +
+                                                         std::to_string(j % std::max(T.cols, 1u)) + "]";
   }
   out.push_back(t);
   for (int e = 0; e < kFaceCount; ++e) {
@@ -189,9 +190,7 @@ std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictio
       if (v[i] > m.value) m.value = v[i], m.where = std::string(unit) + " " + std::to_string(i / per);
     return m;
   };
-  return {b,
-          r,
-          largest(lm, "lightmap", "sample", 1),
+  return {b, r, largest(lm, "lightmap", "sample", 1),
           largest(probes, "probes", "block", std::max<std::size_t>(probe_rows, 1)),
           largest(vec, "vector irradiance", "sample", 4)};
 }

@@ -97,10 +97,10 @@ Status validate_light_signal(std::span<const float> rgb, std::size_t samples, co
     if (v > kMaxLightValue) {
       char value[32];
       std::snprintf(value, sizeof value, "%g", double(v));
-      return Status::error(ErrorCode::invalid_argument,
-                           std::string(what) + ": sample " + std::to_string(i / 3) + " channel " +
-                               kChannel[i % 3] + " is " + value +
-                               ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+      return Status::error(
+          ErrorCode::invalid_argument,
+          std::string(what) + ": sample " + std::to_string(i / 3) + " channel " + kChannel[i % 3] + " is " +
+              value + ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
     }
   }
   return Status::success();

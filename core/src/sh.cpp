@@ -48,7 +48,9 @@ Sh9 sh9_eval(const glm::dvec3& unit_dir) {
   return out;
 }
 
-double sh9_eval_sum(const double c[9], const glm::dvec3& unit_dir) { return eval_sum<double>(c, 9, unit_dir); }
+double sh9_eval_sum(const double c[9], const glm::dvec3& unit_dir) {
+  return eval_sum<double>(c, 9, unit_dir);
+}
 
 float sh9_eval_sum(const float c[9], const glm::vec3& unit_dir) { return eval_sum<float>(c, 9, unit_dir); }
 
@@ -75,8 +77,12 @@ void ohlsh_from_sh9(const double b[9], double a[4]) {
   a[3] = a3;
 }
 
-double ohlsh_eval(const double a[4], const glm::dvec3& unit_normal) { return eval_sum<double>(a, 4, unit_normal); }
+double ohlsh_eval(const double a[4], const glm::dvec3& unit_normal) {
+  return eval_sum<double>(a, 4, unit_normal);
+}
 
-float ohlsh_eval(const float a[4], const glm::vec3& unit_normal) { return eval_sum<float>(a, 4, unit_normal); }
+float ohlsh_eval(const float a[4], const glm::vec3& unit_normal) {
+  return eval_sum<float>(a, 4, unit_normal);
+}
 
 }  // namespace modrt

@@ -809,9 +809,10 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   if (const double fed = double(ld_max) + double(rho_max_) * double(bound); fed > kMaxLightValue) {
     char text[64];
     std::snprintf(text, sizeof text, "%g", fed);
-    return Status::error(ErrorCode::invalid_argument,
-                         std::string("gles: multi_bounce_step: the fed-back light can reach ") + text +
-                             ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+    return Status::error(
+        ErrorCode::invalid_argument,
+        std::string("gles: multi_bounce_step: the fed-back light can reach ") + text +
+            ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
   }
   feedback_bound_ = bound;
   feedback_ld_max_ = ld_max;

@@ -180,16 +180,17 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
   if (const BakeMemoryEstimate need = estimate_bake_memory(settings); need.total > memory_budget) {
     constexpr double kGiB = double(1u << 30);
     char text[512];
-    std::snprintf(text, sizeof text,
-                  "bake: res %u, prior_grid %u, %u rays and a %u x %u x %u^2 interface lightfield need about "
-                  "%.1f GiB (transport %.1f, prior lattice %.1f, ray buffers %.1f, operators %.1f, lightfield "
-                  "%.1f), over the memory budget of %.1f GiB: lower res, prior_grid, the ray counts, "
-                  "lightfield_spatial or lightfield_directional, or raise the budget",
-                  settings.res, settings.prior_grid, std::max(settings.rays, settings.sh_rays),
-                  settings.lightfield_spatial, settings.lightfield_spatial, settings.lightfield_directional,
-                  double(need.total) / kGiB, double(need.transport) / kGiB, double(need.prior) / kGiB,
-                  double(need.thread_buffers) / kGiB, double(need.shape_operators) / kGiB,
-                  double(need.lightfield) / kGiB, double(memory_budget) / kGiB);
+    std::snprintf(
+        text, sizeof text,
+        "bake: res %u, prior_grid %u, %u rays and a %u x %u x %u^2 interface lightfield need about "
+        "%.1f GiB (transport %.1f, prior lattice %.1f, ray buffers %.1f, operators %.1f, lightfield "
+        "%.1f), over the memory budget of %.1f GiB: lower res, prior_grid, the ray counts, "
+        "lightfield_spatial or lightfield_directional, or raise the budget",
+        settings.res, settings.prior_grid, std::max(settings.rays, settings.sh_rays),
+        settings.lightfield_spatial, settings.lightfield_spatial, settings.lightfield_directional,
+        double(need.total) / kGiB, double(need.transport) / kGiB, double(need.prior) / kGiB,
+        double(need.thread_buffers) / kGiB, double(need.shape_operators) / kGiB,
+        double(need.lightfield) / kGiB, double(memory_budget) / kGiB);
     return Status::error(ErrorCode::resource_limit, text);
   }
   try {

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include <embree3/rtcore.h>
-#include "embree_rays.h"
 #include <glm/geometric.hpp>
+#include "embree_rays.h"
 
 namespace modrt::precompute {
 

@@ -3,8 +3,8 @@
 #include <bit>
 #include <cstdio>
 #include <cstdlib>
-#include <span>
 #include <filesystem>
+#include <span>
 
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
@@ -20,12 +20,26 @@ std::string default_cache_dir() {
 
 std::string cache_file_name(const DictionarySettings& s) {
   // Hash every setting so that any change selects another file.
-  const std::uint32_t fields[] = {s.res,          s.kd,         s.kb,         s.rays,
-                                  s.enrichment_iterations, s.prior_grid, s.light_samples, s.sh_rays,
-                                  s.probe_grid,   std::uint32_t(s.seed), std::uint32_t(s.seed >> 32),
-                                  std::bit_cast<std::uint32_t>(s.light_radius), s.lightfield_spatial,
-                                  s.lightfield_directional, s.lightfield_supersample, s.krlf, s.kr,
-                                  s.interface_enrichment_iterations, s.response_rays, kDictionaryFormatVersion};
+  const std::uint32_t fields[] = {s.res,
+                                  s.kd,
+                                  s.kb,
+                                  s.rays,
+                                  s.enrichment_iterations,
+                                  s.prior_grid,
+                                  s.light_samples,
+                                  s.sh_rays,
+                                  s.probe_grid,
+                                  std::uint32_t(s.seed),
+                                  std::uint32_t(s.seed >> 32),
+                                  std::bit_cast<std::uint32_t>(s.light_radius),
+                                  s.lightfield_spatial,
+                                  s.lightfield_directional,
+                                  s.lightfield_supersample,
+                                  s.krlf,
+                                  s.kr,
+                                  s.interface_enrichment_iterations,
+                                  s.response_rays,
+                                  kDictionaryFormatVersion};
   const std::uint32_t hash = crc32(std::as_bytes(std::span(fields)));
   char name[128];
   std::snprintf(name, sizeof name, "dict-res%u-kd%u-kb%u-r%u-%08x.modrt", s.res, s.kd, s.kb, s.rays, hash);

@@ -4,9 +4,9 @@
 #include <cmath>
 #include <numbers>
 
-#include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <glm/geometric.hpp>
 
 #include "modrt/precompute/sampling.h"
 
@@ -21,8 +21,8 @@ void sphere_light_points(const glm::dvec3& center, double radius, int samples, s
     out.assign(1, center);
 }
 
-void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light,
-                  int samples, std::span<double> out) {
+void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light, int samples,
+                  std::span<double> out) {
   std::vector<glm::dvec3> points;
   sphere_light_points(light.center, light.radius, samples, points);
   auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
@@ -30,7 +30,8 @@ void direct_light(const BlockScene& scene, const SampleLayout& layout, const Sph
   const double texel_area = layout.res > 0 ? 1.0 / (double(layout.res) * layout.res) : 0.0;
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& range) {
     for (int s = range.begin(); s != range.end(); ++s)
-      out[std::size_t(s)] = sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, texel_area, occluded);
+      out[std::size_t(s)] =
+          sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, texel_area, occluded);
   });
 }
 

@@ -29,12 +29,12 @@ using namespace drt_detail;
 
 struct DrtBuildState::Impl {
   std::vector<ClutterObject> objects;
-  std::vector<SampleResult> samples;             // scene pass, before inpainting
-  std::vector<SampleResult> vector_samples;      // vector scene pass (empty unless built)
-  std::vector<SampleResult> probes;              // U_dyn pass (empty unless built)
-  std::vector<std::vector<TexelResult>> texels;  // clutter pass, per object
+  std::vector<SampleResult> samples;                    // scene pass, before inpainting
+  std::vector<SampleResult> vector_samples;             // vector scene pass (empty unless built)
+  std::vector<SampleResult> probes;                     // U_dyn pass (empty unless built)
+  std::vector<std::vector<TexelResult>> texels;         // clutter pass, per object
   std::vector<std::vector<TexelResult>> vector_texels;  // vector clutter pass (empty unless built)
-  std::vector<ClutterTexelGeometry> geometry;    // per object
+  std::vector<ClutterTexelGeometry> geometry;           // per object
 };
 
 DrtBuildState::DrtBuildState() = default;
@@ -834,8 +834,8 @@ struct DrtBuilder::Pass {
 
 Status validate_drt_build_settings(const DrtBuildSettings& s) {
   auto bad = [](const char* field, const std::string& value, const std::string& range) {
-    return Status::error(ErrorCode::invalid_argument,
-                         std::string("DRT build settings: ") + field + " = " + value + ": must be in " + range);
+    return Status::error(ErrorCode::invalid_argument, std::string("DRT build settings: ") + field + " = " +
+                                                          value + ": must be in " + range);
   };
   auto range = [](std::int64_t lo, std::int64_t hi) {
     return "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
@@ -862,11 +862,9 @@ DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuil
   if (!settings_status_.ok()) return;  // build and rebuild_object report it; nothing allocated
   direction_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x736574ull);
   if (settings.vector)
-    uniform_sets_ =
-        make_direction_sets(settings.rays, settings.seed ^ 0x756e69ull, Directions::hemisphere);
+    uniform_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x756e69ull, Directions::hemisphere);
   if (settings.probes)
-    sphere_sets_ =
-        make_direction_sets(settings.rays, settings.seed ^ 0x737068ull, Directions::sphere);
+    sphere_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x737068ull, Directions::sphere);
 }
 
 namespace {
@@ -1072,13 +1070,12 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = walls_.samples().position.size();
   std::vector<std::uint8_t> retrace(n, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 32),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      std::vector<glm::dvec3> dirs;
-                      for (std::size_t s = range.begin(); s != range.end(); ++s)
-                        retrace[s] = pass.sample_depends_on(s, old_box, dirs) ||
-                                     pass.sample_depends_on(s, new_box, dirs);
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 32), [&](const tbb::blocked_range<std::size_t>& range) {
+        std::vector<glm::dvec3> dirs;
+        for (std::size_t s = range.begin(); s != range.end(); ++s)
+          retrace[s] = pass.sample_depends_on(s, old_box, dirs) || pass.sample_depends_on(s, new_box, dirs);
+      });
   const std::size_t retraced = std::size_t(std::count(retrace.begin(), retrace.end(), 1));
   if (retraced > 0) pass.scene_pass(st.samples, retrace);
   DrtBuildReport scene_report;
@@ -1163,18 +1160,19 @@ std::vector<float> clutter_direct_light(const LevelScene& scene, std::span<const
       const SphereLight sphere{light.position, light.radius, light.intensity};
       std::vector<glm::dvec3> points;
       sphere_light_points(light.position, light.radius, light_samples, points);
-      tbb::parallel_for(
-          tbb::blocked_range<std::size_t>(0, cg.position.size(), 64),
-          [&](const tbb::blocked_range<std::size_t>& range) {
-            for (std::size_t i = range.begin(); i != range.end(); ++i) {
-              // Off the face: the clutter is two-sided, its own face must not shadow it.
-              const glm::dvec3 x = cg.position[i] + 1e-5 * cg.normal[i];
-              const double E_over_pi = sphere_light_E_over_pi(x, cg.normal[i], sphere, points, texel_area[i], occluded);
-              if (E_over_pi <= 0.0) continue;
-              for (int c = 0; c < 3; ++c)
-                out[base + 3 * i + std::size_t(c)] += float(object.albedo[c] * light.color[c] * E_over_pi);
-            }
-          });
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cg.position.size(), 64),
+                        [&](const tbb::blocked_range<std::size_t>& range) {
+                          for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                            // Off the face: the clutter is two-sided, its own face must not shadow it.
+                            const glm::dvec3 x = cg.position[i] + 1e-5 * cg.normal[i];
+                            const double E_over_pi = sphere_light_E_over_pi(x, cg.normal[i], sphere, points,
+                                                                            texel_area[i], occluded);
+                            if (E_over_pi <= 0.0) continue;
+                            for (int c = 0; c < 3; ++c)
+                              out[base + 3 * i + std::size_t(c)] +=
+                                  float(object.albedo[c] * light.color[c] * E_over_pi);
+                          }
+                        });
     }
   }
   return out;

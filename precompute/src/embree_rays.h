@@ -25,7 +25,8 @@ inline bool traceable_ray(const glm::dvec3& origin, const glm::dvec3& dir, doubl
 
 // Closest hit along origin + t dir, t in (t_near, inf); geomID is RTC_INVALID_GEOMETRY_ID
 // on a miss (and for a ray that cannot be traced).
-inline RTCRayHit embree_intersect(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& dir, double t_near) {
+inline RTCRayHit embree_intersect(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& dir,
+                                  double t_near) {
   RTCRayHit rh{};
   rh.ray.tfar = 1e30f;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -47,7 +48,8 @@ inline RTCRayHit embree_intersect(RTCScene scene, const glm::dvec3& origin, cons
 
 // True when anything blocks the open segment origin -> target (and for a segment that cannot be
 // traced).
-inline bool embree_occluded(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& target, double t_near) {
+inline bool embree_occluded(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& target,
+                            double t_near) {
   const glm::dvec3 d = target - origin;
   constexpr double kTFar = 1.0 - 1e-6;  // stop just short of the target point itself
   if (!traceable(target) || !traceable_ray(origin, d, t_near, kTFar)) return true;

@@ -409,9 +409,9 @@ Status validate_interface_settings(const InterfaceSettings& s) {
                 {"probe_rays", s.probe_rays, 1, kMaxSettingsRays}};
   for (const auto& c : counts)
     if (c.value < c.lo || std::int64_t(c.value) > std::int64_t(c.hi))
-      return Status::error(ErrorCode::invalid_argument, std::string("interface settings: ") + c.name + " = " +
-                                                            std::to_string(c.value) + ": must be in [" +
-                                                            std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
+      return Status::error(ErrorCode::invalid_argument,
+                           std::string("interface settings: ") + c.name + " = " + std::to_string(c.value) +
+                               ": must be in [" + std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
   return Status::success();
 }
 

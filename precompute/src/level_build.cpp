@@ -205,7 +205,8 @@ std::uint64_t estimate_level_bytes(const LevelDescription& description, const Di
 Status validate_level_build_settings(const LevelBuildSettings& settings) {
   if (settings.dmax < 0 || settings.dmax > kMaxLevelDmax)
     return Status::error(ErrorCode::invalid_argument, "build_level: dmax = " + std::to_string(settings.dmax) +
-                                                          ": must be in [0, " + std::to_string(kMaxLevelDmax) + "]");
+                                                          ": must be in [0, " +
+                                                          std::to_string(kMaxLevelDmax) + "]");
   return Status::success();
 }
 

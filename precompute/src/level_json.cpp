@@ -46,13 +46,17 @@ bool is_identifier(const std::string& key) {
   return true;
 }
 
-std::string quote(const std::string& s) { return json(s).dump(-1, ' ', false, json::error_handler_t::replace); }
+std::string quote(const std::string& s) {
+  return json(s).dump(-1, ' ', false, json::error_handler_t::replace);
+}
 
 std::string key_path(const std::string& parent, const std::string& key) {
   return parent + (parent.empty() ? "" : ".") + (is_identifier(key) ? key : quote(key));
 }
 
-std::string index_path(const std::string& parent, std::size_t i) { return parent + "[" + std::to_string(i) + "]"; }
+std::string index_path(const std::string& parent, std::size_t i) {
+  return parent + "[" + std::to_string(i) + "]";
+}
 
 std::string fmt_double(double v) {
   char buf[64];
@@ -102,7 +106,8 @@ class Parser {
   explicit Parser(const std::string& what) : what_(what) {}
 
   [[noreturn]] void fail(ErrorCode code, const std::string& path, const std::string& problem) const {
-    throw ParseFailure{code, what_ + ": " + (path.empty() ? std::string("top level") : path) + ": " + problem};
+    throw ParseFailure{code,
+                       what_ + ": " + (path.empty() ? std::string("top level") : path) + ": " + problem};
   }
 
   const json& expect(const json& j, const std::string& path, json::value_t type, const char* want) const {
@@ -112,7 +117,8 @@ class Parser {
   }
 
   // Fails on keys not in `allowed` (keys starting with '_' are comments and ignored).
-  void check_fields(const json& obj, const std::string& path, std::initializer_list<const char*> allowed) const {
+  void check_fields(const json& obj, const std::string& path,
+                    std::initializer_list<const char*> allowed) const {
     for (const auto& [key, value] : obj.items()) {
       if (!key.empty() && key[0] == '_') continue;
       bool known = false;
@@ -151,7 +157,8 @@ class Parser {
 
   double number_in(const json& j, const std::string& path, double lo, double hi, const char* range) const {
     const double v = number(j, path);
-    if (!(v >= lo && v <= hi)) fail(ErrorCode::invalid_argument, path, fmt_double(v) + " is outside " + range);
+    if (!(v >= lo && v <= hi))
+      fail(ErrorCode::invalid_argument, path, fmt_double(v) + " is outside " + range);
     return v;
   }
 
@@ -163,8 +170,9 @@ class Parser {
       v = u > std::uint64_t(1) << 53 ? std::numeric_limits<double>::infinity() : double(u);
     } else if (j.is_number_integer()) {
       const auto s = j.get<std::int64_t>();
-      v = (s > (std::int64_t(1) << 53) || s < -(std::int64_t(1) << 53)) ? std::numeric_limits<double>::infinity()
-                                                                       : double(s);
+      v = (s > (std::int64_t(1) << 53) || s < -(std::int64_t(1) << 53))
+              ? std::numeric_limits<double>::infinity()
+              : double(s);
     } else {
       v = j.get<double>();
       if (std::isfinite(v) && v != std::floor(v))
@@ -187,7 +195,8 @@ class Parser {
 
   glm::dvec3 vec3(const json& j, const std::string& path) const {
     array(j, path, 3, "numbers [x, y, z]");
-    return {number(j[0], index_path(path, 0)), number(j[1], index_path(path, 1)), number(j[2], index_path(path, 2))};
+    return {number(j[0], index_path(path, 0)), number(j[1], index_path(path, 1)),
+            number(j[2], index_path(path, 2))};
   }
 
   // RGB with each channel in [lo, hi].
@@ -196,7 +205,8 @@ class Parser {
     const std::string range_text = "[0, " + fmt_double(hi) + "]";
     const char* range = range_text.c_str();
     glm::dvec3 c;
-    for (int ch = 0; ch < 3; ++ch) c[ch] = number_in(j[std::size_t(ch)], index_path(path, std::size_t(ch)), 0.0, hi, range);
+    for (int ch = 0; ch < 3; ++ch)
+      c[ch] = number_in(j[std::size_t(ch)], index_path(path, std::size_t(ch)), 0.0, hi, range);
     return c;
   }
 
@@ -212,7 +222,9 @@ class Parser {
       const std::string p = index_path(path, i);
       const std::string s = string(j[i], p);
       const int f = face_from_name(s);
-      if (f < 0) fail(ErrorCode::format_error, p, "unknown face name " + quote(s) + " (faces are -X, +X, -Y, +Y, -Z, +Z)");
+      if (f < 0)
+        fail(ErrorCode::format_error, p,
+             "unknown face name " + quote(s) + " (faces are -X, +X, -Y, +Y, -Z, +Z)");
       if (face_present(mask, f)) fail(ErrorCode::format_error, p, "face " + s + " is listed twice");
       mask = FaceMask(mask | (1u << f));
     }
@@ -228,7 +240,8 @@ class Parser {
       const std::string p = key_path(path, "cell");
       const json& c = array(require(j, path, "cell"), p, 3, "integers [x, y, z]");
       for (int a = 0; a < 3; ++a)
-        b.cell[a] = integer(c[std::size_t(a)], index_path(p, std::size_t(a)), -kMaxCellCoordinate, kMaxCellCoordinate);
+        b.cell[a] = integer(c[std::size_t(a)], index_path(p, std::size_t(a)), -kMaxCellCoordinate,
+                            kMaxCellCoordinate);
     }
     const json* missing = find(j, "missing");
     const json* present = find(j, "present");
@@ -257,7 +270,8 @@ class Parser {
           for (int f : {0, 1, 4, 5}) b.albedo[std::size_t(f)] = c;
         }
         for (int f = 0; f < kFaceCount; ++f)
-          if (const json* v = find(*a, kFaceNames[f])) b.albedo[std::size_t(f)] = rgb(*v, key_path(p, kFaceNames[f]), 1.0);
+          if (const json* v = find(*a, kFaceNames[f]))
+            b.albedo[std::size_t(f)] = rgb(*v, key_path(p, kFaceNames[f]), 1.0);
       }
     }
     if (const json* c = find(j, "corners")) {
@@ -284,10 +298,11 @@ class Parser {
       return "[" + fmt_double(v.x) + ", " + fmt_double(v.y) + ", " + fmt_double(v.z) + "]";
     };
     if (empty ? !traceable(l.position) : !light_position_in_level(l.position, lo, hi, cell_size))
-      fail(ErrorCode::invalid_argument, position_path,
-           text(l.position) + " is outside " +
-               (empty ? "[-" + fmt_double(kMaxTraceCoordinate) + ", " + fmt_double(kMaxTraceCoordinate) + "]^3"
-                      : "the level's box " + text(lo) + " - " + text(hi) + " grown by " + fmt_double(grow)));
+      fail(
+          ErrorCode::invalid_argument, position_path,
+          text(l.position) + " is outside " +
+              (empty ? "[-" + fmt_double(kMaxTraceCoordinate) + ", " + fmt_double(kMaxTraceCoordinate) + "]^3"
+                     : "the level's box " + text(lo) + " - " + text(hi) + " grown by " + fmt_double(grow)));
     const double max_radius = empty ? kMaxTraceCoordinate : grow;
     if (const json* v = find(j, "radius"))
       l.radius = number_in(*v, key_path(path, "radius"), 0.0, max_radius,
@@ -310,8 +325,8 @@ class Parser {
     expect(root, "", json::value_t::object, "a JSON object (a modrt level)");
     const std::string format = string(require(root, "", "format"), "format");
     if (format != kLevelFormatName)
-      fail(ErrorCode::format_error, "format", "is " + quote(format) + "; a level file has \"format\": \"" +
-                                                  kLevelFormatName + "\"");
+      fail(ErrorCode::format_error, "format",
+           "is " + quote(format) + "; a level file has \"format\": \"" + kLevelFormatName + "\"");
     const int version = integer(require(root, "", "version"), "version", std::numeric_limits<int>::min(),
                                 std::numeric_limits<int>::max());
     if (version != kLevelFormatVersion)
@@ -324,8 +339,9 @@ class Parser {
     level.version = version;
     if (const json* v = find(root, "name")) level.name = string(*v, "name");
     if (const json* v = find(root, "cell_size"))
-      level.cell_size = number_in(*v, "cell_size", kMinCellSize, kMaxCellSize,
-                                  ("[" + fmt_double(kMinCellSize) + ", " + fmt_double(kMaxCellSize) + "]").c_str());
+      level.cell_size =
+          number_in(*v, "cell_size", kMinCellSize, kMaxCellSize,
+                    ("[" + fmt_double(kMinCellSize) + ", " + fmt_double(kMaxCellSize) + "]").c_str());
     glm::dvec3 default_albedo = kDefaultAlbedo;
     if (const json* v = find(root, "default_albedo")) default_albedo = rgb(*v, "default_albedo", 1.0);
 
@@ -373,7 +389,8 @@ class DuplicateKeyCheck {
           top.key = parsed.is_string() ? parsed.get<std::string>() : parsed.dump();
           if (!top.keys.insert(top.key).second) {
             const std::string p = path();
-            throw ParseFailure{ErrorCode::format_error, what_ + ": " + p + ": duplicate key " + quote(top.key)};
+            throw ParseFailure{ErrorCode::format_error,
+                               what_ + ": " + p + ": duplicate key " + quote(top.key)};
           }
         }
         break;
@@ -417,9 +434,12 @@ std::string spaced(const std::string& compact) {
   for (const char c : compact) {
     out += c;
     if (in_string) {
-      if (escape) escape = false;
-      else if (c == '\\') escape = true;
-      else if (c == '"') in_string = false;
+      if (escape)
+        escape = false;
+      else if (c == '\\')
+        escape = true;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == ':' || c == ',') {
@@ -466,25 +486,26 @@ std::string strip_prefix(const char* what) {
 
 Result<LevelDescription> parse_level_json(std::string_view text, const std::string& what) {
   if (text.size() > kMaxLevelFileBytes)
-    return Status::error(ErrorCode::resource_limit, what + ": level text is " + std::to_string(text.size()) +
-                                                        " bytes; the limit is " +
-                                                        std::to_string(kMaxLevelFileBytes) + " bytes (64 MiB)");
+    return Status::error(ErrorCode::resource_limit,
+                         what + ": level text is " + std::to_string(text.size()) + " bytes; the limit is " +
+                             std::to_string(kMaxLevelFileBytes) + " bytes (64 MiB)");
   try {
     json root;
     try {
       root = json::parse(text.begin(), text.end(), DuplicateKeyCheck(what), /*allow_exceptions=*/true,
                          /*ignore_comments=*/true);
     } catch (const json::parse_error& e) {
-      return Status::error(ErrorCode::format_error, what + ": malformed JSON at byte " + std::to_string(e.byte) +
-                                                        ": " + strip_prefix(e.what()));
+      return Status::error(
+          ErrorCode::format_error,
+          what + ": malformed JSON at byte " + std::to_string(e.byte) + ": " + strip_prefix(e.what()));
     } catch (const json::exception& e) {  // e.g. number overflow (out_of_range.406)
       return Status::error(ErrorCode::format_error, what + ": malformed JSON: " + strip_prefix(e.what()));
     }
     LevelDescription level = Parser(what).level(root);
     Result<LevelConnectivity> valid = validate_level(level);
     if (!valid.ok())
-      return Status::error(valid.status().code(), what + ": " + valid.status().message() +
-                                                      " (block N is blocks[N] in the file)");
+      return Status::error(valid.status().code(),
+                           what + ": " + valid.status().message() + " (block N is blocks[N] in the file)");
     return level;
   } catch (const ParseFailure& f) {
     return Status::error(f.code, f.message);
@@ -500,9 +521,9 @@ Result<LevelDescription> load_level_json(const std::string& path) {
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) return Status::error(ErrorCode::io_error, path + ": cannot read level file: " + ec.message());
   if (size > kMaxLevelFileBytes)
-    return Status::error(ErrorCode::resource_limit, path + ": level file is " + std::to_string(size) +
-                                                        " bytes; the limit is " +
-                                                        std::to_string(kMaxLevelFileBytes) + " bytes (64 MiB)");
+    return Status::error(ErrorCode::resource_limit,
+                         path + ": level file is " + std::to_string(size) + " bytes; the limit is " +
+                             std::to_string(kMaxLevelFileBytes) + " bytes (64 MiB)");
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::error(ErrorCode::io_error, path + ": cannot open level file");
   std::string text;
@@ -523,7 +544,8 @@ std::string level_to_json(const LevelDescription& level) {
 
   std::string out = "{\n";
   const auto field = [&out](const char* key, const ordered_json& value) {
-    out += "  " + quote(key) + ": " + spaced(value.dump(-1, ' ', false, json::error_handler_t::replace)) + ",\n";
+    out +=
+        "  " + quote(key) + ": " + spaced(value.dump(-1, ' ', false, json::error_handler_t::replace)) + ",\n";
   };
   field("format", kLevelFormatName);
   field("version", level.version);
@@ -547,7 +569,8 @@ std::string level_to_json(const LevelDescription& level) {
     ordered_json albedo = ordered_json::object();
     if (!same(block_default, level_default)) albedo["default"] = rgb_json(block_default);
     for (int f = 0; f < kFaceCount; ++f)
-      if (!same(b.albedo[std::size_t(f)], block_default)) albedo[kFaceNames[std::size_t(f)]] = rgb_json(b.albedo[std::size_t(f)]);
+      if (!same(b.albedo[std::size_t(f)], block_default))
+        albedo[kFaceNames[std::size_t(f)]] = rgb_json(b.albedo[std::size_t(f)]);
     if (!albedo.empty()) j["albedo"] = albedo;
     if (b.warped) {
       ordered_json corners = ordered_json::array();

@@ -11,11 +11,11 @@
 #include <string>
 
 #include <embree3/rtcore.h>
-#include "embree_rays.h"
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include "embree_rays.h"
 
 #include "modrt/clutter_mesh.h"
 #include "modrt/precompute/block_scene.h"
@@ -94,7 +94,8 @@ bool block_box(const LevelBlock& b, glm::dvec3& lo, glm::dvec3& hi) {
   hi = b.corners[7];
   if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z)) return false;
   for (int k = 0; k < 8; ++k)
-    if (b.corners[std::size_t(k)] != glm::dvec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z))
+    if (b.corners[std::size_t(k)] !=
+        glm::dvec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z))
       return false;
   return true;
 }
@@ -112,7 +113,8 @@ void build_runs(const Level& level, std::vector<RunBox>& runs, std::vector<std::
     is_box[i] = block_box(b, box[i].lo, box[i].hi);
     const FaceMask mask = dictionary_shape_mask(b.shape);
     for (int f = 0; f < kFaceCount; ++f)
-      open[i][std::size_t(rotate_face(f, b.quarter_turns))] = face_present(mask, f) ? -1 : b.neighbour[std::size_t(f)];
+      open[i][std::size_t(rotate_face(f, b.quarter_turns))] =
+          face_present(mask, f) ? -1 : b.neighbour[std::size_t(f)];
   }
   block_runs.assign(n, {-1, -1, -1});
   // The box block through world face w of block i that continues its run, or -1.
@@ -227,7 +229,8 @@ LevelScene::LevelScene(const Level& level, int subdivisions, std::span<const Clu
   }
   if (clutter_.empty()) build_runs(level, impl_->runs, impl_->block_runs);
   rtcCommitScene(impl_->scene);
-  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE) throw std::runtime_error("Embree: level scene build failed");
+  if (rtcGetDeviceError(impl_->device) != RTC_ERROR_NONE)
+    throw std::runtime_error("Embree: level scene build failed");
 }
 
 LevelScene::~LevelScene() {
@@ -326,7 +329,8 @@ bool LevelScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, do
   return embree_occluded(impl_->scene, origin, target, t_near);
 }
 
-bool LevelScene::occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {
+bool LevelScene::occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target,
+                               double t_near) const {
   // Inside one run's box (convex, no wall inside), a segment from a point of the closed box to a
   // point strictly inside it crosses no wall: no ray. The margins (1e-9 of the coordinates) keep
   // targets on or near the box's boundary for Embree.
@@ -354,7 +358,8 @@ std::vector<float> level_albedo(const Level& level, const LevelDescription& desc
     for (int s = 0; s < layout.sample_count(); ++s) {
       const int world_face = rotate_face(layout.face_of(s), b.quarter_turns);
       const glm::dvec3& a = description.blocks[bi].albedo[std::size_t(world_face)];
-      for (int c = 0; c < 3; ++c) albedo[3 * (b.sample_offset + std::size_t(s)) + std::size_t(c)] = float(a[c]);
+      for (int c = 0; c < 3; ++c)
+        albedo[3 * (b.sample_offset + std::size_t(s)) + std::size_t(c)] = float(a[c]);
     }
   }
   return albedo;
@@ -382,61 +387,68 @@ std::vector<float> level_direct_light(const LevelScene& scene, std::span<const L
     const SphereLight sphere{light.position, light.radius, light.intensity};
     std::vector<glm::dvec3> points;
     sphere_light_points(light.position, light.radius, light_samples, points);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t s = range.begin(); s != range.end(); ++s) {
-        const int block = g.block[s];
-        auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded_from(block, a, b); };
-        const double E_over_pi = sphere_light_E_over_pi(g.position[s], g.normal[s], sphere, points,
-                                                         texel_area[std::size_t(g.block[s])], occluded);
-        if (E_over_pi <= 0.0) continue;
-        for (int c = 0; c < 3; ++c)
-          ld[3 * s + std::size_t(c)] += float(double(albedo[3 * s + std::size_t(c)]) * light.color[c] * E_over_pi);
-      }
-      const std::size_t now_done = done += range.size();
-      if (!progress) return;
-      const std::unique_lock lock(progress_mutex, std::try_to_lock);
-      const auto now = std::chrono::steady_clock::now();
-      if (lock.owns_lock() && now - last_report >= std::chrono::milliseconds(500)) {
-        last_report = now;
-        progress(double(now_done) / std::max(total, 1.0));
-      }
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+          for (std::size_t s = range.begin(); s != range.end(); ++s) {
+            const int block = g.block[s];
+            auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) {
+              return scene.occluded_from(block, a, b);
+            };
+            const double E_over_pi = sphere_light_E_over_pi(g.position[s], g.normal[s], sphere, points,
+                                                            texel_area[std::size_t(g.block[s])], occluded);
+            if (E_over_pi <= 0.0) continue;
+            for (int c = 0; c < 3; ++c)
+              ld[3 * s + std::size_t(c)] +=
+                  float(double(albedo[3 * s + std::size_t(c)]) * light.color[c] * E_over_pi);
+          }
+          const std::size_t now_done = done += range.size();
+          if (!progress) return;
+          const std::unique_lock lock(progress_mutex, std::try_to_lock);
+          const auto now = std::chrono::steady_clock::now();
+          if (lock.owns_lock() && now - last_report >= std::chrono::milliseconds(500)) {
+            last_report = now;
+            progress(double(now_done) / std::max(total, 1.0));
+          }
+        });
   }
   if (progress) progress(1.0);
   return ld;
 }
 
-std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays, std::uint64_t seed) {
+std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays,
+                                    std::uint64_t seed) {
   const Level& level = scene.level();
   const LevelSampleGeometry& g = scene.samples();
   const std::size_t n = g.position.size();
   std::vector<float> out(3 * n, 0.0f);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8), [&](const tbb::blocked_range<std::size_t>& range) {
-    std::vector<glm::dvec2> strata;
-    for (std::size_t s = range.begin(); s != range.end(); ++s) {
-      Rng rng(seed, s);
-      stratified_square(rays, rng, strata);
-      // Tangent frame of the warped face at the sample.
-      const glm::dvec3 nrm = g.normal[s];
-      const glm::dvec3 helper = std::abs(nrm.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-      const glm::dvec3 t = glm::normalize(glm::cross(helper, nrm));
-      const glm::dvec3 b = glm::cross(nrm, t);
-      double acc[3] = {0, 0, 0};
-      for (const glm::dvec2& u : strata) {
-        const LevelHit hit = scene.intersect(g.position[s], to_world(cosine_hemisphere(u), t, b, nrm));
-        // Clutter has no level ld: this reference sees it as black (DRT's dUc adds its light).
-        if (hit.block < 0 || hit.clutter >= 0) continue;
-        const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
-        const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
-        const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
-        for (int k = 0; k < 4; ++k) {
-          const std::size_t idx = hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]));
-          for (int c = 0; c < 3; ++c) acc[c] += taps.w[k] * ld[3 * idx + std::size_t(c)];
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 8), [&](const tbb::blocked_range<std::size_t>& range) {
+        std::vector<glm::dvec2> strata;
+        for (std::size_t s = range.begin(); s != range.end(); ++s) {
+          Rng rng(seed, s);
+          stratified_square(rays, rng, strata);
+          // Tangent frame of the warped face at the sample.
+          const glm::dvec3 nrm = g.normal[s];
+          const glm::dvec3 helper = std::abs(nrm.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+          const glm::dvec3 t = glm::normalize(glm::cross(helper, nrm));
+          const glm::dvec3 b = glm::cross(nrm, t);
+          double acc[3] = {0, 0, 0};
+          for (const glm::dvec2& u : strata) {
+            const LevelHit hit = scene.intersect(g.position[s], to_world(cosine_hemisphere(u), t, b, nrm));
+            // Clutter has no level ld: this reference sees it as black (DRT's dUc adds its light).
+            if (hit.block < 0 || hit.clutter >= 0) continue;
+            const LevelBlock& hb = level.blocks[std::size_t(hit.block)];
+            const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(hb.shape), level.res);
+            const BilinearTaps taps = bilinear_taps(hit.u, hit.v, level.res);
+            for (int k = 0; k < 4; ++k) {
+              const std::size_t idx =
+                  hb.sample_offset + std::size_t(layout.index(hit.face, taps.i[k], taps.j[k]));
+              for (int c = 0; c < 3; ++c) acc[c] += taps.w[k] * ld[3 * idx + std::size_t(c)];
+            }
+          }
+          for (int c = 0; c < 3; ++c) out[3 * s + std::size_t(c)] = float(acc[c] / rays);
         }
-      }
-      for (int c = 0; c < 3; ++c) out[3 * s + std::size_t(c)] = float(acc[c] / rays);
-    }
-  });
+      });
   return out;
 }
 

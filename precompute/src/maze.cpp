@@ -110,13 +110,15 @@ BlockDescription grey_block(int x, int z, FaceMask faces) {
 Result<LevelDescription> generate_maze(const MazeSettings& s) {
   if (s.blocks < 1 || s.blocks > kMaxMazeBlocks)
     return Status::error(ErrorCode::invalid_argument, "maze: blocks = " + std::to_string(s.blocks) +
-                                                          " must be in [1, " + std::to_string(kMaxMazeBlocks) + "]");
+                                                          " must be in [1, " +
+                                                          std::to_string(kMaxMazeBlocks) + "]");
   if (!(s.loop_fraction >= 0.0 && s.loop_fraction <= 1.0))
     return Status::error(ErrorCode::invalid_argument,
                          "maze: loop_fraction = " + fmt_g(s.loop_fraction) + " must be in [0, 1]");
   if (!(s.warp >= 0.0 && s.warp <= 0.25))
-    return Status::error(ErrorCode::invalid_argument,
-                         "maze: warp = " + fmt_g(s.warp) + " must be in [0, 0.25] (larger jitter can fold blocks)");
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "maze: warp = " + fmt_g(s.warp) + " must be in [0, 0.25] (larger jitter can fold blocks)");
 
   const std::size_t n = std::size_t(s.blocks);
   Rng rng(s.seed);
@@ -226,8 +228,8 @@ Result<LevelDescription> generate_maze(const MazeSettings& s) {
   if (n >= 10) level.lights.push_back(light_at(block_centre(level, level.blocks.back())));
 
   if (Result<LevelConnectivity> valid = validate_level(level); !valid.ok())
-    return Status::error(ErrorCode::internal_error, "maze: generated level failed validation: " +
-                                                        valid.status().message());
+    return Status::error(ErrorCode::internal_error,
+                         "maze: generated level failed validation: " + valid.status().message());
   return level;
 }
 

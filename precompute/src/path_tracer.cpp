@@ -27,16 +27,16 @@ DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescrip
   const std::vector<double> texel_area = level_texel_areas(scene.level());
   return [&scene, &description, points, albedo, texel_area](const LevelHit& hit, const glm::dvec3& x,
                                                             const glm::dvec3& n) {
-        auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
-        const double area = hit.block >= 0 ? texel_area[std::size_t(hit.block)] : 0.0;
-        glm::dvec3 sum(0.0);
-        for (std::size_t i = 0; i < description.lights.size(); ++i) {
-          const LightDescription& l = description.lights[i];
-          sum += l.color * sphere_light_E_over_pi(x, n, SphereLight{l.position, l.radius, l.intensity},
-                                                  points[i], area, occluded);
-        }
-        return albedo(hit) * sum;
-      };
+    auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
+    const double area = hit.block >= 0 ? texel_area[std::size_t(hit.block)] : 0.0;
+    glm::dvec3 sum(0.0);
+    for (std::size_t i = 0; i < description.lights.size(); ++i) {
+      const LightDescription& l = description.lights[i];
+      sum += l.color * sphere_light_E_over_pi(x, n, SphereLight{l.position, l.radius, l.intensity}, points[i],
+                                              area, occluded);
+    }
+    return albedo(hit) * sum;
+  };
 }
 
 SurfaceAlbedo level_surface_albedo(const LevelScene& scene, const LevelDescription& description) {
@@ -112,9 +112,9 @@ Status validate_path_tracer_settings(const PathTracerSettings& s) {
                 {"light_samples", s.light_samples, 1, kMaxSettingsLightSamples}};
   for (const auto& c : counts)
     if (c.value < c.lo || std::int64_t(c.value) > c.hi)
-      return Status::error(ErrorCode::invalid_argument, std::string("path tracer settings: ") + c.name + " = " +
-                                                            std::to_string(c.value) + ": must be in [" +
-                                                            std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
+      return Status::error(ErrorCode::invalid_argument,
+                           std::string("path tracer settings: ") + c.name + " = " + std::to_string(c.value) +
+                               ": must be in [" + std::to_string(c.lo) + ", " + std::to_string(c.hi) + "]");
   return Status::success();
 }
 

@@ -27,8 +27,7 @@ void stratified_square(int count, Rng& rng, std::vector<glm::dvec2>& out) {
   const int ny = count / nx;
   out.reserve(std::size_t(count));
   for (int y = 0; y < ny; ++y)
-    for (int x = 0; x < nx; ++x)
-      out.push_back({(x + rng.next_double()) / nx, (y + rng.next_double()) / ny});
+    for (int x = 0; x < nx; ++x) out.push_back({(x + rng.next_double()) / nx, (y + rng.next_double()) / ny});
 }
 
 glm::dvec2 concentric_square_to_disk(const glm::dvec2& s) {

@@ -3,9 +3,9 @@
 #include <numbers>
 #include <vector>
 
-#include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <glm/geometric.hpp>
 
 #include "modrt/precompute/sampling.h"
 #include "modrt/sh.h"
@@ -48,8 +48,8 @@ MatrixXd vector_irradiance_operator(const BlockScene& scene, const SampleLayout&
       acc.setZero();
       for (const glm::dvec2& u : strata) {
         const glm::dvec3 local = uniform_hemisphere(u);
-        accumulate_ray(scene, layout, Limp, x, to_world(local, frame.u_axis, frame.v_axis, frame.normal), local,
-                       radiance, acc);
+        accumulate_ray(scene, layout, Limp, x, to_world(local, frame.u_axis, frame.v_axis, frame.normal),
+                       local, radiance, acc);
       }
       // Monte Carlo with pdf 1/(2 pi); then clamped-cosine convolution to E/pi; then OHLSH.
       acc *= 2.0 * std::numbers::pi / rays;

@@ -211,9 +211,10 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
                                                       " (call modrt_context_options_init)");
       o = *options;
     }
-    if (const int backend = c_enum_value(o.backend); backend != MODRT_BACKEND_CPU && backend != MODRT_BACKEND_GLES)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.backend " +
-                                                    std::to_string(backend) + " is not a backend");
+    if (const int backend = c_enum_value(o.backend);
+        backend != MODRT_BACKEND_CPU && backend != MODRT_BACKEND_GLES)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": options.backend " + std::to_string(backend) + " is not a backend");
     if (o.threads < 1 || o.threads > 256)
       return fail(MODRT_ERROR_INVALID_ARGUMENT,
                   std::string(fn) + ": options.threads " + std::to_string(o.threads) + " is not in 1..256");

@@ -41,28 +41,40 @@ const Assets& assets() {
 }
 
 float fuzz_float(FuzzedDataProvider& in) {
-  static constexpr float kEdges[] = {0.0f,   -0.0f,  1.0f,    -1.0f,   0.5f,    0.25f,   1e-7f,  1e-12f,
-                                     1e-45f, 1e-38f, 1e6f,    1e19f,   1e20f,   1e30f,   3.4e38f, -1e20f,
+  static constexpr float kEdges[] = {0.0f,
+                                     -0.0f,
+                                     1.0f,
+                                     -1.0f,
+                                     0.5f,
+                                     0.25f,
+                                     1e-7f,
+                                     1e-12f,
+                                     1e-45f,
+                                     1e-38f,
+                                     1e6f,
+                                     1e19f,
+                                     1e20f,
+                                     1e30f,
+                                     3.4e38f,
+                                     -1e20f,
                                      std::numeric_limits<float>::infinity(),
                                      -std::numeric_limits<float>::infinity(),
                                      std::numeric_limits<float>::quiet_NaN()};
   switch (in.ConsumeIntegralInRange<int>(0, 2)) {
-    case 0:
-      return in.PickValueInArray(kEdges);
+    case 0: return in.PickValueInArray(kEdges);
     case 1: {
       const std::uint32_t bits = in.ConsumeIntegral<std::uint32_t>();
       float f;
       std::memcpy(&f, &bits, sizeof f);
       return f;
     }
-    default:
-      return in.ConsumeFloatingPointInRange<float>(-0.5f, 3.5f);  // inside and around the maze
+    default: return in.ConsumeFloatingPointInRange<float>(-0.5f, 3.5f);  // inside and around the maze
   }
 }
 
 int fuzz_int(FuzzedDataProvider& in, int lo, int hi) {
-  static constexpr int kEdges[] = {-1, 0, 1, 2, 257, 4097, 65536, std::numeric_limits<int>::max(),
-                                   std::numeric_limits<int>::min()};
+  static constexpr int kEdges[] = {
+      -1, 0, 1, 2, 257, 4097, 65536, std::numeric_limits<int>::max(), std::numeric_limits<int>::min()};
   return in.ConsumeBool() ? in.PickValueInArray(kEdges) : in.ConsumeIntegralInRange<int>(lo, hi);
 }
 
@@ -104,7 +116,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   options.skip_unchanged = in.ConsumeBool();
   options.shadows = in.ConsumeBool();
   options.timing = in.ConsumeBool();
-  options.max_lights = std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 9) : fuzz_int(in, 0, 9));
+  options.max_lights =
+      std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 9) : fuzz_int(in, 0, 9));
   modrt_context* context = nullptr;
   const modrt_status created = modrt_context_create(a.dictionary, a.level, &options, nullptr, &context);
   expect_failed(created);
@@ -113,7 +126,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
   modrt_sizes sizes{};
-  if (modrt_context_get_sizes(context, &sizes) != MODRT_OK || sizes.ld != 3 * std::size_t(a.info.sample_count))
+  if (modrt_context_get_sizes(context, &sizes) != MODRT_OK ||
+      sizes.ld != 3 * std::size_t(a.info.sample_count))
     std::abort();
   std::vector<float> lightmap(sizes.lightmap), atlas(sizes.atlas), previous;
   bool updated = false;
@@ -121,8 +135,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     switch (in.ConsumeIntegralInRange<int>(0, 7)) {
       case 0: {  // albedo: one value everywhere, or one sample poked
         std::vector<float> albedo(sizes.ld, in.ConsumeBool() ? 0.7f : fuzz_float(in));
-        if (in.ConsumeBool()) albedo[in.ConsumeIntegralInRange<std::size_t>(0, albedo.size() - 1)] = fuzz_float(in);
-        const std::size_t count = in.ConsumeBool() ? albedo.size() : in.ConsumeIntegralInRange<std::size_t>(0, albedo.size());
+        if (in.ConsumeBool())
+          albedo[in.ConsumeIntegralInRange<std::size_t>(0, albedo.size() - 1)] = fuzz_float(in);
+        const std::size_t count =
+            in.ConsumeBool() ? albedo.size() : in.ConsumeIntegralInRange<std::size_t>(0, albedo.size());
         expect_failed(modrt_context_set_albedo(context, albedo.data(), count));
         break;
       }
@@ -164,7 +180,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 5: {  // probes
         float position[3], sh[27];
         for (float& v : position) v = fuzz_float(in);
-        const modrt_probe_kind kind = in.ConsumeBool() ? MODRT_PROBE_RADIANCE : MODRT_PROBE_IRRADIANCE_OVER_PI;
+        const modrt_probe_kind kind =
+            in.ConsumeBool() ? MODRT_PROBE_RADIANCE : MODRT_PROBE_IRRADIANCE_OVER_PI;
         const modrt_status s = modrt_context_probe_sh(context, position, kind, sh);
         expect_failed(s);
         if (s == MODRT_OK)
@@ -175,14 +192,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 6: {
         modrt_timings t{};
         modrt_skip_stats k{};
-        if (modrt_context_get_timings(context, &t) != MODRT_OK || modrt_context_get_skip_stats(context, &k) != MODRT_OK)
+        if (modrt_context_get_timings(context, &t) != MODRT_OK ||
+            modrt_context_get_skip_stats(context, &k) != MODRT_OK)
           std::abort();
         if (k.blocks_computed + k.blocks_kept < k.frames) std::abort();
         break;
       }
       default: {  // an unknown probe kind and a null output must be refused, not crash
         float position[3] = {0.5f, 0.5f, 0.5f}, sh[27];
-        expect_failed(modrt_context_probe_sh(context, position, static_cast<modrt_probe_kind>(fuzz_int(in, 2, 9)), sh));
+        expect_failed(
+            modrt_context_probe_sh(context, position, static_cast<modrt_probe_kind>(fuzz_int(in, 2, 9)), sh));
         expect_failed(modrt_context_read_lightmap(context, nullptr, lightmap.size()));
         break;
       }

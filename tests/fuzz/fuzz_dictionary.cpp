@@ -18,7 +18,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   Result<std::vector<std::byte>> again = serialize_dictionary(dict.value());
   if (!again.ok()) std::abort();
   Result<Dictionary> back = parse_dictionary(again.value(), "round trip");
-  if (!back.ok() || !(back->settings == dict->settings) || back->shapes.size() != dict->shapes.size()) std::abort();
+  if (!back.ok() || !(back->settings == dict->settings) || back->shapes.size() != dict->shapes.size())
+    std::abort();
   for (std::size_t i = 0; i < dict->shapes.size(); ++i)
     if (back->shapes[i].Ub.data.size() != dict->shapes[i].Ub.data.size()) std::abort();
   return 0;

@@ -28,7 +28,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   modrt::Result<DemoScene> scene = load_gltf_scene(path, options);
   if (!scene.ok()) return 0;
   for (const Mesh& m : scene->meshes) {
-    if (m.normal.size() != m.position.size() || (!m.uv.empty() && m.uv.size() != m.position.size())) std::abort();
+    if (m.normal.size() != m.position.size() || (!m.uv.empty() && m.uv.size() != m.position.size()))
+      std::abort();
     for (std::uint32_t i : m.indices)
       if (i >= m.position.size()) std::abort();
     if (m.material < 0 || std::size_t(m.material) >= scene->materials.size()) std::abort();

@@ -16,9 +16,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!validate_level(level.value()).ok()) std::abort();  // accepted but invalid
   const std::string json = precompute::level_to_json(level.value());
   Result<LevelDescription> back = precompute::parse_level_json(json, "round trip");
-  if (!back.ok() || back->blocks.size() != level->blocks.size() || back->lights.size() != level->lights.size())
+  if (!back.ok() || back->blocks.size() != level->blocks.size() ||
+      back->lights.size() != level->lights.size())
     std::abort();
   for (std::size_t i = 0; i < level->blocks.size(); ++i)
-    if (back->blocks[i].cell != level->blocks[i].cell || back->blocks[i].faces != level->blocks[i].faces) std::abort();
+    if (back->blocks[i].cell != level->blocks[i].cell || back->blocks[i].faces != level->blocks[i].faces)
+      std::abort();
   return 0;
 }

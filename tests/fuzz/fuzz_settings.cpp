@@ -34,21 +34,33 @@ namespace {
 using namespace modrt;
 
 std::uint32_t fuzz_count(FuzzedDataProvider& in) {
-  static constexpr std::uint32_t kEdges[] = {0u, 1u, 2u, 3u, 16u, 255u, 65536u, 100000u, 0x7FFFFFFFu,
-                                             0x80000000u, 0xFFFFFFFEu, 0xFFFFFFFFu};
+  static constexpr std::uint32_t kEdges[] = {
+      0u, 1u, 2u, 3u, 16u, 255u, 65536u, 100000u, 0x7FFFFFFFu, 0x80000000u, 0xFFFFFFFEu, 0xFFFFFFFFu};
   if (in.ConsumeBool()) return in.PickValueInArray(kEdges);
   return in.ConsumeIntegral<std::uint32_t>();
 }
 
 double fuzz_number(FuzzedDataProvider& in) {
-  static constexpr double kEdges[] = {0.0,     -0.0,   1.0,     -1.0,   0.5,    1e-300, 1e-45,
-                                      1e-12,   1e19,   1e20,    1e38,   3.5e38, 1e308,  -1e20,
-                                      4294967295.0, std::numeric_limits<double>::infinity(),
+  static constexpr double kEdges[] = {0.0,
+                                      -0.0,
+                                      1.0,
+                                      -1.0,
+                                      0.5,
+                                      1e-300,
+                                      1e-45,
+                                      1e-12,
+                                      1e19,
+                                      1e20,
+                                      1e38,
+                                      3.5e38,
+                                      1e308,
+                                      -1e20,
+                                      4294967295.0,
+                                      std::numeric_limits<double>::infinity(),
                                       -std::numeric_limits<double>::infinity(),
                                       std::numeric_limits<double>::quiet_NaN()};
   switch (in.ConsumeIntegralInRange<int>(0, 2)) {
-    case 0:
-      return in.PickValueInArray(kEdges);
+    case 0: return in.PickValueInArray(kEdges);
     case 1: {
       const std::uint64_t bits = in.ConsumeIntegral<std::uint64_t>();
       double d;
@@ -56,18 +68,27 @@ double fuzz_number(FuzzedDataProvider& in) {
       __builtin_memcpy(&d, &bits, sizeof d);
       return d;
     }
-    default:
-      return in.ConsumeFloatingPointInRange<double>(-4.0, 4.0);
+    default: return in.ConsumeFloatingPointInRange<double>(-4.0, 4.0);
   }
 }
 
 void check_settings(FuzzedDataProvider& in) {
   DictionarySettings s;
-  std::uint32_t* counts[] = {&s.res,        &s.kd,           &s.kb,      &s.rays,
-                             &s.enrichment_iterations,       &s.prior_grid, &s.light_samples,
-                             &s.sh_rays,    &s.probe_grid,   &s.lightfield_spatial,
-                             &s.lightfield_directional,      &s.lightfield_supersample,
-                             &s.krlf,       &s.kr,           &s.interface_enrichment_iterations,
+  std::uint32_t* counts[] = {&s.res,
+                             &s.kd,
+                             &s.kb,
+                             &s.rays,
+                             &s.enrichment_iterations,
+                             &s.prior_grid,
+                             &s.light_samples,
+                             &s.sh_rays,
+                             &s.probe_grid,
+                             &s.lightfield_spatial,
+                             &s.lightfield_directional,
+                             &s.lightfield_supersample,
+                             &s.krlf,
+                             &s.kr,
+                             &s.interface_enrichment_iterations,
                              &s.response_rays};
   const int changed = in.ConsumeIntegralInRange<int>(1, 4);  // a few flags per run, the rest defaults
   for (int i = 0; i < changed; ++i) {
@@ -79,15 +100,19 @@ void check_settings(FuzzedDataProvider& in) {
   }
   if (!validate_settings(s).ok()) return;
   if (std::getenv("MODRT_FUZZ_PRINT"))
-    std::fprintf(stderr, "settings res %u kd %u kb %u rays %u prior_grid %u light_samples %u sh_rays %u probe_grid %u "
-                 "lightfield %u/%u/%u krlf %u kr %u response_rays %u light_radius %.9g\n", s.res, s.kd, s.kb, s.rays,
-                 s.prior_grid, s.light_samples, s.sh_rays, s.probe_grid, s.lightfield_spatial,
-                 s.lightfield_directional, s.lightfield_supersample, s.krlf, s.kr, s.response_rays, s.light_radius);
+    std::fprintf(
+        stderr,
+        "settings res %u kd %u kb %u rays %u prior_grid %u light_samples %u sh_rays %u probe_grid %u "
+        "lightfield %u/%u/%u krlf %u kr %u response_rays %u light_radius %.9g\n",
+        s.res, s.kd, s.kb, s.rays, s.prior_grid, s.light_samples, s.sh_rays, s.probe_grid,
+        s.lightfield_spatial, s.lightfield_directional, s.lightfield_supersample, s.krlf, s.kr,
+        s.response_rays, s.light_radius);
   for (std::uint32_t* c : counts)
     if (*c > std::uint32_t(std::numeric_limits<int>::max())) std::abort();  // int() in the bake wraps
   if (!std::isfinite(s.light_radius) || s.light_radius < 0.0f) std::abort();
   // The prior lattice: 6 res^2 samples x prior_grid^3 lights, in double.
-  const long double lattice = 8.0L * 6.0L * s.res * s.res * (long double)s.prior_grid * s.prior_grid * s.prior_grid;
+  const long double lattice =
+      8.0L * 6.0L * s.res * s.res * (long double)s.prior_grid * s.prior_grid * s.prior_grid;
   const std::uint64_t estimate = precompute::estimate_bake_bytes(s);
   if ((long double)estimate < lattice) std::abort();  // the budget check would miss the prior
 }
@@ -137,16 +162,20 @@ void check_lights(FuzzedDataProvider& in) {
       case 4: light.color.r = v; break;
       case 5: light.color.g = v; break;
       case 6: light.intensity = v; break;
-      case 7: light.position = glm::dvec3(0.5, in.ConsumeBool() ? 0.0 : 1.0, 0.5) + glm::dvec3(0, v, 0); break;
+      case 7:
+        light.position = glm::dvec3(0.5, in.ConsumeBool() ? 0.0 : 1.0, 0.5) + glm::dvec3(0, v, 0);
+        break;
       default: desc.cell_size = v; break;
     }
   }
   desc.lights = {light};
   if (!validate_level(desc).ok()) return;
   if (std::getenv("MODRT_FUZZ_PRINT"))  // replaying a reproducer: say what it is
-    std::fprintf(stderr, "light position (%.17g, %.17g, %.17g) radius %.17g colour (%.17g, %.17g, %.17g) intensity %.17g\n",
-                 light.position.x, light.position.y, light.position.z, light.radius, light.color.r, light.color.g,
-                 light.color.b, light.intensity);
+    std::fprintf(
+        stderr,
+        "light position (%.17g, %.17g, %.17g) radius %.17g colour (%.17g, %.17g, %.17g) intensity %.17g\n",
+        light.position.x, light.position.y, light.position.z, light.radius, light.color.r, light.color.g,
+        light.color.b, light.intensity);
   if (desc.cell_size != c->desc.cell_size) return;  // the corridor is built at cell size 1
   std::vector<float> ld;
   try {  // a thrown error reaches the programs' "direct light: ..." message: not a crash

@@ -52,8 +52,8 @@ struct Stats {
     max = std::max(max, double(v));
   }
   void print(const std::string& what) const {
-    std::printf("STATS %s values=%zu nonfinite=%zu negative=%zu nonzero=%zu min=%.9g max=%.9g\n", what.c_str(),
-                values, nonfinite, negative, nonzero, values ? min : 0.0, values ? max : 0.0);
+    std::printf("STATS %s values=%zu nonfinite=%zu negative=%zu nonzero=%zu min=%.9g max=%.9g\n",
+                what.c_str(), values, nonfinite, negative, nonzero, values ? min : 0.0, values ? max : 0.0);
   }
 };
 
@@ -67,7 +67,8 @@ int stats_main(int argc, char** argv) {
       continue;
     }
     const OIIO::ImageSpec& spec = in->spec();
-    std::vector<float> pixels(std::size_t(spec.width) * std::size_t(spec.height) * std::size_t(spec.nchannels));
+    std::vector<float> pixels(std::size_t(spec.width) * std::size_t(spec.height) *
+                              std::size_t(spec.nchannels));
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) {
       std::fprintf(stderr, "modrt-hostile-tool: %s: %s\n", argv[i], in->geterror().c_str());
       status = 1;
@@ -110,7 +111,8 @@ int fail(const char* call, modrt_status s) {
 }
 
 int usage(const char* what) {
-  std::fprintf(stderr, "modrt-hostile-tool capi: %s (see the comment at the top of hostile_tool.cpp)\n", what);
+  std::fprintf(stderr, "modrt-hostile-tool capi: %s (see the comment at the top of hostile_tool.cpp)\n",
+               what);
   return 64;  // the runner reports 64 as a broken case, not as the library's error
 }
 
@@ -237,7 +239,8 @@ int capi_main(int argc, char** argv) {
   if (modrt_status s = modrt_context_get_sizes(context, &sizes); s != MODRT_OK)
     return fail("modrt_context_get_sizes", s);
   const std::vector<float> albedo_values(sizes.ld, albedo);
-  if (modrt_status s = modrt_context_set_albedo(context, albedo_values.data(), albedo_values.size()); s != MODRT_OK)
+  if (modrt_status s = modrt_context_set_albedo(context, albedo_values.data(), albedo_values.size());
+      s != MODRT_OK)
     return fail("modrt_context_set_albedo", s);
   // A count other than sizes.ld must be refused before the data is read; the buffer still
   // holds up to 2^24 floats so that a library that reads `count` floats stays in bounds.

@@ -61,13 +61,13 @@ struct DictionarySettings {
 // useful bake needs, and low enough that every count fits an int (the bake's loops) and
 // every product the bake forms fits 64 bits; the bake's memory is bounded separately by
 // estimate_bake_bytes and its budget.
-inline constexpr std::uint32_t kMaxSettingsRes = 256;            // n = 6 res^2 samples
-inline constexpr std::uint32_t kMaxSettingsModes = 4096;         // kd, kb, krlf, kr
-inline constexpr std::uint32_t kMaxSettingsRays = 1u << 20;      // rays, sh_rays, response_rays
-inline constexpr std::uint32_t kMaxSettingsPriorGrid = 16;       // 16^3 prior lights per cell
-inline constexpr std::uint32_t kMaxSettingsLightSamples = 1024;  // points per prior sphere light
-inline constexpr std::uint32_t kMaxSettingsProbeGrid = 32;       // 32^3 probes per block
-inline constexpr std::uint32_t kMaxSettingsEnrichment = 16;      // enrichment passes
+inline constexpr std::uint32_t kMaxSettingsRes = 256;                    // n = 6 res^2 samples
+inline constexpr std::uint32_t kMaxSettingsModes = 4096;                 // kd, kb, krlf, kr
+inline constexpr std::uint32_t kMaxSettingsRays = 1u << 20;              // rays, sh_rays, response_rays
+inline constexpr std::uint32_t kMaxSettingsPriorGrid = 16;               // 16^3 prior lights per cell
+inline constexpr std::uint32_t kMaxSettingsLightSamples = 1024;          // points per prior sphere light
+inline constexpr std::uint32_t kMaxSettingsProbeGrid = 32;               // 32^3 probes per block
+inline constexpr std::uint32_t kMaxSettingsEnrichment = 16;              // enrichment passes
 inline constexpr std::uint32_t kMaxSettingsLightfieldSpatial = 64;       // S
 inline constexpr std::uint32_t kMaxSettingsLightfieldDirectional = 128;  // D
 inline constexpr std::uint32_t kMaxSettingsLightfieldSupersample = 16;

@@ -178,7 +178,7 @@ struct DrtBufferSizes {
   std::size_t clutter_texels = 0;  // sum of m
   std::size_t clutter_ld = 0;      // 3 * clutter_texels
   std::size_t clutter_lightmap = 0;
-  std::size_t c = 0;  // 3 * sum of f
+  std::size_t c = 0;                        // 3 * sum of f
   std::size_t clutter_vector_lightmap = 0;  // 12 * clutter_texels (drt_clutter_vector_lightmap)
 };
 DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt);

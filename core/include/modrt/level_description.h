@@ -19,27 +19,27 @@ namespace modrt {
 inline constexpr int kLevelFormatVersion = 1;
 
 struct BlockDescription {
-  glm::ivec3 cell{0};            // integer grid cell; the block nominally spans cell..cell+1 (times cell_size)
-  FaceMask faces = kAllFaces;    // present faces in world orientation (bit f = face f, cube.h numbering)
-  bool warped = false;           // corners below are used instead of the grid cell's cube
+  glm::ivec3 cell{0};          // integer grid cell; the block nominally spans cell..cell+1 (times cell_size)
+  FaceMask faces = kAllFaces;  // present faces in world orientation (bit f = face f, cube.h numbering)
+  bool warped = false;         // corners below are used instead of the grid cell's cube
   // World positions of the canonical cube corners, index = x + 2*y + 4*z for corner (x, y, z)
   // in {0,1}^3; the block interior is the trilinear image of [0,1]^3.
   std::array<glm::dvec3, 8> corners{};
   std::array<glm::dvec3, kFaceCount> albedo{};  // linear RGB per face, each channel in [0, 1]
-  std::string name;              // optional, for messages
+  std::string name;                             // optional, for messages
 };
 
 struct LightDescription {
   glm::dvec3 position{0.5};
-  double radius = 0.05;          // 0 = point light
-  glm::dvec3 color{1.0};         // linear RGB, multiplies intensity
-  double intensity = 1.0;        // radiant intensity (W/sr) at color (1,1,1)
+  double radius = 0.05;    // 0 = point light
+  glm::dvec3 color{1.0};   // linear RGB, multiplies intensity
+  double intensity = 1.0;  // radiant intensity (W/sr) at color (1,1,1)
 };
 
 struct LevelDescription {
   int version = kLevelFormatVersion;
   std::string name;
-  double cell_size = 1.0;        // world size of one grid cell
+  double cell_size = 1.0;  // world size of one grid cell
   std::vector<BlockDescription> blocks;
   std::vector<LightDescription> lights;
 };
@@ -66,7 +66,7 @@ glm::dvec3 trilinear(const std::array<glm::dvec3, 8>& corners, const glm::dvec3&
 // Index of the block sharing face `face` of block `index` (the grid neighbour), or -1.
 // Connected when both blocks have that shared face missing.
 struct LevelConnectivity {
-  std::vector<std::array<int, kFaceCount>> neighbour;  // grid neighbour per face, -1 if none
+  std::vector<std::array<int, kFaceCount>> neighbour;   // grid neighbour per face, -1 if none
   std::vector<std::array<bool, kFaceCount>> connected;  // shared face missing on both sides
 };
 

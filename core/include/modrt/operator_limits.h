@@ -82,7 +82,8 @@ std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictio
 
 // The first measure above its limit, as invalid_argument "<what>: <where>: <what> = v, above
 // the limit l (operator_limits.h): <reason>".
-inline constexpr const char* kImplausibleOperator = "not a plausible baked operator (corrupt or crafted file?)";
+inline constexpr const char* kImplausibleOperator =
+    "not a plausible baked operator (corrupt or crafted file?)";
 Status check_measures(const std::vector<OperatorMeasure>& measures, const std::string& what,
                       const char* reason = kImplausibleOperator);
 

@@ -57,10 +57,10 @@ constexpr double sqrt_newton(double x) {
 }  // namespace sh_detail
 
 // Normalization constants of the basis functions (see the table above).
-inline constexpr double kShC0 = 0.5 * std::numbers::inv_sqrtpi;                                  // 1/(2√π)
-inline constexpr double kShC1 = 0.5 * std::numbers::sqrt3 * std::numbers::inv_sqrtpi;            // √3/(2√π)
-inline constexpr double kShC2 = 0.5 * sh_detail::sqrt_newton(15.0) * std::numbers::inv_sqrtpi;   // √15/(2√π)
-inline constexpr double kShC6 = 0.25 * sh_detail::sqrt_newton(5.0) * std::numbers::inv_sqrtpi;   // √5/(4√π)
+inline constexpr double kShC0 = 0.5 * std::numbers::inv_sqrtpi;                        // 1/(2√π)
+inline constexpr double kShC1 = 0.5 * std::numbers::sqrt3 * std::numbers::inv_sqrtpi;  // √3/(2√π)
+inline constexpr double kShC2 = 0.5 * sh_detail::sqrt_newton(15.0) * std::numbers::inv_sqrtpi;  // √15/(2√π)
+inline constexpr double kShC6 = 0.25 * sh_detail::sqrt_newton(5.0) * std::numbers::inv_sqrtpi;  // √5/(4√π)
 inline constexpr double kShC8 = 0.25 * sh_detail::sqrt_newton(15.0) * std::numbers::inv_sqrtpi;  // √15/(4√π)
 
 // Band l of 0-based SH index k (0..8).

@@ -14,14 +14,14 @@ namespace modrt {
 
 enum class ErrorCode {
   ok = 0,
-  invalid_argument,  // a caller-provided value is out of range (res 0, zero rays, NaN ld)
-  io_error,          // a file could not be opened, read, written or renamed
-  format_error,      // a file is malformed: bad magic, truncated, sizes inconsistent
-  version_mismatch,  // a file was written by another format version: re-bake
-  checksum_mismatch, // a section's bytes do not match its stored checksum
-  non_finite,        // NaN or Inf where only finite values are allowed
-  resource_limit,    // a request would exceed a configured memory or size budget
-  internal_error,    // a library below us failed (Embree device, SVD did not converge)
+  invalid_argument,   // a caller-provided value is out of range (res 0, zero rays, NaN ld)
+  io_error,           // a file could not be opened, read, written or renamed
+  format_error,       // a file is malformed: bad magic, truncated, sizes inconsistent
+  version_mismatch,   // a file was written by another format version: re-bake
+  checksum_mismatch,  // a section's bytes do not match its stored checksum
+  non_finite,         // NaN or Inf where only finite values are allowed
+  resource_limit,     // a request would exceed a configured memory or size budget
+  internal_error,     // a library below us failed (Embree device, SVD did not converge)
 };
 
 const char* error_code_name(ErrorCode code);
@@ -53,7 +53,7 @@ class Status {
 template <class T>
 class Result {
  public:
-  Result(T value) : value_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(T value) : value_(std::move(value)) {}          // NOLINT: implicit by design
   Result(Status status) : status_(std::move(status)) {}  // NOLINT: implicit by design
 
   bool ok() const { return value_.has_value(); }

@@ -41,11 +41,13 @@ void sphere_light_points(const glm::dvec3& center, double radius, int samples, s
 // tells whether the segment x -> p is blocked. The model of SphereLight.
 template <class Occluded>
 double sphere_light_E_over_pi(const glm::dvec3& x, const glm::dvec3& n, const SphereLight& light,
-                              std::span<const glm::dvec3> points, double texel_area, const Occluded& occluded) {
+                              std::span<const glm::dvec3> points, double texel_area,
+                              const Occluded& occluded) {
   if (points.empty() || !light_in_reach(light.center, light.radius)) return 0.0;
   const glm::dvec3 to_light = light.center - x;
   const double d2 = to_light.x * to_light.x + to_light.y * to_light.y + to_light.z * to_light.z;
-  const double cosine = (n.x * to_light.x + n.y * to_light.y + n.z * to_light.z) / std::sqrt(std::max(d2, 1e-300));
+  const double cosine =
+      (n.x * to_light.x + n.y * to_light.y + n.z * to_light.z) / std::sqrt(std::max(d2, 1e-300));
   if (!(cosine > 0.0)) return 0.0;
   int visible = 0;
   for (const glm::dvec3& p : points) {
@@ -59,8 +61,8 @@ double sphere_light_E_over_pi(const glm::dvec3& x, const glm::dvec3& n, const Sp
 
 // ld = E / pi at every sample (albedo 1; the caller scales by albedo), into out[n]; the
 // texels' footprint is 1 / res^2 (a unit block).
-void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light,
-                  int samples, std::span<double> out);
+void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light, int samples,
+                  std::span<double> out);
 
 // Positions of the prior's sphere lights: a grid^3 lattice of cell centres inside the
 // block, plus the same lattice in the neighbouring cell beyond each missing side face
@@ -70,7 +72,7 @@ std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid);
 // Ld (n x m): one column per prior light, each normalised to unit L2 norm so that lights
 // near walls do not dominate the prior's SVD (all-zero columns are dropped).
 // normalise = false keeps raw intensities (for comparison with MRT Table 2 only).
-MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid,
-                            double radius, int samples, bool normalise = true);
+MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid, double radius,
+                            int samples, bool normalise = true);
 
 }  // namespace modrt::precompute

@@ -22,8 +22,8 @@
 
 #include "modrt/cube.h"
 #include "modrt/dictionary.h"
-#include "modrt/status.h"
 #include "modrt/precompute/linalg.h"
+#include "modrt/status.h"
 
 namespace modrt::precompute {
 

@@ -43,7 +43,8 @@ class LevelScene {
   // segment stays inside one straight run of unwarped blocks joined through missing faces (a
   // box with no wall inside; a level without clutter only). In a long straight corridor every
   // shadow ray would otherwise walk the BVH along the whole corridor (issue 18, item 10).
-  bool occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target, double t_near = 1e-6) const;
+  bool occluded_from(int block, const glm::dvec3& origin, const glm::dvec3& target,
+                     double t_near = 1e-6) const;
   // intersect() for many directions from one origin, traced as 8-wide coherent packets
   // (the gathers of DRT trace 1024 rays per texel); out[i] is the hit of dirs[i].
   void intersect_many(const glm::dvec3& origin, std::span<const glm::dvec3> dirs, std::span<LevelHit> out,
@@ -78,7 +79,8 @@ std::vector<float> level_direct_light(const LevelScene& scene, std::span<const L
 
 // E_ind / pi = F_level ld at every level sample by `rays` cosine-weighted stratified gather
 // rays; hits sample ld bilinearly on the hit face's texel grid (RGB, 3N).
-std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays, std::uint64_t seed);
+std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays,
+                                    std::uint64_t seed);
 
 // Per-sample RGB albedo (3N) of a built level from its description (per world face).
 std::vector<float> level_albedo(const Level& level, const LevelDescription& description);

@@ -12,8 +12,8 @@
 
 #include "modrt/dictionary.h"
 #include "modrt/level_description.h"
-#include "modrt/status.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/status.h"
 
 namespace modrt::precompute {
 

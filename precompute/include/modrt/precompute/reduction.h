@@ -18,10 +18,10 @@ struct LightPrior {
 };
 
 struct ReducedTransfer {
-  MatrixXd Ub;      // n x kb
-  MatrixXd Td_b;    // kb x n
-  MatrixXd Limp;    // n x kb
-  VectorXd sigma_M; // all singular values of M
+  MatrixXd Ub;       // n x kb
+  MatrixXd Td_b;     // kb x n
+  MatrixXd Limp;     // n x kb
+  VectorXd sigma_M;  // all singular values of M
 };
 
 // Number of leading modes to keep: at most k, without numerically zero values (below
