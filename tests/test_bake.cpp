@@ -49,8 +49,7 @@ std::vector<VectorXd> random_light_patterns(FaceMask mask, const SampleLayout& l
   std::vector<VectorXd> out;
   std::vector<double> ld(std::size_t(layout.sample_count()));
   for (int i = 0; i < count; ++i) {
-    const glm::dvec3 c(0.1 + 0.8 * rng.next_double(), 0.1 + 0.8 * rng.next_double(),
-                       0.1 + 0.8 * rng.next_double());
+    const glm::dvec3 c = 0.1 + 0.8 * rng.next_dvec3();
     const double radius = (i % 2) ? 0.05 : 0.0;  // alternate sphere and point lights
     direct_light(scene, layout, SphereLight{c, radius, 1.0}, radius > 0 ? 16 : 1, ld);
     out.push_back(Eigen::Map<VectorXd>(ld.data(), Eigen::Index(ld.size())));

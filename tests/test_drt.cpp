@@ -576,7 +576,7 @@ TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
     OhlshGather gather;
     Rng rng(0x7665ull, smp);
     for (int r = 0; r < kRays; ++r) {
-      const glm::dvec3 local = uniform_hemisphere(glm::dvec2(rng.next_double(), rng.next_double()));
+      const glm::dvec3 local = uniform_hemisphere(rng.next_dvec2());
       const glm::dvec3 dir = to_world(local, u, w, n);
       const LevelHit first = scene.intersect(g.position[smp], dir);
       double value[3] = {0, 0, 0};
@@ -670,7 +670,7 @@ TEST(Drt, VectorCbMatchesTheBruteForceGather) {
       OhlshGather gather;
       Rng rng(0x7663ull, gt);
       for (int r = 0; r < kRays; ++r) {
-        const glm::dvec3 local = uniform_hemisphere(glm::dvec2(rng.next_double(), rng.next_double()));
+        const glm::dvec3 local = uniform_hemisphere(rng.next_dvec2());
         const glm::dvec3 dir = to_world(local, tu, tv, n);
         const LevelHit hit = scene.intersect(x, dir);
         double value[3] = {0, 0, 0};
@@ -746,7 +746,7 @@ TEST(Drt, ClutterAwareProbesMatchTheBruteForceGather) {
     double sum[9][3] = {}, sum2[9][3] = {};
     Rng rng(0x7072ull, std::uint64_t(p));
     for (int r = 0; r < kRays; ++r) {
-      const glm::dvec3 dir = uniform_sphere(glm::dvec2(rng.next_double(), rng.next_double()));
+      const glm::dvec3 dir = uniform_sphere(rng.next_dvec2());
       const LevelHit first = scene.intersect(x, dir);
       double value[3] = {0, 0, 0};
       if (first.clutter >= 0) {
@@ -838,7 +838,7 @@ TEST(Drt, ClutterAwareProbesMatchTheDeltaOfADirectRadianceGather) {
     double truth[3][9] = {};
     Rng rng(0x7072ull, std::uint64_t(q));
     for (int r = 0; r < kRays; ++r) {
-      const glm::dvec3 dir = uniform_sphere(glm::dvec2(rng.next_double(), rng.next_double()));
+      const glm::dvec3 dir = uniform_sphere(rng.next_dvec2());
       const LevelHit hit = scene.intersect(x, dir);
       if (hit.clutter < 0) continue;
       const LevelHit wall = walls.intersect(x, dir);

@@ -162,8 +162,7 @@ IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dv
                 // source must light the side of y that faces x.
                 const std::size_t source =
                     std::min(sources.size() - 1, std::size_t(rng.next_double() * double(sources.size())));
-                const glm::dvec2 s = segment == 0 ? light_strata[std::size_t(p)]
-                                                  : glm::dvec2(rng.next_double(), rng.next_double());
+                const glm::dvec2 s = segment == 0 ? light_strata[std::size_t(p)] : rng.next_dvec2();
                 const glm::dvec3& c = sources[source];
                 SurfacePoint y = surface_point(c, uniform_sphere(s));
                 if (y.hit.block >= 0 && sees(scene, c, y.position)) {

@@ -19,6 +19,21 @@ class Rng {
   Rng(std::uint64_t seed, std::uint64_t stream);
   std::uint64_t next_u64();
   double next_double();  // uniform in [0, 1)
+  // Points uniform in [0, 1)^2 and [0, 1)^3, drawn in a fixed order. The arguments of a call such
+  // as glm::dvec2(next_double(), next_double()) are unsequenced: GCC drew the last first and
+  // clang the first, so bakes, path-traced references and tests differed between compilers.
+  // The last coordinate is drawn first, as GCC did, so GCC-built results stay the same.
+  glm::dvec2 next_dvec2() {
+    const double y = next_double();
+    const double x = next_double();
+    return {x, y};
+  }
+  glm::dvec3 next_dvec3() {
+    const double z = next_double();
+    const double y = next_double();
+    const double x = next_double();
+    return {x, y, z};
+  }
 
  private:
   std::uint64_t state_;
