@@ -1,6 +1,7 @@
 // modrt — level description helpers and validation (SPEC §4, MRT §6.2).
 #include "modrt/level_description.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +10,8 @@
 #include <unordered_map>
 
 #include <glm/geometric.hpp>
+
+#include "modrt/light_policy.h"
 
 namespace modrt {
 namespace {
@@ -202,6 +205,14 @@ Result<LevelConnectivity> validate_level(const LevelDescription& level) {
       return fail(label + ": color " + fmt_vec(l.color) + " must be finite and >= 0");
     if (!std::isfinite(l.intensity) || l.intensity < 0.0)
       return fail(label + ": intensity " + fmt_double(l.intensity) + " must be finite and >= 0");
+    // Levels built in code meet the parsers' bounds too (fuzz_settings: colour 6.8e180 gave Inf ld).
+    if (!light_brightness_allowed(l.intensity, l.color))
+      return fail(label + ": intensity x max(1, color) = " +
+                  fmt_double(l.intensity * std::max({1.0, l.color.x, l.color.y, l.color.z})) + " exceeds " +
+                  fmt_double(kMaxLightIntensity) + " (kMaxLightIntensity, light_policy.h)");
+    if (!light_in_reach(l.position, l.radius))
+      return fail(label + ": position " + fmt_vec(l.position) + " with radius " + fmt_double(l.radius) +
+                  " is beyond the traceable range (light_policy.h)");
   }
 
   const std::size_t n = level.blocks.size();

@@ -73,7 +73,7 @@ std::string short_double(double v) {
 // The brightest light taken: intensity (W/sr) x max(1, brightest colour channel) within
 // kMaxLightIntensity, the bound every parser of authored lights applies (light_policy.h).
 bool light_intensity_allowed(double intensity, const glm::dvec3& color) {
-  return intensity * std::max({1.0, color.r, color.g, color.b}) <= kMaxLightIntensity;
+  return light_brightness_allowed(intensity, color);
 }
 
 // tinygltf's warn/err texts are newline-separated sentences.

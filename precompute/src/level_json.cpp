@@ -312,7 +312,7 @@ class Parser {
     if (const json* v = find(j, "intensity"))
       l.intensity = number_in(*v, key_path(path, "intensity"), 0.0, kMaxLightIntensity, range.c_str());
     const double power = l.intensity * std::max({1.0, l.color.x, l.color.y, l.color.z});
-    if (!(power <= kMaxLightIntensity))
+    if (!light_brightness_allowed(l.intensity, l.color))
       fail(ErrorCode::invalid_argument, key_path(path, "intensity"),
            "intensity x max(1, color) = " + fmt_double(power) + " exceeds " + fmt_double(kMaxLightIntensity));
     if (!light_in_reach(l.position, l.radius))

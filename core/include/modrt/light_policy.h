@@ -52,6 +52,11 @@ inline bool light_position_in_level(const glm::dvec3& centre, const glm::dvec3& 
 // and far from float overflow once thousands of lights are summed.
 inline constexpr double kMaxLightIntensity = 1e18;
 
+// The bound above for a light of `intensity` W/sr and linear RGB `color` (NaN is refused).
+inline bool light_brightness_allowed(double intensity, const glm::dvec3& color) {
+  return intensity >= 0.0 && intensity * std::max({1.0, color.x, color.y, color.z}) <= kMaxLightIntensity;
+}
+
 // ---- the point-light singularity (issue 18, item 7) ----
 // A texel does not record the irradiance at its centre but the mean over its footprint; model
 // the footprint as a disc of the texel's area A (radius rho, A = pi rho^2). A point light of
