@@ -205,6 +205,24 @@ TEST(LevelValidation, EmptyLevelIsValid) {
   EXPECT_TRUE(conn->neighbour.empty());
 }
 
+TEST(LevelValidation, LightsBuiltInCodeMeetTheParsersBounds) {
+  // fuzz_settings: a level built in code with a colour of 6.8e180 passed and gave Inf ld.
+  LevelDescription level = corridor_level();
+  LightDescription light;
+  light.position = glm::dvec3(0.5);
+  light.color = glm::dvec3(6.8e180, 1.0, 1.0);
+  level.lights = {light};
+  expect_error(validate_level(level), ErrorCode::invalid_argument, {"light 0", "intensity x max(1, color)"});
+  level.lights[0].color = glm::dvec3(1.0);
+  level.lights[0].intensity = 2e18;
+  expect_error(validate_level(level), ErrorCode::invalid_argument, {"light 0", "kMaxLightIntensity"});
+  level.lights[0].intensity = 1.0;
+  level.lights[0].position = glm::dvec3(1e20, 0.5, 0.5);
+  expect_error(validate_level(level), ErrorCode::invalid_argument, {"light 0", "traceable"});
+  level.lights[0].position = glm::dvec3(0.5);
+  EXPECT_TRUE(validate_level(level).ok());
+}
+
 TEST(LevelValidation, OverlappingBlocks) {
   LevelDescription level = corridor_level();
   level.blocks.push_back(block_at(0, 0, 1, without(kAllFaces, kFaceNegZ)));
