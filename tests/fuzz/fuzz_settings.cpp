@@ -107,8 +107,12 @@ void check_settings(FuzzedDataProvider& in) {
         s.res, s.kd, s.kb, s.rays, s.prior_grid, s.light_samples, s.sh_rays, s.probe_grid,
         s.lightfield_spatial, s.lightfield_directional, s.lightfield_supersample, s.krlf, s.kr,
         s.response_rays, s.light_radius);
-  for (std::uint32_t* c : counts)
-    if (*c > std::uint32_t(std::numeric_limits<int>::max())) std::abort();  // int() in the bake wraps
+  // int() in the bake wraps. The interface counts (from lightfield_directional on) are read only
+  // when interfaces are baked (lightfield_spatial > 0), and validated only then.
+  constexpr std::size_t kInterfaceCountsFrom = 10;  // counts[10]: &s.lightfield_directional
+  const std::size_t used = s.lightfield_spatial > 0 ? std::size(counts) : kInterfaceCountsFrom;
+  for (std::size_t i = 0; i < used; ++i)
+    if (*counts[i] > std::uint32_t(std::numeric_limits<int>::max())) std::abort();
   if (!std::isfinite(s.light_radius) || s.light_radius < 0.0f) std::abort();
   // The prior lattice: 6 res^2 samples x prior_grid^3 lights, in double.
   const long double lattice =
