@@ -92,22 +92,22 @@ modrt_level* load_level_handle(const std::string& name = "maze11") {
 }
 
 // Expects `status` to be `code` and the message to contain every one of `words`.
-void expect_error(modrt_status status, modrt_status code, std::initializer_list<const char*> words) {
+void expect_error(modrt_status status, modrt_status code, std::initializer_list<std::string> words) {
   EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
   const std::string message = modrt_last_error();
-  for (const char* w : words)
+  for (const std::string& w : words)
     EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
 }
 
 std::vector<float> read_lightmap(modrt_context* c) {
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   EXPECT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   std::vector<float> out(s.lightmap);
   EXPECT_EQ(modrt_context_read_lightmap(c, out.data(), out.size()), MODRT_OK) << modrt_last_error();
   return out;
 }
 std::vector<float> read_atlas(modrt_context* c) {
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   EXPECT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   std::vector<float> out(s.atlas);
   EXPECT_EQ(modrt_context_read_atlas(c, out.data(), out.size()), MODRT_OK) << modrt_last_error();
@@ -116,7 +116,7 @@ std::vector<float> read_atlas(modrt_context* c) {
 
 TEST(CApi, VersionAndStatusNames) {
   EXPECT_EQ(modrt_version(), std::uint32_t(MODRT_VERSION));
-  EXPECT_STREQ(modrt_version_string(), "0.1.0");
+  EXPECT_STREQ(modrt_version_string(), "0.2.0");
   EXPECT_STREQ(modrt_status_name(MODRT_ERROR_FORMAT), "MODRT_ERROR_FORMAT");
   EXPECT_STREQ(modrt_status_name(modrt_status(99)), "MODRT_ERROR_UNKNOWN");
 }
@@ -133,7 +133,7 @@ TEST(CApi, LoadsFromMemoryAndFileAlike) {
   modrt_level* l = nullptr;
   ASSERT_EQ(modrt_dictionary_load_file(dict_path.c_str(), nullptr, &d), MODRT_OK) << modrt_last_error();
   ASSERT_EQ(modrt_level_load_file(level_path.c_str(), nullptr, &l), MODRT_OK) << modrt_last_error();
-  modrt_level_info info;
+  modrt_level_info info = modrt::rt::sized<modrt_level_info>();
   ASSERT_EQ(modrt_level_get_info(l, &info), MODRT_OK);
   const Level& ref = test_level("maze11").level;
   EXPECT_EQ(info.block_count, ref.blocks.size());
@@ -202,7 +202,7 @@ TEST(CApi, CpuContextEqualsTheCpuBackendAndTheReference) {
 
 // Probe SH at each probe centre is that probe, rotated into the world frame.
 void check_probes_at_centres(modrt_context* c, const Level& level, std::span<const float> ref_probes) {
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   const int g = int(s.probe_grid);
   ASSERT_GT(g, 0);
@@ -284,7 +284,8 @@ TEST(CApi, ProbesAreTheReferenceProbesInTheWorldFrame) {
 }
 
 modrt_light to_c(const cpu::CpuLight& l) {
-  modrt_light c{};
+  modrt_light c;
+  modrt_light_init(&c);
   c.type = modrt_light_type(int(l.type));
   for (int a = 0; a < 3; ++a) {
     c.position[a] = l.position[a];
@@ -342,7 +343,7 @@ TEST(CApi, LightsGiveTheDirectLightEvaluatorsLd) {
     const test::LevelReference ref = level_reference(t.level, ld);
     EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5) << frame;
   }
-  modrt_skip_stats k;
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
   EXPECT_EQ(k.frames, 3u);
   EXPECT_GT(k.light_blocks_recomputed, 0u);
@@ -371,7 +372,7 @@ TEST(CApi, SkipCountersAndTimings) {
   for (std::uint32_t i = 0; i < 3 * b0.sample_count; ++i) ld[3 * b0.sample_offset + i] *= 2.0f;
   ASSERT_EQ(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_OK);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
-  modrt_skip_stats k;
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
   const std::size_t blocks = t.level.blocks.size();
   // Blocks with an all-zero ld count as computed (b = 0 without a GEMV) every frame.
@@ -385,7 +386,7 @@ TEST(CApi, SkipCountersAndTimings) {
   EXPECT_EQ(k.blocks_kept, blocks - 1 - dark);
   // The same ld again: every tile is kept.
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
-  modrt_skip_stats k3;
+  modrt_skip_stats k3 = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k3), MODRT_OK);
   EXPECT_EQ(k3.tiles_kept - k.tiles_kept, blocks);
   EXPECT_EQ(k3.blocks_kept - k.blocks_kept, blocks - dark);
@@ -393,7 +394,7 @@ TEST(CApi, SkipCountersAndTimings) {
   // Exact: the skipping result equals the full evaluation.
   const test::LevelReference ref = level_reference(t.level, ld);
   EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5);
-  modrt_timings tm;
+  modrt_timings tm = modrt::rt::sized<modrt_timings>();
   ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
   EXPECT_GT(tm.update_ns, 0u);
   EXPECT_GT(tm.lightmap_ns, 0u);
@@ -418,7 +419,7 @@ TEST(CApi, NoAllocationPerFrame) {
     frames.emplace_back();
     for (const cpu::CpuLight& x : frame_lights(t.level, f)) frames.back().push_back(to_c(x));
   }
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   std::vector<float> lightmap(s.lightmap), atlas(s.atlas);
   const glm::dvec3 x = block_to_world(t.level.blocks[1], glm::dvec3(0.5));
@@ -433,8 +434,8 @@ TEST(CApi, NoAllocationPerFrame) {
     ok &= modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()) == MODRT_OK;
     ok &= modrt_context_read_atlas(c, atlas.data(), atlas.size()) == MODRT_OK;
     ok &= modrt_context_probe_sh(c, pos, MODRT_PROBE_IRRADIANCE_OVER_PI, sh) == MODRT_OK;
-    modrt_timings tm;
-    modrt_skip_stats k;
+    modrt_timings tm = modrt::rt::sized<modrt_timings>();
+    modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
     ok &= modrt_context_get_timings(c, &tm) == MODRT_OK && modrt_context_get_skip_stats(c, &k) == MODRT_OK;
   }
   ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
@@ -482,7 +483,7 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   const std::string level_path = (dir / "maze11_hook.modrtlevel").string();
   ASSERT_TRUE(write_file_atomic(level_path, assets().level).ok());
   HookCounter counter;
-  const modrt_allocator hook{hook_alloc, hook_free, &counter};
+  const modrt_allocator hook{sizeof(modrt_allocator), hook_alloc, hook_free, &counter};
   // Heap in use (glibc: operator new and the hook both draw on malloc), to report how much the
   // hook sees of what loading and creation allocate (docs/embedding.md).
   const std::size_t heap_before = mallinfo2().uordblks;
@@ -496,7 +497,7 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   EXPECT_GE(counter.peak_bytes, assets().level.size());
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, nullptr, &hook, &c), MODRT_OK) << modrt_last_error();
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   // The frame buffers (ld, lightmap, atlas, probes) live in the hook's memory.
   EXPECT_GE(counter.live_bytes, sizeof(float) * (s.ld + s.lightmap + s.atlas + s.probes));
@@ -520,7 +521,7 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   for (long fail_after = 0; fail_after < 12; ++fail_after) {
     HookCounter failing;
     failing.fail_after = fail_after;
-    const modrt_allocator bad{hook_alloc, hook_free, &failing};
+    const modrt_allocator bad{sizeof(modrt_allocator), hook_alloc, hook_free, &failing};
     modrt_dictionary* fd = load_dictionary_handle();
     modrt_level* fl = load_level_handle();
     modrt_context* fc = nullptr;
@@ -537,7 +538,7 @@ TEST(CApi, AllocatorHookReceivesTheRuntimesAllocations) {
   }
   HookCounter none;
   none.fail_after = 0;
-  const modrt_allocator refuse{hook_alloc, hook_free, &none};
+  const modrt_allocator refuse{sizeof(modrt_allocator), hook_alloc, hook_free, &none};
   modrt_level* fl = nullptr;
   expect_error(modrt_level_load_file(level_path.c_str(), &refuse, &fl), MODRT_ERROR_OUT_OF_MEMORY,
                {level_path.c_str(), "allocator refused"});
@@ -697,7 +698,8 @@ TEST(CApi, BadCallsReturnNamedErrors) {
                {"modrt_context_set_ld", "sample 6 channel R is 2e+30", "kMaxLightValue"});
   expect_error(modrt_context_set_ld(c, nullptr, ld.size()), MODRT_ERROR_INVALID_ARGUMENT, {"ld is null"});
 
-  modrt_light light{};
+  modrt_light light;
+  modrt_light_init(&light);
   light.type = MODRT_LIGHT_POINT;
   light.color[0] = light.color[1] = light.color[2] = 1.0f;
   light.intensity = 1.0f;
@@ -742,9 +744,9 @@ TEST(CApi, BadCallsReturnNamedErrors) {
                {"unknown probe kind 1000"});
 
   // Null handles, everywhere.
-  modrt_sizes s;
-  modrt_timings tm;
-  modrt_skip_stats k;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+  modrt_timings tm = modrt::rt::sized<modrt_timings>();
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
   const float* data = nullptr;
   size_t count = 0;
   expect_error(modrt_context_update(nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"context is null"});
@@ -771,6 +773,75 @@ TEST(CApi, BadCallsReturnNamedErrors) {
   modrt_level_destroy(nullptr);
   modrt_dictionary_destroy(nullptr);
   EXPECT_STREQ(modrt_context_description(nullptr), "");
+
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+// Every struct passed in or out carries struct_size (modrt.h, "Structs"): a wrong size is an
+// error naming the argument and the expected size, and the call changes nothing (the out
+// struct is not written, the lights and ld stay as they were).
+TEST(CApi, EveryStructChecksItsStructSize) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  EXPECT_EQ(sizeof(modrt_light), 64u);  // the size docs/embedding.md quotes
+
+  modrt_allocator hook{};
+  modrt_context* c = nullptr;
+  expect_error(modrt_context_create(d, l, nullptr, &hook, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_create", "allocator.struct_size is 0", "sizeof(modrt_allocator)"});
+  EXPECT_EQ(c, nullptr);
+  modrt_level* l2 = nullptr;
+  expect_error(modrt_level_load_memory(assets().level.data(), assets().level.size(), "x", &hook, &l2),
+               MODRT_ERROR_INVALID_ARGUMENT, {"allocator.struct_size"});
+  EXPECT_EQ(l2, nullptr);
+  hook.struct_size = sizeof hook;  // null alloc / free: malloc and free
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, &hook, &c), MODRT_OK) << modrt_last_error();
+
+  modrt_level_info info{};
+  info.block_count = 12345;
+  expect_error(modrt_level_get_info(l, &info), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_level_get_info", "out.struct_size is 0", "sizeof(modrt_level_info)"});
+  EXPECT_EQ(info.block_count, 12345u);
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+  s.struct_size += 8;
+  s.ld = 777;
+  expect_error(modrt_context_get_sizes(c, &s), MODRT_ERROR_INVALID_ARGUMENT,
+               {"out.struct_size is " + std::to_string(sizeof(modrt_sizes) + 8) + ", expected"});
+  EXPECT_EQ(s.ld, 777u);
+  modrt_timings tm{};
+  expect_error(modrt_context_get_timings(c, &tm), MODRT_ERROR_INVALID_ARGUMENT, {"sizeof(modrt_timings)"});
+  modrt_skip_stats k{};
+  expect_error(modrt_context_get_skip_stats(c, &k), MODRT_ERROR_INVALID_ARGUMENT,
+               {"sizeof(modrt_skip_stats)"});
+  s.struct_size = sizeof s;
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  EXPECT_EQ(s.struct_size, sizeof s);
+  EXPECT_EQ(s.ld, t.ld.size());
+
+  // Lights: the second of two has no struct_size; ld stays what the first call made.
+  ASSERT_EQ(modrt_context_set_albedo(c, t.albedo.data(), t.albedo.size()), MODRT_OK) << modrt_last_error();
+  modrt_light lights[2];
+  modrt_light_init(&lights[0]);
+  modrt_light_init(&lights[1]);
+  EXPECT_EQ(lights[0].struct_size, sizeof(modrt_light));
+  EXPECT_EQ(lights[0].type, MODRT_LIGHT_POINT);
+  EXPECT_EQ(lights[0].intensity, 1.0f);
+  info = modrt::rt::sized<modrt_level_info>();
+  ASSERT_EQ(modrt_level_get_info(l, &info), MODRT_OK) << modrt_last_error();
+  for (int a = 0; a < 3; ++a) lights[0].position[a] = 0.5f * (info.bounds_min[a] + info.bounds_max[a]);
+  ASSERT_EQ(modrt_context_set_lights(c, lights, 1), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const std::vector<float> before = read_lightmap(c);
+  EXPECT_GT(*std::max_element(before.begin(), before.end()), 0.0f);
+  lights[1].struct_size = 0;
+  lights[0].intensity = 5.0f;
+  expect_error(modrt_context_set_lights(c, lights, 2), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_lights", "lights[1].struct_size is 0", "modrt_light_init"});
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(read_lightmap(c), before);
 
   modrt_context_destroy(c);
   modrt_dictionary_destroy(d);
@@ -834,7 +905,7 @@ TEST(CApiGles, ContextOnTheCallersEglContext) {
   expect_error(modrt_context_get_atlas_data(c, &data, &count), MODRT_ERROR_UNSUPPORTED, {"GPU"});
 
   // Identical ld: the frame is skipped; no allocation per frame.
-  modrt_sizes s;
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   std::vector<float> ld = t.ld, atlas(s.atlas);
   bool ok = true;
@@ -849,12 +920,12 @@ TEST(CApiGles, ContextOnTheCallersEglContext) {
   g_count_allocations = false;
   EXPECT_TRUE(ok) << modrt_last_error();
   EXPECT_EQ(g_allocations.load(), 0);
-  modrt_skip_stats k;
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
   EXPECT_EQ(k.frames, 3u);
   EXPECT_EQ(k.frames_skipped, 1u);
   EXPECT_LT(rel_l2(atlas, level_reference(t.level, ld).atlas), 1e-4);
-  modrt_timings tm;
+  modrt_timings tm = modrt::rt::sized<modrt_timings>();
   ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
   EXPECT_GT(tm.update_ns, 0u);
   modrt_context_destroy(c);

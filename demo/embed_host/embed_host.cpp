@@ -198,7 +198,9 @@ int main(int argc, char** argv) {
   // 4. Light: the app's materials (one albedo here), a point light in the level's middle and a sun.
   const std::vector<float> albedo(sizes.ld, albedo_value);
   if (modrt::rt::Error e = ctx.set_albedo(albedo.data(), albedo.size())) return fail("albedo", e.message);
-  modrt_light lights[2] = {};
+  modrt_light lights[2];
+  modrt_light_init(&lights[0]);
+  modrt_light_init(&lights[1]);
   lights[0].type = MODRT_LIGHT_POINT;
   for (int a = 0; a < 3; ++a) lights[0].position[a] = 0.5f * (info.bounds_min[a] + info.bounds_max[a]);
   lights[0].position[1] = info.bounds_min[1] + 0.7f * (info.bounds_max[1] - info.bounds_min[1]);

@@ -24,15 +24,19 @@ void default_free(void* p, std::size_t, void*) { std::free(p); }
 
 }  // namespace
 
-Allocator Allocator::from(const modrt_allocator* a) {
-  Allocator out;
-  if (a && a->alloc && a->free) {
-    out.hook = *a;
-    out.custom = true;
-  } else {
-    out.hook = {default_alloc, default_free, nullptr};
+modrt_status Allocator::from(const char* function, const modrt_allocator* a, Allocator* out) {
+  if (a) {
+    if (modrt_status s = check_struct_size(function, "allocator", *a, "modrt_allocator"); s != MODRT_OK)
+      return s;
   }
-  return out;
+  if (a && a->alloc && a->free) {
+    out->hook = *a;
+    out->custom = true;
+  } else {
+    out->hook = {sizeof(modrt_allocator), default_alloc, default_free, nullptr};
+    out->custom = false;
+  }
+  return MODRT_OK;
 }
 
 void* Allocator::allocate(std::size_t size, std::size_t alignment) const {
@@ -183,8 +187,10 @@ modrt_status modrt_dictionary_load_memory(const void* data, size_t size, const c
     if (modrt_status s = check_load_args("modrt_dictionary_load_memory", data, size, out); s != MODRT_OK)
       return s;
     *out = nullptr;
-    return make_dictionary({static_cast<const std::byte*>(data), size}, name ? name : "dictionary",
-                           Allocator::from(allocator), out);
+    Allocator a;
+    if (modrt_status s = Allocator::from("modrt_dictionary_load_memory", allocator, &a); s != MODRT_OK)
+      return s;
+    return make_dictionary({static_cast<const std::byte*>(data), size}, name ? name : "dictionary", a, out);
   });
 }
 
@@ -194,7 +200,9 @@ modrt_status modrt_dictionary_load_file(const char* path, const modrt_allocator*
     if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, "modrt_dictionary_load_file: out is null");
     *out = nullptr;
     if (!path) return fail(MODRT_ERROR_INVALID_ARGUMENT, "modrt_dictionary_load_file: path is null");
-    const Allocator a = Allocator::from(allocator);
+    Allocator a;
+    if (modrt_status s = Allocator::from("modrt_dictionary_load_file", allocator, &a); s != MODRT_OK)
+      return s;
     FileImage image{&a};
     if (modrt_status s = read_whole_file(path, modrt::kMaxDictionaryFileBytes, image); s != MODRT_OK)
       return s;
@@ -211,8 +219,9 @@ modrt_status modrt_level_load_memory(const void* data, size_t size, const char* 
   return guarded("modrt_level_load_memory", [&] {
     if (modrt_status s = check_load_args("modrt_level_load_memory", data, size, out); s != MODRT_OK) return s;
     *out = nullptr;
-    return make_level({static_cast<const std::byte*>(data), size}, name ? name : "level",
-                      Allocator::from(allocator), out);
+    Allocator a;
+    if (modrt_status s = Allocator::from("modrt_level_load_memory", allocator, &a); s != MODRT_OK) return s;
+    return make_level({static_cast<const std::byte*>(data), size}, name ? name : "level", a, out);
   });
 }
 
@@ -221,7 +230,8 @@ modrt_status modrt_level_load_file(const char* path, const modrt_allocator* allo
     if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, "modrt_level_load_file: out is null");
     *out = nullptr;
     if (!path) return fail(MODRT_ERROR_INVALID_ARGUMENT, "modrt_level_load_file: path is null");
-    const Allocator a = Allocator::from(allocator);
+    Allocator a;
+    if (modrt_status s = Allocator::from("modrt_level_load_file", allocator, &a); s != MODRT_OK) return s;
     FileImage image{&a};
     if (modrt_status s = read_whole_file(path, modrt::kMaxLevelFileBytes, image); s != MODRT_OK) return s;
     return make_level({image.data, image.size}, path, a, out);
@@ -236,8 +246,12 @@ modrt_status modrt_level_get_info(const modrt_level* level, modrt_level_info* ou
   return guarded("modrt_level_get_info", [&] {
     if (!level || !out)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, "modrt_level_get_info: level or out is null");
+    if (modrt_status s = check_struct_size("modrt_level_get_info", "out", *out, "modrt_level_info");
+        s != MODRT_OK)
+      return s;
     const modrt::Level& l = level->level;
     modrt_level_info info{};
+    info.struct_size = sizeof info;
     info.block_count = std::uint32_t(l.blocks.size());
     info.sample_count = l.sample_count;
     info.res = std::uint32_t(l.res);

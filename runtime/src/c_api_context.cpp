@@ -192,6 +192,17 @@ void modrt_context_options_init(modrt_context_options* options) {
   options->shadows = 1;
 }
 
+void modrt_light_init(modrt_light* light) {
+  if (!light) return;
+  *light = modrt_light{};
+  light->struct_size = sizeof(modrt_light);
+  light->type = MODRT_LIGHT_POINT;
+  for (float& c : light->color) c = 1.0f;
+  light->direction[1] = -1.0f;  // down in a y-up scene (glTF's convention)
+  light->intensity = 1.0f;
+  light->shadows = 1;
+}
+
 modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* level,
                                   const modrt_context_options* options, const modrt_allocator* allocator,
                                   modrt_context** out) {
@@ -204,11 +215,10 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     modrt_context_options o;
     modrt_context_options_init(&o);
     if (options) {
-      if (options->struct_size != sizeof(modrt_context_options))
-        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.struct_size is " +
-                                                      std::to_string(options->struct_size) + ", expected " +
-                                                      std::to_string(sizeof(modrt_context_options)) +
-                                                      " (call modrt_context_options_init)");
+      if (modrt_status s = check_struct_size(fn, "options", *options, "modrt_context_options",
+                                             "modrt_context_options_init");
+          s != MODRT_OK)
+        return s;
       o = *options;
     }
     if (const int backend = c_enum_value(o.backend);
@@ -228,7 +238,8 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
       return fail(MODRT_ERROR_UNSUPPORTED,
                   std::string(fn) + ": this library was built without the GLES backend");
 #endif
-    const Allocator a = Allocator::from(allocator);
+    Allocator a;
+    if (modrt_status s = Allocator::from(fn, allocator, &a); s != MODRT_OK) return s;
     modrt_context* c = make_handle<modrt_context>(a, dictionary, level);
     struct Undo {
       modrt_context* c;
@@ -265,7 +276,11 @@ void modrt_context_destroy(modrt_context* context) {
 modrt_status modrt_context_get_sizes(const modrt_context* context, modrt_sizes* out) {
   if (!context) return null_arg("modrt_context_get_sizes", "context");
   if (!out) return null_arg("modrt_context_get_sizes", "out");
+  if (modrt_status st = check_struct_size("modrt_context_get_sizes", "out", *out, "modrt_sizes");
+      st != MODRT_OK)
+    return st;
   modrt_sizes s{};
+  s.struct_size = sizeof s;
   s.ld = context->sizes.ld;
   s.lightmap = context->sizes.lightmap;
   s.atlas = context->sizes.atlas;
@@ -319,6 +334,10 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
     context->lights.clear();  // keeps the capacity: no allocation
     for (size_t i = 0; i < count; ++i) {
       const modrt_light& in = lights[i];
+      if (modrt_status st = check_struct_size(fn, "lights[" + std::to_string(i) + "]", in, "modrt_light",
+                                              "modrt_light_init");
+          st != MODRT_OK)
+        return st;
       cpu::CpuLight l;
       const int type = c_enum_value(in.type);
       if (type != MODRT_LIGHT_POINT && type != MODRT_LIGHT_SPOT && type != MODRT_LIGHT_DIRECTIONAL)
@@ -549,14 +568,22 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
 modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timings* out) {
   if (!context) return null_arg("modrt_context_get_timings", "context");
   if (!out) return null_arg("modrt_context_get_timings", "out");
+  if (modrt_status s = check_struct_size("modrt_context_get_timings", "out", *out, "modrt_timings");
+      s != MODRT_OK)
+    return s;
   *out = context->timings;
+  out->struct_size = sizeof *out;
   return MODRT_OK;
 }
 
 modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out) {
   if (!context) return null_arg("modrt_context_get_skip_stats", "context");
   if (!out) return null_arg("modrt_context_get_skip_stats", "out");
+  if (modrt_status s = check_struct_size("modrt_context_get_skip_stats", "out", *out, "modrt_skip_stats");
+      s != MODRT_OK)
+    return s;
   *out = context->skip;
+  out->struct_size = sizeof *out;
   return MODRT_OK;
 }
 

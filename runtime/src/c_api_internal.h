@@ -9,6 +9,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -37,7 +38,9 @@ struct Allocator {
   modrt_allocator hook{};
   bool custom = false;
 
-  static Allocator from(const modrt_allocator* a);
+  // The caller's hook (checked: struct_size) into *out; a null hook, or one with a null
+  // alloc or free, is malloc/free.
+  static modrt_status from(const char* function, const modrt_allocator* a, Allocator* out);
   void* allocate(std::size_t size, std::size_t alignment) const;  // null on failure
   void release(void* p, std::size_t size) const;
 };
@@ -93,6 +96,20 @@ modrt_status fail(modrt_status code, const char* message);
 modrt_status fail(modrt_status code, const std::string& message);
 modrt_status fail(const Status& status);  // maps the ErrorCode
 modrt_status from_error_code(ErrorCode code);
+
+// The struct_size rule of modrt.h ("Structs"), for every struct passed in or out: this version
+// has one layout of each, so struct_size must be sizeof(T); a later version that adds fields
+// accepts the earlier sizes here. `what` names the argument ("options", "lights[3]").
+template <class T>
+modrt_status check_struct_size(const char* function, const std::string& what, const T& s, const char* type,
+                               const char* init = nullptr) {
+  static_assert(std::is_standard_layout_v<T>, "a C struct");
+  if (s.struct_size == sizeof(T)) return MODRT_OK;
+  return fail(MODRT_ERROR_INVALID_ARGUMENT,
+              std::string(function) + ": " + what + ".struct_size is " + std::to_string(s.struct_size) +
+                  ", expected " + std::to_string(sizeof(T)) + " (set it to sizeof(" + type + ")" +
+                  (init ? std::string(", or call ") + init : std::string()) + ")");
+}
 
 // Runs f() (returning modrt_status) with every exception turned into a status.
 template <class F>

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   modrt_level* level = NULL;
   CHECK(modrt_level_load_memory(bytes, size, argv[2], NULL, &level));
   free(bytes); /* the level keeps no reference to the bytes */
-  modrt_level_info info;
+  modrt_level_info info = {sizeof(modrt_level_info)};
   CHECK(modrt_level_get_info(level, &info));
 
   modrt_context_options options;
@@ -73,13 +73,14 @@ int main(int argc, char** argv) {
   options.shadows = 0;
   modrt_context* ctx = NULL;
   CHECK(modrt_context_create(dict, level, &options, NULL, &ctx));
-  modrt_sizes sizes;
+  modrt_sizes sizes = {sizeof(modrt_sizes)};
   CHECK(modrt_context_get_sizes(ctx, &sizes));
   float* albedo = malloc(sizes.ld * sizeof(float));
   for (size_t i = 0; i < sizes.ld; ++i) albedo[i] = 0.6f;
   CHECK(modrt_context_set_albedo(ctx, albedo, sizes.ld));
   free(albedo);
-  modrt_light sun = {0};
+  modrt_light sun;
+  modrt_light_init(&sun);
   sun.type = MODRT_LIGHT_DIRECTIONAL;
   sun.direction[0] = 0.3f, sun.direction[1] = -1.0f, sun.direction[2] = 0.2f;
   sun.color[0] = sun.color[1] = sun.color[2] = 1.0f;

@@ -19,13 +19,14 @@
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include "modrt/modrt.h"
+#include "modrt/modrt.hpp"
 
 namespace {
 
 struct Assets {
   modrt_dictionary* dictionary = nullptr;
   modrt_level* level = nullptr;
-  modrt_level_info info{};
+  modrt_level_info info = modrt::rt::sized<modrt_level_info>();
 };
 
 const Assets& assets() {
@@ -79,7 +80,8 @@ int fuzz_int(FuzzedDataProvider& in, int lo, int hi) {
 }
 
 modrt_light fuzz_light(FuzzedDataProvider& in) {
-  modrt_light l{};
+  modrt_light l;
+  modrt_light_init(&l);
   l.type = static_cast<modrt_light_type>(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 2)
                                                           : fuzz_int(in, -1, 3));
   for (float& v : l.position) v = fuzz_float(in);
@@ -125,7 +127,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (context != nullptr) std::abort();  // a failed call writes no output
     return 0;
   }
-  modrt_sizes sizes{};
+  modrt_sizes sizes = modrt::rt::sized<modrt_sizes>();
   if (modrt_context_get_sizes(context, &sizes) != MODRT_OK ||
       sizes.ld != 3 * std::size_t(a.info.sample_count))
     std::abort();
@@ -190,8 +192,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       }
       case 6: {
-        modrt_timings t{};
-        modrt_skip_stats k{};
+        modrt_timings t = modrt::rt::sized<modrt_timings>();
+        modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
         if (modrt_context_get_timings(context, &t) != MODRT_OK ||
             modrt_context_get_skip_stats(context, &k) != MODRT_OK)
           std::abort();

@@ -34,6 +34,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include "modrt/modrt.h"
+#include "modrt/modrt.hpp"
 
 namespace {
 
@@ -170,7 +171,8 @@ int capi_main(int argc, char** argv) {
       probe.resize(3);
       ok = parse_floats(v, probe.data(), 3);
     } else if (flag == "--light") {
-      modrt_light l{};
+      modrt_light l;
+      modrt_light_init(&l);
       l.type = MODRT_LIGHT_POINT;
       l.position[0] = l.position[1] = l.position[2] = 0.5f;
       l.direction[1] = -1.0f;
@@ -235,7 +237,7 @@ int capi_main(int argc, char** argv) {
     return fail("modrt_level_load_file", s);
   if (modrt_status s = modrt_context_create(dictionary, level, &options, nullptr, &context); s != MODRT_OK)
     return fail("modrt_context_create", s);
-  modrt_sizes sizes{};
+  modrt_sizes sizes = modrt::rt::sized<modrt_sizes>();
   if (modrt_status s = modrt_context_get_sizes(context, &sizes); s != MODRT_OK)
     return fail("modrt_context_get_sizes", s);
   const std::vector<float> albedo_values(sizes.ld, albedo);

@@ -24,6 +24,12 @@
  *     context current on the calling thread as at its creation.
  *   - modrt_last_error() is per thread.
  *
+ * Structs. Every struct the caller passes, in or out, starts with `uint32_t struct_size`, which
+ * the caller sets to sizeof(the struct) (the *_init functions do, or `= {sizeof(T)}` in C), so
+ * that later versions can add fields at the end and tell which layout a caller was built with.
+ * This version has one layout of each; any other struct_size is MODRT_ERROR_INVALID_ARGUMENT,
+ * naming the argument and the size expected.
+ *
  * Memory. Loading and context creation allocate; the per-frame calls (set_lights, set_ld,
  * update, the queries and reads) do not allocate (outside an error message on failure). The
  * allocator passed at creation receives the allocations the runtime layer makes for the
@@ -48,7 +54,7 @@ extern "C" {
 #endif
 
 #define MODRT_VERSION_MAJOR 0
-#define MODRT_VERSION_MINOR 1
+#define MODRT_VERSION_MINOR 2
 #define MODRT_VERSION_PATCH 0
 /* The header's version as one number; compare with modrt_version() at run time. */
 #define MODRT_VERSION ((MODRT_VERSION_MAJOR << 16) | (MODRT_VERSION_MINOR << 8) | MODRT_VERSION_PATCH)
@@ -76,13 +82,14 @@ MODRT_API const char* modrt_status_name(modrt_status status);
 /* The message of the last failed call on this thread ("" when none failed yet). Valid until
  * the next failing call on this thread. Never null. */
 MODRT_API const char* modrt_last_error(void);
-/* MODRT_VERSION of the library; "0.1.0". */
+/* MODRT_VERSION of the library; "0.2.0". */
 MODRT_API uint32_t modrt_version(void);
 MODRT_API const char* modrt_version_string(void);
 
 /* The allocator hook. alloc returns memory aligned to `alignment` (a power of two <= 64) or
  * null (the call then fails with MODRT_ERROR_OUT_OF_MEMORY); free receives the pointer and the
- * size that alloc was asked for. Passing null for the allocator uses malloc/free.
+ * size that alloc was asked for. Passing null for the allocator uses malloc/free; so does a
+ * struct whose alloc or free is null.
  *
  * Extent (honest): the hook receives every allocation the runtime layer makes itself: the
  * handle objects, the file image read by *_load_file (freed before it returns), and a
@@ -91,6 +98,7 @@ MODRT_API const char* modrt_version_string(void);
  * direct-light evaluator, GL objects) are allocated with the global operator new of the
  * process. docs/embedding.md lists the byte split for a sample level. */
 typedef struct modrt_allocator {
+  uint32_t struct_size; /* sizeof(modrt_allocator) */
   void* (*alloc)(size_t size, size_t alignment, void* user);
   void (*free)(void* ptr, size_t size, void* user);
   void* user;
@@ -117,6 +125,7 @@ MODRT_API modrt_status modrt_level_load_file(const char* path, const modrt_alloc
 MODRT_API void modrt_level_destroy(modrt_level* level);
 
 typedef struct modrt_level_info {
+  uint32_t struct_size; /* set by the caller: sizeof(modrt_level_info) */
   uint32_t block_count;
   uint32_t sample_count; /* lightmap samples; ld and lightmap hold 3 * sample_count floats */
   uint32_t res;          /* samples per face edge */
@@ -168,10 +177,11 @@ MODRT_API modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_
 MODRT_API void modrt_context_destroy(modrt_context* context);
 
 typedef struct modrt_sizes {
-  size_t ld;       /* floats: 3 * samples (RGB interleaved) */
-  size_t lightmap; /* floats: 3 * samples */
-  size_t atlas;    /* floats: 3 * atlas_width * atlas_height, row-major, row 0 first */
-  size_t probes;   /* floats: 27 * probes per block * blocks (0 without probes) */
+  uint32_t struct_size; /* set by the caller: sizeof(modrt_sizes) */
+  size_t ld;            /* floats: 3 * samples (RGB interleaved) */
+  size_t lightmap;      /* floats: 3 * samples */
+  size_t atlas;         /* floats: 3 * atlas_width * atlas_height, row-major, row 0 first */
+  size_t probes;        /* floats: 27 * probes per block * blocks (0 without probes) */
   uint32_t atlas_width, atlas_height;
   uint32_t probe_grid; /* g: g^3 probes per block (0 without probes) */
 } modrt_sizes;
@@ -193,6 +203,7 @@ typedef enum modrt_light_type {
 
 /* modrt::cpu::CpuLight (cpu_neon/include/modrt/cpu/direct_light.h has the light models). */
 typedef struct modrt_light {
+  uint32_t struct_size; /* sizeof(modrt_light): set by modrt_light_init */
   modrt_light_type type;
   float position[3];              /* point, spot: world position */
   float direction[3];             /* spot: cone axis; directional: the direction the light travels */
@@ -203,8 +214,13 @@ typedef struct modrt_light {
   int shadows;                    /* nonzero: casts shadows (when the context has shadows on) */
 } modrt_light;
 
+/* Defaults: a white point light at the origin, intensity 1, radius 0, direction (0, -1, 0)
+ * (down, y up), angles 0, shadows on. */
+MODRT_API void modrt_light_init(modrt_light* light);
+
 /* Evaluates ld from the lights on the CPU (only blocks a changed light reaches are redone)
- * for the next update. Fails naming the light index and field for a bad light. */
+ * for the next update. `lights` is an array of `count` modrt_light (each with its
+ * struct_size). Fails naming the light index and field for a bad light. */
 MODRT_API modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light* lights,
                                                 size_t count);
 /* Sets ld directly (count = sizes.ld floats, finite, >= 0; the first bad sample is named). */
@@ -246,8 +262,9 @@ MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const floa
  * r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
  * the atlas, so lightmap_ns is 0 and atlas_ns covers it. */
 typedef struct modrt_timings {
-  uint64_t light_ns;  /* set_lights: the CPU direct-light evaluation */
-  uint64_t upload_ns; /* GLES: ld upload */
+  uint32_t struct_size; /* set by the caller: sizeof(modrt_timings) */
+  uint64_t light_ns;    /* set_lights: the CPU direct-light evaluation */
+  uint64_t upload_ns;   /* GLES: ld upload */
   uint64_t b_ns, r_ns, lightmap_ns, atlas_ns, probes_ns;
   uint64_t update_ns; /* the whole modrt_context_update call, CPU clock */
 } modrt_timings;
@@ -258,6 +275,7 @@ MODRT_API modrt_status modrt_context_get_timings(const modrt_context* context, m
  * did not change (exact: results are bit-identical to recomputing). light_blocks_*: blocks
  * whose ld set_lights recomputed or kept (only blocks a changed light reaches are redone). */
 typedef struct modrt_skip_stats {
+  uint32_t struct_size;     /* set by the caller: sizeof(modrt_skip_stats) */
   uint64_t frames;          /* successful updates */
   uint64_t frames_skipped;  /* GLES: ld identical to the last update, nothing ran */
   uint64_t blocks_computed; /* b evaluated */

@@ -23,6 +23,15 @@ struct Error {
   explicit operator bool() const { return code != MODRT_OK; }  // true on failure
 };
 
+// A C API struct, zeroed, with its struct_size set (modrt.h, "Structs"):
+//   modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+template <class T>
+T sized() {
+  T t{};
+  t.struct_size = sizeof(T);
+  return t;
+}
+
 inline Error check(modrt_status s) {
   if (s == MODRT_OK) return {};
   return {s, modrt_last_error()};
@@ -86,7 +95,7 @@ class Level : public Handle<modrt_level, modrt_level_destroy> {
     return e;
   }
   modrt_level_info info() const {
-    modrt_level_info i{};
+    modrt_level_info i = sized<modrt_level_info>();
     modrt_level_get_info(h_, &i);
     return i;
   }
@@ -110,7 +119,7 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
     return e;
   }
   modrt_sizes sizes() const {
-    modrt_sizes s{};
+    modrt_sizes s = sized<modrt_sizes>();
     modrt_context_get_sizes(h_, &s);
     return s;
   }
@@ -135,12 +144,12 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
     return check(modrt_context_probe_sh(h_, position, kind, out));
   }
   modrt_timings timings() const {
-    modrt_timings t{};
+    modrt_timings t = sized<modrt_timings>();
     modrt_context_get_timings(h_, &t);
     return t;
   }
   modrt_skip_stats skip_stats() const {
-    modrt_skip_stats s{};
+    modrt_skip_stats s = sized<modrt_skip_stats>();
     modrt_context_get_skip_stats(h_, &s);
     return s;
   }
