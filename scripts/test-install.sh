@@ -6,16 +6,36 @@
 # libmodrt_runtime.so needs only libc, libm, libstdc++, libEGL / libGLESv2 (readelf -d) and
 # exports only modrt_* symbols.
 #
-#   scripts/test-install.sh            # build-rt-install/: RelWithDebInfo, -DMODRT_WERROR=ON
-#   scripts/test-install.sh BUILD_DIR  # another build directory
+# With --full-build DIR (a configured and built full tree, e.g. build-tests/ after
+# scripts/test.sh), also: install it whole and build the consumer with COMPONENTS runtime while
+# Embree, Eigen and TBB are made unfindable (-DCMAKE_DISABLE_FIND_PACKAGE_*): the runtime's
+# package files must need none of them; and install only `--component runtime` of it and check
+# that no precompute library, header or program comes along.
 #
-# The consumer runs on a committed tiny dictionary and level (the fuzz seeds). Exits non-zero
-# if anything fails.
+#   scripts/test-install.sh                          # build-rt-install/: RelWithDebInfo, WERROR
+#   scripts/test-install.sh --full-build build-tests # and the full tree's install
+#   scripts/test-install.sh BUILD_DIR                # another runtime-only build directory
+#
+# The consumer (plain C: its project enables no C++ compiler) runs on a committed tiny
+# dictionary and level (the fuzz seeds). Exits non-zero if anything fails.
 set -euo pipefail
 
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo_root"
-build_dir="${1:-build-rt-install}"
+build_dir=build-rt-install
+full_build=""
+while (($#)); do
+  case "$1" in
+    --full-build) full_build="${2:?--full-build needs a build directory}"; shift 2 ;;
+    -h | --help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "test-install.sh: unknown option '$1'" >&2; exit 2 ;;
+    *) build_dir="$1"; shift ;;
+  esac
+done
+if [[ -n $full_build && ! -f $full_build/cmake_install.cmake ]]; then
+  echo "test-install.sh: --full-build $full_build: not a configured build directory (run scripts/test.sh)" >&2
+  exit 2
+fi
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 prefix="$work/prefix"
@@ -64,6 +84,46 @@ if grep -v '^modrt_' <<<"$exported"; then
 fi
 echo "  $(wc -l <<<"$exported") exported symbols, all modrt_*"
 ((bad == 0))
+
+if [[ -n $full_build ]]; then
+  echo "test-install.sh: the full tree $full_build, installed whole"
+  full_prefix="$work/full-prefix"
+  cmake --install "$full_build" --prefix "$full_prefix" >/dev/null
+  for f in lib/libmodrt_precompute.a lib/cmake/modrt/modrtPrecomputeTargets.cmake bin/modrt-bake bin/modrt-demo \
+    bin/modrt-embed-host; do
+    [[ -e $full_prefix/$f ]] || { echo "test-install.sh: the full install lacks $f" >&2; exit 1; }
+  done
+  echo "test-install.sh: COMPONENTS runtime with Embree, Eigen and TBB unfindable"
+  cmake -S tests/consumer -B "$work/consumer-full" -DCMAKE_PREFIX_PATH="$full_prefix" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_DISABLE_FIND_PACKAGE_embree=ON -DCMAKE_DISABLE_FIND_PACKAGE_Eigen3=ON -DCMAKE_DISABLE_FIND_PACKAGE_TBB=ON
+  cmake --build "$work/consumer-full" -j"$jobs"
+  "$work/consumer-full/modrt_consumer" "$dict" "$level"
+  "$work/consumer-full/modrt_consumer_static" "$dict" "$level"
+  # The installed example host finds the shared runtime next to it (RPATH $ORIGIN/../lib).
+  # (ldd's output kept first: grep -q stopping early would make a pipe fail under pipefail.)
+  embed_host_libs="$(ldd "$full_prefix/bin/modrt-embed-host")"
+  if grep -q "libmodrt_runtime.so.* => $full_prefix/" <<<"$embed_host_libs"; then
+    echo "  modrt-embed-host loads $full_prefix/lib/libmodrt_runtime.so"
+  else
+    grep modrt <<<"$embed_host_libs" >&2
+    echo "test-install.sh: the installed modrt-embed-host does not load the installed runtime" >&2
+    exit 1
+  fi
+
+  echo "test-install.sh: the full tree $full_build, --component runtime only"
+  rt_prefix="$work/runtime-prefix"
+  cmake --install "$full_build" --prefix "$rt_prefix" --component runtime >/dev/null
+  extra="$(cd "$rt_prefix" && find . \( -path ./bin -o -name '*precompute*' -o -path '*/modrt/precompute' \) -print)"
+  if [[ -n $extra ]]; then
+    echo "$extra" >&2
+    echo "test-install.sh: --component runtime installed the files above" >&2
+    exit 1
+  fi
+  cmake -S tests/consumer -B "$work/consumer-rt" -DCMAKE_PREFIX_PATH="$rt_prefix" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_DISABLE_FIND_PACKAGE_embree=ON -DCMAKE_DISABLE_FIND_PACKAGE_Eigen3=ON -DCMAKE_DISABLE_FIND_PACKAGE_TBB=ON
+  cmake --build "$work/consumer-rt" -j"$jobs"
+  "$work/consumer-rt/modrt_consumer_static" "$dict" "$level"
+fi
 
 cp -L "$lib" "$work/stripped.so"
 strip --strip-unneeded "$work/stripped.so"
