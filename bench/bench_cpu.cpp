@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bench-cpu — Google Benchmark timings of the SIMD CPU runtime (cpu_neon/) against
 // core's scalar reference, in the same run (SPEC §5). Speed is measured only here.
 //

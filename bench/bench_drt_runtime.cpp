@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bench-drt-runtime — Google Benchmark timings of DRT's run-time cost over MRT alone
 // (SPEC §5 step 7, [Loos et al. 2012] §6: 1.5 -> 2.1 ms per frame on their GPU), through the
 // Backend interface, on the four-pillar corridor of tests/drt_scenes.h (small test

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bench-gles — Google Benchmark timings of the OpenGL ES backend (gles/) per frame,
 // with the CPU backend's AVX2/NEON/best-ISA frame on the same level in the same run for a
 // ratio. Speed is measured only here.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the Google Benchmark programs: the DEFAULT full dictionary (res 16, kb 32), loaded
 // from $MODRT_BENCH_DICTIONARY when set (a dictionary file, e.g. on a machine without the
 // cache), else from the cache ($MODRT_CACHE_DIR, ...) or baked on first use (about a minute);

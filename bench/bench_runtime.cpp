@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bench-runtime — Google Benchmark timings of the level build and the scalar
 // reference runtime (SPEC §4, §5). Speed is measured only here, never in the tests.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bench-stress: the cost of hostile numbers on the SIMD CPU path (issue 9,
 // docs/robustness.md). Small test dictionary (res 8, kb 32; tests/test_support.h) and maze41,
 // so that it runs without the full dictionary.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Build-time step (cmake -P): writes OUTPUT, a C++ source that defines one
 # `extern const char* const k<Name>` per shader file in SHADERS (a ;-list), holding the file's
 # text. Names: "atlas.frag.glsl" -> kAtlasFrag. Shaders stay plain .glsl files in the source

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # modrt_target_options(<target>): the project's warnings and sanitizer flags, per target.
 function(modrt_target_options target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Installation and the CMake package: find_package(modrt) + target_link_libraries(app modrt::core).
 # Included at the end of the root CMakeLists.txt, so every target already exists here.
 #

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # modrt_embed_shaders(<out_var> NAMESPACE <ns> SHADERS <file>...): a build step that writes a
 # C++ source defining `extern const char* const k<Name>` in <ns> for every .glsl file (see
 # EmbedShaders.cmake for the names), re-run when a shader changes; <out_var> receives the

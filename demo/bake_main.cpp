@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-bake: bakes the 2D cube dictionary (six shapes) into one dictionary file.
 #include <chrono>
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — the one definition of how the programs in demo/ check their floating-point
 // options (issue 18): a value must be a whole number token (strtod consumes it all), finite
 // and inside the option's stated range. CLI::Range is not enough: every comparison with NaN

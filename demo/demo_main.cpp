@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-demo: the offscreen demo (README's main command). Renders the built-in default scene
 // (scene/default_scene.h) with OpenGL ES 3 through EGL (or OSMesa): a point light moving
 // through a warped 11-block maze, its shadow cube map giving direct light to the camera image

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — one demo run: a scene, its built level, the renderer and the backend, and the
 // per-frame pipeline (shadow map, ld at the proxy samples, indirect light, camera image).
 // Used by modrt-demo and by the demo's golden-image tests.

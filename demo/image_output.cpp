@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "image_output.h"
 
 #include <algorithm>

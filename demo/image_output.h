@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — writing images through OpenImageIO, atomically.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-level: relights a whole level with the scalar reference runtime (MRT §7.3) and
 // writes a top-down map of the floor (indirect light, and direct + indirect) plus the
 // padded lightmap atlas. Levels come from JSON (docs/level-format.md) or a preset.

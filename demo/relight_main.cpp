@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-relight: the single-block relighting demo. Bakes (or loads the cached) dictionary,
 // lights one dictionary shape with a sphere light and coloured walls, evaluates indirect
 // light with the scalar reference runtime and writes the block's unfolded lightmaps.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "unfolded_lightmap.h"
 
 #include <algorithm>

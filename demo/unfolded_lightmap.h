@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — a block's per-face texel signal unfolded into a cross image, seen from
 // inside: ceiling on top, the side walls -Z, +X, +Z, -X in the middle row (each wall's
 // right edge meets the next wall's left edge), floor at the bottom. Missing faces are

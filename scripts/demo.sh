@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Build modrt (Release, in build/) and run the offscreen demo, modrt-demo.
 #
 #   scripts/demo.sh [modrt-demo arguments...]      e.g. --backend cpu --frames 96

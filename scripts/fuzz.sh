@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Build the libFuzzer harnesses with clang (build-fuzz/) and run each for a bounded time on
 # a copy of its seed corpus (tests/fuzz/corpus/<name>), printing libFuzzer's execution count.
 # A crash, leak or sanitizer report fails the script; the reproducer is left in

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Install the Debian 12 packages modrt needs to build, test and run its demo.
 #
 #   scripts/install-deps.sh            # default set (build, tests, demo)
@@ -9,7 +10,7 @@
 set -euo pipefail
 
 usage() {
-  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '3,9p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 with_cross=0

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Writes the DRT clutter sample data/scenes/clutter_room.gltf (one embedded buffer).
 
     scripts/make_clutter_gltf.py [output_dir]     # default: data/scenes next to this script

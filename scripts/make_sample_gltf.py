@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Writes the sample glTF scene data/scenes/two_rooms.gltf (+ two_rooms.bin) for modrt-demo.
 
     scripts/make_sample_gltf.py [output_dir]     # default: data/scenes next to this script

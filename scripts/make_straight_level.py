@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Writes a straight corridor level (docs/level-format.md): N blocks along +Z joined through
 their shared faces, a light in each end block. The worst case of the direct-light pass's shadow
 rays (every sample sees both lights down the whole corridor; issue 18, item 10).

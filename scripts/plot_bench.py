@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Draw modrt-bench's run-time-versus-error chart.
 
 usage: plot_bench.py BENCH.csv OUT.png

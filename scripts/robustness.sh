@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # The robustness table of issue 9 (docs/robustness.md) in one command: builds the stress
 # suite, runs `ctest -L stress` and turns the rows its tests print,
 #   ROBUSTNESS|case|stage|value|bound|result

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Builds the embeddable runtime library for x86-64 and, cross-compiled, for aarch64 (both
 # runtime-only: core + cpu_neon + gles + platform + runtime) and prints the stripped sizes of
 # libmodrt_runtime.so and of the static archives an app links, with the shared library's

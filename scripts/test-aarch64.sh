@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Cross-build the embeddable runtime (core, cpu_neon with its NEON kernels) and its tests for
 # aarch64 with g++-aarch64-linux-gnu, and run them under qemu-aarch64.
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # The embeddable runtime as an app team gets it: configure a runtime-only build (no precompute,
 # no programs), `cmake --install` it into a temporary prefix, then build and run the
 # out-of-tree consumer (tests/consumer) against the installed package, through
@@ -27,7 +28,7 @@ full_build=""
 while (($#)); do
   case "$1" in
     --full-build) full_build="${2:?--full-build needs a build directory}"; shift 2 ;;
-    -h | --help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '3,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "test-install.sh: unknown option '$1'" >&2; exit 2 ;;
     *) build_dir="$1"; shift ;;
   esac

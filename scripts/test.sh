@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Build modrt with warnings as errors and run the test suite.
 #
 #   scripts/test.sh                 # build-tests/: RelWithDebInfo, -DMODRT_WERROR=ON
@@ -10,7 +11,7 @@
 set -euo pipefail
 
 usage() {
-  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '3,10p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 asan=0

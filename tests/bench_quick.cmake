@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # bench_quick: modrt-bench's tiny CI suite (res 6 small bakes, single box, Cornell box,
 # maze11, in-prior lights). Fails when MRT's in-prior relative L2 error against the path
 # traced ground truth exceeds tests/bench_quick_thresholds.json (measured values + ~30%).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Procedural clutter meshes with lightmap UV layouts, shared by the mesh-clutter tests
 // (test_clutter_mesh, test_drt): a box as 12 triangles whose faces land on grid-aligned UV
 // squares (the same texels as a box clutter object), a UV sphere (one chart with a seam),

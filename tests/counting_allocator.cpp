@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Replaceable global allocation functions that count (counting_allocator.h).
 #include "counting_allocator.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the CPU backend tests (kernels, level runtime): tolerance-aware comparison with
 // per-ISA worst-error reporting, and random inputs.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Clutter set-ups shared by test_drt and bench_drt (DRT, [Loos et al. 2012]): the paper's
 // Figure 1 box room with two boxes, a corridor whose middle block holds four pillars, and an
 // L of three blocks with one box.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Runs one command line and passes when it is refused cleanly: a non-zero exit status (not a
 # signal, not a timeout) and output (stdout + stderr) matching EXPECT, which names the flag.
 #   cmake -DCOMMAND_LINE=prog|--flag|value -DEXPECT=regex -P expect_clean_error.cmake

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // LeakSanitizer suppressions for the test programs that load Mesa; the sanitizer runtime
 // calls this hook at start-up (options in the environment still apply). OSMesa leaks by
 // design: it never frees its per-format framebuffer list (OSMesaMakeCurrent) nor a small

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt tests — readable names for GL tests parameterised by context kind.
 #pragma once
 

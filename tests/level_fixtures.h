@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the backend tests (CPU, GLES): a single block, a corridor and the 11- and
 // 41-block mazes built against the small test dictionary, with their direct light and
 // albedo, and core's scalar reference for a given ld. Built once per test program.

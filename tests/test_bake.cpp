@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The per-shape bake: implicit lighting, low-rank accuracy against F, enrichment, the
 // furnace, vector irradiance and probes, and bad settings (MRT §4, appendix A, §6.4–6.5).
 #include <gtest/gtest.h>

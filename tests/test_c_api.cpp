@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The embeddable runtime's C API (runtime/include/modrt/modrt.h): loading from memory and
 // files, CPU and GLES contexts against the C++ backends and core's reference, probes against
 // the reference probes rotated into the world, lights against CpuDirectLight, the allocator

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Mesh clutter lightmaps (precompute/clutter_mesh.h): a box given as a triangle mesh with a
 // grid-aligned UV layout must give exactly the box clutter's texels; texel areas conserve the
 // mesh's area; thin triangles still get texels; padding rings every chart; bad meshes are

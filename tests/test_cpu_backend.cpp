@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // SIMD CPU level runtime (cpu_neon/) against core's scalar reference for every ISA this CPU
 // supports (the kernels alone: test_cpu_kernels.cpp); no allocation per frame; the thread
 // pool bit-identical to one thread; bad input.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The CPU direct-light evaluator (cpu_neon/ direct_light.h): light models against analytic
 // references, shadows against precompute's Embree level_direct_light, SIMD against the scalar
 // twin, influence culling (exact at epsilon 0, within its bound above), the incremental moving-

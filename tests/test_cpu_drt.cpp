@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // DRT on the SIMD CPU path (cpu_neon/cpu_drt.h) against core's scalar reference (drt.h):
 // c = Td_c clutter_ld, lightmap += dUb b + dUc c, the clutter lightmap Uc Vc b + direct and its
 // clutter-to-clutter light Cc c, every ISA this CPU (or qemu) supports, within 1e-5 relative L2;

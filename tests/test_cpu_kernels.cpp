@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // SIMD CPU kernels (cpu_neon/) against core's scalar reference, for every ISA this CPU
 // supports (Embree verify style: for (isa : isas)), on random sizes including zero, odd and
 // non-multiples of every vector width. Needs no precompute, so it also runs cross-built on

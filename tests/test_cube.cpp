@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Canonical block geometry: frames, rotations, canonicalisation, sample layout.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The offscreen demo (demo/): proxy mapping (MRT §7.2) lands real geometry on its own proxy
 // face; the GLES ld pass (shadow cube map over geometry images) matches ray-traced direct
 // light; the CPU and GLES backends render the same image; and the default scene's first

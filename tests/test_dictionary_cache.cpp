@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The dictionary cache and the file helpers under it (issue 18 item 9): an unwritable cache
 // or output is refused before any bake, temporaries of killed savers are removed, and
 // concurrent first runs bake once (flock on the cache entry).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The dictionary file format (core/include/modrt/dictionary_io.h), the file helpers
 // (file_io.h) and settings/dictionary validation: round trips, hostile and corrupt files.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Delta Radiance Transfer (SPEC §6, [Loos et al. 2012]): the operators of clutter boxes,
 // the scalar reference runtime, and the accuracy gain over MRT alone against the
 // ground-truth path tracer on the paper's Figure 1 set-up and a maze block with pillars.

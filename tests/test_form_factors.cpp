@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // F against analytic references: unit-square form factors and Lambert's point-to-polygon
 // formula (SPEC §7).
 #include <gtest/gtest.h>

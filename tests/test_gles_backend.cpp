@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // GLES backend conformance (gles/): the lightmaps, atlas, b, r, probes and vector irradiance
 // read back from the fragment-shader passes equal core's scalar reference, for a single
 // block, a corridor and the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts

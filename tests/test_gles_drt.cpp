@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // DRT in the backends (docs/drt.md, "Runtime in the backends"): the GLES passes (gles_drt.h)
 // and the CPU backend's DRT stages against core's scalar reference (level_evaluate, then
 // drt_compute_c / drt_apply / drt_clutter_lightmap; drt_multi_bounce for the feedback), in

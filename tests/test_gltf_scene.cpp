@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // glTF scenes for the demo (demo/scene/gltf_scene.h): the committed sample
 // data/scenes/two_rooms.gltf (scripts/make_sample_gltf.py) loads with the counts, transforms,
 // materials, camera and light the script wrote, maps onto its proxies inside the atlas and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The demo's image writer (demo/image_output.h, issue 18): a linear EXR frame is stored as half
 // floats while every value fits their range and as float32 beyond it (a glTF light of 1e8 cd
 // gave Inf pixels in half; 1e20 cd made every pixel Inf), and a frame holding NaN or Inf is

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Levels (MRT §5, §6.2–6.3): interface transport against the exact one-bounce reference on
 // the real geometry, propagation symmetry, seams, energy and multi-bounce stability.
 #include <gtest/gtest.h>

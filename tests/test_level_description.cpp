@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Tests for the level description (validate_level), the level JSON format and the maze
 // generator (SPEC §4, docs/level-format.md).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The built-level file (core/level_io.h): a saved level loads back field for field and
 // evaluates to bit-identical lightmaps, and every kind of damage is refused with a message
 // that names the part and problem.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Issue 18, lights and rays (modrt/light_policy.h): rays Embree cannot trace, lights out of
 // reach, the texel-footprint bound on the point-light singularity, light fields of level JSON,
 // the empty level, and the run shortcut of LevelScene::occluded_from (item 10).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Plausibility limits of baked operators (core operator_limits.h, issue 18 item 5): the real
 // baked dictionaries and levels are within them (the measured maxima are printed; they are
 // docs/robustness.md's table), and a file with valid checksums but FLT_MAX or a plausible-

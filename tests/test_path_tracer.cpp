@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The ground-truth path tracer against analytic references, within its own reported
 // standard error (SPEC §7).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform: every context kind renders, auto_select explains itself, timers time.
 // A kind this machine cannot provide is skipped with the reason printed; set
 // MODRT_REQUIRE_GL_CONTEXTS (e.g. "egl-surfaceless,osmesa") to make such a skip a failure.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The scalar reference runtime against direct double-precision linear algebra.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Tests for core/sh: SH9 basis, clamped-cosine convolution, OHLSH (MRT appendix B).
 //
 // All integrals use Gauss-Legendre in cosθ (in a frame whose z axis is the kink of the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the level-scale tests: a small dictionary with interface operators, baked once
 // per build tree and cached on disk so the test processes ctest starts do not each bake.
 #pragma once

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cross-compiling for aarch64 (Debian's g++-aarch64-linux-gnu); tests run under qemu-aarch64
 # through CMAKE_CROSSCOMPILING_EMULATOR (ctest and gtest_discover_tests use it).
 # Used by scripts/test-aarch64.sh, which also supplies GoogleTest and the header-only packages.

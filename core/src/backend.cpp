@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/backend.h"
 
 namespace modrt {

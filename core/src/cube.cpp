@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/cube.h"
 
 #include <bit>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/dictionary.h"
 
 #include <cmath>

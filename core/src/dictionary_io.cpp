@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/dictionary_io.h"
 
 #include <algorithm>

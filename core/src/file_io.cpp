@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/file_io.h"
 
 #include <array>

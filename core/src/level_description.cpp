@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — level description helpers and validation (SPEC §4, MRT §6.2).
 #include "modrt/level_description.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — world geometry of a built level (level_geometry.h).
 #include "modrt/level_geometry.h"
 

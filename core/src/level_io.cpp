@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/level_io.h"
 
 #include <bit>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/operator_limits.h"
 
 #include <algorithm>

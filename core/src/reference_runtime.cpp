@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/reference_runtime.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_backend.h"
 
 #include <algorithm>

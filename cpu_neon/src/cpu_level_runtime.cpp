@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_level_runtime.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — the CPU direct-light evaluator (direct_light.h: models, shadows, bounds).
 #include "modrt/cpu/direct_light.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — flush-to-zero for the runtime's float work (private to cpu_neon).
 //
 // Subnormal floats (below FLT_MIN = 1.2e-38) are slow on some SIMD paths: x86 cores without

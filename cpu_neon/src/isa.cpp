@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // ISA detection, done once (function-local statics) and forced by set_isa().
 #include "modrt/cpu/isa.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // SIMD kernels: scalar twins always compiled; SSE4.1 and AVX2+FMA through per-function target
 // attributes on x86-64; NEON on aarch64. See kernels.h for the layouts.
 #include "modrt/cpu/kernels.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Which SIMD code paths this translation unit compiles (meshoptimizer-style detection block;
 // simd_config_end.h undefines the macros again). MODRT_NO_SIMD builds the scalar twins only.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Ends the scope of simd_config.h (included last in a .cpp).
 #undef MODRT_CPU_X86
 #undef MODRT_CPU_NEON

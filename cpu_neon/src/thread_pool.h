@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — a fixed pool of worker threads for CpuLevelRuntime (private to cpu_neon).
 //
 // `threads` - 1 std::thread workers are started once, by the constructor; run() hands them

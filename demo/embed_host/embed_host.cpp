@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-embed-host: the pattern an Android or iOS app follows to embed modrt (docs/embedding.md).
 // The app owns its GL context: this program creates one with plain EGL calls (Mesa's
 // surfaceless platform, else the default display with a pbuffer), makes it current, and hands

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — the OpenGL ES 3.0 scene renderer: shadow cube map of the point light, direct
 // light at the proxy samples (the ld the MRT runtime takes), and the camera image shaded with
 // direct light plus indirect light from the lightmap atlas, the vector irradiance atlases

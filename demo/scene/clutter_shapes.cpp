@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "clutter_shapes.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — DRT clutter objects made in code (the built-in scene, tests): a closed prism
 // over a polygon, with lightmap UVs laid out one chart per side and per cap (each in its own
 // tile of a square grid, inset so that charts never share an atlas cell), added both as a

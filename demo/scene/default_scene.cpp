@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "default_scene.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — the built-in default scene (what `modrt-demo` renders with no arguments):
 // the 11-block maze with warped blocks and red/green/blue walls, the walls themselves as
 // meshes, detail geometry in every block (corner pillars, crates, ceiling beams, a bench),

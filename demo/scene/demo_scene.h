@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — what the demo renders: a level of proxy blocks (the MRT level) plus the real
 // geometry drawn on top of it, its materials and textures, lights, a camera and the dynamic
 // objects lit by the probe volume. Filled by the built-in default scene (default_scene.h) or

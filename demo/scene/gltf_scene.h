@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — scenes from glTF 2.0 files (.gltf with external or embedded buffers and
 // images, or .glb), read with tinygltf: triangle meshes with their node transforms baked
 // in, pbrMetallicRoughness base colours and normal maps, the first camera, the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "proxy_mapping.h"
 
 #include <algorithm>

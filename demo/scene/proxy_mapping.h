@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt demo — lightmap coordinates for real geometry (MRT §7.2): every static triangle is
 // assigned to one proxy face of the block that contains it and projected orthographically
 // onto that face, in the block's canonical frame (through the inverse of its trilinear

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Steps 3, 5 and 6 in one pass over the padded lightmap atlas (MRT §6.2–6.3):
 // texel = Ub b (own block) + sum over the block's response slots of Ur r. Padding texels
 // (SPEC §4) evaluate the sample they copy, so padding costs no separate pass and no

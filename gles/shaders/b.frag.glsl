@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Step 2 (MRT §4.1, eq. 3), first half: partial sums of b = Td_b ld. One fragment sums
 // B_CHUNK samples of one block for four modes and all three channels; fragment
 // i = (block * GROUPS + g) * B_CHUNKS + chunk. Splitting the sample sum gives the GPU

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by every modrt pass. The C++ side puts "#version 300 es" and these defines first:
 //   LINEAR_SHIFT      log2 of the width of every linear-layout texture (see gles/README.md)
 //   GROUPS, R_GROUPS  ceil(kb / 4), ceil(kr / 4): mode groups of four

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // DRT §4.2, c = Td_c clutter_ld: one fragment per clutter face (the faces of all objects in
 // order). Td_c row f is packed four clutter texels per RGBA texel; its clutter_ld are the
 // owning object's texels.

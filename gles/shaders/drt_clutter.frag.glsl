@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // DRT §4.3, second half: the clutter atlas, Uc y + Cc c + the clutter's direct light per
 // clutter texel (y = Vc b from drt_vc.frag; Cc c: light of other clutter objects' faces, drt.h).
 // With NO_DIRECT: the vector clutter's instance (Uc_vec y + Cc_vec c, 4 rows per clutter texel

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"; core's drt_clutter_feedback): the
 // clutter's light for the next bounce, clutter_ld + rho_c * min(max(indirect, 0), bound) per
 // clutter texel, where indirect = the last evaluation's clutter atlas (Cb b + Cc c + direct)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // DRT §4.3, first half of Cb b = Uc (Vc b): y = Vc b, one fragment per (object, mode) over the
 // b of the blocks the clutter sees. Vc row q of an object is packed GROUPS texels per seen
 // block (four modes per texel), the blocks in Cb_blocks order.

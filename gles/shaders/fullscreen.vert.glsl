@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // One triangle covering the viewport; no vertex buffers (gl_VertexID 0, 1, 2).
 void main() {
   vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));

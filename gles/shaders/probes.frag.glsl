@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Step 9 (MRT §6.5): volume probes, radiance SH9 per probe. Fragment i = block * rows + row
 // (row = 9 p + j): Ubvol b of the block itself plus, for each slot entering the block, the
 // probe response turned onto the slot's entry face times r. Both operators are packed four

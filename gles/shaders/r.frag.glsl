@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Step 4 (MRT §6.3): r = Tb->r b, the records of each response slot summed. One fragment
 // computes the part of four response modes of one slot that comes from four b modes, over
 // all the slot's records; fragment i = (slot * R_GROUPS + go) * GROUPS + gi, and

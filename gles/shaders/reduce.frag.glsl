@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Second half of a split sum (b.frag, r.frag): out[i] = sum of the PARTS partial sums
 // in[i * PARTS] ... in[i * PARTS + PARTS - 1], for the three channel planes. PARTS is
 // B_CHUNKS for b and GROUPS for r (defined per program).

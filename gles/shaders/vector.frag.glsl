@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Step 9, vector irradiance (MRT §6.4, App. B): the four OHLSH coefficients of E/pi, in the
 // sample's face frame, for every atlas texel, one coefficient per colour attachment (RGB in
 // .rgb). As atlas.frag: Ub_vec b of the texel's own block plus, for each response slot

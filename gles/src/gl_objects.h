@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Small GL helpers of the GLES runtime: linear-layout textures (programs, textures and render
 // targets come from modrt/platform/gl_program.h). Private to modrt::gles.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "gles_drt.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/gles/gles_level_runtime.h"
 
 #include <algorithm>

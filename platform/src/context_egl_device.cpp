@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // egl_device: EGL_EXT_platform_device, a GPU without any display server (NVIDIA's headless
 // path, Mesa DRM render nodes). Mesa also lists a software device (EGL_MESA_device_software);
 // auto_select skips it so that a real GPU, not llvmpipe, is what "egl-device" means there.

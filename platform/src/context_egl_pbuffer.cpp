@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // egl_pbuffer: the default EGL display with a 1x1 pbuffer, for EGL implementations that have
 // neither the device nor the surfaceless platform (older vendor drivers, some Android-like stacks).
 #include "context_kinds.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // egl_surfaceless: Mesa's EGL_MESA_platform_surfaceless. Needs no display server and no
 // device node: a DRM render node when Mesa finds one, else llvmpipe (the CI case).
 #include "context_kinds.h"

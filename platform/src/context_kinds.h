@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Private: one factory per context kind (each in its own file) and what they share.
 #pragma once
 

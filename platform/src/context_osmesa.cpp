@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // osmesa: Mesa's off-screen library, loaded with dlopen so that libmodrt_platform links only
 // EGL and runs where OSMesa is absent. It gives desktop GL (4.5, else 3.3) core profile, and
 // modrt's "#version 300 es" shaders run there through GL_ARB_ES3_compatibility.

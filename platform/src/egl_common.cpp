@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "egl_common.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Private: what the three EGL context kinds share. They differ only in how they obtain an
 // EGLDisplay and whether they need a pbuffer surface; everything from eglInitialize on is here.
 #pragma once

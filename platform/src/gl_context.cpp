@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // create_context and the kind names; the kinds themselves live in context_*.cpp.
 #include "modrt/platform/gl_context.h"
 

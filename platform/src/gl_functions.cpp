@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/platform/gl_functions.h"
 
 #include <cstdio>

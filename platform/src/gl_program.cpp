@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform — shader programs and render targets with named errors (gl_program.h).
 #include "modrt/platform/gl_program.h"
 

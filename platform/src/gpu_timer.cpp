@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/platform/gpu_timer.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/bake.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/block_scene.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/dictionary_cache.h"
 
 #include <bit>

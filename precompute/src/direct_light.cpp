@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/direct_light.h"
 
 #include <algorithm>

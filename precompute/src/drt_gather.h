@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute (private to drt_build.cpp) — the pieces of the DRT gathers: analytic
 // ray-box queries with exact culling, the shared stratified direction sets, the Limp gather
 // by tap weights, and the per-sample / per-texel results a build keeps for rebuilds.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute (private) — the two Embree queries every scene class makes, and the one guard
 // every ray passes before it reaches Embree.
 #pragma once

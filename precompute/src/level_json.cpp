@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — level JSON reader and writer (docs/level-format.md).
 #include "modrt/precompute/level_json.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/level_scene.h"
 
 #include <algorithm>

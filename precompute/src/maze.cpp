@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — procedural maze levels and presets (docs/level-format.md).
 #include "modrt/precompute/maze.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "modrt/precompute/sh_operators.h"
 
 #include <numbers>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Errors, allocator, version, and loading dictionaries and levels.
 #include <cerrno>
 #include <cstdio>

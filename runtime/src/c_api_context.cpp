@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt_context: one level evaluated by the CPU runtime or the GLES runtime, with the CPU
 // direct-light evaluator in front and the probe sampler behind.
 #include <algorithm>

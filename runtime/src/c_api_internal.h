@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The C API's shared plumbing: the allocator hook as an STL allocator, handle allocation,
 // the per-thread error message, Status -> modrt_status, and the boundary that keeps every
 // exception inside the library.

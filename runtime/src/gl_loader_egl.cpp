@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The default GL loader for GLES contexts: eglGetProcAddress, when the library is built with
 // EGL (MODRT_RUNTIME_EGL). Without it the app passes its own (e.g. dlsym on iOS).
 #if MODRT_RUNTIME_EGL

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 /* An out-of-tree consumer of the installed modrt runtime (scripts/test-install.sh): plain C,
  * built against the installed package (find_package(modrt) or pkg-config), checks the version,
  * an error path, and, given a dictionary and a level, loads the level from memory (as an app

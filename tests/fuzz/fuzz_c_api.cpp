@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness (issue 18): the C API (runtime/include/modrt/modrt.h) driven by fuzz bytes.
 // The committed tiny dictionary and maze11 level are loaded once; each input is a program of
 // calls on a CPU context: create (fuzzed options), set_albedo, set_lights (fuzzed types,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness: the dictionary file parser (core/dictionary_io.h) on arbitrary bytes. A
 // file it accepts must pass validate_dictionary and survive a save/parse round trip unchanged
 // in settings and operator sizes; anything else must come back as an error, never a crash,

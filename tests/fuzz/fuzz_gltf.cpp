@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness: the demo's glTF scene import (demo/scene/gltf_scene.h) on arbitrary
 // bytes, as a .gltf or .glb file (tinygltf tells them apart by the magic), with the proxy
 // blocks from a fixed level file (MODRT_FUZZ_LEVEL, the sample scene's sidecar) so that

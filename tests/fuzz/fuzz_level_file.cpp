@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness: the built-level file parser (core/level_io.h) on arbitrary bytes. Each
 // input is parsed twice: as given (header, checksums) and resealed, with both CRC-32s
 // recomputed over the mutated bytes, so that mutations reach the body decoder and the

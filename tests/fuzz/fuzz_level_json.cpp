@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness: the level JSON parser (precompute/level_json.h) on arbitrary text. A level
 // it accepts must validate (validate_level) and round-trip: level_to_json of it parses again
 // to a level with the same blocks and lights. Anything else must be an error, never a crash.

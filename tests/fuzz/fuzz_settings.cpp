@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer harness (issue 18): the numbers behind the command-line options. modrt-bake's
 // flags fill a DictionarySettings and modrt-level's level JSON a LevelDescription; this
 // harness fills both from fuzz bytes (each number either raw bits or one of the hostile

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """The hostile-input runner (issue 18; tests/hostile/README.md has the case format).
 
 Runs every case of tests/hostile/cases/*.json (named reproductions and generated variants:

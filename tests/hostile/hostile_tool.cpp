@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt-hostile-tool: the hostile runner's helper (tests/hostile/README.md).
 //
 //   modrt-hostile-tool stats FILE...

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The robustness table's rows (issue 9): every stress test prints, for each thing it checks,
 //   ROBUSTNESS|case|stage|value|bound|result
 // and scripts/robustness.sh collects those lines from `ctest -L stress` into a markdown table

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Numerical stress (issue 9): the runtime driven far outside comfortable inputs, through the
 // real dictionary, level build and SIMD CPU runtime (no mocks). Each test prints what it
 // measured; docs/robustness.md has the table.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Numerical stress of the bake (issue 9): near-singular lighting priors (duplicate, nearly
 // duplicate and colinear lights, lights on the walls, a single light, kd above the prior's
 // rank), kb 1 and kb = rank, res 1, through the real bake_shape / bake_dictionary, the level

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Numerical stress (issue 9): the float16 error budget per stage, and determinism of the CPU
 // runtime (run to run, across thread counts) and of the bake (across TBB thread counts).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Numerical stress of the level build under extreme warps (issue 9): corridors stretched to
 // 100:1, squeezed to 1:100 and 1:1000 (nearly flat blocks) and sheared 5:1, through
 // validate_level, build_level (small test dictionary), the warped sample geometry, both

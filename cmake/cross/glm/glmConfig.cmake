@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # GLM for cross builds. GLM is header-only and architecture-independent, but Debian's package
 # config puts /usr/include on the include path, which must not reach a cross compiler (the
 # host's C headers would shadow the target's). This exposes the glm headers alone, through a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the run-time backend interface (SPEC §5): what the CPU (modrt::cpu) and OpenGL ES
 // (modrt::gles) backends both implement, so a caller swaps them by a flag.
 //

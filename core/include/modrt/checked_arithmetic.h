@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — arithmetic on user-given counts that must not wrap. Estimates of sizes and costs
 // multiply counts the user chose (res^2, grid^3, rays x samples); a wrapped product turns a
 // refusal into an allocation or an empty loop, so every such product goes through here.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the data of a triangle-mesh clutter object (DRT §3, SPEC §6): the mesh in world
 // space and its lightmap atlas, the texels the operators gather from. precompute's
 // clutter_mesh.h makes them (rasterize_clutter_mesh, make_mesh_clutter); core only reads

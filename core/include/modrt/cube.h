@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the canonical block of the 2D cube dictionary (SPEC §2, MRT §6.1).
 //
 // The canonical block is the unit cube [0,1]^3 with y up. Faces are numbered

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the scene-independent dictionary: per-shape light transport operators
 // (SPEC §3, MRT §4, §6.4, §6.5).
 //

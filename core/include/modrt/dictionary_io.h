@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the dictionary file: one versioned, checksummed binary file holding the
 // settings and every operator of a Dictionary (dictionary.h). It is written by modrt-bake
 // and by the dictionary cache, and read by every runtime. This comment is the contract.

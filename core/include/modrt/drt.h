@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — Delta Radiance Transfer (SPEC §6, [Loos et al. 2012] "DRT"): clutter objects
 // inside blocks, their delta operators and the scalar reference runtime that applies them.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — small, careful file helpers shared by every file format (dictionary, levels).
 //
 // Nothing here throws: failures come back as a Status whose message names the path and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the authored description of a level (SPEC §4, MRT §6.2): blocks on a grid,
 // optionally warped by their 8 corners, with per-face presence and albedo, plus lights.
 // This is the input of the level build; the JSON file format is documented in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — where a built level's samples and walls are in the world (SPEC §4, MRT §6.2):
 // the canonical block (cube.h) turned by its quarter turns and mapped through the trilinear
 // warp of its 8 corners (level_description.h). Used at run time by the CPU direct-light

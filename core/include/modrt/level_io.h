@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the built-level file (.modrtlevel): one versioned, checksummed binary file
 // holding a Level (level.h), so that an app ships a level built offline by modrt-level and
 // loads it without the precompute library. Read from a path or from a memory buffer (an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the light policy every direct-light path follows: precompute's Embree direct light
 // (block, level, clutter, path tracer), the CPU evaluator of the C API (cpu_neon) and the
 // parsers that accept lights (level JSON, modrt-relight). One place for: which lights and rays

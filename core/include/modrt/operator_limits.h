@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — plausibility limits of baked operators: the one place that says how large a
 // dictionary's or level's operator may be (docs/robustness.md, "Issue 18: binary loaders").
 //

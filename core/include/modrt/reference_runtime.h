@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — the scalar reference runtime for one block (SPEC §5, MRT §7.3 steps 1–3, 8–9).
 //
 // This is the oracle every backend is checked against: plain loops in float with double

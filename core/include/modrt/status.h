@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — error reporting shared by every layer.
 //
 // The runtime never throws across its API: functions that can fail on untrusted input

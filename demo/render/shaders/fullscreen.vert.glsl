@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // One triangle covering the viewport (no vertex buffer: positions from gl_VertexID).
 void main() {
   vec2 p = vec2(float((gl_VertexID & 1) << 2) - 1.0, float((gl_VertexID & 2) << 1) - 1.0);

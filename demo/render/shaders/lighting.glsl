@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Direct light of the demo's point light (radiant intensity u_light_rgb, W/sr per channel)
 // with a cube shadow map; shared by the ld pass (proxy samples) and the camera image so
 // both see the same light. Returns E/pi.

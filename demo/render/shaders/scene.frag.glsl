@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shading: outgoing radiance = albedo * (direct E/pi + indirect E/pi). Indirect E/pi comes
 // from the lightmap atlas (bilinear over texelFetch: float32 textures need not be
 // filterable in ES 3.0), or for normal-mapped surfaces from the four OHLSH vector irradiance

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The camera image: every mesh, static ones with their lightmap coordinates (proxy mapping,
 // MRT §7.2), dynamic ones moved by u_offset.
 uniform mat4 u_view_proj;

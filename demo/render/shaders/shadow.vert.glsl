@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Depth of the scene seen from the point light through one cube-map face (90 degree frustum).
 uniform mat4 u_view_proj;
 uniform vec3 u_offset;  // dynamic meshes: their position this frame; static: 0

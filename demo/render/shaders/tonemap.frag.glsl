@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Linear radiance -> display: exposure, a filmic curve (Narkowicz's ACES fit), sRGB encoding.
 uniform sampler2D u_linear;
 uniform float u_exposure;

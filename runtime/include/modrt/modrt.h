@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 /* modrt — the embeddable runtime's C API (libmodrt_runtime; docs/embedding.md is the tour).
  *
  * An app ships a dictionary (.modrt, from modrt-bake) and a built level (.modrtlevel, from

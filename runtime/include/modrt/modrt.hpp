@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt — a thin C++ wrapper over the C API (modrt.h): move-only owners of the handles, and
 // calls that return a modrt::rt::Error (code + message) instead of a bare status. Header-only
 // and exception-free, so an app built with -fno-exceptions can use it; nothing here is part

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — CpuLevelRuntime behind the Backend interface (modrt/backend.h), so a caller
 // switches between the CPU and GLES backends by a flag. It keeps the lightmap, atlas and
 // probes in CPU memory; update() fills all three (probes only when the dictionary has them).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — the DRT stages on the SIMD CPU path (SPEC §5 step 7, [Loos et al. 2012] §5):
 // c = Td_c clutter_ld, lightmap += dUb b + dUc c, clutter lightmap = Uc (Vc b) + direct
 // (+ Cc c, clutter-to-clutter light), and the vector and probe deltas, with the GEMV kernels

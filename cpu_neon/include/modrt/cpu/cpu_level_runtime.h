@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — the SIMD CPU runtime for a whole level (SPEC §5 steps 2–6, 8 and 9).
 //
 // Computes exactly what core's level_evaluate / level_fill_atlas / level_compute_probes /

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — instruction-set selection for the SIMD CPU backend (SPEC §1, STYLE 3–5).
 //
 // Every kernel exists as a scalar twin that is always compiled, plus SSE4.1 and AVX2+FMA

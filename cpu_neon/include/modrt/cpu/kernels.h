@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::cpu — the numeric kernels of the SIMD CPU backend (SPEC §5 steps 2–6, 8).
 //
 // All kernels write into caller-provided buffers and never allocate. Each takes the ISA

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::gles — the OpenGL ES 3.0 level runtime (SPEC §5 steps 2–6, 8, 9): operators live
 // in textures, every stage is a fragment-shader pass into float render targets, and the
 // lightmap ends in a padded atlas texture that a renderer samples directly.

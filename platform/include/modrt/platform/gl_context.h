@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform — creating an OpenGL ES 3 capable context without a window.
 //
 // One small interface, one implementation file per context kind (Filament's

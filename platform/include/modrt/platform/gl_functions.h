@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform — the OpenGL ES 3.0 entry points modrt calls, loaded through the context's
 // get-proc-address function into one table.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform — GL objects every modrt renderer needs, with errors that name what
 // failed: shader programs (compile and link logs), textures, render targets. Used by the
 // GLES backend (gles/) and the demo renderer.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::platform — timing GL work: GPU timer queries where the context has them
 // (EXT_disjoint_timer_query on GLES, GL_TIME_ELAPSED on desktop GL 3.3+), else CPU time
 // around glFinish. A small class of its own, apart from the passes it times.

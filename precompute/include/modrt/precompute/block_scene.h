@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — an Embree scene of one block's present faces.
 //
 // Every precompute ray query (prior visibility, the F gather, SH projections, probes)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt::precompute — the lightmap of a triangle-mesh clutter object (DRT §3, SPEC §6):
 // rasterizes the mesh's lightmap UVs into a res x res texel grid and gives every covered
 // texel the world position and normal it stands for, the same texel geometry a box clutter

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — bake the dictionary on first use and cache it on disk.
 #pragma once
 

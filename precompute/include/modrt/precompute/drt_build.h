@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — the DRT operators of clutter objects (SPEC §6, [Loos et al. 2012]
 // §4–5), traced with Embree against the level's walls and the implicit lighting Limp of the
 // dictionary, in parallel over scene samples and clutter texels (oneTBB).

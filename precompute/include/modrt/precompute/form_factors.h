@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — analytic form factors used as references for F (SPEC §7).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — interface lightfields and the operators that couple blocks
 // (MRT §5, §6.3, appendix A; SPEC §3.8).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — the level file format (JSON, docs/level-format.md): parsing with
 // errors that name the file, the JSON path and the problem, and writing.
 #pragma once

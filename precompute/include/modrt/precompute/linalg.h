@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — dense double matrices (Eigen) used throughout the bake.
 #pragma once
 

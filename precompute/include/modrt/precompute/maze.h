@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — procedural test levels (docs/level-format.md): seeded random 2D
 // mazes like the paper's (MRT §6.1, Table 3: an 11-block small and a 41-block large maze)
 // and small hand-made presets.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — ground truth: a diffuse path tracer on the real (warped) level
 // geometry (SPEC §7). It estimates multi-bounce indirect irradiance E_ind / pi at any
 // surface points — the level's lightmap texels or a camera's primary hits — for the same

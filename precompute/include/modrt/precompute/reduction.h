@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — reduced direct-to-indirect transfer (MRT §4, appendix A; SPEC §3.2–3.5).
 //
 // All in double. Names follow MRT Table 1:

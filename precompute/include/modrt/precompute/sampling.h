@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — deterministic sampling: a seeded RNG per work item, stratified
 // square samples, and the maps from the square to the disk, hemisphere and sphere.
 #pragma once

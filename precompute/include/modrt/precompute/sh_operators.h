@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — operators driven by the implicit lighting environment Limp:
 // vector irradiance U_vec_b (MRT §6.4, appendix B; SPEC §3.6) and volume probes Ubvol
 // (MRT §6.5; SPEC §3.7). Both light the block with each column of Limp (outgoing radiance

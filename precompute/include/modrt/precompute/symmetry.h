@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — the symmetries of a dictionary shape (the elements of the square's
 // dihedral group about +Y that map its face mask onto itself), used to make baked
 // operators exactly equivariant: Monte Carlo noise and truncation inside degenerate

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // modrt precompute — the one-bounce operator F of a block (SPEC §3.3, MRT §3.1).
 //
 // Row s of F maps outgoing diffuse radiance at every sample to E_ind / pi at sample s:
