@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt-bench-cpu — Google Benchmark timings of the SIMD CPU runtime (cpu_neon/) against
-// core's scalar reference, in the same run (SPEC §5). Speed is measured only here.
+// core's scalar reference, in the same run (architecture.md §5). Speed is measured only here.
 //
 //   BM_PeakFma/<threads>                       this core's FMA peak: AVX2 (NEON on aarch64)
 //                                              FMAs into 12 independent accumulators

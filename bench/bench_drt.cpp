@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt-bench-drt — Google Benchmark timings of the DRT operator build (SPEC §6,
+// modrt-bench-drt — Google Benchmark timings of the DRT operator build (architecture.md §6,
 // [Loos et al. 2012] §4–5) on the four-pillar corridor of tests/drt_scenes.h, with the small
 // test dictionary (res 8, kb 32; tests/test_support.h, baked into the test cache on first use).
 //

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt-bench-drt-runtime — Google Benchmark timings of DRT's run-time cost over MRT alone
-// (SPEC §5 step 7, [Loos et al. 2012] §6: 1.5 -> 2.1 ms per frame on their GPU), through the
+// (architecture.md §5 step 7, [Loos et al. 2012] §6: 1.5 -> 2.1 ms per frame on their GPU), through the
 // Backend interface, on the four-pillar corridor of tests/drt_scenes.h (small test
 // dictionary: res 8, kb 32, 3 blocks, 896 samples; 4 pillars x 4 faces x 16^2 texels, operators
 // built with 1024 rays).

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt-bench-runtime — Google Benchmark timings of the level build and the scalar
-// reference runtime (SPEC §4, §5). Speed is measured only here, never in the tests.
+// reference runtime (architecture.md §4, §5). Speed is measured only here, never in the tests.
 //
 //   BM_LevelBuild/<blocks>                 build_level (dmax 8) of maze11, maze41, a 1000-block maze
 //   BM_ScalarLevelFrame/<blocks>           one level_evaluate (b, r, lightmap), full-quality dictionary

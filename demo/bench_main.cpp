@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt-bench: run time versus error (issue 4, SPEC §5, §7). For a suite of levels and
+// modrt-bench: run time versus error (issue 4, architecture.md §5, §7). For a suite of levels and
 // light placements it compares, against a path-traced ground truth at the lightmap texels,
 //   - a constant ambient term (the ground truth's mean per channel: the "no GI" baseline),
 //   - the exact one-bounce F ld (a dense F gathered on the block for single-block scenes,

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -222,7 +223,11 @@ int main(int argc, char** argv) {
   int w = 0, h = 0;
   const std::vector<float> indirect_map = floor_map(level.value(), lightmap, 64, w, h);
   const std::vector<float> shaded_map = floor_map(level.value(), shaded, 64, w, h);
-  const std::string base = out_dir + "/" + (level_name.find('/') == std::string::npos ? level_name : "level");
+  // Output names from the level's name: a built-in name as it is, a JSON path by its stem
+  // (levels/hall.json -> hall_floor_indirect.png).
+  std::string stem = std::filesystem::path(level_name).stem().string();
+  if (stem.empty()) stem = "level";
+  const std::string base = out_dir + "/" + stem;
   for (const auto& [path, status] :
        {std::pair{base + "_floor_indirect.png",
                   write(base + "_floor_indirect.png", w, h, indirect_map, exposure_for(indirect_map))},

@@ -363,6 +363,44 @@ TEST(CpuDrt, ProbesAreLeftAsTheyAreWithoutUdyn) {
             ErrorCode::invalid_argument);
 }
 
+// The clutter lightmap is a lightmap: never negative (issue 18 item 7, core's
+// drt_evaluate_clutter_lightmap). Cb b is low rank and can ring below zero; here its modes are
+// negated (Uc -> -Uc), so most texels of Cb b are negative (asserted, so the test can fail),
+// and the backend must return max(Cb b + Cc c + direct, 0), the clamped scalar reference.
+TEST(CpuDrt, ClutterLightmapIsNeverNegative) {
+  const DrtFixture& f = fixture();
+  DrtOperators negated = f.drt;
+  for (DrtObjectOperators& o : negated.objects)
+    for (float& v : o.Uc.data) v = -v;
+  const DrtBufferSizes sizes = drt_buffer_sizes(negated);
+  std::mt19937 rng(5);
+  const std::vector<float> ld = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
+  const std::vector<float> clutter_ld = random_vector(rng, sizes.clutter_ld, 0.0f, 1.0f);
+  Result<std::unique_ptr<Backend>> created = create_cpu_backend(f.level, dict());
+  ASSERT_TRUE(created.ok()) << created.status().to_string();
+  Backend& be = *created.value();
+  ASSERT_TRUE(be.set_clutter(&negated).ok());
+  ASSERT_TRUE(be.set_clutter_light(clutter_ld, {}).ok());
+  ASSERT_TRUE(be.update(ld).ok());
+  std::vector<float> out(sizes.clutter_lightmap);
+  ASSERT_TRUE(be.read_clutter_lightmap(out).ok());
+
+  const LevelBufferSizes ls = level_buffer_sizes(f.level, dict());
+  std::vector<float> rb(ls.b), rr(ls.r), lm(ls.lightmap), rc(sizes.c), raw(sizes.clutter_lightmap),
+      ref(sizes.clutter_lightmap);
+  ASSERT_TRUE(level_evaluate(f.level, dict(), ld, rb, rr, lm).ok());
+  ASSERT_TRUE(drt_compute_c(negated, clutter_ld, rc).ok());
+  drt_clutter_lightmap(negated, rb, {}, raw);
+  drt_clutter_add_cc(negated, rc, raw);
+  std::size_t negative = 0;
+  for (float v : raw) negative += v < 0.0f;
+  ASSERT_GT(negative, raw.size() / 4) << "the negated operators should ring negative";
+  drt_evaluate_clutter_lightmap(negated, rb, rc, {}, ref);
+  for (float v : ref) ASSERT_GE(v, 0.0f);
+  for (float v : out) ASSERT_GE(v, 0.0f);
+  EXPECT_LE(compare(out, ref).rel_l2, 1e-5);
+}
+
 TEST(CpuDrt, NoClutterCostsNothingAndBadSizesAreRefused) {
   const DrtFixture& f = fixture();
   const DrtOperators none;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "demo_run.h"
+#include "gl_test_context.h"
 #include "image_output.h"
 #include "modrt/level_geometry.h"
 #include "modrt/precompute/level_scene.h"
@@ -68,34 +69,11 @@ DemoScene unwarped_walls() {
   return walls;
 }
 
-// One context for the whole program, destroyed before Mesa's exit handlers (see
-// test_gles_backend.cpp).
-std::unique_ptr<platform::GlContext>& context_slot() {
-  static std::unique_ptr<platform::GlContext> c;
-  return c;
-}
-class ContextEnvironment : public ::testing::Environment {
- public:
-  void TearDown() override { context_slot().reset(); }
-};
-[[maybe_unused]] ::testing::Environment* const kEnvironment =
-    ::testing::AddGlobalTestEnvironment(new ContextEnvironment);
-
+// The program's OSMesa context (gl_test_context.h), or null with the reason printed.
 platform::GlContext* osmesa() {
-  static Status why;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    Result<std::unique_ptr<platform::GlContext>> c =
-        platform::create_context(platform::ContextRequest::osmesa);
-    if (c.ok())
-      context_slot() = std::move(c).value();
-    else
-      why = c.status();
-  }
-  if (context_slot() && context_slot()->make_current().ok()) return context_slot().get();
-  std::printf("  no OSMesa context: %s\n", why.to_string().c_str());
-  return nullptr;
+  test::GlContextSlot& slot = test::gl_context_for(platform::ContextRequest::osmesa);
+  if (!slot.context) std::printf("  no OSMesa context: %s\n", slot.status.to_string().c_str());
+  return slot.context.get();
 }
 
 TEST(ProxyMapping, WorldToBlockInvertsTheWarp) {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // F against analytic references: unit-square form factors and Lambert's point-to-polygon
-// formula (SPEC §7).
+// formula (architecture.md §8).
 #include <gtest/gtest.h>
 
 #include <array>

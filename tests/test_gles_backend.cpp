@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "gl_objects.h"
-#include "gl_test_names.h"
+#include "gl_test_context.h"
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
@@ -34,47 +34,6 @@ constexpr double kFloat32Tolerance = 1e-4;
 constexpr double kFloat16Tolerance = 2e-3;
 
 const Dictionary& dict() { return test::small_test_dictionary(); }
-
-// One context per kind for the whole test program (creating contexts is the slow part).
-struct ContextSlot {
-  std::unique_ptr<platform::GlContext> context;
-  Status status;
-};
-std::map<ContextRequest, ContextSlot>& context_slots() {
-  static std::map<ContextRequest, ContextSlot> slots;
-  return slots;
-}
-// Contexts are destroyed when the tests end, not by static destructors: those run after
-// Mesa's own exit handlers, and OSMesa crashes if its context outlives them.
-class ContextEnvironment : public ::testing::Environment {
- public:
-  void TearDown() override { context_slots().clear(); }
-};
-[[maybe_unused]] ::testing::Environment* const kContextEnvironment =
-    ::testing::AddGlobalTestEnvironment(new ContextEnvironment);
-
-ContextSlot& context_for(ContextRequest request) {
-  std::map<ContextRequest, ContextSlot>& slots = context_slots();
-  auto it = slots.find(request);
-  if (it == slots.end()) {
-    ContextSlot slot;
-    Result<std::unique_ptr<platform::GlContext>> c = platform::create_context(request);
-    if (c.ok()) {
-      slot.context = std::move(c).value();
-      std::printf("  %s: %s | %s | GLSL %s\n", platform::context_request_name(request),
-                  slot.context->info().renderer.c_str(), slot.context->info().version.c_str(),
-                  slot.context->info().glsl_version.c_str());
-    } else {
-      slot.status = c.status();
-    }
-    it = slots.emplace(request, std::move(slot)).first;
-  }
-  if (it->second.context) {
-    const Status s = it->second.context->make_current();
-    EXPECT_TRUE(s.ok()) << s.to_string();
-  }
-  return it->second;
-}
 
 using test::level_reference;
 using test::test_level;
@@ -94,17 +53,8 @@ double rel_l2(std::span<const float> got, std::span<const float> ref) {
   return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
 }
 
-class GlesBackend : public ::testing::TestWithParam<ContextRequest> {
+class GlesBackend : public test::GlContextTest {
  protected:
-  void SetUp() override {
-    ContextSlot& slot = context_for(GetParam());
-    if (!slot.context)
-      GTEST_SKIP() << "no " << platform::context_request_name(GetParam())
-                   << " context here: " << slot.status.to_string();
-    context_ = slot.context.get();
-  }
-  const platform::GlFunctions& gl() const { return context_->gl(); }
-  bool gles() const { return context_->info().gles; }
   std::unique_ptr<GlesLevelRuntime> make(const Level& level, const GlesRuntimeOptions& options = {}) {
     Result<std::unique_ptr<GlesLevelRuntime>> rt =
         GlesLevelRuntime::create(gl(), gles(), level, dict(), options);
@@ -112,7 +62,6 @@ class GlesBackend : public ::testing::TestWithParam<ContextRequest> {
     return rt.ok() ? std::move(rt).value() : nullptr;
   }
   void check_skipping(float fraction);
-  platform::GlContext* context_ = nullptr;
 };
 
 struct FormatCase {

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "gl_test_names.h"
+#include "gl_test_context.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/drt.h"
 #include "modrt/gles/gles_level_runtime.h"
@@ -128,6 +128,7 @@ Reference reference(const DrtFixture& f, std::span<const float> ld, std::span<co
   drt_clutter_lightmap(f.drt, ref.b, f.clutter_direct, ref.clutter);
   ref.clutter_without_cc = ref.clutter;
   drt_clutter_add_cc(f.drt, c, ref.clutter);
+  clamp_lightmap(ref.clutter);  // the clutter lightmap's clamp (drt_evaluate_clutter_lightmap)
   ref.probes_mrt.resize(s.probes);
   level_compute_probes(f.level, dict(), ref.b, ref.r, ref.probes_mrt);
   ref.probes = ref.probes_mrt;
@@ -157,61 +158,14 @@ std::vector<float> minus(std::span<const float> a, std::span<const float> b) {
   return d;
 }
 
-// One context per kind for the whole program, torn down before Mesa's exit handlers run
-// (as in test_gles_backend).
-struct ContextSlot {
-  std::unique_ptr<platform::GlContext> context;
-  Status status;
-};
-std::map<ContextRequest, ContextSlot>& context_slots() {
-  static std::map<ContextRequest, ContextSlot> slots;
-  return slots;
-}
-class ContextEnvironment : public ::testing::Environment {
- public:
-  void TearDown() override { context_slots().clear(); }
-};
-[[maybe_unused]] ::testing::Environment* const kContextEnvironment =
-    ::testing::AddGlobalTestEnvironment(new ContextEnvironment);
-
-ContextSlot& context_for(ContextRequest request) {
-  std::map<ContextRequest, ContextSlot>& slots = context_slots();
-  auto it = slots.find(request);
-  if (it == slots.end()) {
-    ContextSlot slot;
-    Result<std::unique_ptr<platform::GlContext>> c = platform::create_context(request);
-    if (c.ok()) {
-      slot.context = std::move(c).value();
-      std::printf("  %s: %s | %s\n", platform::context_request_name(request),
-                  slot.context->info().renderer.c_str(), slot.context->info().version.c_str());
-    } else {
-      slot.status = c.status();
-    }
-    it = slots.emplace(request, std::move(slot)).first;
-  }
-  if (it->second.context) {
-    const Status s = it->second.context->make_current();
-    EXPECT_TRUE(s.ok()) << s.to_string();
-  }
-  return it->second;
-}
-
-class GlesDrtTest : public ::testing::TestWithParam<ContextRequest> {
+class GlesDrtTest : public test::GlContextTest {
  protected:
-  void SetUp() override {
-    ContextSlot& slot = context_for(GetParam());
-    if (!slot.context)
-      GTEST_SKIP() << "no " << platform::context_request_name(GetParam())
-                   << " context here: " << slot.status.to_string();
-    context_ = slot.context.get();
-  }
   std::unique_ptr<GlesLevelRuntime> make(const GlesRuntimeOptions& options = {}) {
     Result<std::unique_ptr<GlesLevelRuntime>> rt =
-        GlesLevelRuntime::create(context_->gl(), context_->info().gles, fixture().level, dict(), options);
+        GlesLevelRuntime::create(gl(), gles(), fixture().level, dict(), options);
     EXPECT_TRUE(rt.ok()) << rt.status().to_string();
     return rt.ok() ? std::move(rt).value() : nullptr;
   }
-  platform::GlContext* context_ = nullptr;
 };
 
 struct FormatCase {
@@ -373,8 +327,7 @@ TEST_P(GlesDrtTest, MultiBounceAndCpuAgreeThroughBackend) {
       drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r, ref, c);
   ASSERT_TRUE(rep.ok()) << rep.status().to_string();
   ASSERT_EQ(rep->iterations, kSteps);
-  drt_clutter_lightmap(f.drt, b, f.clutter_direct, clutter_ref);
-  drt_clutter_add_cc(f.drt, c, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
   // The delta matters: without it the feedback gives a different lightmap.
   std::vector<float> b0(s.b), r0(s.r), mrt(s.lightmap);
   ASSERT_TRUE(level_multi_bounce(f.level, dict(), f.ld, f.albedo, settings, b0, r0, mrt).ok());
@@ -454,8 +407,7 @@ TEST_P(GlesDrtTest, MultiBounceFeedsTheClutterLightBackAsCore) {
   ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, settings,
                                b, r, ref, c)
                   .ok());
-  drt_clutter_lightmap(f.drt, b, f.clutter_direct, clutter_ref);
-  drt_clutter_add_cc(f.drt, c, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
   std::vector<float> plain(s.lightmap), c_plain(d.c);
   ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r,
                                plain, c_plain)
@@ -521,6 +473,38 @@ TEST_P(GlesDrtTest, ClutterVectorLightmapMatchesCore) {
     std::printf("  %-60s clutter vector lightmap rel L2 %.2e\n", rt->description(), e);
     std::vector<float> wrong(d.clutter_vector_lightmap + 1);
     EXPECT_EQ(rt->read_clutter_vector_lightmap(wrong).code(), ErrorCode::invalid_argument);
+  }
+}
+
+// The clutter lightmap is a lightmap: never negative, as CpuDrt.ClutterLightmapIsNeverNegative
+// (Uc negated, so most texels of Cb b + Cc c + direct are negative before the clamp).
+TEST_P(GlesDrtTest, ClutterLightmapIsNeverNegative) {
+  const DrtFixture& f = fixture();
+  DrtOperators negated = f.drt;
+  for (DrtObjectOperators& o : negated.objects)
+    for (float& v : o.Uc.data) v = -v;
+  const DrtBufferSizes d = drt_buffer_sizes(negated);
+  const LevelBufferSizes ls = level_buffer_sizes(fixture().level, dict());
+  std::vector<float> b(ls.b), r(ls.r), lm(ls.lightmap), c(d.c), raw(d.clutter_lightmap),
+      ref(d.clutter_lightmap);
+  ASSERT_TRUE(level_evaluate(f.level, dict(), f.ld, b, r, lm).ok());
+  ASSERT_TRUE(drt_compute_c(negated, f.clutter_ld, c).ok());
+  drt_clutter_lightmap(negated, b, f.clutter_direct, raw);
+  drt_clutter_add_cc(negated, c, raw);
+  std::size_t negative = 0;
+  for (float v : raw) negative += v < 0.0f;
+  ASSERT_GT(negative, raw.size() / 4) << "the negated operators should ring negative";
+  drt_evaluate_clutter_lightmap(negated, b, c, f.clutter_direct, ref);
+  for (const FormatCase& fc : kFormats) {
+    std::unique_ptr<GlesLevelRuntime> rt = make({.target = fc.target, .operators = fc.operators});
+    ASSERT_TRUE(rt);
+    ASSERT_TRUE(rt->set_clutter(&negated).ok());
+    ASSERT_TRUE(rt->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(rt->update(f.ld).ok());
+    std::vector<float> out(d.clutter_lightmap);
+    ASSERT_TRUE(rt->read_clutter_lightmap(out).ok());
+    for (float v : out) ASSERT_GE(v, 0.0f) << rt->description();
+    EXPECT_LE(rel_l2(out, ref), fc.tolerance) << rt->description();
   }
 }
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Tests for the level description (validate_level), the level JSON format and the maze
-// generator (SPEC §4, docs/level-format.md).
+// generator (architecture.md §4, docs/level-format.md).
 #include <gtest/gtest.h>
 
 #include <chrono>

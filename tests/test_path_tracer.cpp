@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The ground-truth path tracer against analytic references, within its own reported
-// standard error (SPEC §7).
+// standard error (architecture.md §8).
 #include <gtest/gtest.h>
 
 #include <cmath>

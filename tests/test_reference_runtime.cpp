@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "modrt/feedback_policy.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt {
@@ -134,6 +135,47 @@ TEST(ReferenceRuntime, DivergentOperatorIsHeldByTheEnergyBound) {
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(r->value_clamped);
   for (float v : lightmap) EXPECT_TRUE(std::isfinite(v));
+}
+
+// The feedback policy (feedback_policy.h) is the furnace limit: a closed box whose every texel
+// receives all the light that leaves the box (Ub Td_b = I, F conserves energy) with uniform
+// albedo rho and direct light E converges to E / (1 - rho), exactly feedback_energy_bound.
+// So the bound never clamps a physical operator, and it is reached only in the limit.
+TEST(ReferenceRuntime, FeedbackBoundIsTheFurnaceLimit) {
+  const std::uint32_t n = 6;
+  ShapeOperators op;
+  op.Ub = Matrix(n, n);
+  op.Td_b = Matrix(n, n);
+  for (std::uint32_t i = 0; i < n; ++i) op.Ub(i, i) = op.Td_b(i, i) = 1.0f;
+  const float rho = 0.8f, e = 0.5f;
+  const std::vector<float> ld(3 * n, e), albedo(3 * n, rho);
+  std::vector<float> b(3 * n), lightmap(3 * n);
+  MultiBounceSettings settings;
+  settings.tolerance = 1e-7f;
+  settings.max_iterations = 1000;
+  Result<MultiBounceReport> r = multi_bounce(op, ld, albedo, settings, b, lightmap);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_TRUE(r->converged);
+  EXPECT_FLOAT_EQ(r->energy_bound, feedback_energy_bound(e, rho));
+  EXPECT_NEAR(r->energy_bound, e / (1.0f - rho), 1e-6f);
+  for (float v : lightmap) {
+    EXPECT_NEAR(v, e / (1.0f - rho), 1e-4f);
+    EXPECT_LE(v, r->energy_bound);
+  }
+
+  // The albedo clamp: one statement, reporting what it clamped.
+  const std::vector<float> a = {0.2f, 0.97f, 0.95f, 1.5f};
+  std::vector<float> clamped(a.size());
+  const ClampedAlbedo c = clamp_albedo(a, kDefaultMaxAlbedo, clamped);
+  EXPECT_TRUE(c.clamped);
+  EXPECT_EQ(c.rho_max, kDefaultMaxAlbedo);
+  EXPECT_EQ(clamped, (std::vector<float>{0.2f, 0.95f, 0.95f, 0.95f}));
+  EXPECT_FALSE(clamp_albedo(std::vector<float>{0.1f, 0.5f}, kDefaultMaxAlbedo, clamped).clamped);
+  for (float bad : {1.0f, -0.1f, std::numeric_limits<float>::quiet_NaN()}) {
+    const Status s = check_max_albedo(bad, "test");
+    EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(s.message().find("test: max_albedo must be in [0, 1)"), std::string::npos) << s.message();
+  }
 }
 
 TEST(ReferenceRuntime, BadSignalsAreClearErrors) {

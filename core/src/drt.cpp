@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/drt.h"
+#include "modrt/feedback_policy.h"
 
 #include <algorithm>
 #include <cmath>
@@ -416,6 +417,14 @@ void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::
   }
 }
 
+void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
+                                   std::span<const float> c, std::span<const float> clutter_direct,
+                                   std::span<float> out) {
+  drt_clutter_lightmap(drt, b, clutter_direct, out);
+  drt_clutter_add_cc(drt, c, out);
+  clamp_lightmap(out);
+}
+
 void drt_clutter_vector_lightmap(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
                                  std::span<float> out) {
   const std::size_t kb = drt.kb;
@@ -493,7 +502,7 @@ void drt_clutter_feedback(std::span<const float> clutter_ld, std::span<const flo
 }
 
 float drt_feedback_bound(float ld_max, float rho_max, float clutter_ld_max, float rho_c_max) {
-  return std::max(ld_max, clutter_ld_max) / (1.0f - std::max(rho_max, rho_c_max));
+  return feedback_energy_bound(std::max(ld_max, clutter_ld_max), std::max(rho_max, rho_c_max));
 }
 
 Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict,
@@ -518,16 +527,11 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
   std::vector<float> rho_c(clutter_albedo.begin(), clutter_albedo.end()), indirect, fed;
   float rho_max = 0.0f, rho_c_max = 0.0f, bound_c = 0.0f;
   if (!rho_c.empty()) {
-    for (float v : clamp->rho) rho_max = std::max(rho_max, v);
-    for (float& v : rho_c) {
-      report.albedo_clamped |= v > settings.max_albedo;
-      v = std::min(v, settings.max_albedo);
-      rho_c_max = std::max(rho_c_max, v);
-    }
-    const auto largest = [](std::span<const float> v) {
-      return v.empty() ? 0.0f : *std::max_element(v.begin(), v.end());
-    };
-    bound_c = drt_feedback_bound(largest(ld_direct), rho_max, largest(clutter_ld), rho_c_max);
+    rho_max = largest_light(clamp->rho);
+    const ClampedAlbedo clamped_c = clamp_albedo(rho_c, settings.max_albedo, rho_c);
+    report.albedo_clamped |= clamped_c.clamped;
+    rho_c_max = clamped_c.rho_max;
+    bound_c = drt_feedback_bound(largest_light(ld_direct), rho_max, largest_light(clutter_ld), rho_c_max);
     indirect.resize(sizes.clutter_lightmap);
     fed.resize(sizes.clutter_ld);
   }

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — level description helpers and validation (SPEC §4, MRT §6.2).
+// modrt — level description helpers and validation (architecture.md §4, MRT §6.2).
 #include "modrt/level_description.h"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/reference_runtime.h"
+#include "modrt/feedback_policy.h"
 
 #include <algorithm>
 #include <cmath>
@@ -34,21 +35,14 @@ Result<FeedbackClamp> prepare_feedback(std::span<const float> ld_direct, std::sp
                                        std::size_t samples, const MultiBounceSettings& settings) {
   if (Status s = validate_light_signal(ld_direct, samples, "ld_direct"); !s.ok()) return s;
   if (Status s = validate_light_signal(albedo, samples, "albedo"); !s.ok()) return s;
-  if (!(settings.max_albedo >= 0.0f && settings.max_albedo < 1.0f) || settings.max_iterations < 1)
-    return Status::error(ErrorCode::invalid_argument,
-                         "multi-bounce: settings.max_albedo must be in [0, 1) and max_iterations >= 1");
+  if (Status s = check_max_albedo(settings.max_albedo, "multi-bounce: settings"); !s.ok()) return s;
+  if (settings.max_iterations < 1)
+    return Status::error(ErrorCode::invalid_argument, "multi-bounce: settings.max_iterations must be >= 1");
   FeedbackClamp clamp;
-  clamp.rho.assign(albedo.begin(), albedo.end());
-  float rho_max = 0.0f;
-  for (float& r : clamp.rho) {
-    if (r > settings.max_albedo) {
-      r = settings.max_albedo;
-      clamp.albedo_clamped = true;
-    }
-    rho_max = std::max(rho_max, r);
-  }
-  const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
-  clamp.energy_bound = ld_max / (1.0f - rho_max);
+  clamp.rho.resize(albedo.size());
+  const ClampedAlbedo rho = clamp_albedo(albedo, settings.max_albedo, clamp.rho);
+  clamp.albedo_clamped = rho.clamped;
+  clamp.energy_bound = feedback_energy_bound(largest_light(ld_direct), rho.rho_max);
   return clamp;
 }
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_backend.h"
+#include "modrt/feedback_policy.h"
 
 #include <algorithm>
 #include <optional>
@@ -40,11 +41,7 @@ class CpuBackend final : public Backend {
     if (Status s = rt_.set_albedo(albedo, max_albedo); !s.ok()) return s;
     // The clutter path runs the feedback itself (see multi_bounce_step), so it keeps the same
     // clamped albedo as the level runtime.
-    rho_max_ = 0.0f;
-    for (std::size_t i = 0; i < albedo.size(); ++i) {
-      rho_[i] = std::min(albedo[i], max_albedo);
-      rho_max_ = std::max(rho_max_, rho_[i]);
-    }
+    rho_max_ = clamp_albedo(albedo, max_albedo, rho_).rho_max;
     has_albedo_ = true;
     return Status::success();
   }
@@ -58,7 +55,7 @@ class CpuBackend final : public Backend {
       if (!has_albedo_)
         return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call set_albedo first");
       if (Status s = validate_light_signal(ld_direct, lightmap_.size() / 3, "ld_direct"); !s.ok()) return s;
-      const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
+      const float ld_max = largest_light(ld_direct);
       if (!rho_c_.empty()) {  // the clutter's indirect light of the last evaluation, fed back
         if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
         if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
@@ -66,8 +63,8 @@ class CpuBackend final : public Backend {
                              drt_feedback_bound(ld_max, rho_max_, clutter_ld_max_, rho_c_max_), clutter_fed_);
         if (Status s = drt_->compute_c(clutter_fed_, c_); !s.ok()) return s;
       }
-      feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(), ld_max / (1.0f - rho_max_),
-                   ld_feedback_.data(), ld_direct.size());
+      feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(),
+                   feedback_energy_bound(ld_max, rho_max_), ld_feedback_.data(), ld_direct.size());
       if (Status s = rt_.evaluate(ld_feedback_, base_); !s.ok()) return s;
       return finish_drt();
     }
@@ -134,17 +131,14 @@ class CpuBackend final : public Backend {
   }
   Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) override {
     if (!drt_) return Status::error(ErrorCode::invalid_argument, "cpu: set_clutter_albedo: no clutter set");
-    if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
-      return Status::error(ErrorCode::invalid_argument,
-                           "cpu: set_clutter_albedo: max_albedo must be in [0, 1)");
+    if (Status s = check_max_albedo(max_albedo, "cpu: set_clutter_albedo"); !s.ok()) return s;
     if (!clutter_albedo.empty())
       if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo");
           !s.ok())
         return s;
     rho_c_.assign(clutter_albedo.begin(), clutter_albedo.end());
     c_ = c_direct_;  // without feedback c stays the direct light's (update() keeps it then)
-    rho_c_max_ = 0.0f;
-    for (float& v : rho_c_) rho_c_max_ = std::max(rho_c_max_, v = std::min(v, max_albedo));
+    rho_c_max_ = clamp_albedo(rho_c_, max_albedo, rho_c_).rho_max;
     clutter_indirect_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_lightmap, 0.0f);
     clutter_fed_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_ld, 0.0f);
     return Status::success();
@@ -184,7 +178,7 @@ class CpuBackend final : public Backend {
     if (Status s = rt_.compute_probes(probes_); !s.ok()) return s;
     return drt_ ? drt_->apply_probes(rt_.b(), c_, probes_) : Status::success();  // DRT §5 (U_dyn)
   }
-  // SPEC §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
+  // architecture.md §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
   // Cb b + Cc c + direct.
   Status finish_drt() {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
@@ -192,6 +186,8 @@ class CpuBackend final : public Backend {
     clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());  // the lightmap policy, as core
     if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
     if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
+    // The clutter lightmap is a lightmap: clamped at 0 (core's drt_evaluate_clutter_lightmap).
+    clamp_nonnegative(rt_.isa(), clutter_lightmap_.data(), clutter_lightmap_.size());
     return finish();
   }
   Status copy(const char* what, const std::vector<float>& from, std::span<float> to) const {

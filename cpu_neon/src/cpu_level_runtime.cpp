@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_level_runtime.h"
+#include "modrt/feedback_policy.h"
 
 #include <algorithm>
 #include <cmath>
@@ -626,13 +627,8 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
 
 Status CpuLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {
   if (Status s = validate_light_signal(albedo, level_->sample_count, "albedo"); !s.ok()) return s;
-  if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
-    return Status::error(ErrorCode::invalid_argument, "multi-bounce: max_albedo must be in [0, 1)");
-  rho_max_ = 0.0f;
-  for (std::size_t i = 0; i < albedo.size(); ++i) {
-    rho_[i] = std::min(albedo[i], max_albedo);
-    rho_max_ = std::max(rho_max_, rho_[i]);
-  }
+  if (Status s = check_max_albedo(max_albedo, "multi-bounce"); !s.ok()) return s;
+  rho_max_ = clamp_albedo(albedo, max_albedo, rho_).rho_max;
   has_albedo_ = true;
   return Status::success();
 }
@@ -643,8 +639,7 @@ Status CpuLevelRuntime::multi_bounce_step(std::span<const float> ld_direct, std:
     return Status::error(ErrorCode::invalid_argument, "multi_bounce_step: call set_albedo first");
   if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
   if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
-  const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
-  const float bound = ld_max / (1.0f - rho_max_);
+  const float bound = feedback_energy_bound(largest_light(ld_direct), rho_max_);
   const ScopedFlushDenormals flush(flush_denormals_);
   const bool clamped = feedback_rgb(isa_, ld_direct.data(), rho_.data(), lightmap.data(), bound,
                                     ld_feedback_.data(), ld_direct.size());

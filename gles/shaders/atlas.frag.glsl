@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Steps 3, 5 and 6 in one pass over the padded lightmap atlas (MRT §6.2–6.3):
 // texel = Ub b (own block) + sum over the block's response slots of Ur r. Padding texels
-// (SPEC §4) evaluate the sample they copy, so padding costs no separate pass and no
+// (architecture.md §4) evaluate the sample they copy, so padding costs no separate pass and no
 // read-after-write of the atlas. Ub is packed four modes per texel: texel
 // (shape * n_max + t) * groups + g = Ub[t][4g..4g+3]; Ur likewise with r_groups.
 uniform sampler2D u_ub;
@@ -33,7 +33,7 @@ void main() {
       acc += dot_rgb(u_ur, rows[k] * R_GROUPS, u_r_red, u_r_green, u_r_blue, slots[k] * R_GROUPS, R_GROUPS);
     }
 #if DRT
-    // SPEC §5 step 7, after steps 3 and 5 as in core: the level lightmap is clamped first
+    // architecture.md §5 step 7, after steps 3 and 5 as in core: the level lightmap is clamped first
     // (level_compute_lightmap), the corrected one again (drt_apply).
     acc = max(acc, vec3(0.0)) + load_signal(u_delta, s).rgb;
 #endif

@@ -36,6 +36,9 @@ void main() {
     }
 #ifndef NO_DIRECT
     acc += load(u_direct, map.x).rgb;
+    // A lightmap: clamped at 0 (core's drt_evaluate_clutter_lightmap). The vector instance's
+    // OHLSH coefficients are signed and stay as they are.
+    acc = max(acc, vec3(0.0));
 #endif
   }
   o_color = store_output(vec4(acc, 1.0));

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// SPEC §5 step 7 (DRT §4.1, §4.2, §5): the delta dUb b + dUc c of one output item, DELTA_ROWS
+// architecture.md §5 step 7 (DRT §4.1, §4.2, §5): the delta dUb b + dUc c of one output item, DELTA_ROWS
 // values per item: 1 per level sample (the scalar lightmap; atlas.frag built with DRT 1 adds
 // it, padding included), 4 per sample (the OHLSH vector irradiance, dUb_vec / dUc_vec;
 // vector.frag adds it) or 9 per probe (SH9, U_dyn; probes.frag adds it). Fragment

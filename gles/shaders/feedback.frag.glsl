@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Step 8, one multi-bounce iteration (SPEC §2): ld = ld_direct + rho * min(max(lightmap, 0),
+// Step 8, one multi-bounce iteration (architecture.md §2): ld = ld_direct + rho * min(max(lightmap, 0),
 // bound), bound = max(ld_direct) / (1 - max rho), the same clamp as core's apply_feedback so
 // that feedback cannot diverge. The lightmap is the previous frame's atlas.
 uniform sampler2D u_ld_direct;     // per sample, RGB

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "gl_objects.h"
+#include "modrt/feedback_policy.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt::gles {
@@ -515,9 +516,7 @@ Status GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const flo
 }
 
 Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albedo) {
-  if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
-    return Status::error(ErrorCode::invalid_argument,
-                         "gles drt: clutter albedo: max_albedo must be in [0, 1)");
+  if (Status s = check_max_albedo(max_albedo, "gles drt: clutter albedo"); !s.ok()) return s;
   if (!clutter_albedo.empty()) {
     if (clutter_albedo.size() != sizes_.clutter_ld)
       return wrong_size("clutter_albedo (may be empty)", clutter_albedo.size(), sizes_.clutter_ld);
@@ -527,8 +526,7 @@ Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albe
   feed_ = !clutter_albedo.empty();
   if (!feed_) return Status::success();
   std::vector<float> rho(clutter_albedo.begin(), clutter_albedo.end());
-  rho_c_max_ = 0.0f;
-  for (float& v : rho) rho_c_max_ = std::max(rho_c_max_, v = std::min(v, max_albedo));
+  rho_c_max_ = clamp_albedo(rho, max_albedo, rho).rho_max;
   upload_linear(gl_, rho_c_, GL_RGB, GL_FLOAT, 3, rho.data(), sizes_.clutter_texels, sizeof(float));
   return Status::success();
 }

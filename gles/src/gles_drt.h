@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The DRT passes of the GLES runtime (SPEC §5 step 7, [Loos et al. 2012] §4): operators in
+// The DRT passes of the GLES runtime (architecture.md §5 step 7, [Loos et al. 2012] §4): operators in
 // textures, fragment-shader passes, as the level passes. Private to modrt::gles; owned by
 // GlesLevelRuntime, which creates one only when a level has clutter.
 //

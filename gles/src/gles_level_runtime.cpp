@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/gles/gles_level_runtime.h"
+#include "modrt/feedback_policy.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -490,7 +491,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   dirty_slot_.assign(slots, 1);
   dirty_atlas_.assign(blocks, 1);
   // The tiles each block's samples appear in: its own, plus neighbours' tiles whose padding
-  // copies its edge texels (SPEC §4), so that a changed block redraws all of them.
+  // copies its edge texels (architecture.md §4), so that a changed block redraws all of them.
   {
     std::vector<std::vector<Rect>> tiles(blocks);
     for (std::size_t i = 0; i < blocks && !atlas.tile_origin_x.empty(); ++i)
@@ -623,7 +624,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   end_pass(kR);
   if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
 
-  if (drt_) {  // SPEC §5 step 7: the delta the atlas pass adds
+  if (drt_) {  // architecture.md §5 step 7: the delta the atlas pass adds
     begin_pass(kDrt);
     drt_->run_scene(b_.textures, from_feedback, feedback_ld_max_, rho_max_);
     end_pass(kDrt);
@@ -781,16 +782,11 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
 
 Status GlesLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {
   if (Status s = validate_light_signal(albedo, level_->sample_count, "albedo"); !s.ok()) return s;
-  if (!(max_albedo >= 0.0f && max_albedo < 1.0f))
-    return Status::error(ErrorCode::invalid_argument, "gles: multi-bounce: max_albedo must be in [0, 1)");
+  if (Status s = check_max_albedo(max_albedo, "gles: multi-bounce"); !s.ok()) return s;
   // Clamped on the CPU once (as core's prepare_feedback), uploaded once; reuses readback_
   // as scratch so that nothing is allocated after create().
   std::vector<float>& rho = readback_;
-  rho_max_ = 0.0f;
-  for (std::size_t i = 0; i < albedo.size(); ++i) {
-    rho[i] = std::min(albedo[i], max_albedo);
-    rho_max_ = std::max(rho_max_, rho[i]);
-  }
+  rho_max_ = clamp_albedo(albedo, max_albedo, std::span<float>(rho.data(), albedo.size())).rho_max;
   upload_linear(gl_, rho_, GL_RGB, GL_FLOAT, 3, rho.data(), level_->sample_count, sizeof(float));
   has_albedo_ = true;
   return check("uploading albedo");
@@ -802,8 +798,8 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   if (!updated_)
     return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call update first");
   if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
-  const float ld_max = ld_direct.empty() ? 0.0f : *std::max_element(ld_direct.begin(), ld_direct.end());
-  const float bound = ld_max / (1.0f - rho_max_);
+  const float ld_max = largest_light(ld_direct);
+  const float bound = feedback_energy_bound(ld_max, rho_max_);
   // The fed-back ld (computed on the GPU, never validated there) is at most ld_max + rho_max
   // x bound; the CPU runtime validates its fed-back ld like any ld (<= kMaxLightValue), so
   // the same rule here keeps every pass within the float range operator_limits.h assumes.

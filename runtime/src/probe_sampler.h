@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Sampling the level's probe volume at a world point (SPEC §5 step 9, MRT §6.5): the block
+// Sampling the level's probe volume at a world point (architecture.md §5 step 9, MRT §6.5): the block
 // containing the point, its canonical coordinates (Newton on the trilinear warp), trilinear
 // weights of the g^3 probes, and the SH9 rotation from the block's canonical frame into the
 // world. Everything is prepared at creation; sample() does not allocate.

@@ -62,7 +62,7 @@ unsigned fp_control() {
 
 // Multi-bounce feedback over 10 000 steps with uniform albedo 0, 0.99, 1.0 and 1.5: the
 // albedo is clamped to max_albedo = 0.95 and the fed-back lightmap to max(ld) / (1 - 0.95)
-// (SPEC §2, core's apply_feedback), so the iteration stays finite and bounded whatever the
+// (architecture.md §2, core's apply_feedback), so the iteration stays finite and bounded whatever the
 // spectral radius of the low-rank operator. That radius, rho(0.95 F) estimated by power
 // iteration on the linear part, is printed: below 1 the steps converge (checked), above 1
 // the clamp alone bounds them.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the run-time backend interface (SPEC §5): what the CPU (modrt::cpu) and OpenGL ES
+// modrt — the run-time backend interface (architecture.md §5): what the CPU (modrt::cpu) and OpenGL ES
 // (modrt::gles) backends both implement, so a caller swaps them by a flag.
 //
 // A backend evaluates one built level every frame: ld (or ld_direct plus multi-bounce
@@ -15,6 +15,7 @@
 #include <span>
 
 #include "modrt/drt.h"
+#include "modrt/feedback_policy.h"
 #include "modrt/level_runtime.h"
 #include "modrt/status.h"
 
@@ -38,12 +39,12 @@ class Backend {
   // message names sample and channel); then nothing changes.
   virtual Status update(std::span<const float> ld) = 0;
 
-  // Multi-bounce feedback (SPEC §2, core's apply_feedback): set_albedo() validates and
+  // Multi-bounce feedback (architecture.md §2, core's apply_feedback): set_albedo() validates and
   // stores albedo (3 x samples) clamped to max_albedo < 1; multi_bounce_step() runs one
   // feedback iteration on the previous update's lightmap, ld = ld_direct + rho *
   // min(max(lightmap, 0), max(ld_direct) / (1 - max rho)), then update(ld). k steps after
   // update(ld_direct) equal level_multi_bounce after k iterations.
-  virtual Status set_albedo(std::span<const float> albedo, float max_albedo = 0.95f) = 0;
+  virtual Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) = 0;
   virtual Status multi_bounce_step(std::span<const float> ld_direct) = 0;
 
   // Copies of the last update's results (sizes().lightmap, .atlas, .probes floats, RGB
@@ -56,7 +57,7 @@ class Backend {
   // the dictionary has no vector operators or the backend was created without them.
   virtual Status read_vector_lightmap(std::span<float> vector_lightmap) = 0;
 
-  // DRT (SPEC §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
+  // DRT (architecture.md §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
   // set_clutter() checks the operators against the level (check_drt_operators) and borrows
   // them until the next set_clutter() or the backend's end; nullptr or empty operators remove
   // the clutter, and a backend without clutter (the default) runs no DRT work and allocates
@@ -80,7 +81,8 @@ class Backend {
   // drt_feedback_bound(...)), as core's drt_multi_bounce with clutter_albedo; update() starts
   // again from c = Td_c clutter_ld. Empty: no clutter feedback (the default; also after
   // set_clutter). Rejects NaN, Inf, negative values and wrong sizes; then nothing changes.
-  virtual Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) = 0;
+  virtual Status set_clutter_albedo(std::span<const float> clutter_albedo,
+                                    float max_albedo = kDefaultMaxAlbedo) = 0;
   // drt_buffer_sizes of the current clutter (all zero without).
   virtual const DrtBufferSizes& clutter_sizes() const = 0;
   // The clutter's vector irradiance of the last update (clutter_sizes().clutter_vector_lightmap

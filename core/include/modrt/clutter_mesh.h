@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the data of a triangle-mesh clutter object (DRT §3, SPEC §6): the mesh in world
+// modrt — the data of a triangle-mesh clutter object (DRT §3, architecture.md §6): the mesh in world
 // space and its lightmap atlas, the texels the operators gather from. precompute's
 // clutter_mesh.h makes them (rasterize_clutter_mesh, make_mesh_clutter); core only reads
 // them (texel counts, texel geometry, charts), so the runtime needs no rasterizer.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the canonical block of the 2D cube dictionary (SPEC §2, MRT §6.1).
+// modrt — the canonical block of the 2D cube dictionary (architecture.md §2, MRT §6.1).
 //
 // The canonical block is the unit cube [0,1]^3 with y up. Faces are numbered
 //   0 = -X, 1 = +X, 2 = -Y (floor), 3 = +Y (ceiling), 4 = -Z, 5 = +Z.
@@ -67,7 +67,7 @@ struct ShapeOrientation {
 // Fails (invalid_argument) when floor or ceiling is missing or bits above 5 are set.
 Result<ShapeOrientation> canonicalise_face_mask(FaceMask mask);
 
-// --- samples: texel centres on the present faces (SPEC §3.1) ---
+// --- samples: texel centres on the present faces (architecture.md §3.1) ---
 // Samples are ordered by face (ascending face index, present faces only), then row j,
 // then column i: index = slot * res^2 + j * res + i, slot = rank of the face among the
 // present ones. n = face_count(mask) * res^2.

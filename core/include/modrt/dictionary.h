@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt — the scene-independent dictionary: per-shape light transport operators
-// (SPEC §3, MRT §4, §6.4, §6.5).
+// (architecture.md §3, MRT §4, §6.4, §6.5).
 //
 // Operators are computed in double by precompute/ and stored here as float32 for the
 // run time. Matrices are dense and row-major; the math names follow MRT Table 1.
@@ -96,7 +96,7 @@ struct ShapeOperators {
   std::uint32_t kb() const { return Ub.cols; }
 };
 
-// Operators shared by every interface (one canonical interface, MRT §5.1, SPEC §3.8):
+// Operators shared by every interface (one canonical interface, MRT §5.1, architecture.md §3.8):
 // light enters a cell through -Z (see precompute/interfaces.h for the lightfield frames).
 struct InterfaceOperators {
   Matrix R_straight;  // krlf x krlf: entering -Z -> leaving +Z

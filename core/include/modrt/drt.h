@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — Delta Radiance Transfer (SPEC §6, [Loos et al. 2012] "DRT"): clutter objects
+// modrt — Delta Radiance Transfer (architecture.md §6, [Loos et al. 2012] "DRT"): clutter objects
 // inside blocks, their delta operators and the scalar reference runtime that applies them.
 //
 // A clutter object is an oriented box or a closed triangle mesh in world space owned by one
@@ -190,7 +190,7 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt);
 
 // c = Td_c clutter_ld per object (validates clutter_ld: finite, non-negative).
 Status drt_compute_c(const DrtOperators& drt, std::span<const float> clutter_ld, std::span<float> c);
-// SPEC §5 step 7: lightmap += dUb b + dUc c, on the affected samples only. b as
+// architecture.md §5 step 7: lightmap += dUb b + dUc c, on the affected samples only. b as
 // level_compute_b (3 kb per block), c as drt_compute_c. This is the delta operator (applied
 // to zeros it gives the delta alone, which is negative where clutter blocks light), so it
 // does not clamp; what outputs the corrected lightmap clamps it (the lightmap policy,
@@ -200,7 +200,7 @@ void drt_apply(const Level& level, const DrtOperators& drt, std::span<const floa
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
 void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
                           std::span<const float> clutter_direct, std::span<float> out);
-// Vector irradiance (SPEC §5 step 9 with DRT): vector_lightmap += dUb_vec b + dUc_vec c, the
+// Vector irradiance (architecture.md §5 step 9 with DRT): vector_lightmap += dUb_vec b + dUc_vec c, the
 // layout of level_compute_vector_irradiance (3 (4 s + i) + channel); nothing for objects
 // without vector operators.
 void drt_apply_vector(const Level& level, const DrtOperators& drt, std::span<const float> b,
@@ -218,6 +218,14 @@ void drt_clutter_vector_lightmap(const DrtOperators& drt, std::span<const float>
 // Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
 // lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
 void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);
+// The clutter lightmap every backend outputs (architecture.md §6): out = Cb b + Cc c +
+// clutter_direct (drt_clutter_lightmap, then drt_clutter_add_cc), clamped at 0 like every
+// lightmap (clamp_lightmap, reference_runtime.h): Cb b can be negative where the real light
+// is not (Limp's weak point, docs/drt.md). The two parts above stay unclamped (the feedback
+// reads them and clamps itself).
+void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
+                                   std::span<const float> c, std::span<const float> clutter_direct,
+                                   std::span<float> out);
 
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
 // evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT

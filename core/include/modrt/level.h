@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — a built level: the run-time form of a LevelDescription (SPEC §4, MRT §6.2–6.3).
+// modrt — a built level: the run-time form of a LevelDescription (architecture.md §4, MRT §6.2–6.3).
 //
 // Every block keeps its samples in the canonical order of its dictionary shape (cube.h
 // SampleLayout), so the shape's Td_b, Ub, ... apply unchanged; `quarter_turns` maps the

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the authored description of a level (SPEC §4, MRT §6.2): blocks on a grid,
+// modrt — the authored description of a level (architecture.md §4, MRT §6.2): blocks on a grid,
 // optionally warped by their 8 corners, with per-face presence and albedo, plus lights.
 // This is the input of the level build; the JSON file format is documented in
 // docs/level-format.md and parsed by precompute/ (modrt::precompute::load_level_json).

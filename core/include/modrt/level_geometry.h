@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — where a built level's samples and walls are in the world (SPEC §4, MRT §6.2):
+// modrt — where a built level's samples and walls are in the world (architecture.md §4, MRT §6.2):
 // the canonical block (cube.h) turned by its quarter turns and mapped through the trilinear
 // warp of its 8 corners (level_description.h). Used at run time by the CPU direct-light
 // evaluator and by precompute (Embree scene, references, path tracer).

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the scalar reference runtime for a whole level (SPEC §5, MRT §7.3 steps 2–6, 8).
+// modrt — the scalar reference runtime for a whole level (architecture.md §5, MRT §7.3 steps 2–6, 8).
 //
 // Level-wide signals are RGB-interleaved and concatenate the blocks (level.h):
 //   ld, lightmap, albedo: 3 * level.sample_count

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt — the scalar reference runtime for one block (SPEC §5, MRT §7.3 steps 1–3, 8–9).
+// modrt — the scalar reference runtime for one block (architecture.md §5, MRT §7.3 steps 1–3, 8–9).
 //
 // This is the oracle every backend is checked against: plain loops in float with double
 // accumulation, no SIMD, no skipping. RGB signals are interleaved per sample:
@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "modrt/dictionary.h"
+#include "modrt/feedback_policy.h"
 
 namespace modrt {
 
@@ -49,9 +50,9 @@ void apply_Ubvol(const ShapeOperators& op, std::span<const float> b, std::span<f
 
 struct MultiBounceSettings {
   int max_iterations = 200;
-  float tolerance = 1e-6f;   // stop when max |b_{k+1} - b_k| <= tolerance * max |b_k|
-  float max_albedo = 0.95f;  // albedo is clamped to this in the feedback, so the bounce
-                             // series is geometric with ratio <= max_albedo
+  float tolerance = 1e-6f;               // stop when max |b_{k+1} - b_k| <= tolerance * max |b_k|
+  float max_albedo = kDefaultMaxAlbedo;  // albedo is clamped to this in the feedback, so the bounce
+                                         // series is geometric with ratio <= max_albedo
 };
 
 struct MultiBounceReport {

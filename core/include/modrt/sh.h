@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt — real spherical harmonics of order 3 (SH9), clamped-cosine convolution and the
-// optimal hemispherical linear SH (OHLSH) projection (SPEC §3 step 6, MRT §6.4, appendix B).
+// optimal hemispherical linear SH (OHLSH) projection (architecture.md §3 step 6, MRT §6.4, appendix B).
 //
 // Conventions
 // -----------

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Direct light at the level's proxy samples (SPEC §5 step 1): the "geometry images" hold each
+// Direct light at the level's proxy samples (architecture.md §5 step 1): the "geometry images" hold each
 // sample's world position and inward normal, one texel per sample in a linear layout
 // LD_WIDTH wide; ld = albedo * E/pi with the same light and shadow map as the camera image.
 uniform sampler2D u_sample_position;

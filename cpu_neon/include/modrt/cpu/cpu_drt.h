@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::cpu — the DRT stages on the SIMD CPU path (SPEC §5 step 7, [Loos et al. 2012] §5):
+// modrt::cpu — the DRT stages on the SIMD CPU path (architecture.md §5 step 7, [Loos et al. 2012] §5):
 // c = Td_c clutter_ld, lightmap += dUb b + dUc c, clutter lightmap = Uc (Vc b) + direct
 // (+ Cc c, clutter-to-clutter light), and the vector and probe deltas, with the GEMV kernels
 // of kernels.h. Equal to core's drt_compute_c / drt_apply / drt_clutter_lightmap /

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::cpu — the SIMD CPU runtime for a whole level (SPEC §5 steps 2–6, 8 and 9).
+// modrt::cpu — the SIMD CPU runtime for a whole level (architecture.md §5 steps 2–6, 8 and 9).
 //
 // Computes exactly what core's level_evaluate / level_fill_atlas / level_compute_probes /
 // level_multi_bounce compute (level_runtime.h), with the kernels of kernels.h, and agrees
@@ -52,6 +52,7 @@
 #include <vector>
 
 #include "modrt/cpu/isa.h"
+#include "modrt/feedback_policy.h"
 #include "modrt/level.h"
 #include "modrt/level_runtime.h"
 #include "modrt/status.h"
@@ -60,7 +61,7 @@ namespace modrt::cpu {
 
 class ThreadPool;  // src/thread_pool.h
 
-// Skipping work a frame does not need (SPEC §5). Off by default: every evaluate() then
+// Skipping work a frame does not need (architecture.md §5). Off by default: every evaluate() then
 // computes everything. ||x||_F is the L2 norm over all three channels of a signal (ld_i:
 // 3 x samples of block i, b_i: 3 kb, r_s: 3 kr, a tile: 3 x samples); ||X||_2 the spectral norm
 // of an operator. create() computes, in double, upper bounds on (rho(G) <= ||G^32||_inf^(1/32)
@@ -187,7 +188,7 @@ class CpuLevelRuntime {
   //   then evaluate(ld, lightmap). lightmap is read and overwritten.
   // Starting from evaluate(ld_direct, lightmap), k steps equal level_multi_bounce after k
   // iterations. `value_clamped` (optional) reports whether the energy bound clamped.
-  Status set_albedo(std::span<const float> albedo, float max_albedo = 0.95f);
+  Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo);
   Status multi_bounce_step(std::span<const float> ld_direct, std::span<float> lightmap,
                            bool* value_clamped = nullptr);
 

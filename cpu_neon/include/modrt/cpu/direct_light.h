@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::cpu — the CPU direct-light evaluator (SPEC §5 step 1): ld = albedo * E / pi at every
+// modrt::cpu — the CPU direct-light evaluator (architecture.md §5 step 1): ld = albedo * E / pi at every
 // level sample, from point, spot and directional lights, optionally shadowed by the proxy walls,
 // in the layout CpuLevelRuntime::evaluate takes (RGB interleaved, 3 x level.sample_count).
 //

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::cpu — instruction-set selection for the SIMD CPU backend (SPEC §1, STYLE 3–5).
+// modrt::cpu — instruction-set selection for the SIMD CPU backend (architecture.md §1, STYLE 3–5).
 //
 // Every kernel exists as a scalar twin that is always compiled, plus SSE4.1 and AVX2+FMA
 // versions on x86-64 (per-function target attributes, no global -mavx2) and a NEON version

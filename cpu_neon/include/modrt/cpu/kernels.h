@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::cpu — the numeric kernels of the SIMD CPU backend (SPEC §5 steps 2–6, 8).
+// modrt::cpu — the numeric kernels of the SIMD CPU backend (architecture.md §5 steps 2–6, 8).
 //
 // All kernels write into caller-provided buffers and never allocate. Each takes the ISA
 // explicitly; an ISA that is not supported (isa_supported() is false) runs the scalar twin.
@@ -46,7 +46,7 @@ void gemv_rgb(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::
 void gemv_rgb_interleaved(Isa isa, const Matrix& A, const float* in, float* out, bool accumulate,
                           std::span<float> scratch);
 
-// The Ur r scatter of one response slot (SPEC §5 step 5): for every row r of A with
+// The Ur r scatter of one response slot (architecture.md §5 step 5): for every row r of A with
 // row_to_sample[r] >= 0, out[3 row_to_sample[r] + c] += sum_k A[r * lda + k] planar[c * stride + k].
 // Rows mapped to -1 (faces the destination block lacks) are skipped.
 void gemv_rgb_scatter(Isa isa, const float* A, std::size_t rows, std::size_t cols, std::size_t lda,
@@ -122,7 +122,7 @@ SignalChange signal_change(Isa isa, const float* ld, const float* ref, std::size
 bool finite_nonnegative(Isa isa, const float* v, std::size_t count,
                         float max_value = std::numeric_limits<float>::max());
 
-// Atlas padding (SPEC §5 step 6): atlas[3 dst + c] = atlas[3 src + c], records applied in
+// Atlas padding (architecture.md §5 step 6): atlas[3 dst + c] = atlas[3 src + c], records applied in
 // order (corner records read texels written by earlier edge records). Scalar on every ISA:
 // the copies are dependent gathers, not vector work.
 void copy_padding(std::span<const PaddingRecord> records, float* atlas);

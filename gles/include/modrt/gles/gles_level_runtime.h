@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::gles — the OpenGL ES 3.0 level runtime (SPEC §5 steps 2–6, 8, 9): operators live
+// modrt::gles — the OpenGL ES 3.0 level runtime (architecture.md §5 steps 2–6, 8, 9): operators live
 // in textures, every stage is a fragment-shader pass into float render targets, and the
 // lightmap ends in a padded atlas texture that a renderer samples directly.
 //
@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "modrt/backend.h"
+#include "modrt/feedback_policy.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_functions.h"
 #include "modrt/platform/gpu_timer.h"
@@ -113,7 +114,7 @@ class GlesLevelRuntime final : public Backend {
   const LevelBufferSizes& sizes() const override { return sizes_; }
 
   Status update(std::span<const float> ld) override;
-  Status set_albedo(std::span<const float> albedo, float max_albedo = 0.95f) override;
+  Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) override;
   Status multi_bounce_step(std::span<const float> ld_direct) override;
   Status read_lightmap(std::span<float> lightmap) override;
   Status read_atlas(std::span<float> atlas) override;
@@ -124,7 +125,8 @@ class GlesLevelRuntime final : public Backend {
   // light alone is not a skipped frame.
   Status set_clutter(const DrtOperators* drt) override;
   Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
-  Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo = 0.95f) override;
+  Status set_clutter_albedo(std::span<const float> clutter_albedo,
+                            float max_albedo = kDefaultMaxAlbedo) override;
   // Rendered on request (two passes) from the last update's b and c.
   Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) override;
   const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }

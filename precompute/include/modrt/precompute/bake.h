@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — the dictionary bake (SPEC §3, MRT §7.1): per dictionary shape, the
+// modrt precompute — the dictionary bake (architecture.md §3, MRT §7.1): per dictionary shape, the
 // lighting prior, F, the reduced transfer with enrichment, vector irradiance and volume
 // probes; then the float Dictionary the run time loads.
 #pragma once

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt::precompute — the lightmap of a triangle-mesh clutter object (DRT §3, SPEC §6):
+// modrt::precompute — the lightmap of a triangle-mesh clutter object (DRT §3, architecture.md §6):
 // rasterizes the mesh's lightmap UVs into a res x res texel grid and gives every covered
 // texel the world position and normal it stands for, the same texel geometry a box clutter
 // object has (drt.h ClutterTexelGeometry), so the DRT operator build can gather from mesh

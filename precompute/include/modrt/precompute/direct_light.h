@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // modrt precompute — direct light from sphere lights at the samples of a block, with
 // visibility by Embree shadow rays. This is the direct-light model of the lighting prior
-// (MRT §4, SPEC §3.2) and of the references the runtime is checked against.
+// (MRT §4, architecture.md §3.2) and of the references the runtime is checked against.
 #pragma once
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — the DRT operators of clutter objects (SPEC §6, [Loos et al. 2012]
+// modrt precompute — the DRT operators of clutter objects (architecture.md §6, [Loos et al. 2012]
 // §4–5), traced with Embree against the level's walls and the implicit lighting Limp of the
 // dictionary, in parallel over scene samples and clutter texels (oneTBB).
 //

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — analytic form factors used as references for F (SPEC §7).
+// modrt precompute — analytic form factors used as references for F (architecture.md §8).
 #pragma once
 
 #include <span>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt precompute — interface lightfields and the operators that couple blocks
-// (MRT §5, §6.3, appendix A; SPEC §3.8).
+// (MRT §5, §6.3, appendix A; architecture.md §3.8).
 //
 // A lightfield lives on a side face of a cell and describes radiance crossing it. It is
 // expressed in the *exit frame* of the face it leaves through: position (u, v) on the

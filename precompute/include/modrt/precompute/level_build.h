@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — level build (SPEC §4, MRT §6.2–6.3, §7.2): connectivity, the sparse
+// modrt precompute — level build (architecture.md §4, MRT §6.2–6.3, §7.2): connectivity, the sparse
 // block matrix Tb->r by breadth-first propagation through interfaces, and the padded
 // lightmap atlas with its padding records.
 #pragma once

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // modrt precompute — the actual (warped) geometry of a built level as one Embree scene,
 // and the references computed on it: direct light from sphere lights with shadows, and the
-// exact one-bounce indirect light F_level ld (SPEC §7: no low rank, no modularity).
+// exact one-bounce indirect light F_level ld (architecture.md §8: no low rank, no modularity).
 #pragma once
 
 #include <functional>

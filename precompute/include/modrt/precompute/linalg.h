@@ -17,7 +17,7 @@ using VectorXd = Eigen::VectorXd;
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
-// Bake results are double; the dictionary and levels store float (SPEC §3.4).
+// Bake results are double; the dictionary and levels store float (architecture.md §3.4).
 inline Matrix to_float(const MatrixXd& m) {
   Matrix out(std::uint32_t(m.rows()), std::uint32_t(m.cols()));
   for (Eigen::Index r = 0; r < m.rows(); ++r)

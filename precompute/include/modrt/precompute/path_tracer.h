@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // modrt precompute — ground truth: a diffuse path tracer on the real (warped) level
-// geometry (SPEC §7). It estimates multi-bounce indirect irradiance E_ind / pi at any
+// geometry (architecture.md §8). It estimates multi-bounce indirect irradiance E_ind / pi at any
 // surface points — the level's lightmap texels or a camera's primary hits — for the same
 // direct-light model as the runtime (sphere / point lights with shadows), with a per-point
 // standard error so every error figure can state its own noise floor.

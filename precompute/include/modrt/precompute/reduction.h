@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — reduced direct-to-indirect transfer (MRT §4, appendix A; SPEC §3.2–3.5).
+// modrt precompute — reduced direct-to-indirect transfer (MRT §4, appendix A; architecture.md §3.2–3.5).
 //
 // All in double. Names follow MRT Table 1:
 //   Ld = Ud Sd Vd^T,  P = first kd columns of Ud,  S = diag of their singular values;

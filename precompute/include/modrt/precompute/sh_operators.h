@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // modrt precompute — operators driven by the implicit lighting environment Limp:
-// vector irradiance U_vec_b (MRT §6.4, appendix B; SPEC §3.6) and volume probes Ubvol
-// (MRT §6.5; SPEC §3.7). Both light the block with each column of Limp (outgoing radiance
+// vector irradiance U_vec_b (MRT §6.4, appendix B; architecture.md §3.6) and volume probes Ubvol
+// (MRT §6.5; architecture.md §3.7). Both light the block with each column of Limp (outgoing radiance
 // at the samples, looked up bilinearly where rays hit present faces) and project the
 // incident radiance to SH9.
 #pragma once

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt precompute — the one-bounce operator F of a block (SPEC §3.3, MRT §3.1).
+// modrt precompute — the one-bounce operator F of a block (architecture.md §3.3, MRT §3.1).
 //
 // Row s of F maps outgoing diffuse radiance at every sample to E_ind / pi at sample s:
 // cosine-weighted stratified gather rays; a ray that hits a present face samples that

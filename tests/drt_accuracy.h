@@ -1,0 +1,176 @@
+// SPDX-License-Identifier: MIT
+// modrt tests — DRT's accuracy against the path tracer (test_drt_accuracy.cpp, test_drt_mesh.cpp):
+// MRT's probe shading of clutter, the samples inside clutter (left out of the error), the
+// clutter texel points, and one-bounce accuracy of MRT and MRT + DRT on a scene.
+#pragma once
+
+#include "drt_test_support.h"
+
+namespace modrt::precompute::drt_test {
+
+// MRT's clutter shading: the volume probes (SH9 radiance, trilinear between the g^3 probes
+// of the owning block) turned into E/pi at the texel normal (MRT §6.5).
+inline std::vector<float> probe_shading(const Level& level, std::span<const float> probes,
+                                 std::span<const ClutterObject> clutter) {
+  const int grid = int(dict().settings.probe_grid);
+  const int count = grid * grid * grid;
+  std::vector<float> out;
+  for (const ClutterObject& o : clutter) {
+    const LevelBlock& blk = level.blocks[std::size_t(o.block)];
+    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
+    for (std::size_t t = 0; t < cg.position.size(); ++t) {
+      const glm::dvec3 p = rotate_point(cg.position[t] - blk.corners[0], -blk.quarter_turns);
+      const glm::dvec3 n = rotate_direction(cg.normal[t], -blk.quarter_turns);
+      double radiance[3][9] = {};
+      for (int q = 0; q < count; ++q) {
+        const glm::dvec3 pp = probe_position(q, grid);
+        double w = 1.0;
+        for (int a = 0; a < 3; ++a) {
+          const double x = std::clamp(p[a], 0.5 / grid, 1.0 - 0.5 / grid);
+          w *= std::max(0.0, 1.0 - std::abs(x - pp[a]) * grid);
+        }
+        if (w == 0.0) continue;
+        for (int j = 0; j < 9; ++j)
+          for (int c = 0; c < 3; ++c)
+            radiance[c][j] += w * probes[std::size_t(o.block) * 27 * std::size_t(count) +
+                                         3 * (9 * std::size_t(q) + std::size_t(j)) + std::size_t(c)];
+      }
+      for (int c = 0; c < 3; ++c) {
+        double irr[9];
+        irradiance_from_radiance_sh9(radiance[c], irr);
+        out.push_back(float(std::max(0.0, sh9_eval_sum(irr, n))));
+      }
+    }
+  }
+  return out;
+}
+
+// Level samples inside clutter (invisible: left out of the error), per sample: inside a box
+// grown by 1e-6, or a mesh just off the sample along its normal (as the build decides).
+inline std::vector<std::uint8_t> samples_inside_clutter(const LevelSampleGeometry& g,
+                                                 std::span<const ClutterObject> clutter) {
+  std::vector<std::unique_ptr<ClutterMeshShape>> shapes;
+  for (const ClutterObject& o : clutter)
+    shapes.push_back(
+        o.kind == ClutterKind::mesh
+            ? std::make_unique<ClutterMeshShape>(
+                  ClutterMeshShape::create(o.mesh->mesh, o.mesh->chart_of_triangle, "mesh").value())
+            : nullptr);
+  std::vector<std::uint8_t> inside(g.position.size(), 0);
+  for (std::size_t i = 0; i < g.position.size(); ++i)
+    for (std::size_t k = 0; k < clutter.size(); ++k)
+      inside[i] |= shapes[k] ? shapes[k]->contains(g.position[i] + 1e-5 * g.normal[i])
+                             : clutter_contains(clutter[k].box, g.position[i], 1e-6);
+  return inside;
+}
+
+// The clutter texels as path-tracer points (just off the surface) and normals.
+inline void clutter_texel_points(std::span<const ClutterObject> clutter, std::vector<glm::dvec3>& points,
+                          std::vector<glm::dvec3>& normals) {
+  for (const ClutterObject& o : clutter) {
+    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
+    for (std::size_t t = 0; t < cg.position.size(); ++t) {
+      points.push_back(cg.position[t] + 1e-5 * cg.normal[t]);
+      normals.push_back(cg.normal[t]);
+    }
+  }
+}
+
+// The truth's own relative noise: sqrt(sum se^2 / sum value^2) over the points not skipped.
+inline double noise_floor(const IndirectEstimate& truth, const std::vector<std::uint8_t>& skip) {
+  double se = 0, v = 0;
+  for (std::size_t i = 0; i < truth.value.size(); ++i)
+    if (skip.empty() || !skip[i / 3]) {
+      se += double(truth.standard_error[i]) * truth.standard_error[i];
+      v += double(truth.value[i]) * truth.value[i];
+    }
+  return std::sqrt(se / v);
+}
+
+struct AccuracyResult {
+  double mrt = 0, drt = 0, noise = 0, probes = 0, clutter = 0, clutter_noise = 0;
+  // The same with every object built alone (each traced against the walls and itself: no
+  // clutter-to-clutter shadows or light), and the clutter with Cb b only (no Cc c).
+  double drt_alone = 0, clutter_alone = 0, clutter_cb_only = 0;
+  // The clutter shaded by the volume probes with the U_dyn delta (clutter-aware probes).
+  double probes_udyn = 0;
+};
+
+// One bounce at the level's texels and the clutter texels: MRT (lightmap Ub b + Ur r; the
+// clutter shaded by probes) and MRT + DRT (+ dUb b + dUc c; clutter Cb b) against the path
+// tracer on the real geometry with the clutter (same direct-light model; ld with the
+// clutter's direct shadows for both). Texels inside clutter are not visible and skipped.
+inline AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildSettings& settings = {}) {
+  const Level level = build_level(s.description, dict()).value();
+  const LevelScene scene(level, level.res, s.clutter);
+  const std::vector<float> ld =
+      level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8);
+  const Frame f = evaluate_mrt(level, ld);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const DrtBuilder builder(level, dict(), settings);
+  const DrtOperators drt = builder.build(s.clutter).value();
+  const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(check_drt_operators(level, drt).ok());
+  const std::vector<float> clutter_ld = clutter_direct_light(scene, s.description.lights, 8);
+  std::vector<float> c(drt_buffer_sizes(drt).c), lightmap = f.lightmap;
+  EXPECT_TRUE(drt_compute_c(drt, clutter_ld, c).ok());
+  drt_apply(level, drt, f.b, c, lightmap);
+  std::vector<float> clutter_lightmap(drt_buffer_sizes(drt).clutter_lightmap);
+  drt_clutter_lightmap(drt, f.b, {}, clutter_lightmap);
+  const std::vector<float> clutter_cb_only = clutter_lightmap;
+  drt_clutter_add_cc(drt, c, clutter_lightmap);
+  DrtOperators alone;
+  alone.kb = drt.kb;
+  for (const ClutterObject& o : s.clutter) alone.objects.push_back(builder.build_object(o).value());
+  std::vector<float> lightmap_alone = f.lightmap, clutter_alone(clutter_lightmap.size());
+  drt_apply(level, alone, f.b, c, lightmap_alone);
+  drt_clutter_lightmap(alone, f.b, {}, clutter_alone);
+
+  PathTracerSettings pt;
+  pt.paths = 512;
+  pt.bounces = 1;
+  pt.light_vertex_sources = level_light_centres(s.description);
+  const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
+  const SurfaceAlbedo albedo = level_surface_albedo(scene, s.description);
+  const LevelSampleGeometry& g = scene.samples();
+  const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, albedo, pt);
+  const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
+  std::vector<glm::dvec3> cp, cn;
+  clutter_texel_points(s.clutter, cp, cn);
+  const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, albedo, pt);
+  const LevelBufferSizes sz = level_buffer_sizes(level, dict());
+  std::vector<float> probes(sz.probes);
+  level_compute_probes(level, dict(), f.b, f.r, probes);
+  const std::vector<float> probe_lightmap = probe_shading(level, probes, s.clutter);
+  DrtBuildSettings with_probes = settings;
+  with_probes.probes = true;
+  const DrtOperators drt_probes = DrtBuilder(level, dict(), with_probes).build(s.clutter).value();
+  std::vector<float> aware = probes;
+  drt_apply_probes(drt_probes, f.b, c, aware);
+  const std::vector<float> aware_lightmap = probe_shading(level, aware, s.clutter);
+  const std::vector<std::uint8_t> none(cp.size(), 0);
+
+  AccuracyResult a;
+  a.mrt = rel_l2(f.lightmap, truth.value, skip);
+  a.drt = rel_l2(lightmap, truth.value, skip);
+  a.noise = noise_floor(truth, skip);
+  a.probes = rel_l2(probe_lightmap, clutter_truth.value, none);
+  a.clutter = rel_l2(clutter_lightmap, clutter_truth.value, none);
+  a.drt_alone = rel_l2(lightmap_alone, truth.value, skip);
+  a.clutter_alone = rel_l2(clutter_alone, clutter_truth.value, none);
+  a.clutter_cb_only = rel_l2(clutter_cb_only, clutter_truth.value, none);
+  a.probes_udyn = rel_l2(aware_lightmap, clutter_truth.value, none);
+  a.clutter_noise = noise_floor(clutter_truth, {});
+  std::printf(
+      "%s: scene lightmap relL2 MRT %.4f, MRT+DRT %.4f (%.0f %% lower; objects alone %.4f; truth noise floor "
+      "%.4f); clutter relL2 MRT probes %.4f (+ U_dyn %.4f), DRT Cb b + Cc c %.4f (Cb b only %.4f, objects "
+      "alone %.4f; noise "
+      "floor %.4f); %zu objects, build %.3f s (test build, not a benchmark), storage %zu bytes\n",
+      name, a.mrt, a.drt, 100.0 * (1.0 - a.drt / a.mrt), a.drt_alone, a.noise, a.probes, a.probes_udyn,
+      a.clutter, a.clutter_cb_only, a.clutter_alone, a.clutter_noise, s.clutter.size(), build_s,
+      drt.storage_bytes());
+  return a;
+}
+
+}  // namespace modrt::precompute::drt_test
