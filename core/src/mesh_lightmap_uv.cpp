@@ -42,6 +42,8 @@ constexpr double kSliverArea = 1e-10;
 constexpr double kZeroArea = 1e-12;
 // A normal shorter than this is refused (not a direction).
 constexpr double kMinNormalLength = 1e-6;
+// How far (in blocks) a region reaches past a face that does not cut exactly (BlockRegion).
+constexpr double kReach = 0.25;
 // A point at most this far outside a block's canonical cube (in block units) is inside it:
 // the demo's threshold for a triangle outside every block.
 constexpr double kInsideCanonical = 1e-6;
@@ -66,19 +68,30 @@ struct Plane {
   double distance(const glm::dvec3& p) const { return glm::dot(n, p) - d; }
 };
 
-// What a block cuts off a triangle: the half-spaces of its flat faces that it shares with a
-// grid neighbour (a connected opening or back-to-back walls). Beyond a face with no block
-// behind it (the level's outer walls, floors and ceilings) there is no other tile to keep a
-// triangle from, so nothing is cut there: a wall mesh standing a little proud of its proxy
-// stays one triangle, as the demo's whole-triangle mapping kept it. A twisted (non-planar,
-// warped) face does not cut either: a plane would give the strip between it and the
-// bilinear face to the wrong side (a wall's piece to the block behind it, whose tile faces
-// the other way), so a triangle crossing it stays whole and goes, as before, to the block
-// containing its centroid (assign).
+// The region a block cuts off a triangle with: one half-space per face. Along a flat face
+// that it shares with a grid neighbour (a connected opening, or back-to-back walls: every
+// such face of an unwarped block) the plane is the face itself, and the cut is exact.
+// Elsewhere nothing needs cutting exactly, so the plane is pushed out by kReach blocks (plus
+// the face's twist) and whole triangles stay whole there:
+//   - a face with no block behind it (outer walls, floors, ceilings): no other tile is
+//     there; a wall mesh standing a little proud of its proxy, or a box's bottom on the
+//     floor, stays one triangle;
+//   - a twisted (non-planar) face of a warped block: a planar cut would hand the strip
+//     between the plane and the bilinear face to the wrong side (a wall's piece to the block
+//     behind it, whose tile faces the other way); a triangle near it stays whole and goes,
+//     as it always did, to the block containing its centroid (Mapper::assign).
+// The reach keeps such regions from extending to blocks further away (they overlap their
+// neighbours' instead, which the claiming order resolves).
+//
+// Where two flat outer faces meet at an edge (or three at a corner) and the block diagonally
+// across it exists, their reach would overlap that block; a plane through the edge (corner),
+// normal to the faces' mean normal, keeps the region out of it (exact for unwarped blocks).
+// Not at twisted faces: there a triangle near the edge goes whole to the block containing
+// its centroid, as it always did.
 struct BlockRegion {
-  std::array<Plane, 6> planes;
-  std::array<bool, 6> cuts{};   // plane f bounds the region
-  glm::dvec3 lo{0.0}, hi{0.0};  // box of the corners
+  std::vector<Plane> planes;                // the 6 faces (cube order), then the diagonal planes
+  glm::dvec3 lo{0.0}, hi{0.0};              // box of the corners
+  glm::dvec3 reach_lo{0.0}, reach_hi{0.0};  // box of the region (bounded by the reach)
 };
 
 // The trilinear cube's faces x = 0, x = 1, y = 0, y = 1, z = 0, z = 1 as corner loops
@@ -88,7 +101,13 @@ constexpr int kFaceLoops[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
                                   {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
 constexpr int kFaceStep[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
 
+// As the demo always had it: the size of block 0 (the level's blocks share a grid).
+double level_block_size(const Level& level) {
+  return glm::length(level.blocks[0].corners[7] - level.blocks[0].corners[0]) / std::sqrt(3.0);
+}
+
 Result<std::vector<BlockRegion>> block_regions(const Level& level) {
+  const double block_size = level_block_size(level);
   std::vector<BlockRegion> regions(level.blocks.size());
   std::map<std::tuple<int, int, int>, std::size_t> by_cell;
   for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
@@ -108,6 +127,9 @@ Result<std::vector<BlockRegion>> block_regions(const Level& level) {
       r.lo = glm::min(r.lo, c);
       r.hi = glm::max(r.hi, c);
     }
+    double grow = 0.0;
+    std::array<bool, 6> reaching{};
+    r.planes.resize(6);
     for (int f = 0; f < 6; ++f) {
       const int* loop = kFaceLoops[f];
       const glm::dvec3 mid = (b.corners[std::size_t(loop[0])] + b.corners[std::size_t(loop[1])] +
@@ -123,13 +145,40 @@ Result<std::vector<BlockRegion>> block_regions(const Level& level) {
       if (glm::dot(n, centre - mid) < 0.0) n = -n;
       r.planes[std::size_t(f)] = {n, glm::dot(n, mid)};
       const glm::ivec3 next = b.cell + glm::ivec3(kFaceStep[f][0], kFaceStep[f][1], kFaceStep[f][2]);
-      const double scale = glm::length(r.hi - r.lo);
-      bool flat = true;
+      double twist = 0.0;
       for (int k = 0; k < 4; ++k)
-        flat = flat && std::abs(r.planes[std::size_t(f)].distance(b.corners[std::size_t(loop[k])])) <=
-                           kPlaneTolerance * scale;
-      r.cuts[std::size_t(f)] = flat && by_cell.count(std::tuple(next.x, next.y, next.z)) > 0;
+        twist = std::max(twist, std::abs(r.planes[std::size_t(f)].distance(b.corners[std::size_t(loop[k])])));
+      const bool flat = twist <= kPlaneTolerance * glm::length(r.hi - r.lo);
+      if (!flat || by_cell.count(std::tuple(next.x, next.y, next.z)) == 0) {
+        const double reach = kReach * block_size + twist;
+        r.planes[std::size_t(f)].d -= reach;
+        grow = std::max(grow, reach);
+        reaching[std::size_t(f)] = flat;  // an outer face (the diagonal planes below)
+      }
     }
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int step[3] = {dx, dy, dz};
+          int axes = 0, corner = 0;
+          bool all_reach = true;
+          glm::dvec3 outward(0.0);
+          for (int a = 0; a < 3; ++a) {
+            if (step[a] == 0) continue;
+            const int f = 2 * a + (step[a] > 0 ? 1 : 0);
+            ++axes;
+            all_reach = all_reach && reaching[std::size_t(f)];
+            outward -= r.planes[std::size_t(f)].n;
+            if (step[a] > 0) corner += 1 << a;
+          }
+          const glm::ivec3 diagonal = b.cell + glm::ivec3(dx, dy, dz);
+          if (axes < 2 || !all_reach || by_cell.count(std::tuple(diagonal.x, diagonal.y, diagonal.z)) == 0)
+            continue;
+          const glm::dvec3 n = -glm::normalize(outward);
+          r.planes.push_back({n, glm::dot(n, b.corners[std::size_t(corner)])});
+        }
+    r.reach_lo = r.lo - grow;
+    r.reach_hi = r.hi + grow;
   }
   return regions;
 }
@@ -150,11 +199,11 @@ class BlockGrid {
  public:
   BlockGrid(const std::vector<BlockRegion>& regions, double tolerance) : tolerance_(tolerance) {
     const std::size_t n = regions.size();
-    glm::dvec3 lo = regions[0].lo, hi = regions[0].hi;
+    glm::dvec3 lo = regions[0].reach_lo, hi = regions[0].reach_hi;
     std::vector<double> extents(n);
     for (std::size_t i = 0; i < n; ++i) {
-      lo = glm::min(lo, regions[i].lo);
-      hi = glm::max(hi, regions[i].hi);
+      lo = glm::min(lo, regions[i].reach_lo);
+      hi = glm::max(hi, regions[i].reach_hi);
       const glm::dvec3 e = regions[i].hi - regions[i].lo;
       extents[i] = std::max({e.x, e.y, e.z});
     }
@@ -179,7 +228,8 @@ class BlockGrid {
     std::vector<bool> large(n, false);
     for (int pass = 0; pass < 2; ++pass) {
       for (std::size_t i = 0; i < n; ++i) {
-        const glm::ivec3 a = cell_of(regions[i].lo - tolerance_), b = cell_of(regions[i].hi + tolerance_);
+        const glm::ivec3 a = cell_of(regions[i].reach_lo - tolerance_),
+                         b = cell_of(regions[i].reach_hi + tolerance_);
         if (pass == 0) {
           const std::size_t covered =
               std::size_t(b.x - a.x + 1) * std::size_t(b.y - a.y + 1) * std::size_t(b.z - a.z + 1);
@@ -313,8 +363,7 @@ class Mapper {
       : level_(level),
         mesh_(mesh),
         regions_(std::move(regions)),
-        // As the demo always had it: the size of block 0 (the level's blocks share a grid).
-        block_size_(glm::length(level.blocks[0].corners[7] - level.blocks[0].corners[0]) / std::sqrt(3.0)),
+        block_size_(level_block_size(level)),
         tolerance_(kPlaneTolerance * block_size_),
         grid_(regions_, tolerance_),
         emit_(emit) {}
@@ -390,9 +439,8 @@ class Mapper {
           }
           cut_.clear();
           current_ = poly;
-          for (int f = 0; f < 6; ++f) {
-            if (!region.cuts[std::size_t(f)]) continue;
-            split(current_, region.planes[std::size_t(f)], tolerance_, in_, out_);
+          for (const Plane& plane : region.planes) {
+            split(current_, plane, tolerance_, in_, out_);
             if (out_.size() >= 3 && polygon_area(out_) > sliver_) cut_.push_back(out_);
             std::swap(current_, in_);
             if (current_.size() < 3) break;
@@ -417,17 +465,18 @@ class Mapper {
   bool overlaps(const Polygon& poly, const BlockRegion& r) const {
     glm::dvec3 lo = poly[0].p, hi = poly[0].p;
     for (const PolyVertex& v : poly) lo = glm::min(lo, v.p), hi = glm::max(hi, v.p);
-    return !glm::any(glm::lessThan(hi, r.lo - tolerance_)) &&
-           !glm::any(glm::greaterThan(lo, r.hi + tolerance_));
+    return !glm::any(glm::lessThan(hi, r.reach_lo - tolerance_)) &&
+           !glm::any(glm::greaterThan(lo, r.reach_hi + tolerance_));
   }
 
   // The block a piece with (moved) centroid p is output in, and whether p lies in no block.
   // Decided exactly, through the trilinear warp, as the demo always decided it for whole
   // triangles: `claimed` (the block that cut the piece off, -1 for none) when it contains p
-  // (always, up to rounding, for a piece cut on all sides by flat faces), else the block
-  // containing p (across a twisted face, which does not cut), else the nearest block: the
-  // claiming one, or by canonical distance outside [0,1]^3 among the blocks within a block
-  // of p, else by distance to the blocks' boxes; the last three are "outside".
+  // (always, up to rounding, for a piece cut on all sides by its block's faces), else the
+  // block containing p (a piece reaching across a twisted face), else the nearest block: the
+  // claiming one (a piece beyond an outer face), or by canonical distance outside [0,1]^3
+  // among the blocks within a block of p, else by distance to the blocks' boxes; the last
+  // three are "outside".
   std::pair<std::uint32_t, bool> assign(const glm::dvec3& p, std::int64_t claimed) {
     if (claimed >= 0 && outside_unit_cube(canonical(std::uint32_t(claimed), p)) <= kInsideCanonical)
       return {std::uint32_t(claimed), false};
@@ -565,9 +614,11 @@ Status check_array(const StridedVec3& a, std::size_t count, const char* name) {
     return mesh_error(ErrorCode::invalid_argument,
                       std::string(name) + ": stride of " + std::to_string(a.stride) +
                           " bytes is less than one element (12 bytes: 3 floats)");
-  // The last element's end must be addressable: (count - 1) * stride + 12 bytes from data.
-  const std::uint64_t room =
-      std::uint64_t(std::numeric_limits<std::uintptr_t>::max() - reinterpret_cast<std::uintptr_t>(a.data));
+  // The array, (count - 1) * stride + 12 bytes from data, must be an object: at most
+  // PTRDIFF_MAX bytes, not wrapping the address space.
+  const std::uint64_t room = std::min<std::uint64_t>(
+      std::numeric_limits<std::ptrdiff_t>::max(),
+      std::numeric_limits<std::uintptr_t>::max() - reinterpret_cast<std::uintptr_t>(a.data));
   std::uint64_t span = 0;
   if (!checked_mul(count - 1, a.stride, span) || span > room || room - span < 3 * sizeof(float))
     return mesh_error(ErrorCode::invalid_argument,

@@ -12,16 +12,19 @@
 // texels, and a whole triangle mapped by its centroid samples the wrong block's tile for the
 // part beyond the face). The blocks take their pieces in index order, each cutting off what
 // lies inside it of what earlier blocks left, so the pieces always partition the triangle
-// (no area lost or covered twice). A block cuts along its flat faces that it shares with a
-// grid neighbour: every face of an unwarped block (a grid cell), and of a warp that keeps a
-// face planar (a shear, a taper); there the cut is exact. It does not cut
-//   - along a face with no block behind it (outer walls, floors, ceilings): there is no
-//     other tile there, so a wall mesh standing a little proud of its proxy stays whole;
-//   - along a twisted (non-planar) face of a warped block: a planar cut would hand the strip
+// (no area lost or covered twice). A block cuts exactly along its flat faces that it shares
+// with a grid neighbour: every shared face of an unwarped block (a grid cell), and of a warp
+// that keeps a face planar (a shear, a taper). It does not cut along its other faces (it
+// reaches a quarter block past them, so that it never takes a piece of a block further
+// away):
+//   - a face with no block behind it (outer walls, floors, ceilings): there is no other
+//     tile there, so a wall mesh standing a little proud of its proxy stays whole;
+//   - a twisted (non-planar) face of a warped block: a planar cut would hand the strip
 //     between the plane and the bilinear face to the wrong side (a wall's piece to the block
 //     behind it, whose tile faces the other way). A triangle crossing a twisted face stays
-//     whole, as it always was, and goes to the block containing its centroid (exactly,
-//     through the trilinear warp); tessellate such walls per block to have them cut exactly.
+//     whole (up to a quarter block past it), as it always was, and goes to the block
+//     containing its centroid (exactly, through the trilinear warp); tessellate such walls
+//     per block to have them cut exactly.
 // What lies in no block (geometry outside the level, a box's bottom resting on the floor)
 // is mapped to the nearest block and reported (`outside`).
 //
