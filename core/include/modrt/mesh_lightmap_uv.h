@@ -73,7 +73,7 @@ struct StridedVec3 {
 
 // A triangle mesh in world space. Requirements (each refused with a message naming the
 // argument and index): positions and normals non-null when vertex_count > 0, strides >= 12
-// bytes and the arrays addressable (vertex_count x stride fits in memory); every position
+// bytes and each array an object (vertex_count x stride within PTRDIFF_MAX); every position
 // finite; every normal finite and not zero (length above 1e-6; it need not be unit);
 // index_count a multiple of 3 and at most 3 x (2^32 - 1); every index < vertex_count.
 // Zero-area triangles are allowed: they are not split (they cover nothing) and are output
@@ -112,7 +112,8 @@ inline int input_vertex(const MappedCorner& c) {
 
 struct MeshLightmapStats {
   std::size_t triangles = 0;          // input triangles
-  std::size_t split_triangles = 0;    // cut into pieces in more than one block (or partly outside)
+  std::size_t split_triangles = 0;    // cut into more than one piece (at a block boundary, or
+                                      // where it reaches a quarter block past the level)
   std::size_t triangles_outside = 0;  // with a part in no block (mapped to the nearest block)
   std::size_t corners = 0;            // output corners, 3 per output triangle
 };
