@@ -25,7 +25,8 @@ namespace {
 
 const Level& maze11() {
   static const Level level = [] {
-    Result<Level> l = precompute::build_level(precompute::maze_level(11).value(), test::small_test_dictionary());
+    Result<Level> l =
+        precompute::build_level(precompute::maze_level(11).value(), test::small_test_dictionary());
     EXPECT_TRUE(l.ok()) << l.status().to_string();
     return std::move(l).value();
   }();
@@ -83,7 +84,8 @@ modrt_mesh_input c_input(const Mesh& m) {
 void expect_error(modrt_status status, modrt_status code, std::initializer_list<const char*> words) {
   EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
   const std::string message = modrt_last_error();
-  for (const char* w : words) EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
+  for (const char* w : words)
+    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
 }
 
 std::vector<modrt_mapped_corner> sentinel(std::size_t n) {
@@ -164,7 +166,8 @@ TEST(CApiMesh, InterleavedVertexBufferMatchesTightArrays) {
   };
   std::vector<Vertex> vb(mesh.position.size() / 3);
   for (std::size_t i = 0; i < vb.size(); ++i)
-    for (int a = 0; a < 3; ++a) vb[i].position[a] = mesh.position[3 * i + a], vb[i].normal[a] = mesh.normal[3 * i + a];
+    for (int a = 0; a < 3; ++a)
+      vb[i].position[a] = mesh.position[3 * i + a], vb[i].normal[a] = mesh.normal[3 * i + a];
   modrt_mesh_input tight = c_input(mesh);
   modrt_mesh_input strided = tight;
   strided.positions = vb[0].position;
@@ -257,13 +260,16 @@ TEST(CApiMesh, BadInputIsNamedAndNothingIsWritten) {
   // Null handles and outputs.
   const modrt_mesh_input in = c_input(good);
   std::size_t corners = 99;
-  expect_error(modrt_level_map_mesh_bound(nullptr, &in, &corners), MODRT_ERROR_INVALID_ARGUMENT, {"level is null"});
-  expect_error(modrt_level_map_mesh_bound(level, nullptr, &corners), MODRT_ERROR_INVALID_ARGUMENT, {"mesh is null"});
-  expect_error(modrt_level_map_mesh_bound(level, &in, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"corners is null"});
+  expect_error(modrt_level_map_mesh_bound(nullptr, &in, &corners), MODRT_ERROR_INVALID_ARGUMENT,
+               {"level is null"});
+  expect_error(modrt_level_map_mesh_bound(level, nullptr, &corners), MODRT_ERROR_INVALID_ARGUMENT,
+               {"mesh is null"});
+  expect_error(modrt_level_map_mesh_bound(level, &in, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"corners is null"});
   EXPECT_EQ(corners, 99u);
   std::size_t written = 0;
-  expect_error(modrt_level_map_mesh(level, &in, nullptr, bound, &written, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
-               {"out is null"});
+  expect_error(modrt_level_map_mesh(level, &in, nullptr, bound, &written, nullptr),
+               MODRT_ERROR_INVALID_ARGUMENT, {"out is null"});
   expect_error(modrt_level_map_mesh(level, &in, nullptr, 0, nullptr, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
                {"written is null"});
   // An empty mesh maps to nothing.
@@ -271,7 +277,8 @@ TEST(CApiMesh, BadInputIsNamedAndNothingIsWritten) {
   modrt_mesh_input_init(&empty);
   ASSERT_EQ(modrt_level_map_mesh_bound(level, &empty, &corners), MODRT_OK) << modrt_last_error();
   EXPECT_EQ(corners, 0u);
-  ASSERT_EQ(modrt_level_map_mesh(level, &empty, nullptr, 0, &written, nullptr), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_level_map_mesh(level, &empty, nullptr, 0, &written, nullptr), MODRT_OK)
+      << modrt_last_error();
   EXPECT_EQ(written, 0u);
   modrt_mesh_input_init(nullptr);  // ignored
   modrt_level_destroy(level);

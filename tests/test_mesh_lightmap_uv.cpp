@@ -97,7 +97,8 @@ struct TestMesh {
   }
 };
 
-std::vector<MappedCorner> map_all(const Level& level, const TestMesh& mesh, MeshLightmapStats* stats = nullptr) {
+std::vector<MappedCorner> map_all(const Level& level, const TestMesh& mesh,
+                                  MeshLightmapStats* stats = nullptr) {
   const Result<MeshLightmapStats> count = mesh_lightmap_corner_count(level, mesh.input());
   EXPECT_TRUE(count.ok()) << count.status().to_string();
   if (!count.ok()) return {};
@@ -129,7 +130,8 @@ double block_size(const Level& level) {
 }
 
 // The brute-force checks of the header's promises, for every output triangle of `mesh`.
-void check_against_brute_force(const Level& level, const TestMesh& mesh, const std::vector<MappedCorner>& out) {
+void check_against_brute_force(const Level& level, const TestMesh& mesh,
+                               const std::vector<MappedCorner>& out) {
   ASSERT_EQ(out.size() % 3, 0u);
   const double res = level.res, bs = block_size(level);
   std::vector<double> covered(mesh.indices.size() / 3, 0.0);
@@ -175,20 +177,22 @@ void check_against_brute_force(const Level& level, const TestMesh& mesh, const s
     const glm::dvec3 shift = 0.02 * bs * n;
     const glm::dvec3 p0 = glm::dvec3(c[0].position) + shift, p1 = glm::dvec3(c[1].position) + shift,
                      p2 = glm::dvec3(c[2].position) + shift;
-    for (const glm::dvec3& q : {p0, p1, p2, (p0 + p1) / 2.0, (p1 + p2) / 2.0, (p2 + p0) / 2.0, (p0 + p1 + p2) / 3.0}) {
+    for (const glm::dvec3& q :
+         {p0, p1, p2, (p0 + p1) / 2.0, (p1 + p2) / 2.0, (p2 + p0) / 2.0, (p0 + p1 + p2) / 3.0}) {
       if (outside_unit(world_to_block(level.blocks[block], q)) <= 1e-6) continue;
       for (std::size_t other = 0; other < level.blocks.size(); ++other) {
         if (other == block) continue;
         ASSERT_LE(depth_inside(world_to_block(level.blocks[other], q)), 1e-6)
-            << "a piece of triangle " << src << " mapped to block " << block << " reaches into block " << other;
+            << "a piece of triangle " << src << " mapped to block " << block << " reaches into block "
+            << other;
       }
     }
     covered[src] += area(glm::dvec3(c[0].position), glm::dvec3(c[1].position), glm::dvec3(c[2].position));
   }
   for (std::size_t t = 0; t < covered.size(); ++t) {
     const std::uint32_t* idx = &mesh.indices[3 * t];
-    const double whole =
-        area(glm::dvec3(mesh.position[idx[0]]), glm::dvec3(mesh.position[idx[1]]), glm::dvec3(mesh.position[idx[2]]));
+    const double whole = area(glm::dvec3(mesh.position[idx[0]]), glm::dvec3(mesh.position[idx[1]]),
+                              glm::dvec3(mesh.position[idx[2]]));
     EXPECT_NEAR(covered[t], whole, 1e-5 * whole) << "triangle " << t << ": the pieces do not cover it";
   }
 }
@@ -261,7 +265,8 @@ std::array<OldCorner, 3> old_centroid_mapping(const Level& level, const std::arr
   for (int f = 0; f < kFaceCount; ++f) {
     if (!face_present(mask, f)) continue;
     const FaceFrame& fr = face_frame(f);
-    const double score = glm::dot(n_canonical, fr.normal) - 0.25 * std::abs(glm::dot(best_p - fr.origin, fr.normal));
+    const double score =
+        glm::dot(n_canonical, fr.normal) - 0.25 * std::abs(glm::dot(best_p - fr.origin, fr.normal));
     if (score > best_score) best_score = score, face = f;
   }
   const FaceFrame& fr = face_frame(face);
@@ -288,7 +293,8 @@ TEST(MeshLightmap, TriangleInsideOneBlockMatchesTheCentroidMapping) {
   for (int i = 0; i < 400; ++i) {
     const LevelBlock& b = level.blocks[std::size_t(rng() % level.blocks.size())];
     const glm::vec3 lo(b.corners[0]);
-    const glm::vec3 centre = lo + glm::vec3(0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng));
+    const glm::vec3 centre =
+        lo + glm::vec3(0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng));
     std::array<glm::vec3, 3> p;
     for (glm::vec3& q : p) q = centre + 0.12f * glm::vec3(sym(rng), sym(rng), sym(rng));
     glm::vec3 n = glm::cross(p[1] - p[0], p[2] - p[0]);
@@ -344,8 +350,8 @@ TEST(MeshLightmap, RandomTrianglesAgainstBruteForce) {
     const std::vector<MappedCorner> out = map_all(level, mesh, &stats);
     EXPECT_GT(stats.split_triangles, stats.triangles / 4) << "most of these triangles cross a shared face";
     check_against_brute_force(level, mesh, out);
-    std::printf("  %s: %zu triangles, %zu cut, %zu partly outside, %zu output triangles\n", name, stats.triangles,
-                stats.split_triangles, stats.triangles_outside, stats.corners / 3);
+    std::printf("  %s: %zu triangles, %zu cut, %zu partly outside, %zu output triangles\n", name,
+                stats.triangles, stats.split_triangles, stats.triangles_outside, stats.corners / 3);
   }
 }
 
@@ -367,7 +373,8 @@ TEST(MeshLightmap, ReachStopsAtADiagonalBlock) {
 TEST(MeshLightmap, StridedInputMatchesTightArrays) {
   const Level& level = built("room");
   TestMesh mesh;
-  mesh.add({0.3f, 0.2f, 0.5f}, {1.7f, 0.3f, 0.4f}, {1.2f, 0.9f, 1.6f}, glm::normalize(glm::vec3(0.2f, 0.4f, -0.9f)));
+  mesh.add({0.3f, 0.2f, 0.5f}, {1.7f, 0.3f, 0.4f}, {1.2f, 0.9f, 1.6f},
+           glm::normalize(glm::vec3(0.2f, 0.4f, -0.9f)));
   mesh.add({0.2f, 0.0f, 0.2f}, {1.8f, 0.0f, 1.8f}, {1.8f, 0.0f, 0.2f}, {0, 1, 0});
   struct Interleaved {
     float position[3], normal[3], uv[2];
@@ -394,8 +401,8 @@ TEST(MeshLightmap, StridedInputMatchesTightArrays) {
 TEST(MeshLightmap, ZeroAreaAndOutsideTriangles) {
   const Level& level = built("room");
   TestMesh mesh;
-  mesh.add({0.5f, 0.5f, 0.5f}, {1.5f, 0.5f, 0.5f}, {1.0f, 0.5f, 0.5f}, {0, 1, 0});  // collinear
-  mesh.add({0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}, {0, 0, 1});  // a point
+  mesh.add({0.5f, 0.5f, 0.5f}, {1.5f, 0.5f, 0.5f}, {1.0f, 0.5f, 0.5f}, {0, 1, 0});   // collinear
+  mesh.add({0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}, {0, 0, 1});   // a point
   mesh.add({5.0f, 0.2f, 0.4f}, {5.0f, 0.8f, 0.4f}, {5.0f, 0.5f, 0.9f}, {-1, 0, 0});  // 3 blocks past +X
   MeshLightmapStats stats;
   const std::vector<MappedCorner> out = map_all(level, mesh, &stats);
@@ -471,7 +478,8 @@ TEST(MeshLightmap, BadInputIsNamed) {
   small[0].triangle = 777;
   const Result<MeshLightmapStats> r = map_mesh_lightmap(level, good.input(), small);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("the output holds 2 corners"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("the output holds 2 corners"), std::string::npos)
+      << r.status().message();
   EXPECT_EQ(small[0].triangle, 777u);
   // A level without an atlas.
   Level bare = level;

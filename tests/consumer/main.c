@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
    * interleaved vertex buffer (position, normal, uv), cut at block boundaries. */
   {
     const float y = info.bounds_min[1];
-    const float x0 = info.bounds_min[0], x1 = info.bounds_max[0], z0 = info.bounds_min[2], z1 = info.bounds_max[2];
+    const float x0 = info.bounds_min[0], x1 = info.bounds_max[0], z0 = info.bounds_min[2],
+                z1 = info.bounds_max[2];
     const float vb[4][8] = {{x0, y, z0, 0, 1, 0, 0, 0},
                             {x1, y, z0, 0, 1, 0, 1, 0},
                             {x1, y, z1, 0, 1, 0, 1, 1},
