@@ -20,8 +20,8 @@
 #include "cli_checks.h"
 #include "demo_run.h"
 #include "image_output.h"
-#include "modrt/file_io.h"
 #include "modrt/dictionary_io.h"
+#include "modrt/file_io.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "scene/default_scene.h"
@@ -194,10 +194,12 @@ int main(int argc, char** argv) {
   }
   const Level& level = run.value()->level();
   std::printf(
-      "  %zu blocks, %u samples, res %d, kb %u, %zu Tb->r records; %zu mapped triangles; backend: %s\n"
+      "  %zu blocks, %u samples, res %d, kb %u, %zu Tb->r records; %zu mapped triangles (from %zu static "
+      "triangles, %zu of them cut at block boundaries, %zu partly in no block); backend: %s\n"
       "  setup %.1f s\n",
       level.blocks.size(), level.sample_count, level.res, level.kb, level.records.size(),
-      run.value()->mapped_triangles(), run.value()->backend().description(), ms_since(t_setup) / 1000.0);
+      run.value()->mapped_triangles(), run.value()->static_triangles(), run.value()->split_triangles(),
+      run.value()->outside_triangles(), run.value()->backend().description(), ms_since(t_setup) / 1000.0);
   if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0)
     std::printf("  DRT: %zu clutter objects, %zu texels; operators built in %.2f s, %.2f MB\n", d.objects,
                 d.texels, d.seconds, double(d.bytes) / 1e6);

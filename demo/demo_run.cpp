@@ -98,7 +98,12 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   const std::vector<float> albedo = precompute::level_albedo(lv, scene.level);
   Result<std::vector<MappedMesh>> mapped = map_to_proxies(scene, lv);
   if (!mapped.ok()) return mapped.status();
-  for (const MappedMesh& m : mapped.value()) run->mapped_triangles_ += m.vertices.size() / 3;
+  for (const MappedMesh& m : mapped.value()) {
+    run->mapped_triangles_ += m.vertices.size() / 3;
+    run->static_triangles_ += scene.meshes[std::size_t(m.mesh)].indices.size() / 3;
+    run->split_triangles_ += std::size_t(m.triangles_split);
+    run->outside_triangles_ += std::size_t(m.triangles_outside);
+  }
   const platform::GlFunctions& gl = context.gl();
   Result<std::unique_ptr<SceneRenderer>> renderer =
       SceneRenderer::create(gl, context.info().gles, scene, mapped.value(), lv, albedo, options.renderer);

@@ -75,6 +75,11 @@ class DemoRun {
   const Backend& backend() const { return *backend_; }
   const StageTimes& times() const { return times_; }
   std::size_t mapped_triangles() const { return mapped_triangles_; }
+  // Static triangles given to the proxy mapping, those it cut at block boundaries, and those
+  // with a part in no block (map_to_proxies).
+  std::size_t static_triangles() const { return static_triangles_; }
+  std::size_t split_triangles() const { return split_triangles_; }
+  std::size_t outside_triangles() const { return outside_triangles_; }
   bool vector_irradiance() const { return vector_; }
   int width() const { return options_.renderer.width; }
   int height() const { return options_.renderer.height; }
@@ -106,7 +111,7 @@ class DemoRun {
   void* gles_runtime_ = nullptr;                     // the backend as gles::GlesLevelRuntime, when it is one
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
-  std::size_t mapped_triangles_ = 0;
+  std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;
   bool vector_ = false;
   StageTimes times_;
 };

@@ -11,7 +11,7 @@ namespace modrt::precompute::drt_test {
 // MRT's clutter shading: the volume probes (SH9 radiance, trilinear between the g^3 probes
 // of the owning block) turned into E/pi at the texel normal (MRT §6.5).
 inline std::vector<float> probe_shading(const Level& level, std::span<const float> probes,
-                                 std::span<const ClutterObject> clutter) {
+                                        std::span<const ClutterObject> clutter) {
   const int grid = int(dict().settings.probe_grid);
   const int count = grid * grid * grid;
   std::vector<float> out;
@@ -48,7 +48,7 @@ inline std::vector<float> probe_shading(const Level& level, std::span<const floa
 // Level samples inside clutter (invisible: left out of the error), per sample: inside a box
 // grown by 1e-6, or a mesh just off the sample along its normal (as the build decides).
 inline std::vector<std::uint8_t> samples_inside_clutter(const LevelSampleGeometry& g,
-                                                 std::span<const ClutterObject> clutter) {
+                                                        std::span<const ClutterObject> clutter) {
   std::vector<std::unique_ptr<ClutterMeshShape>> shapes;
   for (const ClutterObject& o : clutter)
     shapes.push_back(
@@ -66,7 +66,7 @@ inline std::vector<std::uint8_t> samples_inside_clutter(const LevelSampleGeometr
 
 // The clutter texels as path-tracer points (just off the surface) and normals.
 inline void clutter_texel_points(std::span<const ClutterObject> clutter, std::vector<glm::dvec3>& points,
-                          std::vector<glm::dvec3>& normals) {
+                                 std::vector<glm::dvec3>& normals) {
   for (const ClutterObject& o : clutter) {
     const ClutterTexelGeometry cg = clutter_texel_geometry(o);
     for (std::size_t t = 0; t < cg.position.size(); ++t) {
@@ -100,7 +100,8 @@ struct AccuracyResult {
 // clutter shaded by probes) and MRT + DRT (+ dUb b + dUc c; clutter Cb b) against the path
 // tracer on the real geometry with the clutter (same direct-light model; ld with the
 // clutter's direct shadows for both). Texels inside clutter are not visible and skipped.
-inline AccuracyResult accuracy(const ClutterScene& s, const char* name, const DrtBuildSettings& settings = {}) {
+inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
+                               const DrtBuildSettings& settings = {}) {
   const Level level = build_level(s.description, dict()).value();
   const LevelScene scene(level, level.res, s.clutter);
   const std::vector<float> ld =

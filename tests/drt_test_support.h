@@ -41,7 +41,8 @@ using test::ClutterScene;
 using test::l_shaped_level_with_a_box;
 using test::maze_block_four_pillars;
 
-inline double rel_l2(std::span<const float> x, std::span<const float> ref, const std::vector<std::uint8_t>& skip) {
+inline double rel_l2(std::span<const float> x, std::span<const float> ref,
+                     const std::vector<std::uint8_t>& skip) {
   double num = 0.0, den = 0.0;
   for (std::size_t i = 0; i < ref.size(); ++i) {
     if (skip[i / 3]) continue;
@@ -76,7 +77,6 @@ inline bool operators_equal(const DrtObjectOperators& a, const DrtObjectOperator
          a.dUc_vec.data == b.dUc_vec.data && a.Udyn_probe == b.Udyn_probe && a.Udyn_block == b.Udyn_block &&
          a.Udyn.data == b.Udyn.data && a.Udyn_c_probe == b.Udyn_c_probe && a.Udyn_c.data == b.Udyn_c.data;
 }
-
 
 // Two boxes in a row on the floor of a closed room, so that many rays pass through both
 // (overlapping shadows) and each box's facing sides see the other (clutter-to-clutter light).

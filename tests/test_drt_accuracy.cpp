@@ -18,7 +18,9 @@
 #include <glm/geometric.hpp>
 
 #include "clutter_meshes.h"
+#include "drt_accuracy.h"
 #include "drt_scenes.h"
+#include "drt_test_support.h"
 #include "modrt/drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/block_scene.h"
@@ -30,8 +32,6 @@
 #include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
 #include "test_support.h"
-#include "drt_accuracy.h"
-#include "drt_test_support.h"
 
 namespace modrt::precompute {
 namespace {
@@ -175,7 +175,6 @@ TEST(Drt, MultiBounceLowersTheErrorAgainstAMultiBouncePathTracer) {
   EXPECT_LT(room.fed, 0.7 * room.mrt);
   EXPECT_LT(room.fed, 0.8 * room.drt);
 }
-
 
 // Timing for docs/drt.md, not a test (run with --gtest_also_run_disabled_tests
 // --gtest_filter='*Timing*'): full build of the four pillars at the default settings

@@ -18,6 +18,7 @@
 
 #include "clutter_meshes.h"
 #include "drt_scenes.h"
+#include "drt_test_support.h"
 #include "modrt/drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/block_scene.h"
@@ -29,7 +30,6 @@
 #include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
 #include "test_support.h"
-#include "drt_test_support.h"
 
 namespace modrt::precompute {
 namespace {

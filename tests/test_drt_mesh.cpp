@@ -18,7 +18,9 @@
 #include <glm/geometric.hpp>
 
 #include "clutter_meshes.h"
+#include "drt_accuracy.h"
 #include "drt_scenes.h"
+#include "drt_test_support.h"
 #include "modrt/drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/block_scene.h"
@@ -30,8 +32,6 @@
 #include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
 #include "test_support.h"
-#include "drt_accuracy.h"
-#include "drt_test_support.h"
 
 namespace modrt::precompute {
 namespace {

@@ -19,6 +19,7 @@
 
 #include "clutter_meshes.h"
 #include "drt_scenes.h"
+#include "drt_test_support.h"
 #include "modrt/drt.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/block_scene.h"
@@ -30,7 +31,6 @@
 #include "modrt/precompute/sh_operators.h"
 #include "modrt/sh.h"
 #include "test_support.h"
-#include "drt_test_support.h"
 
 namespace modrt::precompute {
 namespace {
@@ -251,8 +251,6 @@ TEST(Drt, SamplesInsideClutterAreInpainted) {
   }
   EXPECT_GT(checked, 0);
 }
-
-
 
 TEST(Drt, CcOfAFacingParallelFaceIsItsFormFactor) {
   ClutterScene s = two_boxes_in_a_row();

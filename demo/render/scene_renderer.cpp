@@ -241,12 +241,14 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
 
   // ---- geometry ----
   // One vertex buffer: the mapped meshes, the dynamic and clutter meshes and the light marker.
-  // Its size was checked before anything was expanded (check_vertex_buffer_size, also in
-  // map_to_proxies); reserved once, so that growing it never holds twice the buffer.
-  if (Status s = check_vertex_buffer_size(scene); !s.ok())
-    return Status::error(s.code(), "renderer: " + s.message());
+  // Its size was checked before anything was expanded (map_to_proxies, on the exact count of
+  // the cut meshes), and is checked here on what was mapped; reserved once, so that growing it
+  // never holds twice the buffer.
+  const std::size_t drawn_corners = drawn_corner_count(scene, mapped);
+  if (const std::string problem = vertex_buffer_problem(drawn_corners); !problem.empty())
+    return Status::error(ErrorCode::resource_limit, "renderer: " + problem);
   std::vector<MappedVertex> vertices;
-  vertices.reserve(drawn_corner_count(scene));
+  vertices.reserve(drawn_corners);
   for (const MappedMesh& mm : mapped) {
     DrawRange d{GLint(vertices.size()), GLsizei(mm.vertices.size()),
                 scene.meshes[std::size_t(mm.mesh)].material, false};

@@ -1,16 +1,16 @@
 // SPDX-License-Identifier: MIT
-// modrt demo — lightmap coordinates for real geometry (MRT §7.2): every static triangle is
-// assigned to one proxy face of the block that contains it and projected orthographically
-// onto that face, in the block's canonical frame (through the inverse of its trilinear
-// warp), so it samples the face's lightmap tile in the padded atlas.
-//
-// The paper chooses the face per vertex. Here the choice is per triangle (by its normal and
-// centroid), so a triangle's three lightmap coordinates always lie in one tile: a triangle
-// whose vertices chose different faces would interpolate across unrelated atlas tiles.
-// Vertices are therefore emitted per triangle (no index buffer).
+// modrt demo — lightmap coordinates for real geometry (MRT §7.2): every static mesh of the
+// scene goes through core's proxy mapping (modrt/mesh_lightmap_uv.h, the same function the C
+// API exposes as modrt_level_map_mesh): each triangle is cut at block boundaries, and each
+// piece is assigned to one proxy face of its block and projected onto it in the block's
+// canonical frame, so that its three lightmap coordinates lie in one tile of the padded
+// atlas. Vertices are therefore emitted per triangle (no index buffer). This file adds the
+// demo's own parts: the vertex format (UVs and tangents interpolated onto the pieces) and the
+// vertex-buffer limit.
 #pragma once
 
 #include <cstddef>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -20,7 +20,6 @@
 
 #include "demo_scene.h"
 #include "modrt/level.h"
-#include "modrt/level_geometry.h"  // world_to_block
 #include "modrt/status.h"
 
 namespace modrt::demo {
@@ -40,7 +39,8 @@ struct MappedVertex {
 struct MappedMesh {
   int mesh = 0;                        // index into DemoScene::meshes
   std::vector<MappedVertex> vertices;  // three per triangle
-  int triangles_outside = 0;           // centroids in no block: mapped to the nearest block
+  int triangles_outside = 0;           // with a part in no block: mapped to the nearest block
+  int triangles_split = 0;             // cut at block boundaries into pieces in several blocks
 };
 
 // The renderer draws every mesh from one non-indexed vertex buffer, a MappedVertex per
@@ -57,15 +57,20 @@ inline constexpr std::size_t kLightMarkerCorners = 8 * 16 * 6;
 // "" when `corners` triangle corners fit in a vertex buffer of `limit` bytes; else the
 // problem, with the numbers (the one statement of the bound, for the glTF loader's estimate too).
 std::string vertex_buffer_problem(std::size_t corners, std::size_t limit = kMaxVertexBufferBytes);
-// Triangle corners (vertex buffer entries) the renderer draws for `scene`.
+// Triangle corners (vertex buffer entries) the renderer draws for `scene` before the static
+// meshes are cut at block boundaries: a lower bound of the mapped count, known before mapping.
 std::size_t drawn_corner_count(const DemoScene& scene);
+// The corners drawn once the static meshes are `mapped` (map_to_proxies): exact.
+std::size_t drawn_corner_count(const DemoScene& scene, std::span<const MappedMesh> mapped);
 // Fails with resource_limit, giving the corner count, the buffer's bytes and `limit`, when the
-// vertex buffer for `scene` would exceed `limit` bytes.
+// vertex buffer for `scene` would exceed `limit` bytes (the unmapped count above).
 Status check_vertex_buffer_size(const DemoScene& scene, std::size_t limit = kMaxVertexBufferBytes);
 
 // Maps every static mesh of `scene` onto `level` (built from scene.level). Fails when the
-// level has no atlas, a mesh's arrays disagree in size (naming the mesh) or the scene's vertex
-// buffer would exceed kMaxVertexBufferBytes (check_vertex_buffer_size, before expanding).
+// level has no atlas, a mesh's arrays disagree in size or its data is bad (naming the mesh,
+// the array and the index), or the scene's vertex buffer would exceed kMaxVertexBufferBytes:
+// checked before anything is expanded, first on the unmapped count, then on the exact count
+// of the cut meshes (mesh_lightmap_corner_count).
 Result<std::vector<MappedMesh>> map_to_proxies(const DemoScene& scene, const Level& level);
 
 }  // namespace modrt::demo

@@ -9,6 +9,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include <modrt/modrt.h>
 
@@ -68,6 +69,58 @@ int main(int argc, char** argv) {
   free(bytes); /* the level keeps no reference to the bytes */
   modrt_level_info info = {sizeof(modrt_level_info)};
   CHECK(modrt_level_get_info(level, &info));
+
+  /* Lightmap coordinates for the app's own mesh: a floor quad over the whole level, in an
+   * interleaved vertex buffer (position, normal, uv), cut at block boundaries. */
+  {
+    const float y = info.bounds_min[1];
+    const float x0 = info.bounds_min[0], x1 = info.bounds_max[0], z0 = info.bounds_min[2],
+                z1 = info.bounds_max[2];
+    const float vb[4][8] = {{x0, y, z0, 0, 1, 0, 0, 0},
+                            {x1, y, z0, 0, 1, 0, 1, 0},
+                            {x1, y, z1, 0, 1, 0, 1, 1},
+                            {x0, y, z1, 0, 1, 0, 0, 1}};
+    const uint32_t indices[6] = {0, 2, 1, 0, 3, 2};
+    modrt_mesh_input mesh;
+    modrt_mesh_input_init(&mesh);
+    mesh.positions = &vb[0][0];
+    mesh.position_stride = sizeof vb[0];
+    mesh.normals = &vb[0][3];
+    mesh.normal_stride = sizeof vb[0];
+    mesh.vertex_count = 4;
+    mesh.indices = indices;
+    mesh.index_count = 6;
+    size_t bound = 0, written = 0;
+    CHECK(modrt_level_map_mesh_bound(level, &mesh, &bound));
+    modrt_mapped_corner* corners = malloc(bound * sizeof *corners);
+    modrt_mesh_map_stats stats = {sizeof(modrt_mesh_map_stats)};
+    CHECK(modrt_level_map_mesh(level, &mesh, corners, bound, &written, &stats));
+    for (size_t i = 0; i < written; ++i)
+      if (!(corners[i].lightmap[0] >= 0.0f && corners[i].lightmap[0] <= (float)info.atlas_width &&
+            corners[i].lightmap[1] >= 0.0f && corners[i].lightmap[1] <= (float)info.atlas_height)) {
+        fprintf(stderr, "mapped corner %zu: lightmap (%g, %g) outside the atlas\n", i, corners[i].lightmap[0],
+                corners[i].lightmap[1]);
+        return 1;
+      }
+    free(corners);
+    printf("floor quad: %zu triangles mapped to %zu (%zu cut at block boundaries)\n", stats.triangles,
+           written / 3, stats.split_triangles);
+    if (written != bound || stats.split_triangles == 0) {
+      fprintf(stderr, "expected the floor quad cut into the bound's %zu corners, got %zu\n", bound, written);
+      return 1;
+    }
+    /* A NaN position is named. */
+    float bad[4][8];
+    memcpy(bad, vb, sizeof bad);
+    bad[1][0] = NAN;
+    mesh.positions = &bad[0][0];
+    s = modrt_level_map_mesh_bound(level, &mesh, &bound);
+    if (s != MODRT_ERROR_NON_FINITE || !strstr(modrt_last_error(), "positions[1]")) {
+      fprintf(stderr, "NaN position: expected MODRT_ERROR_NON_FINITE naming positions[1], got %s (%s)\n",
+              modrt_status_name(s), modrt_last_error());
+      return 1;
+    }
+  }
 
   modrt_context_options options;
   modrt_context_options_init(&options);

@@ -29,7 +29,9 @@
  * the caller sets to sizeof(the struct) (the *_init functions do, or `= {sizeof(T)}` in C), so
  * that later versions can add fields at the end and tell which layout a caller was built with.
  * This version has one layout of each; any other struct_size is MODRT_ERROR_INVALID_ARGUMENT,
- * naming the argument and the size expected.
+ * naming the argument and the size expected. The records of an array the library fills
+ * (modrt_mapped_corner) have no struct_size: their layout is this header's, and a later
+ * layout comes with a new function.
  *
  * Memory. Loading and context creation allocate; the per-frame calls (set_lights, set_ld,
  * update, the queries and reads) do not allocate (outside an error message on failure). The
@@ -289,6 +291,78 @@ typedef struct modrt_skip_stats {
   uint64_t light_blocks_kept;
 } modrt_skip_stats;
 MODRT_API modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out);
+
+/* ------------------------------------------------------------------------------------------
+ * Lightmap coordinates for the app's own static meshes (MRT §7.2's proxy mapping; core's
+ * modrt/mesh_lightmap_uv.h has the details). Every triangle of a mesh given in world space is
+ * assigned to one present face of the level block containing it and projected onto that face
+ * through the block's warp, which gives atlas texel coordinates inside that face's tile: draw
+ * the mesh sampling the padded atlas (modrt_context_get_atlas_texture / _data) there.
+ * Triangles that cross the shared face of two blocks are cut along it (exactly for unwarped
+ * blocks and flat faces; a triangle crossing a twisted warped face stays whole and goes to the
+ * block containing its centroid), so that no output triangle straddles two tiles. The output
+ * is a non-indexed triangle list: three modrt_mapped_corner per output triangle.
+ *
+ * Call sequence (at load time; both calls allocate scratch with operator new):
+ *   modrt_mesh_input mesh;  modrt_mesh_input_init(&mesh);  ...set the pointers and counts...
+ *   size_t corners;  modrt_level_map_mesh_bound(level, &mesh, &corners);
+ *   allocate corners * sizeof(modrt_mapped_corner);
+ *   modrt_level_map_mesh(level, &mesh, out, corners, &written, NULL);   // written == corners
+ * How many pieces a triangle makes depends on how many blocks it spans, so the bound is
+ * computed from the level and the mesh (the same cutting, without writing): it is exact. */
+typedef struct modrt_mesh_input {
+  uint32_t struct_size; /* sizeof(modrt_mesh_input): set by modrt_mesh_input_init */
+  /* World x, y, z (3 floats) of vertex i at (const char*)positions + i * position_stride;
+   * likewise the normals (finite, not zero; they need not be unit). A stride of 0 means 3
+   * floats (tight); otherwise at least 12. Interleaved vertex buffers work as they are. */
+  const float* positions;
+  size_t position_stride;
+  const float* normals;
+  size_t normal_stride;
+  size_t vertex_count;
+  const uint32_t* indices; /* three per triangle, each < vertex_count */
+  size_t index_count;      /* a multiple of 3 */
+} modrt_mesh_input;
+
+/* Zeroes `mesh` and sets struct_size (tight strides). Null is ignored. */
+MODRT_API void modrt_mesh_input_init(modrt_mesh_input* mesh);
+
+/* One corner of an output triangle. */
+typedef struct modrt_mapped_corner {
+  float position[3]; /* world: an input vertex's own, or a point on a cut */
+  float normal[3];   /* the input normal, interpolated and normalised on cuts */
+  /* Atlas texel coordinates (continuous; x + 0.5 is a texel centre) in the padded atlas:
+   * divide by atlas_width / atlas_height for [0, 1] texture coordinates. */
+  float lightmap[2];
+  /* The face's OHLSH frame in world space (vector irradiance is in this frame). */
+  float face_u[3], face_v[3];
+  /* Weights of the source triangle's corners 0, 1, 2 at this corner: interpolate the app's
+   * own attributes (UVs, tangents, colours) with them. An input vertex has one weight 1. */
+  float barycentric[3];
+  uint32_t triangle; /* source triangle: indices[3 * triangle + k] */
+  uint32_t block;    /* level block whose tile is sampled */
+  uint32_t face;     /* its canonical face (0..5: -X, +X, -Y, +Y, -Z, +Z) */
+  uint32_t outside;  /* nonzero: the piece lies in no block and was mapped to the nearest one */
+} modrt_mapped_corner;
+
+typedef struct modrt_mesh_map_stats {
+  uint32_t struct_size;     /* set by the caller: sizeof(modrt_mesh_map_stats) */
+  size_t triangles;         /* input triangles */
+  size_t split_triangles;   /* cut into pieces in more than one block */
+  size_t triangles_outside; /* with a part in no block (mapped to the nearest block) */
+  size_t corners;           /* output corners, 3 per output triangle */
+} modrt_mesh_map_stats;
+
+/* The exact number of corners modrt_level_map_mesh writes for `mesh`. Fails as it does. */
+MODRT_API modrt_status modrt_level_map_mesh_bound(const modrt_level* level, const modrt_mesh_input* mesh,
+                                                  size_t* corners);
+/* Maps `mesh` onto `level` into out[0 .. *written). capacity: corners `out` holds; fewer
+ * than the bound is MODRT_ERROR_INVALID_ARGUMENT with nothing written. Bad input is named:
+ * a non-finite position (MODRT_ERROR_NON_FINITE, "positions[i]"), an index out of range
+ * ("indices[i]"), a zero normal, a stride below 12 bytes, a null pointer. stats may be null. */
+MODRT_API modrt_status modrt_level_map_mesh(const modrt_level* level, const modrt_mesh_input* mesh,
+                                            modrt_mapped_corner* out, size_t capacity, size_t* written,
+                                            modrt_mesh_map_stats* stats);
 
 #ifdef __cplusplus
 } /* extern "C" */
