@@ -294,10 +294,14 @@ TEST(MeshLightmap, TriangleInsideOneBlockMatchesTheCentroidMapping) {
   for (int i = 0; i < 400; ++i) {
     const LevelBlock& b = level.blocks[std::size_t(rng() % level.blocks.size())];
     const glm::vec3 lo(b.corners[0]);
-    const glm::vec3 centre =
-        lo + glm::vec3(0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng), 0.2f + 0.6f * unit(rng));
+    // Coordinates drawn in a fixed order (unsequenced in one glm::vec3(...) call).
+    const auto draw = [&rng](std::uniform_real_distribution<float>& d) {
+      const float x = d(rng), y = d(rng), z = d(rng);
+      return glm::vec3(x, y, z);
+    };
+    const glm::vec3 centre = lo + glm::vec3(0.2f) + 0.6f * draw(unit);
     std::array<glm::vec3, 3> p;
-    for (glm::vec3& q : p) q = centre + 0.12f * glm::vec3(sym(rng), sym(rng), sym(rng));
+    for (glm::vec3& q : p) q = centre + 0.12f * draw(sym);
     glm::vec3 n = glm::cross(p[1] - p[0], p[2] - p[0]);
     if (glm::length(n) < 1e-4f) continue;
     mesh.add(p[0], p[1], p[2], glm::normalize(n));
@@ -338,11 +342,17 @@ TEST(MeshLightmap, RandomTrianglesAgainstBruteForce) {
       for (const glm::dvec3& c : b.corners) lo = glm::min(lo, c), hi = glm::max(hi, c);
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> unit(0.0, 1.0), sym(-1.0, 1.0);
+    // Coordinates drawn in a fixed order (x, y, z): the three draws inside one glm::dvec3(...)
+    // call are unsequenced, and GCC and clang would test different triangles.
+    const auto draw = [&rng](std::uniform_real_distribution<double>& d) {
+      const double x = d(rng), y = d(rng), z = d(rng);
+      return glm::dvec3(x, y, z);
+    };
     TestMesh mesh;
     for (int i = 0; i < 300; ++i) {
-      const glm::dvec3 centre = lo + glm::dvec3(unit(rng), unit(rng), unit(rng)) * (hi - lo);
+      const glm::dvec3 centre = lo + draw(unit) * (hi - lo);
       std::array<glm::vec3, 3> p;
-      for (glm::vec3& q : p) q = glm::vec3(centre + 1.25 * glm::dvec3(sym(rng), sym(rng), sym(rng)));
+      for (glm::vec3& q : p) q = glm::vec3(centre + 1.25 * draw(sym));
       const glm::vec3 n = glm::cross(p[1] - p[0], p[2] - p[0]);
       if (glm::length(n) < 1e-3f) continue;
       mesh.add(p[0], p[1], p[2], glm::normalize(n));

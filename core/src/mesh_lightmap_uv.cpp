@@ -16,6 +16,7 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 
 #include "modrt/checked_arithmetic.h"
 #include "modrt/cube.h"
@@ -500,12 +501,23 @@ class Mapper {
     return {block, true};
   }
 
-  // Canonical coordinates of world point x in block b, x first clamped to the block's box
-  // grown by a block: a no-op near the block, and far points (whose projection is clamped
-  // onto the face anyway) keep Newton on the warp finite.
+  // Canonical coordinates of world point x in block b. Newton on the warp is exact for an
+  // affine (e.g. sheared) block at any distance and converges near any block. Only when it
+  // does not converge (a far point of a trilinear warp) is x clamped to the block's box grown
+  // by a block first, which keeps q finite; such a point's projection is clamped onto the face
+  // anyway. (Clamping every far point in world space moved a sheared block's projections: the
+  // world axes are not the canonical ones.)
   glm::dvec3 canonical(std::uint32_t b, const glm::dvec3& x) const {
     const BlockRegion& r = regions_[b];
-    return world_to_block(level_.blocks[b], glm::clamp(x, r.lo - block_size_, r.hi + block_size_));
+    const LevelBlock& blk = level_.blocks[b];
+    const glm::dvec3 q = world_to_block(blk, x);
+    const glm::dvec3 lo = r.lo - block_size_, hi = r.hi + block_size_;
+    const bool near = glm::all(glm::greaterThanEqual(x, lo)) && glm::all(glm::lessThanEqual(x, hi));
+    if (near) return q;
+    const bool finite = std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
+    if (finite && glm::length(block_to_world(blk, q) - x) <= 1e-9 * (block_size_ + glm::length(x - r.lo)))
+      return q;
+    return world_to_block(blk, glm::clamp(x, lo, hi));
   }
 
   // Outputs `poly` (fan triangles) in its block (assign) on the face the surface faces.
