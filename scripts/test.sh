@@ -90,5 +90,11 @@ ctest_args=(--output-on-failure -j2 --timeout 900)
 # tracer crashes (signal 11) while llvmpipe's threads shut down; it happened once in 288 GL
 # tests and did not reproduce. A real failure fails the second run too.
 ((asan)) && ctest_args+=(--repeat until-pass:2)
+# Under ASan, the four longest numerical runs are left out (510 of the suite's ~1 500
+# sanitized CPU seconds): the rank sweeps of the bake, the 2 000-frame drift run, the
+# 1 000-iteration multi-bounce on maze41 and bench_quick repeat code that the shorter tests
+# run under the sanitizers too; they check convergence, and run in the default build.
+((asan)) && ctest_args+=(--exclude-regex
+  '^(ClosedAndDeadEnd/LowRank\.RandomLightsMatchFAndBeatTruncatedSvd/.*|Stress\.LongAnimatedRunDoesNotDrift|LevelMultiBounce\.FortyOneBlockMazeStaysBoundedOverThousandIterations|bench_quick)$')
 ctest --test-dir "$build_dir" "${ctest_args[@]}"
 echo "test.sh: all tests passed ($build_dir)"
