@@ -280,7 +280,7 @@ const LightSequence* light_sequence(int blocks) {
   if (const PresetLevel* pl = preset_level(blocks, 16, 32)) {
     out = std::make_unique<LightSequence>();
     const precompute::LevelScene scene(pl->level, pl->level.res);
-    const std::vector<float> albedo = precompute::level_albedo(pl->level, pl->description);
+    const std::vector<float> albedo = level_sample_albedo(pl->level);
     const glm::dvec3 centre = pl->description.lights.at(0).position;
     for (int f = 0; f < kLightFrames; ++f) {
       std::vector<LightDescription> lights = pl->description.lights;
@@ -349,7 +349,7 @@ const DirectLightScene* direct_light_scene() {
   const PresetLevel* pl = preset_level(41, 16, 32);
   if (!pl) return nullptr;
   scene = std::make_unique<DirectLightScene>();
-  scene->albedo = precompute::level_albedo(pl->level, pl->description);
+  scene->albedo = level_sample_albedo(pl->level);
   const glm::dvec3 centre = pl->description.lights.at(0).position;
   for (int spot = 0; spot < 2; ++spot)
     for (int f = 0; f < kLightFrames; ++f) {
@@ -487,7 +487,7 @@ void BM_DirectLightWarped(benchmark::State& state) {
     Result<Level> level =
         desc.ok() ? precompute::build_level(desc.value(), *dict) : Result<Level>(desc.status());
     if (!level.ok()) return std::unique_ptr<std::pair<Level, std::vector<float>>>();
-    std::vector<float> albedo = precompute::level_albedo(level.value(), desc.value());
+    std::vector<float> albedo = level_sample_albedo(level.value());
     return std::make_unique<std::pair<Level, std::vector<float>>>(std::move(level).value(),
                                                                   std::move(albedo));
   }();

@@ -153,7 +153,7 @@ const FixtureSlot& level_fixture(const Dictionary& dict, int blocks) {
   f->level = std::move(level).value();
   try {
     const precompute::LevelScene scene(f->level, f->level.res);
-    f->albedo = precompute::level_albedo(f->level, desc.value());
+    f->albedo = level_sample_albedo(f->level);
     f->ld_direct = precompute::level_direct_light(scene, desc->lights, f->albedo, kLightSamples);
   } catch (const std::exception& e) {
     slot.error = std::string("direct light: ") + e.what();

@@ -423,7 +423,7 @@ Status run_scene(const SuiteConfig& cfg, const SceneCase& sc, const Dictionary& 
 
   try {
     const precompute::LevelScene scene(level, 2);
-    const std::vector<float> albedo = precompute::level_albedo(level, sc.desc);
+    const std::vector<float> albedo = level_sample_albedo(level);
 
     // Single-block baselines: the dense F of the block and its truncated SVD.
     Matrix F;

@@ -95,7 +95,7 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   if (!level.ok()) return level.status();
   run->level_ = std::move(level).value();
   const Level& lv = run->level_;
-  const std::vector<float> albedo = precompute::level_albedo(lv, scene.level);
+  const std::vector<float> albedo = level_sample_albedo(lv);
   Result<std::vector<MappedMesh>> mapped = map_to_proxies(scene, lv);
   if (!mapped.ok()) return mapped.status();
   for (const MappedMesh& m : mapped.value()) {

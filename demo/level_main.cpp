@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
   try {
     const auto td = std::chrono::steady_clock::now();
     const precompute::LevelScene scene(level.value(), level->res);
-    albedo = precompute::level_albedo(level.value(), desc.value());
+    albedo = level_sample_albedo(level.value());
     // Progress on stderr once the pass has run 2 s (a long level takes minutes).
     bool shown = false;
     ld = precompute::level_direct_light(scene, desc->lights, albedo, 16, [&](double fraction) {

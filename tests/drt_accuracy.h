@@ -105,7 +105,7 @@ inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
   const Level level = build_level(s.description, dict()).value();
   const LevelScene scene(level, level.res, s.clutter);
   const std::vector<float> ld =
-      level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8);
+      level_direct_light(scene, s.description.lights, level_sample_albedo(level), 8);
   const Frame f = evaluate_mrt(level, ld);
 
   const auto t0 = std::chrono::steady_clock::now();

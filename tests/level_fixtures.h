@@ -44,7 +44,7 @@ inline const std::vector<TestLevel>& test_levels() {
       }
       t.level = std::move(level).value();
       const precompute::LevelScene scene(t.level, t.level.res);
-      t.albedo = precompute::level_albedo(t.level, t.description);
+      t.albedo = level_sample_albedo(t.level);
       t.ld = precompute::level_direct_light(scene, t.description.lights, t.albedo, 4);
       out.push_back(std::move(t));
     }

@@ -268,7 +268,7 @@ TEST(CpuDirectLight, ShadowedPointLightsMatchEmbree) {
   const LevelDescription desc = precompute::generate_maze(ms).value();
   Result<Level> level = precompute::build_level(desc, dict());
   ASSERT_TRUE(level.ok()) << level.status().to_string();
-  const std::vector<float> albedo = precompute::level_albedo(level.value(), desc);
+  const std::vector<float> albedo = level_sample_albedo(level.value());
   const auto horizontal = [](const LevelSampleGeometry& g, std::size_t s) {
     return std::abs(g.normal[s].y) > 0.9;
   };
@@ -286,8 +286,8 @@ TEST(CpuDirectLight, ShadowedPointLightsMatchEmbree) {
   open.blocks[0].faces &= FaceMask(~(1u << kFaceNegZ));
   Result<Level> open_level = precompute::build_level(open, dict());
   ASSERT_TRUE(open_level.ok());
-  const ShadowCompare o = compare_with_embree(open_level.value(), open,
-                                              precompute::level_albedo(open_level.value(), open), off, every);
+  const ShadowCompare o =
+      compare_with_embree(open_level.value(), open, level_sample_albedo(open_level.value()), off, every);
   std::printf("  shadows vs Embree open corridor: rel L2 %.3g, %zu of %zu lit samples differ\n", o.rel_l2,
               o.differing, o.lit);
   EXPECT_LE(o.rel_l2, 1e-5);
@@ -338,7 +338,7 @@ const std::vector<ExtraLevel>& extra_levels() {
       Result<Level> level = precompute::build_level(desc, dict());
       EXPECT_TRUE(level.ok()) << name << ": " << level.status().to_string();
       if (!level.ok()) continue;
-      std::vector<float> albedo = precompute::level_albedo(level.value(), desc);
+      std::vector<float> albedo = level_sample_albedo(level.value());
       out.push_back({name, desc, std::move(level).value(), std::move(albedo)});
     }
     return out;
@@ -484,7 +484,7 @@ TEST(CpuDirectLight, DeepPortalChainFallsBackToTheRayWalk) {
   desc.lights.at(0).position = {0.513, 0.507, 0.489};
   Result<Level> level = precompute::build_level(desc, dict());
   ASSERT_TRUE(level.ok()) << level.status().to_string();
-  const std::vector<float> albedo = precompute::level_albedo(level.value(), desc);
+  const std::vector<float> albedo = level_sample_albedo(level.value());
   const auto every = [](const LevelSampleGeometry&, std::size_t) { return true; };
   const ShadowCompare r = compare_with_embree(level.value(), desc, albedo, glm::dvec3(0.0), every);
   std::printf("  shadows vs Embree 80-block corridor: rel L2 %.3g, %zu of %zu lit samples differ\n", r.rel_l2,

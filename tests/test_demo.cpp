@@ -163,7 +163,7 @@ TEST(DemoRender, LdPassMatchesRayTracedDirectLight) {
     l.intensity = light.intensity;
     const precompute::LevelScene rt(level, level.res);
     const std::vector<float> ref =
-        precompute::level_direct_light(rt, std::span(&l, 1), precompute::level_albedo(level, walls.level), 1);
+        precompute::level_direct_light(rt, std::span(&l, 1), level_sample_albedo(level), 1);
     const std::span<const float> ld = run.value()->ld();
     double num = 0, den = 0;
     for (std::size_t i = 0; i < ref.size(); ++i) {

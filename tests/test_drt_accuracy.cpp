@@ -61,7 +61,7 @@ struct MultiBounceAccuracy {
 MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* name, int bounces) {
   const Level level = build_level(s.description, dict()).value();
   const LevelScene scene(level, level.res, s.clutter);
-  const std::vector<float> albedo = level_albedo(level, s.description);
+  const std::vector<float> albedo = level_sample_albedo(level);
   const std::vector<float> ld = level_direct_light(scene, s.description.lights, albedo, 8);
   DrtBuildSettings settings;
   settings.rays = 512;

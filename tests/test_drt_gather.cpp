@@ -549,7 +549,7 @@ TEST(Drt, ClutterAwareProbesMatchTheDeltaOfADirectRadianceGather) {
   const Level level = build_level(s.description, dict()).value();
   const LevelScene scene(level, level.res, s.clutter), walls(level, level.res);
   const std::vector<float> ld =
-      level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8);
+      level_direct_light(scene, s.description.lights, level_sample_albedo(level), 8);
   const Frame f = evaluate_mrt(level, ld);
   DrtBuildSettings settings;
   settings.rays = 1024;

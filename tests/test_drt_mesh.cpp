@@ -89,7 +89,7 @@ TEST(DrtMesh, ABoxGivenAsAMeshGivesTheBoxsDeltas) {
     const std::vector<ClutterObject> objects{object};
     const LevelScene scene(level, level.res, objects);
     const std::vector<float> ld =
-        level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8);
+        level_direct_light(scene, s.description.lights, level_sample_albedo(level), 8);
     const Frame f = evaluate_mrt(level, ld);
     Out out;
     out.drt = builder.build(objects).value();

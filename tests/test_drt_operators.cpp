@@ -48,8 +48,8 @@ TEST(Drt, NoClutterMeansEmptyOperatorsAndABitIdenticalLightmap) {
   EXPECT_EQ(sz.c + sz.clutter_ld + sz.clutter_lightmap, 0u);
   EXPECT_TRUE(check_drt_operators(level, drt).ok());
   const LevelScene scene(level, level.res);
-  const Frame f = evaluate_mrt(
-      level, level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8));
+  const Frame f =
+      evaluate_mrt(level, level_direct_light(scene, s.description.lights, level_sample_albedo(level), 8));
   std::vector<float> lightmap = f.lightmap;
   EXPECT_TRUE(drt_compute_c(drt, {}, {}).ok());
   drt_apply(level, drt, f.b, {}, lightmap);
@@ -348,8 +348,8 @@ TEST(Drt, DroppedDUbRowsStayWithinTheirBound) {
   DrtBuildReport report;
   const DrtOperators kept = DrtBuilder(level, dict(), settings).build(s.clutter, &report).value();
   const LevelScene scene(level, level.res, s.clutter);
-  const Frame f = evaluate_mrt(
-      level, level_direct_light(scene, s.description.lights, level_albedo(level, s.description), 8));
+  const Frame f =
+      evaluate_mrt(level, level_direct_light(scene, s.description.lights, level_sample_albedo(level), 8));
   std::vector<float> c(drt_buffer_sizes(all).c, 0.0f), a = f.lightmap, k = f.lightmap;
   drt_apply(level, all, f.b, c, a);
   drt_apply(level, kept, f.b, c, k);

@@ -83,7 +83,7 @@ TEST(LevelAccuracy, InterfaceTransportMatchesOneBounceReference) {
   for (const NamedLevel& nl : accuracy_levels()) {
     const Level level = build(nl.description);
     const LevelScene scene(level, level.res);
-    const std::vector<float> albedo = level_albedo(level, nl.description);
+    const std::vector<float> albedo = level_sample_albedo(level);
     const std::vector<float> lit = level_direct_light(scene, nl.description.lights, albedo, 8);
     std::vector<float> source_only = lit;
     std::fill(source_only.begin() + 3 * std::ptrdiff_t(level.blocks[0].sample_count), source_only.end(),
@@ -131,7 +131,7 @@ TEST(LevelAccuracy, ResponseIsZeroWithoutAPathAndNonZeroWithOne) {
   EXPECT_TRUE(level.records.empty());
   EXPECT_TRUE(level.slots.empty());
   const LevelScene scene(level, level.res);
-  const std::vector<float> ld = level_direct_light(scene, closed.lights, level_albedo(level, closed), 4);
+  const std::vector<float> ld = level_direct_light(scene, closed.lights, level_sample_albedo(level), 4);
   const Frame f = evaluate(level, ld);
   EXPECT_GT(block_norm(level, 0, f.lightmap, nullptr), 0.0);
   EXPECT_EQ(block_norm(level, 1, f.lightmap, nullptr), 0.0);
@@ -200,7 +200,7 @@ void expect_symmetric(const LevelDescription& maze, bool mirror, double toleranc
   const std::vector<std::size_t> perm = sample_permutation(a, b, mirror);
   for (std::size_t p : perm) ASSERT_NE(p, SIZE_MAX) << "a sample has no image in the transformed level";
   const LevelScene scene(a, a.res);
-  const std::vector<float> ld_a = level_direct_light(scene, maze.lights, level_albedo(a, maze), 8);
+  const std::vector<float> ld_a = level_direct_light(scene, maze.lights, level_sample_albedo(a), 8);
   std::vector<float> ld_b(ld_a.size());
   for (std::size_t i = 0; i < perm.size(); ++i)
     for (int c = 0; c < 3; ++c) ld_b[3 * perm[i] + std::size_t(c)] = ld_a[3 * i + std::size_t(c)];
@@ -250,7 +250,7 @@ TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
   const LevelDescription maze = maze_level(11).value();
   const Level level = build(maze);
   const LevelScene scene(level, level.res);
-  const std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 8);
+  const std::vector<float> ld = level_direct_light(scene, maze.lights, level_sample_albedo(level), 8);
   const Frame f = evaluate(level, ld);
   const LightmapAtlas& atlas = level.atlas;
   std::vector<float> texels(3 * std::size_t(atlas.width) * std::size_t(atlas.height));
@@ -339,7 +339,7 @@ TEST(LevelEnergy, IndirectNeverExceedsTheClosedBoxBoundAndGrowsWithDmax) {
   for (int dmax : {0, 1, 2, 4, 8, 12}) {
     const Level level = build(maze, dmax);
     const LevelScene scene(level, level.res);
-    const std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 4);
+    const std::vector<float> ld = level_direct_light(scene, maze.lights, level_sample_albedo(level), 4);
     const Frame f = evaluate(level, ld);
     // One bounce on equal-area samples: what leaves all surfaces is at most what lands on
     // them (a closed box keeps all of it).
@@ -363,7 +363,7 @@ TEST(LevelMultiBounce, FortyOneBlockMazeStaysBoundedOverThousandIterations) {
   const LevelDescription maze = maze_level(41).value();
   const Level level = build(maze);
   const LevelScene scene(level, level.res);
-  std::vector<float> albedo = level_albedo(level, maze);
+  std::vector<float> albedo = level_sample_albedo(level);
   const std::vector<float> ld = level_direct_light(scene, maze.lights, albedo, 4);
   const LevelBufferSizes sizes = level_buffer_sizes(level, test_dictionary());
   std::vector<float> b(sizes.b), r(sizes.r), lightmap(sizes.lightmap);
@@ -392,7 +392,7 @@ TEST(LevelProbes, ProbesAroundACornerMatchBruteForceGather) {
   const LevelDescription l = l_corner_level();
   const Level level = build(l);
   const LevelScene scene(level, level.res);
-  std::vector<float> ld = level_direct_light(scene, l.lights, level_albedo(level, l), 8);
+  std::vector<float> ld = level_direct_light(scene, l.lights, level_sample_albedo(level), 8);
   // Keep only block 0's light so block 2 is lit through interfaces only.
   std::fill(ld.begin() + 3 * std::ptrdiff_t(level.blocks[1].sample_offset), ld.end(), 0.0f);
   const Frame f = evaluate(level, ld);
@@ -447,7 +447,7 @@ TEST(LevelVectorIrradiance, InterfaceResponseMatchesBruteForceOhlsh) {
   const LevelDescription maze = maze_level(11).value();
   const Level level = build(maze);
   const LevelScene scene(level, level.res);
-  std::vector<float> ld = level_direct_light(scene, maze.lights, level_albedo(level, maze), 8);
+  std::vector<float> ld = level_direct_light(scene, maze.lights, level_sample_albedo(level), 8);
   std::fill(ld.begin() + 3 * std::ptrdiff_t(level.blocks[0].sample_count), ld.end(), 0.0f);
   const Frame f = evaluate(level, ld);
   const LevelBufferSizes sizes = level_buffer_sizes(level, test_dictionary());

@@ -34,6 +34,9 @@ void reseal(std::vector<std::byte>& b) {
   put_u32(b, 60, crc32(std::span<const std::byte>(b).first(60)));
 }
 
+constexpr std::size_t kAlbedoOffset = kLevelFileBlockAlbedoOffset;
+constexpr std::size_t kBlockBytes = kLevelFileBlockBytes;
+
 void expect_same_matrix(const Matrix& a, const Matrix& b, const std::string& what) {
   EXPECT_EQ(a.rows, b.rows) << what;
   EXPECT_EQ(a.cols, b.cols) << what;
@@ -57,6 +60,7 @@ void expect_same_level(const Level& a, const Level& b) {
     EXPECT_EQ(x.neighbour, y.neighbour);
     EXPECT_EQ(x.sample_offset, y.sample_offset);
     EXPECT_EQ(x.sample_count, y.sample_count);
+    EXPECT_EQ(x.albedo, y.albedo);
   }
   ASSERT_EQ(a.slots.size(), b.slots.size());
   for (std::size_t s = 0; s < a.slots.size(); ++s) {
@@ -153,7 +157,12 @@ TEST(LevelFile, DamagedFilesAreRefusedWithNamedErrors) {
   b = good;
   put_u32(b, 8, kLevelFileVersion + 1);
   reseal(b);
-  expect_refused(b, ErrorCode::version_mismatch, "rebuild");
+  expect_refused(b, ErrorCode::version_mismatch, "rebuild the level with modrt-level --save");
+  // Version 1 (before per-face albedo) is refused by name, not decoded with a shifted layout.
+  b = good;
+  put_u32(b, 8, 1);
+  reseal(b);
+  expect_refused(b, ErrorCode::version_mismatch, "version 1 has no per-face albedo");
   b = good;
   b[20] ^= std::byte(1);  // kb, header checksum not updated
   expect_refused(b, ErrorCode::checksum_mismatch, "header checksum");
@@ -213,9 +222,9 @@ TEST(LevelFile, NonFiniteValuesAreRefusedOnWriteAndRead) {
   // The same NaN smuggled into a file with valid checksums.
   level.records[0].T.data[0] = good_value;
   std::vector<std::byte> b = serialized(level);
-  // Record 0's first value: after the blocks (244 bytes each), the slots (12 bytes plus
+  // Record 0's first value: after the blocks (kBlockBytes each), the slots (12 bytes plus
   // their row maps) and the record's source block, slot, rows and cols.
-  std::size_t at = kLevelFileHeaderBytes + level.blocks.size() * 244;
+  std::size_t at = kLevelFileHeaderBytes + level.blocks.size() * kBlockBytes;
   for (const ResponseSlot& slot : level.slots) at += 12 + 4 * slot.ur_row_to_sample.size();
   at += 16;
   ASSERT_LT(at + 4, b.size());
@@ -227,6 +236,40 @@ TEST(LevelFile, NonFiniteValuesAreRefusedOnWriteAndRead) {
   Result<Level> r = parse_level(b, "nan.modrtlevel");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::non_finite) << r.status().to_string();
+}
+
+TEST(LevelFile, PerFaceAlbedoRoundTripsAndIsChecked) {
+  // The authored per-face albedo (level JSON) is what a loaded level reflects with: corridor's
+  // red and green walls survive the file, and every sample of a face carries its face's albedo.
+  const test::TestLevel& t = test::test_level("corridor");
+  Result<Level> back = parse_level(serialized(t.level), "corridor.modrtlevel");
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(level_sample_albedo(back.value()), t.albedo);
+  bool coloured = false;
+  for (const LevelBlock& blk : back->blocks)
+    for (const glm::vec3& a : blk.albedo) coloured = coloured || a.r != a.g;
+  EXPECT_TRUE(coloured) << "corridor's coloured walls were lost";
+
+  // Out of [0, 1] or not finite: refused on write and on read, naming block, face and channel.
+  Level bad = t.level;
+  bad.blocks[1].albedo[3].g = 1.5f;
+  Result<std::vector<std::byte>> written = serialize_level(bad);
+  ASSERT_FALSE(written.ok());
+  EXPECT_NE(written.status().message().find("block 1: albedo of face 3 channel 1 is 1.5"), std::string::npos)
+      << written.status().message();
+  std::vector<std::byte> b = serialized(t.level);
+  put_u32(b, kLevelFileHeaderBytes + kAlbedoOffset + 4 * 2, 0x7F800000u);  // block 0, face 0, blue: +Inf
+  reseal(b);
+  Result<Level> r = parse_level(b, "inf.modrtlevel");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), ErrorCode::non_finite) << r.status().to_string();
+  EXPECT_NE(r.status().message().find("block 0: albedo of face 0 channel 2"), std::string::npos)
+      << r.status().message();
+  put_u32(b, kLevelFileHeaderBytes + kAlbedoOffset + 4 * 2, std::bit_cast<std::uint32_t>(-0.25f));
+  reseal(b);
+  r = parse_level(b, "negative.modrtlevel");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), ErrorCode::format_error) << r.status().to_string();
 }
 
 }  // namespace

@@ -103,7 +103,7 @@ TEST(LightPolicy, LightsOutOfReachGiveZeroOnEveryPath) {
   const LevelDescription corridor = precompute::corridor_level();
   const Level level = build(corridor);
   const precompute::LevelScene scene(level, level.res);
-  const std::vector<float> albedo = precompute::level_albedo(level, corridor);
+  const std::vector<float> albedo = level_sample_albedo(level);
   // Clutter: one box in block 0, for the DRT clutter direct light.
   ClutterObject box;
   box.block = 0;
@@ -192,7 +192,7 @@ TEST(LightPolicy, EmptyLevelBuildsAndLightsToNothing) {
   ASSERT_TRUE(level.ok()) << level.status().to_string();
   // Before: "Embree: cannot allocate level geometry".
   const precompute::LevelScene scene(level.value(), level->res);
-  const std::vector<float> albedo = precompute::level_albedo(level.value(), d.value());
+  const std::vector<float> albedo = level_sample_albedo(level.value());
   EXPECT_TRUE(precompute::level_direct_light(scene, d->lights, albedo, 16).empty());
   EXPECT_FALSE(scene.occluded(glm::dvec3(0.1), glm::dvec3(0.9)));
   EXPECT_EQ(scene.intersect(glm::dvec3(0.5), {1, 0, 0}).block, -1);
@@ -205,7 +205,7 @@ TEST(LightPolicy, PointLightsOnAndNearSurfacesAreBoundedByTheTexelFootprint) {
   const LevelDescription corridor = precompute::corridor_level();
   const Level level = build(corridor);
   const precompute::LevelScene scene(level, level.res);
-  const std::vector<float> albedo = precompute::level_albedo(level, corridor);
+  const std::vector<float> albedo = level_sample_albedo(level);
   const LevelSampleGeometry g = level_sample_geometry(level);
   const double area = block_texel_area(level.blocks[0].corners, level.res);
   // A floor texel of block 0 near its centre.

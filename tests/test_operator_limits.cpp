@@ -177,9 +177,9 @@ TEST(OperatorLimits, PokedLevelResponseIsRefusedNamingIt) {
   Result<Level> level = parse_level(clean, "clean");
   ASSERT_TRUE(level.ok()) << level.status().to_string();
   ASSERT_FALSE(level->records.empty());
-  // Record 0's T[0,0] from the layout (level_io.h): header, blocks of 244 bytes, slots of
-  // 12 + 4 n bytes, then record 0's four u32 fields.
-  std::size_t at = kLevelFileHeaderBytes + 244 * level->blocks.size();
+  // Record 0's T[0,0] from the layout (level_io.h): header, blocks, slots of 12 + 4 n bytes,
+  // then record 0's four u32 fields.
+  std::size_t at = kLevelFileHeaderBytes + kLevelFileBlockBytes * level->blocks.size();
   for (const ResponseSlot& slot : level->slots) at += 12 + 4 * slot.ur_row_to_sample.size();
   at += 16;
   ASSERT_LE(at + 4, clean.size());

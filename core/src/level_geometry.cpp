@@ -70,4 +70,24 @@ LevelSampleGeometry level_sample_geometry(const Level& level) {
   return g;
 }
 
+void level_sample_albedo(const Level& level, std::span<float> out) {
+  for (const LevelBlock& b : level.blocks) {
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int s = 0; s < layout.sample_count(); ++s) {
+      const std::size_t k = 3 * (b.sample_offset + std::size_t(s));
+      if (k + 3 > out.size()) return;  // the caller's buffer is checked; never write past it
+      const glm::vec3& a = b.albedo[std::size_t(layout.face_of(s))];
+      out[k] = a.r;
+      out[k + 1] = a.g;
+      out[k + 2] = a.b;
+    }
+  }
+}
+
+std::vector<float> level_sample_albedo(const Level& level) {
+  std::vector<float> albedo(3 * std::size_t(level.sample_count));
+  level_sample_albedo(level, albedo);
+  return albedo;
+}
+
 }  // namespace modrt

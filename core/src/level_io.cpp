@@ -3,6 +3,7 @@
 
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "modrt/file_io.h"
@@ -136,6 +137,18 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
     for (const glm::dvec3& c : blk.corners)
       if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z))
         return invalid(ErrorCode::non_finite, what, name + ": a corner is not finite");
+    for (int f = 0; f < kFaceCount; ++f)
+      for (int c = 0; c < 3; ++c) {
+        const float a = blk.albedo[std::size_t(f)][c];
+        const std::string field =
+            name + ": albedo of face " + std::to_string(f) + " channel " + std::to_string(c);
+        if (!std::isfinite(a)) return invalid(ErrorCode::non_finite, what, field + " is not finite");
+        if (a < 0.0f || a > 1.0f) {
+          char value[32];
+          std::snprintf(value, sizeof value, "%.9g", double(a));
+          return invalid(code, what, field + " is " + value + ", not in [0, 1]");
+        }
+      }
     if (blk.sample_offset != offset) return invalid(code, what, name + ": sample offsets are not contiguous");
     offset += blk.sample_count;
   }
@@ -224,6 +237,11 @@ Result<std::vector<std::byte>> serialize_level(const Level& level) {
     for (std::int32_t n : blk.neighbour) body.i32(n);
     body.u32(blk.sample_offset);
     body.u32(blk.sample_count);
+    for (const glm::vec3& a : blk.albedo) {
+      body.f32(a.r);
+      body.f32(a.g);
+      body.f32(a.b);
+    }
   }
   for (const ResponseSlot& slot : level.slots) {
     body.u32(slot.block);
@@ -298,9 +316,11 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
     return error(ErrorCode::format_error, "not a modrt level file (bad magic; expected \"MODRTLVL\")");
   const std::uint32_t version = header_u32(bytes, 8);
   if (version != kLevelFileVersion)
-    return error(ErrorCode::version_mismatch, "format version " + std::to_string(version) +
-                                                  ", this build reads " + std::to_string(kLevelFileVersion) +
-                                                  ": rebuild the level");
+    return error(ErrorCode::version_mismatch,
+                 "format version " + std::to_string(version) + ", this build reads " +
+                     std::to_string(kLevelFileVersion) +
+                     (version == 1 ? " (version 1 has no per-face albedo)" : "") +
+                     ": rebuild the level with modrt-level --save");
   if (header_u32(bytes, 12) != kLevelFileHeaderBytes)
     return error(ErrorCode::format_error, "header size " + std::to_string(header_u32(bytes, 12)) +
                                               " is not " + std::to_string(kLevelFileHeaderBytes));
@@ -335,7 +355,8 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
 
   Reader in(body_span, what);
   // Smallest encoded sizes bound the counts before anything is allocated.
-  constexpr std::uint64_t kBlockBytes = 4 * 5 + 8 * 24 + 4 * kFaceCount + 8;
+  constexpr std::uint64_t kBlockBytes = kLevelFileBlockBytes;
+  static_assert(kFaceCount == 6, "the block layout has 6 faces");
   if (in.fits("blocks", block_count, kBlockBytes)) level.blocks.resize(block_count);
   for (std::uint32_t i = 0; i < block_count && in.ok(); ++i) {
     LevelBlock& blk = level.blocks[i];
@@ -353,6 +374,11 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
     for (std::int32_t& n : blk.neighbour) n = in.i32(f + " neighbour");
     blk.sample_offset = in.u32(f + " sample_offset");
     blk.sample_count = in.u32(f + " sample_count");
+    for (glm::vec3& a : blk.albedo) {
+      a.r = in.f32(f + " albedo");
+      a.g = in.f32(f + " albedo");
+      a.b = in.f32(f + " albedo");
+    }
   }
   if (in.fits("slots", slot_count, 12)) level.slots.resize(slot_count);
   for (std::uint32_t s = 0; s < slot_count && in.ok(); ++s) {

@@ -255,6 +255,7 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
       b.neighbour[std::size_t(f)] = connectivity->connected[i][std::size_t(world)]
                                         ? connectivity->neighbour[i][std::size_t(world)]
                                         : -1;
+      b.albedo[std::size_t(f)] = glm::vec3(d.albedo[std::size_t(world)]);
     }
     b.sample_offset = offset;
     b.sample_count = std::uint32_t(face_count(dictionary_shape_mask(b.shape)) * level.res * level.res);

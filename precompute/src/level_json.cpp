@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "modrt/file_io.h"
+#include "modrt/level.h"
 #include "modrt/light_policy.h"
 
 namespace modrt::precompute {
@@ -28,7 +29,7 @@ using json = nlohmann::json;
 using ordered_json = nlohmann::ordered_json;
 
 constexpr int kMaxCellCoordinate = (1 << 20) - 1;  // validate_level's limit
-constexpr glm::dvec3 kDefaultAlbedo{0.7, 0.7, 0.7};
+constexpr glm::dvec3 kDefaultAlbedo{kDefaultFaceAlbedo, kDefaultFaceAlbedo, kDefaultFaceAlbedo};
 
 // Internal: thrown by the helpers below, caught in parse_level_json.
 struct ParseFailure {

@@ -351,21 +351,6 @@ bool LevelScene::occluded_from(int block, const glm::dvec3& origin, const glm::d
   return embree_occluded(impl_->scene, origin, target, t_near);
 }
 
-std::vector<float> level_albedo(const Level& level, const LevelDescription& description) {
-  std::vector<float> albedo(3 * std::size_t(level.sample_count));
-  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
-    const LevelBlock& b = level.blocks[bi];
-    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
-    for (int s = 0; s < layout.sample_count(); ++s) {
-      const int world_face = rotate_face(layout.face_of(s), b.quarter_turns);
-      const glm::dvec3& a = description.blocks[bi].albedo[std::size_t(world_face)];
-      for (int c = 0; c < 3; ++c)
-        albedo[3 * (b.sample_offset + std::size_t(s)) + std::size_t(c)] = float(a[c]);
-    }
-  }
-  return albedo;
-}
-
 std::vector<double> level_texel_areas(const Level& level) {
   std::vector<double> area;
   area.reserve(level.blocks.size());

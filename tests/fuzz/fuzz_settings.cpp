@@ -146,7 +146,7 @@ const Corridor* corridor() {
     Result<Level> level = precompute::build_level(out->desc, out->dict);
     if (!level.ok()) std::abort();
     out->level = std::move(level.value());
-    out->albedo = precompute::level_albedo(out->level, out->desc);
+    out->albedo = level_sample_albedo(out->level);
     return out;
   }();
   return c;

@@ -199,7 +199,7 @@ def level_layout(b):
     """Byte offsets into a .modrtlevel (level_io.h): first block's corners, first record's T."""
     blocks, samples, slots, records = u32(b, 28), u32(b, 32), u32(b, 36), u32(b, 40)
     at = 64
-    block_bytes = 4 + 4 + 12 + 8 * 24 + 24 + 4 + 4
+    block_bytes = 4 + 4 + 12 + 8 * 24 + 24 + 4 + 4 + 4 * 18  # ... sample_count, f32 albedo[6][3]
     corners = at + 20
     at += blocks * block_bytes
     for _ in range(slots):

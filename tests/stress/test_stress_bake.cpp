@@ -399,7 +399,7 @@ TEST(StressBake, ExtremeDictionarySettingsBakeBuildAndRun) {
     ASSERT_TRUE(built.ok()) << c.name << ": " << built.status().to_string();
     const Level& level = built.value();
     const LevelScene scene(level, level.res);
-    const std::vector<float> albedo = level_albedo(level, maze);
+    const std::vector<float> albedo = level_sample_albedo(level);
     const std::vector<float> ld = level_direct_light(scene, maze.lights, albedo, 1);
     Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(level, dict);
     ASSERT_TRUE(rt.ok()) << rt.status().to_string();

@@ -113,7 +113,7 @@ TEST(StressWarp, ExtremeWarpsBuildAndStayFinite) {
         "<= 1e-9, finite", worst_normal <= 1e-9 && positions_finite))
         << w.name;
 
-    const std::vector<float> albedo = level_albedo(level, d);
+    const std::vector<float> albedo = level_sample_albedo(level);
     const LevelScene scene(level, level.res);
     const std::vector<float> ld_ref = level_direct_light(scene, d.lights, albedo, 1);
     Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(level, albedo);

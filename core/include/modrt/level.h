@@ -17,6 +17,9 @@
 
 namespace modrt {
 
+// Albedo of a face that the level's author did not colour (level JSON's `default_albedo`).
+inline constexpr double kDefaultFaceAlbedo = 0.7;
+
 struct LevelBlock {
   int shape = 0;          // dictionary shape index
   int quarter_turns = 0;  // world = rotate(canonical, quarter_turns)
@@ -25,6 +28,16 @@ struct LevelBlock {
   std::array<int, kFaceCount> neighbour{};  // per canonical face: connected block, or -1
   std::uint32_t sample_offset = 0;
   std::uint32_t sample_count = 0;
+  // Diffuse reflectance (linear RGB, each channel in [0, 1]) per *canonical* face: the
+  // authored albedo of world face rotate_face(f, quarter_turns). Every sample of a face
+  // reflects its face's albedo (level_sample_albedo, level_geometry.h).
+  std::array<glm::vec3, kFaceCount> albedo = uniform_face_albedo(float(kDefaultFaceAlbedo));
+
+  static std::array<glm::vec3, kFaceCount> uniform_face_albedo(float a) {
+    std::array<glm::vec3, kFaceCount> out{};
+    for (glm::vec3& v : out) v = glm::vec3(a);
+    return out;
+  }
 };
 
 // r(slot) = sum over records of T * b(source); slot = light entering `block` through its

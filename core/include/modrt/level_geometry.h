@@ -5,6 +5,7 @@
 // evaluator and by precompute (Embree scene, references, path tracer).
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -33,5 +34,11 @@ struct LevelSampleGeometry {
   std::vector<int> face;   // canonical face per sample
 };
 LevelSampleGeometry level_sample_geometry(const Level& level);
+
+// Albedo of every level sample (3 x samples, RGB interleaved, in level sample order): its
+// face's LevelBlock::albedo. The span form fills `out` (which must hold 3 x samples floats)
+// without allocating.
+std::vector<float> level_sample_albedo(const Level& level);
+void level_sample_albedo(const Level& level, std::span<float> out);
 
 }  // namespace modrt

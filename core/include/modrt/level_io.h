@@ -4,7 +4,7 @@
 // loads it without the precompute library. Read from a path or from a memory buffer (an
 // app bundle's asset). This comment is the contract.
 //
-// ## Layout (format version 1)
+// ## Layout (format version 2; version 1 had no per-face albedo and is refused)
 //
 // All integers are little-endian; floats are IEEE-754 binary32 stored by their bit pattern
 // as a u32, doubles binary64 as a u64. Offsets are from the start of the file.
@@ -29,7 +29,8 @@
 // Body, in this order (every count below is checked against the bytes left before it is
 // used to allocate):
 //   blocks      per block: i32 shape, i32 quarter_turns, i32 cell[3], f64 corners[8][3],
-//               i32 neighbour[6], u32 sample_offset, u32 sample_count
+//               i32 neighbour[6], u32 sample_offset, u32 sample_count,
+//               f32 albedo[6][3] (per canonical face, linear RGB in [0, 1])
 //   slots       per slot: u32 block, i32 entry_face, u32 n, i32 ur_row_to_sample[n]
 //   records     per record: u32 source_block, u32 slot, u32 rows, u32 cols, f32 T[rows*cols]
 //   probe_response[6], then vector_response[6]: u32 rows, u32 cols, f32 values[rows*cols]
@@ -57,9 +58,12 @@
 
 namespace modrt {
 
-inline constexpr std::uint32_t kLevelFileVersion = 1;
+inline constexpr std::uint32_t kLevelFileVersion = 2;
 inline constexpr char kLevelFileMagic[8] = {'M', 'O', 'D', 'R', 'T', 'L', 'V', 'L'};
 inline constexpr std::size_t kLevelFileHeaderBytes = 64;
+// Bytes of one encoded block (the body's first part), and where its albedo starts in it.
+inline constexpr std::size_t kLevelFileBlockAlbedoOffset = 4 * 5 + 8 * 24 + 4 * 6 + 8;
+inline constexpr std::size_t kLevelFileBlockBytes = kLevelFileBlockAlbedoOffset + 4 * 3 * 6;
 // load_level refuses larger files; serialize_level refuses to produce them.
 inline constexpr std::uint64_t kMaxLevelFileBytes = std::uint64_t(1) << 30;  // 1 GiB
 

@@ -12,6 +12,7 @@
 #include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/level_description.h"
+#include "modrt/level_geometry.h"
 #include "modrt/precompute/level_build.h"
 
 namespace modrt::precompute {
@@ -82,8 +83,5 @@ std::vector<float> level_direct_light(const LevelScene& scene, std::span<const L
 // rays; hits sample ld bilinearly on the hit face's texel grid (RGB, 3N).
 std::vector<float> level_one_bounce(const LevelScene& scene, std::span<const float> ld, int rays,
                                     std::uint64_t seed);
-
-// Per-sample RGB albedo (3N) of a built level from its description (per world face).
-std::vector<float> level_albedo(const Level& level, const LevelDescription& description);
 
 }  // namespace modrt::precompute
