@@ -26,18 +26,23 @@
 #include <thread>
 #include <vector>
 
+#include <glm/geometric.hpp>
+
 #include "counting_allocator.h"
 #include "level_fixtures.h"
 #include "modrt/cpu/cpu_backend.h"
+#include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/cube.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_io.h"
+#include "modrt/level_runtime.h"
 #include "modrt/modrt.h"
 #include "modrt/modrt.hpp"
 #include "modrt/platform/gl_context.h"
+#include "modrt/reference_runtime.h"
 #include "modrt/sh.h"
 #include "test_support.h"
 
@@ -117,7 +122,7 @@ std::vector<float> read_atlas(modrt_context* c) {
 
 TEST(CApi, VersionAndStatusNames) {
   EXPECT_EQ(modrt_version(), std::uint32_t(MODRT_VERSION));
-  EXPECT_STREQ(modrt_version_string(), "0.2.0");
+  EXPECT_STREQ(modrt_version_string(), "0.3.0");
   EXPECT_STREQ(modrt_status_name(MODRT_ERROR_FORMAT), "MODRT_ERROR_FORMAT");
   EXPECT_STREQ(modrt_status_name(modrt_status(99)), "MODRT_ERROR_UNKNOWN");
 }
@@ -350,6 +355,157 @@ TEST(CApi, LightsGiveTheDirectLightEvaluatorsLd) {
   EXPECT_GT(k.light_blocks_recomputed, 0u);
   // Frames 1 and 2 move the point and the spot only: some blocks keep their ld.
   EXPECT_GT(k.light_blocks_kept, 0u);
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
+// The level tells an app what it needs to light its samples itself: the authored per-face
+// albedo (checked against the level description's world faces, through the block's turn), each
+// sample's position, normal, block and face (against level_sample_geometry), and every block.
+TEST(CApi, LevelGivesAlbedoSamplesAndBlocks) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_level* l = load_level_handle();
+  const std::size_t n = t.level.sample_count;
+
+  std::vector<float> albedo(3 * n, -1.0f);
+  ASSERT_EQ(modrt_level_get_albedo(l, albedo.data(), albedo.size()), MODRT_OK) << modrt_last_error();
+  const LevelSampleGeometry g = level_sample_geometry(t.level);
+  bool coloured = false;
+  for (std::size_t s = 0; s < n; ++s) {
+    const LevelBlock& b = t.level.blocks[std::size_t(g.block[s])];
+    const glm::dvec3& want = t.description.blocks[std::size_t(g.block[s])]
+                                 .albedo[std::size_t(rotate_face(g.face[s], b.quarter_turns))];
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(albedo[3 * s + std::size_t(c)], float(want[c])) << "sample " << s;
+    coloured = coloured || want.r != want.g;
+  }
+  EXPECT_TRUE(coloured) << "maze11 has red, green and blue walls";
+
+  std::vector<modrt_level_sample> samples(n);
+  ASSERT_EQ(modrt_level_get_samples(l, samples.data(), samples.size()), MODRT_OK) << modrt_last_error();
+  for (std::size_t s = 0; s < n; ++s) {
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_EQ(samples[s].position[a], float(g.position[s][a])) << s;
+      ASSERT_EQ(samples[s].normal[a], float(g.normal[s][a])) << s;
+    }
+    ASSERT_EQ(samples[s].block, std::uint32_t(g.block[s]));
+    ASSERT_EQ(samples[s].face, std::uint32_t(g.face[s]));
+  }
+
+  for (std::uint32_t i = 0; i < t.level.blocks.size(); ++i) {
+    const LevelBlock& b = t.level.blocks[i];
+    modrt_level_block out = modrt::rt::sized<modrt_level_block>();
+    ASSERT_EQ(modrt_level_get_block(l, i, &out), MODRT_OK) << modrt_last_error();
+    EXPECT_EQ(out.shape, std::uint32_t(b.shape));
+    EXPECT_EQ(out.quarter_turns, std::uint32_t(b.quarter_turns));
+    EXPECT_EQ(out.face_mask, std::uint32_t(dictionary_shape_mask(b.shape)));
+    EXPECT_EQ(out.cell[0], b.cell.x);
+    EXPECT_EQ(out.cell[2], b.cell.z);
+    EXPECT_EQ(out.corners[7][1], float(b.corners[7].y));
+    EXPECT_EQ(out.sample_offset, b.sample_offset);
+    EXPECT_EQ(out.sample_count, b.sample_count);
+    for (int f = 0; f < kFaceCount; ++f) {
+      EXPECT_EQ(out.world_face[f], std::uint32_t(rotate_face(f, b.quarter_turns)));
+      EXPECT_EQ(out.neighbour[f], b.neighbour[std::size_t(f)]);
+      EXPECT_EQ(out.tile_x[f], t.level.atlas.tile_origin_x[i][std::size_t(f)]);
+      EXPECT_EQ(out.tile_y[f], t.level.atlas.tile_origin_y[i][std::size_t(f)]);
+      EXPECT_EQ(out.tile_x[f] < 0, !face_present(dictionary_shape_mask(b.shape), f));
+      EXPECT_EQ(out.albedo[f][1], b.albedo[std::size_t(f)].g);
+    }
+  }
+
+  // Bad arguments are named and write nothing.
+  std::vector<float> untouched(3 * n, -1.0f);
+  expect_error(modrt_level_get_albedo(l, untouched.data(), 3 * n - 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_level_get_albedo", "out has " + std::to_string(3 * n - 1) + " floats"});
+  EXPECT_EQ(untouched, std::vector<float>(3 * n, -1.0f));
+  expect_error(modrt_level_get_albedo(nullptr, untouched.data(), 3 * n), MODRT_ERROR_INVALID_ARGUMENT,
+               {"level is null"});
+  expect_error(modrt_level_get_samples(l, samples.data(), n + 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_level_get_samples", "records"});
+  expect_error(modrt_level_get_samples(l, nullptr, n), MODRT_ERROR_INVALID_ARGUMENT, {"out is null"});
+  modrt_level_block blk = modrt::rt::sized<modrt_level_block>();
+  expect_error(modrt_level_get_block(l, std::uint32_t(t.level.blocks.size()), &blk),
+               MODRT_ERROR_INVALID_ARGUMENT, {"index 11", "block count 11"});
+  EXPECT_EQ(blk.shape, 0u);
+  blk.struct_size = 8;
+  expect_error(modrt_level_get_block(l, 0, &blk), MODRT_ERROR_INVALID_ARGUMENT,
+               {"out.struct_size is 8", "sizeof(modrt_level_block)"});
+  modrt_level_destroy(l);
+}
+
+// A context reflects its lights with the level's albedo without being told; set_albedo
+// overrides it; read_ld returns the ld the next update uses; an app that computes ld itself
+// from the samples (a directional light without shadows: E = I max(0, -n.dir)) gets what
+// set_lights gives.
+TEST(CApi, ContextLightsWithTheLevelsAlbedoUntilOverridden) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+  const std::size_t n = t.level.sample_count;
+  std::vector<float> albedo(3 * n);
+  ASSERT_EQ(modrt_context_read_albedo(c, albedo.data(), albedo.size()), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(albedo, level_sample_albedo(t.level));
+
+  const std::vector<cpu::CpuLight> lights = frame_lights(t.level, 0);
+  std::vector<modrt_light> cl;
+  for (const cpu::CpuLight& x : lights) cl.push_back(to_c(x));
+  ASSERT_EQ(modrt_context_set_lights(c, cl.data(), cl.size()), MODRT_OK) << modrt_last_error();
+  std::vector<float> got(3 * n), want(3 * n);
+  ASSERT_EQ(modrt_context_read_ld(c, got.data(), got.size()), MODRT_OK) << modrt_last_error();
+  cpu::CpuDirectLight direct = cpu::CpuDirectLight::create(t.level, level_sample_albedo(t.level)).value();
+  ASSERT_TRUE(direct.evaluate(lights, want).ok());
+  EXPECT_EQ(got, want);
+
+  // Override: grey everywhere; the next set_lights recomputes every block with it.
+  const std::vector<float> grey(3 * n, 0.25f);
+  ASSERT_EQ(modrt_context_set_albedo(c, grey.data(), grey.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_lights(c, cl.data(), cl.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_read_ld(c, got.data(), got.size()), MODRT_OK);
+  ASSERT_TRUE(direct.set_albedo(grey).ok());
+  ASSERT_TRUE(direct.evaluate(lights, want).ok());
+  EXPECT_EQ(got, want);
+  // A bad override is named and changes nothing.
+  std::vector<float> bad = grey;
+  bad[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
+  expect_error(modrt_context_set_albedo(c, bad.data(), bad.size()), MODRT_ERROR_NON_FINITE,
+               {"modrt_context_set_albedo", "sample 7 channel G is NaN"});
+  ASSERT_EQ(modrt_context_read_albedo(c, albedo.data(), albedo.size()), MODRT_OK);
+  EXPECT_EQ(albedo, grey);
+  expect_error(modrt_context_read_ld(c, got.data(), 5), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_read_ld"});
+
+  // The app's own ld from the level's samples and albedo equals the context's.
+  std::vector<modrt_level_sample> samples(n);
+  std::vector<float> level_albedo(3 * n);
+  ASSERT_EQ(modrt_level_get_samples(l, samples.data(), n), MODRT_OK);
+  ASSERT_EQ(modrt_level_get_albedo(l, level_albedo.data(), level_albedo.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_set_albedo(c, level_albedo.data(), level_albedo.size()), MODRT_OK);
+  modrt_light sun;
+  modrt_light_init(&sun);
+  sun.type = MODRT_LIGHT_DIRECTIONAL;
+  const glm::vec3 dir = glm::normalize(glm::vec3(0.4f, -1.0f, 0.3f));
+  for (int a = 0; a < 3; ++a) sun.direction[a] = dir[a];
+  sun.color[0] = 1.0f, sun.color[1] = 0.8f, sun.color[2] = 0.6f;
+  sun.intensity = 2.0f;
+  sun.shadows = 0;
+  ASSERT_EQ(modrt_context_set_lights(c, &sun, 1), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_read_ld(c, got.data(), got.size()), MODRT_OK);
+  double err = 0.0, norm = 0.0;
+  for (std::size_t s = 0; s < n; ++s) {
+    const glm::vec3 nrm(samples[s].normal[0], samples[s].normal[1], samples[s].normal[2]);
+    const float e = sun.intensity * std::max(0.0f, -glm::dot(nrm, dir));
+    for (int ch = 0; ch < 3; ++ch) {
+      const double app =
+          double(level_albedo[3 * s + std::size_t(ch)]) * sun.color[ch] * e / 3.14159265358979323846;
+      err = std::max(err, std::abs(app - double(got[3 * s + std::size_t(ch)])));
+      norm = std::max(norm, app);
+    }
+  }
+  EXPECT_GT(norm, 0.1);
+  EXPECT_LT(err, 1e-6 * norm);
   modrt_context_destroy(c);
   modrt_dictionary_destroy(d);
   modrt_level_destroy(l);
@@ -638,6 +794,233 @@ TEST(CApiGles, SpikeInLdGivesAFiniteNonNegativeLightmap) {
   expect_spike_is_clean(MODRT_BACKEND_GLES);
 }
 
+// options.bounces: every update is the one-bounce evaluation plus N feedback steps with the
+// level's albedo. CPU: bit-identical to CpuLevelRuntime doing the same; CPU and GLES within
+// 1e-5 / 1e-4 of core's level_multi_bounce after N iterations. Unchanged ld and albedo skip the
+// whole update (no allocation, same results); a new albedo does not.
+void expect_bounces_match(modrt_backend backend, double tolerance) {
+  const test::TestLevel& t = test_level("maze11");
+  const std::vector<float> albedo = level_sample_albedo(t.level);
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  o.bounces = 3;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const std::vector<float> lightmap = read_lightmap(c), atlas = read_atlas(c);
+
+  MultiBounceSettings settings;
+  settings.max_iterations = 3;
+  settings.tolerance = 0.0f;
+  std::vector<float> b(t.level.blocks.size() * t.level.kb * 3), r(t.level.slots.size() * t.level.kr * 3),
+      ref(lightmap.size());
+  Result<MultiBounceReport> rep =
+      level_multi_bounce(t.level, small_test_dictionary(), t.ld, albedo, settings, b, r, ref);
+  ASSERT_TRUE(rep.ok()) << rep.status().to_string();
+  EXPECT_LT(rel_l2(lightmap, ref), tolerance);
+  std::vector<float> ref_atlas(atlas.size());
+  level_fill_atlas(t.level, ref, ref_atlas);
+  EXPECT_LT(rel_l2(atlas, ref_atlas), tolerance);
+  // Three more bounces add light: the lightmap's sum grows over the one-bounce one.
+  const test::LevelReference one = level_reference(t.level, t.ld);
+  double sum = 0.0, sum_one = 0.0;
+  for (std::size_t i = 0; i < ref.size(); ++i) sum += lightmap[i], sum_one += one.lightmap[i];
+  EXPECT_GT(sum, 1.1 * sum_one);
+
+  if (backend == MODRT_BACKEND_CPU) {
+    cpu::CpuRuntimeOptions co;
+    co.skip.enabled = true;
+    cpu::CpuLevelRuntime rt = cpu::CpuLevelRuntime::create(t.level, small_test_dictionary(), co).value();
+    ASSERT_TRUE(rt.set_albedo(albedo).ok());
+    std::vector<float> cpp(lightmap.size());
+    ASSERT_TRUE(rt.evaluate(t.ld, cpp).ok());
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(rt.multi_bounce_step(t.ld, cpp).ok());
+    EXPECT_EQ(lightmap, cpp);
+  }
+
+  // The same ld again: skipped, bit for bit, without allocating.
+  modrt_skip_stats k0 = modrt::rt::sized<modrt_skip_stats>(), k1 = k0;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k0), MODRT_OK);
+  g_allocations = 0;
+  g_count_allocations = true;
+  const modrt_status again = modrt_context_update(c);
+  g_count_allocations = false;
+  ASSERT_EQ(again, MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(g_allocations.load(), 0);
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
+  EXPECT_EQ(k1.frames, k0.frames + 1);
+  EXPECT_EQ(k1.frames_skipped, k0.frames_skipped + 1);
+  EXPECT_EQ(read_lightmap(c), lightmap);
+  // A darker albedo: recomputed, less light.
+  const std::vector<float> grey(albedo.size(), 0.2f);
+  ASSERT_EQ(modrt_context_set_albedo(c, grey.data(), grey.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const std::vector<float> darker = read_lightmap(c);
+  double sum_grey = 0.0;
+  for (float v : darker) sum_grey += v;
+  EXPECT_LT(sum_grey, sum);
+  // A light whose bounces could pass kMaxLightValue is refused before anything runs.
+  std::vector<float> hot(t.ld.size(), 0.0f);
+  hot[3 * 40] = 1e30f;
+  ASSERT_EQ(modrt_context_set_ld(c, hot.data(), hot.size()), MODRT_OK);
+  expect_error(modrt_context_update(c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_update", "kMaxLightValue"});
+  EXPECT_EQ(read_lightmap(c), darker);
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, BouncesAreTheFeedbackSteps) { expect_bounces_match(MODRT_BACKEND_CPU, 1e-5); }
+
+TEST(CApiGles, BouncesAreTheFeedbackSteps) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  expect_bounces_match(MODRT_BACKEND_GLES, 1e-4);
+}
+
+// 64 bounces converge (maze11's albedo is at most 0.8: 0.8^64 = 6e-7 of the series is left):
+// within 1e-5 of core's converged level_multi_bounce. Bad bounce options are named; a caller
+// built against 0.2's modrt_context_options (no bounces, max_albedo) gets their defaults.
+TEST(CApi, SixtyFourBouncesConvergeAndOptionsAreChecked) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  EXPECT_EQ(o.bounces, 0u);
+  EXPECT_EQ(o.max_albedo, kDefaultMaxAlbedo);
+  o.bounces = 64;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  std::vector<float> b(t.level.blocks.size() * t.level.kb * 3), r(t.level.slots.size() * t.level.kr * 3),
+      ref(t.level.sample_count * 3);
+  Result<MultiBounceReport> rep = level_multi_bounce(
+      t.level, small_test_dictionary(), t.ld, level_sample_albedo(t.level), MultiBounceSettings{}, b, r, ref);
+  ASSERT_TRUE(rep.ok() && rep->converged) << rep.status().to_string();
+  EXPECT_LT(rel_l2(read_lightmap(c), ref), 1e-5);
+  modrt_context_destroy(c);
+
+  o.bounces = 65;
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"options.bounces 65", "0..64"});
+  o.bounces = 1;
+  o.max_albedo = 1.0f;
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"options.max_albedo", "[0, 1)"});
+  o.max_albedo = std::numeric_limits<float>::quiet_NaN();
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_INVALID_ARGUMENT,
+               {"options.max_albedo"});
+  EXPECT_EQ(c, nullptr);
+
+  // 0.2's layout ends before `bounces`: accepted, one bounce, and timings in 0.2's layout are
+  // written without touching the bytes after them.
+  modrt_context_options old = o;
+  old.bounces = 7;  // beyond the caller's struct: must not be read
+  old.struct_size = std::uint32_t(offsetof(modrt_context_options, bounces));
+  ASSERT_EQ(modrt_context_create(d, l, &old, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_LT(rel_l2(read_lightmap(c), level_reference(t.level, t.ld).lightmap), 1e-5);
+  modrt_timings tm = modrt::rt::sized<modrt_timings>();
+  tm.struct_size = std::uint32_t(offsetof(modrt_timings, feedback_ns));
+  tm.feedback_ns = 12345;
+  ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(tm.struct_size, offsetof(modrt_timings, feedback_ns));
+  EXPECT_EQ(tm.feedback_ns, 12345u);
+  EXPECT_GT(tm.update_ns, 0u);
+  tm.struct_size = std::uint32_t(offsetof(modrt_timings, feedback_ns)) + 4;
+  expect_error(modrt_context_get_timings(c, &tm), MODRT_ERROR_INVALID_ARGUMENT, {"out.struct_size"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+// options.vector_irradiance: the four OHLSH coefficients per sample against core's
+// level_compute_vector_irradiance, each coefficient's padded atlas against level_fill_atlas of
+// that coefficient, the GLES textures, and the errors of a context without it.
+void expect_vector_irradiance_matches(modrt_backend backend, double tolerance) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  o.vector_irradiance = 1;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  const std::size_t n = t.level.sample_count;
+  std::vector<float> vec(12 * n), atlas(3 * std::size_t(t.level.atlas.width) * t.level.atlas.height);
+  expect_error(modrt_context_read_vector_lightmap(c, vec.data(), vec.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"no update has run yet"});
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const test::LevelReference ref = level_reference(t.level, t.ld);
+  ASSERT_EQ(modrt_context_read_vector_lightmap(c, vec.data(), vec.size()), MODRT_OK) << modrt_last_error();
+  EXPECT_LT(rel_l2(vec, ref.vector_lightmap), tolerance);
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(modrt_context_read_vector_atlas(c, i, atlas.data(), atlas.size()), MODRT_OK)
+        << modrt_last_error();
+    std::vector<float> plane(3 * n), want(atlas.size());
+    for (std::size_t s = 0; s < n; ++s)
+      for (std::size_t ch = 0; ch < 3; ++ch)
+        plane[3 * s + ch] = ref.vector_lightmap[3 * (4 * s + std::size_t(i)) + ch];
+    level_fill_atlas(t.level, plane, want);
+    EXPECT_LT(rel_l2(atlas, want), tolerance) << "coefficient " << i;
+  }
+  uint32_t tex[4] = {0, 0, 0, 0};
+  if (backend == MODRT_BACKEND_GLES) {
+    ASSERT_EQ(modrt_context_get_vector_textures(c, tex, nullptr), MODRT_OK) << modrt_last_error();
+    for (int i = 0; i < 4; ++i) EXPECT_NE(tex[i], 0u);
+    EXPECT_NE(tex[0], tex[3]);
+  } else {
+    expect_error(modrt_context_get_vector_textures(c, tex, nullptr), MODRT_ERROR_UNSUPPORTED,
+                 {"CPU", "read_vector_atlas"});
+    // A CPU frame with vector irradiance allocates nothing.
+    std::vector<float> ld = t.ld;
+    for (float& v : ld) v *= 0.5f;
+    g_allocations = 0;
+    g_count_allocations = true;
+    bool ok = modrt_context_set_ld(c, ld.data(), ld.size()) == MODRT_OK;
+    ok &= modrt_context_update(c) == MODRT_OK;
+    ok &= modrt_context_read_vector_lightmap(c, vec.data(), vec.size()) == MODRT_OK;
+    ok &= modrt_context_read_vector_atlas(c, 1, atlas.data(), atlas.size()) == MODRT_OK;
+    g_count_allocations = false;
+    EXPECT_TRUE(ok) << modrt_last_error();
+    EXPECT_EQ(g_allocations.load(), 0);
+  }
+  expect_error(modrt_context_read_vector_atlas(c, 4, atlas.data(), atlas.size()),
+               MODRT_ERROR_INVALID_ARGUMENT, {"coefficient 4", "0..3"});
+  expect_error(modrt_context_read_vector_lightmap(c, vec.data(), 3 * n), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_read_vector_lightmap", "out has"});
+  modrt_context_destroy(c);
+
+  o.vector_irradiance = 0;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_read_vector_lightmap(c, vec.data(), vec.size()), MODRT_ERROR_UNSUPPORTED,
+               {"options.vector_irradiance 0"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, VectorIrradianceMatchesTheReference) { expect_vector_irradiance_matches(MODRT_BACKEND_CPU, 1e-5); }
+
+TEST(CApiGles, VectorIrradianceMatchesTheReference) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  expect_vector_irradiance_matches(MODRT_BACKEND_GLES, 1e-4);
+}
+
 TEST(CApi, BadCallsReturnNamedErrors) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
@@ -704,7 +1087,6 @@ TEST(CApi, BadCallsReturnNamedErrors) {
   light.type = MODRT_LIGHT_POINT;
   light.color[0] = light.color[1] = light.color[2] = 1.0f;
   light.intensity = 1.0f;
-  expect_error(modrt_context_set_lights(c, &light, 1), MODRT_ERROR_INVALID_ARGUMENT, {"albedo"});
   std::vector<float> albedo = t.albedo;
   albedo[4] = std::numeric_limits<float>::infinity();
   EXPECT_NE(modrt_context_set_albedo(c, albedo.data(), albedo.size()), MODRT_OK);

@@ -145,14 +145,15 @@ int main(int argc, char** argv) {
       "modrt-embed-host: an app-owned EGL context handed to modrt's C API; renders the lightmap atlas"};
   std::string dictionary_path, level_path, out_path;
   int scale = 16;
-  float albedo_value = 0.7f;
+  float albedo_value = 0.7f;  // used only with --albedo: else the level's own per-face albedo
   app.add_option("dictionary", dictionary_path, "dictionary file (.modrt)")->required();
   app.add_option("level", level_path, "built level file (.modrtlevel)")->required();
   app.add_option("out", out_path, "output PNG")->required();
   app.add_option("--scale", scale, "pixels per atlas texel")->check(CLI::Range(1, 64))->capture_default_str();
-  app.add_option("--albedo", albedo_value, "the one albedo of every sample")
-      ->check(modrt::demo::FiniteRange(0.0, 1.0))
-      ->capture_default_str();
+  CLI::Option* albedo_option =
+      app.add_option("--albedo", albedo_value,
+                     "one albedo for every sample instead of the level's own (authored per face)")
+          ->check(modrt::demo::FiniteRange(0.0, 1.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -196,9 +197,12 @@ int main(int argc, char** argv) {
   std::printf("modrt %s: %s; level %u blocks, %u samples, atlas %ux%u\n", modrt_version_string(),
               ctx.description(), info.block_count, info.sample_count, sizes.atlas_width, sizes.atlas_height);
 
-  // 4. Light: the app's materials (one albedo here), a point light in the level's middle and a sun.
-  const std::vector<float> albedo(sizes.ld, albedo_value);
-  if (modrt::rt::Error e = ctx.set_albedo(albedo.data(), albedo.size())) return fail("albedo", e.message);
+  // 4. Light: the level's authored albedo (or the one of --albedo, as an app overrides it from
+  // its own materials), a point light in the level's middle and a sun.
+  if (albedo_option->count() > 0) {
+    const std::vector<float> albedo(sizes.ld, albedo_value);
+    if (modrt::rt::Error e = ctx.set_albedo(albedo.data(), albedo.size())) return fail("albedo", e.message);
+  }
   modrt_light lights[2];
   modrt_light_init(&lights[0]);
   modrt_light_init(&lights[1]);

@@ -803,7 +803,7 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   // The fed-back ld (computed on the GPU, never validated there) is at most ld_max + rho_max
   // x bound; the CPU runtime validates its fed-back ld like any ld (<= kMaxLightValue), so
   // the same rule here keeps every pass within the float range operator_limits.h assumes.
-  if (const double fed = double(ld_max) + double(rho_max_) * double(bound); fed > kMaxLightValue) {
+  if (const double fed = feedback_ld_peak(ld_max, rho_max_); fed > kMaxLightValue) {
     char text[64];
     std::snprintf(text, sizeof text, "%g", fed);
     return Status::error(

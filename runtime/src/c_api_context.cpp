@@ -13,7 +13,10 @@
 #include "c_api_internal.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
+#include "modrt/feedback_policy.h"
+#include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
+#include "modrt/operator_limits.h"
 #include "probe_sampler.h"
 #if MODRT_RUNTIME_GLES
 #include "modrt/gles/gles_level_runtime.h"
@@ -48,8 +51,18 @@ struct modrt_context {
   std::optional<cpu::CpuDirectLight> direct;
   ProbeSampler sampler;
 
-  // Frame buffers, from the hook. lightmap and atlas only for the CPU backend.
-  HookVector<float> ld, lightmap, atlas, probes;
+  // Frame buffers, from the hook. lightmap and atlas only for the CPU backend. albedo: what
+  // the lights are reflected with (the level's, or set_albedo's).
+  HookVector<float> ld, lightmap, atlas, probes, albedo;
+  // Multi-bounce: the ld of the last successful update (with bounces and skipping on, an
+  // update with the same ld and albedo runs nothing), and the largest clamped albedo.
+  HookVector<float> ld_last;
+  // Vector irradiance (options.vector_irradiance): the CPU context's own, or the GLES one's
+  // read back; vector_plane: one coefficient per sample, for read_vector_atlas.
+  HookVector<float> vector, vector_plane;
+  bool vector_current = false;
+  bool last_valid = false;
+  float rho_max = 0.0f;
   HookVector<cpu::CpuLight> lights;  // capacity max_lights
   bool probes_current = false;       // GLES: probes read back since the last update
 
@@ -64,6 +77,10 @@ struct modrt_context {
         lightmap(HookAllocator<float>(&alloc)),
         atlas(HookAllocator<float>(&alloc)),
         probes(HookAllocator<float>(&alloc)),
+        albedo(HookAllocator<float>(&alloc)),
+        ld_last(HookAllocator<float>(&alloc)),
+        vector(HookAllocator<float>(&alloc)),
+        vector_plane(HookAllocator<float>(&alloc)),
         lights(HookAllocator<cpu::CpuLight>(&alloc)) {
     retain(d);
     retain(l);
@@ -84,6 +101,10 @@ struct modrt_context {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// options.bounces: feedback steps per update (each one more bounce; 64 bounces of the largest
+// albedo 0.95 leave 0.95^64 = 4 % of the series, as close to converged as steps get).
+constexpr std::uint32_t kMaxBounces = 64;
 std::uint64_t ns_since(Clock::time_point t) {
   return std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t).count());
 }
@@ -144,6 +165,7 @@ modrt_status create_gles(modrt_context* c) {
   gles::GlesRuntimeOptions go;
   go.probes = c->options.probes != 0;
   go.skip_unchanged = c->options.skip_unchanged != 0;
+  go.vector_irradiance = c->options.vector_irradiance != 0;
   GlStateGuard state(c->gl);
   Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
       gles::GlesLevelRuntime::create(c->gl, gles_context, c->lv(), c->dict(), go);
@@ -157,6 +179,7 @@ modrt_status create_gles(modrt_context* c) {
   c->gles->set_timing(c->options.timing != 0);
   c->description = c->gles->description();
   c->probes_on = go.probes && c->sizes.probes > 0;
+  if (go.vector_irradiance) c->vector.assign(c->sizes.vector_lightmap, 0.0f);
   return MODRT_OK;
 }
 #endif
@@ -173,9 +196,62 @@ modrt_status create_cpu(modrt_context* c) {
   c->lightmap.assign(c->sizes.lightmap, 0.0f);
   c->atlas.assign(c->sizes.atlas, 0.0f);
   c->probes_on = c->options.probes != 0 && c->sizes.probes > 0;
+  if (c->options.vector_irradiance != 0) {
+    if (!c->cpu->has_vector_irradiance())
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  "modrt_context_create: options.vector_irradiance is on, but " +
+                      check_level_vector_operators(c->lv(), c->dict()).message() +
+                      " (bake the dictionary with its vector operators or turn vector_irradiance off)");
+    c->vector.assign(c->sizes.vector_lightmap, 0.0f);
+  }
   return MODRT_OK;
 }
 
+// The multi-bounce feedback's albedo (clamped to options.max_albedo by the backend). Checks
+// what CpuDirectLight checks and more (<= kMaxLightValue), so call it first.
+modrt_status set_feedback_albedo(modrt_context* c, std::span<const float> albedo) {
+  constexpr const char* fn = "modrt_context_set_albedo";
+  Status s;
+#if MODRT_RUNTIME_GLES
+  if (c->gles) {
+    GlStateGuard state(c->gl);
+    s = c->gles->set_albedo(albedo, c->options.max_albedo);
+  } else {
+    s = c->cpu->set_albedo(albedo, c->options.max_albedo);
+  }
+#else
+  s = c->cpu->set_albedo(albedo, c->options.max_albedo);
+#endif
+  if (!s.ok())
+    return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
+                std::string(fn) + ": " + s.message());
+  float rho_max = 0.0f;
+  for (float a : albedo) rho_max = std::max(rho_max, std::min(a, c->options.max_albedo));
+  c->rho_max = rho_max;
+  c->last_valid = false;
+  return MODRT_OK;
+}
+
+// The context's vector irradiance of the last update (GLES: read back once per update).
+modrt_status current_vector(modrt_context* c, const char* fn) {
+  if (c->vector.empty())
+    return fail(
+        MODRT_ERROR_UNSUPPORTED,
+        std::string(fn) + ": no vector irradiance: the context was created with options.vector_irradiance 0");
+  if (c->skip.frames == 0)
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": no update has run yet");
+#if MODRT_RUNTIME_GLES
+  if (c->gles && !c->vector_current) {
+    GlStateGuard state(c->gl);
+    if (Status s = c->gles->read_vector_lightmap(c->vector); !s.ok())
+      return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+    c->vector_current = true;
+  }
+#endif
+  if (!c->vector_current)
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": no update has run yet");
+  return MODRT_OK;
+}
 }  // namespace
 
 extern "C" {
@@ -191,6 +267,9 @@ void modrt_context_options_init(modrt_context_options* options) {
   options->skip_unchanged = 1;
   options->max_lights = 8;
   options->shadows = 1;
+  options->bounces = 0;
+  options->max_albedo = kDefaultMaxAlbedo;
+  options->vector_irradiance = 0;
 }
 
 void modrt_light_init(modrt_light* light) {
@@ -220,7 +299,7 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
                                              "modrt_context_options_init");
           s != MODRT_OK)
         return s;
-      o = *options;
+      o = read_sized(*options, o);  // a 0.2 caller's struct: bounces and max_albedo keep their defaults
     }
     if (const int backend = c_enum_value(o.backend);
         backend != MODRT_BACKEND_CPU && backend != MODRT_BACKEND_GLES)
@@ -232,6 +311,13 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     if (o.max_lights < 1 || o.max_lights > 4096)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_lights " +
                                                     std::to_string(o.max_lights) + " is not in 1..4096");
+    if (o.bounces > kMaxBounces)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.bounces " +
+                                                    std::to_string(o.bounces) + " is not in 0.." +
+                                                    std::to_string(kMaxBounces));
+    if (!check_max_albedo(o.max_albedo, fn).ok())
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_albedo " +
+                                                    std::to_string(o.max_albedo) + " is not in [0, 1)");
     if (Status s = check_level_matches(level->level, dictionary->dict); !s.ok())
       return fail(MODRT_ERROR_MISMATCH, std::string(fn) + ": " + s.message());
 #if !MODRT_RUNTIME_GLES
@@ -260,6 +346,20 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     st = create_cpu(c);
 #endif
     if (st != MODRT_OK) return st;
+    // The lights are reflected with the level's own albedo until set_albedo overrides it.
+    c->albedo.assign(c->sizes.ld, 0.0f);
+    level_sample_albedo(c->lv(), c->albedo);
+    cpu::CpuDirectLightOptions lo;
+    lo.max_lights = o.max_lights;
+    lo.shadows = o.shadows != 0;
+    Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(c->lv(), c->albedo, lo);
+    if (!direct.ok())
+      return fail(from_error_code(direct.status().code()),
+                  std::string(fn) + ": " + direct.status().message());
+    c->direct.emplace(std::move(direct).value());
+    if (modrt_status s = set_feedback_albedo(c, c->albedo); s != MODRT_OK) return s;
+    c->ld_last.assign(c->sizes.ld, 0.0f);
+    if (!c->vector.empty()) c->vector_plane.assign(c->sizes.lightmap, 0.0f);
     if (c->probes_on) {
       c->probes.assign(c->sizes.probes, 0.0f);
       c->sampler = ProbeSampler(c->lv(), c->probe_grid);
@@ -304,18 +404,21 @@ modrt_status modrt_context_set_albedo(modrt_context* context, const float* albed
     if (!albedo) return null_arg(fn, "albedo");
     if (modrt_status s = check_count(fn, "albedo", count, context->sizes.ld); s != MODRT_OK) return s;
     const std::span<const float> a(albedo, count);
-    if (context->direct) {
-      if (Status s = context->direct->set_albedo(a); !s.ok())
-        return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
-      return MODRT_OK;
-    }
-    cpu::CpuDirectLightOptions lo;
-    lo.max_lights = context->options.max_lights;
-    lo.shadows = context->options.shadows != 0;
-    Result<cpu::CpuDirectLight> d = cpu::CpuDirectLight::create(context->lv(), a, lo);
-    if (!d.ok())
-      return fail(from_error_code(d.status().code()), std::string(fn) + ": " + d.status().message());
-    context->direct.emplace(std::move(d).value());
+    if (modrt_status s = set_feedback_albedo(context, a); s != MODRT_OK) return s;
+    if (Status s = context->direct->set_albedo(a); !s.ok())  // cannot fail after the feedback's check
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    std::copy(a.begin(), a.end(), context->albedo.begin());
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_read_albedo(const modrt_context* context, float* out, size_t count) {
+  constexpr const char* fn = "modrt_context_read_albedo";
+  if (!context) return null_arg(fn, "context");
+  if (!out) return null_arg(fn, "out");
+  return guarded(fn, [&]() -> modrt_status {
+    if (modrt_status s = check_count(fn, "out", count, context->albedo.size()); s != MODRT_OK) return s;
+    std::copy(context->albedo.begin(), context->albedo.end(), out);
     return MODRT_OK;
   });
 }
@@ -325,9 +428,6 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
     constexpr const char* fn = "modrt_context_set_lights";
     if (!context) return null_arg(fn, "context");
     if (!lights && count > 0) return null_arg(fn, "lights");
-    if (!context->direct)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT,
-                  std::string(fn) + ": no albedo: call modrt_context_set_albedo once before setting lights");
     if (count > context->lights.capacity())
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + std::to_string(count) +
                                                     " lights, more than options.max_lights = " +
@@ -378,7 +478,18 @@ modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_
     if (Status s = validate_light_signal({ld, count}, count / 3, "ld"); !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     std::copy(ld, ld + count, context->ld.begin());
-    if (context->direct) context->direct->invalidate();  // its incremental update assumed its own ld
+    context->direct->invalidate();  // its incremental update assumed its own ld
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count) {
+  constexpr const char* fn = "modrt_context_read_ld";
+  if (!context) return null_arg(fn, "context");
+  if (!out) return null_arg(fn, "out");
+  return guarded(fn, [&]() -> modrt_status {
+    if (modrt_status s = check_count(fn, "out", count, context->ld.size()); s != MODRT_OK) return s;
+    std::copy(context->ld.begin(), context->ld.end(), out);
     return MODRT_OK;
   });
 }
@@ -391,47 +502,116 @@ modrt_status modrt_context_update(modrt_context* context) {
     modrt_timings& t = context->timings;
     modrt_skip_stats& k = context->skip;
     const std::size_t blocks = context->lv().blocks.size(), slots = context->lv().slots.size();
+    const std::uint32_t bounces = context->options.bounces;
+    const std::span<const float> ld(context->ld.data(), context->ld.size());
+    if (bounces > 0) {
+      // Same ld and albedo as the last update: the same results, bit for bit.
+      if (context->options.skip_unchanged && context->last_valid &&
+          std::equal(ld.begin(), ld.end(), context->ld_last.begin())) {
+        k.frames += 1;
+        k.frames_skipped += 1;
+        const std::uint64_t light_ns = t.light_ns;
+        t = modrt_timings{};
+        t.struct_size = sizeof t;
+        t.light_ns = light_ns;
+        t.update_ns = ns_since(t0);
+        return MODRT_OK;
+      }
+      // Refused before anything runs, not half way through the bounces (feedback_policy.h).
+      if (const double peak = feedback_ld_peak(largest_light(ld), context->rho_max); peak > kMaxLightValue)
+        return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                    std::string(fn) + ": with bounces, the fed-back light can reach " + std::to_string(peak) +
+                        ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+    }
+    context->last_valid = false;  // until this update has succeeded
+    t.feedback_ns = 0;
 #if MODRT_RUNTIME_GLES
     if (context->gles) {
       gles::GlesLevelRuntime& rt = *context->gles;
       const gles::GlesSkipStats before = rt.skip_stats();
+      gles::GlesPassTimes sum;
+      const auto add_times = [&sum](const gles::GlesPassTimes& p) {
+        sum.upload += p.upload, sum.feedback += p.feedback, sum.b += p.b, sum.r += p.r, sum.atlas += p.atlas,
+            sum.probes += p.probes;
+      };
       {
         GlStateGuard state(context->gl);
-        if (Status s = rt.update(context->ld); !s.ok())
+        const auto gl_fail = [&](const Status& s) {
           return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
                       std::string(fn) + ": " + s.message());
+        };
+        if (Status s = rt.update(ld); !s.ok()) return gl_fail(s);
+        add_times(rt.pass_times());
+        for (std::uint32_t i = 0; i < bounces; ++i) {
+          if (Status s = rt.multi_bounce_step(ld); !s.ok()) return gl_fail(s);
+          add_times(rt.pass_times());
+        }
       }
       const gles::GlesSkipStats& after = rt.skip_stats();
       const std::uint64_t frames = after.frames - before.frames;
-      const std::uint64_t b = after.blocks_b - before.blocks_b, r = after.slots_r - before.slots_r,
-                          tiles = after.blocks_redrawn - before.blocks_redrawn;
+      // Each feedback step recomputes every block, slot and tile.
+      const std::uint64_t b = after.blocks_b - before.blocks_b + bounces * blocks,
+                          r = after.slots_r - before.slots_r + bounces * slots,
+                          tiles = after.blocks_redrawn - before.blocks_redrawn + bounces * blocks;
+      const std::uint64_t evaluations = frames * (1 + bounces);
       k.frames += frames;
       k.frames_skipped += after.frames_skipped - before.frames_skipped;
       k.blocks_computed += b;
-      k.blocks_kept += frames * blocks - b;
+      k.blocks_kept += evaluations * blocks - b;
       k.slots_computed += r;
-      k.slots_kept += frames * slots - r;
+      k.slots_kept += evaluations * slots - r;
       k.tiles_written += tiles;
-      k.tiles_kept += frames * blocks - tiles;
-      const gles::GlesPassTimes& p = rt.pass_times();
-      t.upload_ns = p.upload, t.b_ns = p.b, t.r_ns = p.r, t.lightmap_ns = 0, t.atlas_ns = p.atlas,
-      t.probes_ns = p.probes;
+      k.tiles_kept += evaluations * blocks - tiles;
+      t.upload_ns = sum.upload, t.b_ns = sum.b, t.r_ns = sum.r, t.lightmap_ns = 0, t.atlas_ns = sum.atlas,
+      t.probes_ns = sum.probes, t.feedback_ns = sum.feedback;
       context->probes_current = false;
+      context->vector_current = false;
+      if (bounces > 0) {
+        std::copy(ld.begin(), ld.end(), context->ld_last.begin());
+        context->last_valid = true;
+      }
       t.update_ns = ns_since(t0);
       return MODRT_OK;
     }
 #endif
     cpu::CpuLevelRuntime& rt = *context->cpu;
     const bool timing = context->options.timing != 0;
-    if (Status s = rt.evaluate(context->ld, context->lightmap); !s.ok())
+    const bool skipping = rt.skip_options().enabled;
+    const auto count_skips = [&] {
+      if (skipping) {
+        const cpu::CpuSkipStats& s = rt.skip_stats();
+        k.blocks_computed += s.blocks_computed + s.blocks_dark;
+        k.blocks_kept += s.blocks_kept;
+        k.slots_computed += slots - s.slots_kept;
+        k.slots_kept += s.slots_kept;
+        k.tiles_written += s.tiles_written;
+        k.tiles_kept += s.tiles_skipped;
+      } else {
+        k.blocks_computed += blocks;
+        k.slots_computed += slots;
+        k.tiles_written += blocks;
+      }
+    };
+    // The skip counters of a failed update are not kept.
+    const modrt_skip_stats skip_before = k;
+    const auto failed = [&](const Status& s) {
+      k = skip_before;
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    };
+    if (Status s = rt.evaluate(ld, context->lightmap); !s.ok()) return failed(s);
+    count_skips();
+    for (std::uint32_t i = 0; i < bounces; ++i) {
+      if (Status s = rt.multi_bounce_step(ld, context->lightmap); !s.ok()) return failed(s);
+      count_skips();
+    }
     const Clock::time_point t1 = Clock::now();
-    if (Status s = rt.fill_atlas(context->lightmap, context->atlas); !s.ok())
-      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    if (Status s = rt.fill_atlas(context->lightmap, context->atlas); !s.ok()) return failed(s);
     const Clock::time_point t2 = Clock::now();
     if (context->probes_on)
-      if (Status s = rt.compute_probes(context->probes); !s.ok())
-        return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+      if (Status s = rt.compute_probes(context->probes); !s.ok()) return failed(s);
+    if (!context->vector.empty())
+      if (Status s = rt.compute_vector_irradiance(context->vector); !s.ok()) return failed(s);
+    context->vector_current = true;
     const Clock::time_point t3 = Clock::now();
     t.upload_ns = t.b_ns = t.r_ns = 0;
     if (timing) {
@@ -442,20 +622,11 @@ modrt_status modrt_context_update(modrt_context* context) {
       t.lightmap_ns = t.atlas_ns = t.probes_ns = 0;
     }
     k.frames += 1;
-    if (rt.skip_options().enabled) {
-      const cpu::CpuSkipStats& s = rt.skip_stats();
-      k.blocks_computed += s.blocks_computed + s.blocks_dark;
-      k.blocks_kept += s.blocks_kept;
-      k.slots_computed += slots - s.slots_kept;
-      k.slots_kept += s.slots_kept;
-      k.tiles_written += s.tiles_written;
-      k.tiles_kept += s.tiles_skipped;
-    } else {
-      k.blocks_computed += blocks;
-      k.slots_computed += slots;
-      k.tiles_written += blocks;
-    }
     context->probes_current = true;
+    if (bounces > 0) {
+      std::copy(ld.begin(), ld.end(), context->ld_last.begin());
+      context->last_valid = true;
+    }
     t.update_ns = ns_since(t0);
     return MODRT_OK;
   });
@@ -531,6 +702,60 @@ modrt_status modrt_context_read_atlas(modrt_context* context, float* out, size_t
   });
 }
 
+modrt_status modrt_context_read_vector_lightmap(modrt_context* context, float* out, size_t count) {
+  return guarded("modrt_context_read_vector_lightmap", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_vector_lightmap";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = current_vector(context, fn); s != MODRT_OK) return s;
+    if (modrt_status s = check_count(fn, "out", count, context->vector.size()); s != MODRT_OK) return s;
+    std::copy(context->vector.begin(), context->vector.end(), out);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_read_vector_atlas(modrt_context* context, int coefficient, float* out,
+                                             size_t count) {
+  return guarded("modrt_context_read_vector_atlas", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_vector_atlas";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (coefficient < 0 || coefficient > 3)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": coefficient " + std::to_string(coefficient) + " is not in 0..3");
+    if (modrt_status s = current_vector(context, fn); s != MODRT_OK) return s;
+    if (modrt_status s = check_count(fn, "out", count, context->sizes.atlas); s != MODRT_OK) return s;
+    const std::size_t samples = context->lv().sample_count;
+    for (std::size_t i = 0; i < samples; ++i)
+      for (std::size_t c = 0; c < 3; ++c)
+        context->vector_plane[3 * i + c] = context->vector[3 * (4 * i + std::size_t(coefficient)) + c];
+    level_fill_atlas(context->lv(), context->vector_plane, {out, count});
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_vector_textures(const modrt_context* context, uint32_t textures[4],
+                                               int* format) {
+  constexpr const char* fn = "modrt_context_get_vector_textures";
+  if (!context) return null_arg(fn, "context");
+  if (!textures) return null_arg(fn, "textures");
+  (void)format;
+#if MODRT_RUNTIME_GLES
+  if (context->gles) {
+    if (context->vector.empty())
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  static_cast<const char*>("modrt_context_get_vector_textures: no vector irradiance: the "
+                                           "context was created with options.vector_irradiance 0"));
+    for (int i = 0; i < 4; ++i) textures[i] = context->gles->vector_texture(i);
+    if (format) *format = int(context->gles->target_format());
+    return MODRT_OK;
+  }
+#endif
+  return fail(MODRT_ERROR_UNSUPPORTED,
+              static_cast<const char*>("modrt_context_get_vector_textures: a CPU context has no GL textures: "
+                                       "use modrt_context_read_vector_atlas"));
+}
+
 modrt_status modrt_context_probe_sh(modrt_context* context, const float position[3], modrt_probe_kind kind,
                                     float out[27]) {
   return guarded("modrt_context_probe_sh", [&]() -> modrt_status {
@@ -572,8 +797,7 @@ modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timin
   if (modrt_status s = check_struct_size("modrt_context_get_timings", "out", *out, "modrt_timings");
       s != MODRT_OK)
     return s;
-  *out = context->timings;
-  out->struct_size = sizeof *out;
+  write_sized(out, context->timings);
   return MODRT_OK;
 }
 

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <exception>
 #include <new>
@@ -98,18 +99,46 @@ modrt_status fail(modrt_status code, const std::string& message);
 modrt_status fail(const Status& status);  // maps the ErrorCode
 modrt_status from_error_code(ErrorCode code);
 
-// The struct_size rule of modrt.h ("Structs"), for every struct passed in or out: this version
-// has one layout of each, so struct_size must be sizeof(T); a later version that adds fields
-// accepts the earlier sizes here. `what` names the argument ("options", "lights[3]").
+// The layout an earlier version of modrt.h gave a struct that has grown since (modrt.h,
+// "Structs"): its size then, or 0 when the struct has one layout.
+template <class T>
+inline constexpr std::size_t kEarlierStructSize = 0;
+template <>  // 0.2: up to gl_loader_user
+inline constexpr std::size_t kEarlierStructSize<modrt_context_options> = offsetof(modrt_context_options,
+                                                                                  bounces);
+template <>  // 0.2: up to update_ns
+inline constexpr std::size_t kEarlierStructSize<modrt_timings> = offsetof(modrt_timings, feedback_ns);
+
+// The struct_size rule of modrt.h ("Structs"), for every struct passed in or out: struct_size
+// must be sizeof(T) or the struct's earlier layout (kEarlierStructSize). `what` names the
+// argument ("options", "lights[3]").
 template <class T>
 modrt_status check_struct_size(const char* function, const std::string& what, const T& s, const char* type,
                                const char* init = nullptr) {
   static_assert(std::is_standard_layout_v<T>, "a C struct");
   if (s.struct_size == sizeof(T)) return MODRT_OK;
+  if (kEarlierStructSize<T> != 0 && s.struct_size == kEarlierStructSize<T>) return MODRT_OK;
   return fail(MODRT_ERROR_INVALID_ARGUMENT,
               std::string(function) + ": " + what + ".struct_size is " + std::to_string(s.struct_size) +
                   ", expected " + std::to_string(sizeof(T)) + " (set it to sizeof(" + type + ")" +
                   (init ? std::string(", or call ") + init : std::string()) + ")");
+}
+
+// Copies the caller's struct (checked by check_struct_size) over `defaults`, up to its
+// struct_size: fields an earlier layout lacks keep their defaults.
+template <class T>
+T read_sized(const T& in, T defaults) {
+  std::memcpy(&defaults, &in,
+              std::size_t(in.struct_size) < sizeof(T) ? std::size_t(in.struct_size) : sizeof(T));
+  defaults.struct_size = sizeof(T);
+  return defaults;
+}
+// Writes `value` into the caller's struct up to its struct_size (checked), which it keeps.
+template <class T>
+void write_sized(T* out, const T& value) {
+  const std::uint32_t size = out->struct_size;
+  std::memcpy(out, &value, std::size_t(size) < sizeof(T) ? std::size_t(size) : sizeof(T));
+  out->struct_size = size;
 }
 
 // Runs f() (returning modrt_status) with every exception turned into a status.

@@ -129,17 +129,48 @@ int main(int argc, char** argv) {
   CHECK(modrt_context_create(dict, level, &options, NULL, &ctx));
   modrt_sizes sizes = {sizeof(modrt_sizes)};
   CHECK(modrt_context_get_sizes(ctx, &sizes));
-  float* albedo = malloc(sizes.ld * sizeof(float));
-  for (size_t i = 0; i < sizes.ld; ++i) albedo[i] = 0.6f;
-  CHECK(modrt_context_set_albedo(ctx, albedo, sizes.ld));
-  free(albedo);
+  /* The lights reflect off the level's own per-face albedo. The app computes a sun's ld itself
+   * from the level's samples (ld = albedo E / pi, E = I max(0, -n.dir) without shadows) and
+   * gets what modrt_context_set_lights computes. */
+  const size_t n = info.sample_count;
+  modrt_level_sample* smp = malloc(n * sizeof *smp);
+  float* albedo = malloc(3 * n * sizeof *albedo);
+  float* ld_app = malloc(3 * n * sizeof *ld_app);
+  float* ld_ctx = malloc(3 * n * sizeof *ld_ctx);
+  if (!smp || !albedo || !ld_app || !ld_ctx) return 1;
+  CHECK(modrt_level_get_samples(level, smp, n));
+  CHECK(modrt_level_get_albedo(level, albedo, 3 * n));
   modrt_light sun;
   modrt_light_init(&sun);
   sun.type = MODRT_LIGHT_DIRECTIONAL;
-  sun.direction[0] = 0.3f, sun.direction[1] = -1.0f, sun.direction[2] = 0.2f;
+  const float dir_len = sqrtf(0.3f * 0.3f + 1.0f + 0.2f * 0.2f);
+  sun.direction[0] = 0.3f / dir_len, sun.direction[1] = -1.0f / dir_len, sun.direction[2] = 0.2f / dir_len;
   sun.color[0] = sun.color[1] = sun.color[2] = 1.0f;
   sun.intensity = 2.0f;
+  for (size_t i = 0; i < n; ++i) {
+    float cosine = -(smp[i].normal[0] * sun.direction[0] + smp[i].normal[1] * sun.direction[1] +
+                     smp[i].normal[2] * sun.direction[2]);
+    if (cosine < 0.0f) cosine = 0.0f;
+    for (int c = 0; c < 3; ++c) ld_app[3 * i + c] = albedo[3 * i + c] * sun.intensity * cosine / 3.14159265f;
+  }
   CHECK(modrt_context_set_lights(ctx, &sun, 1));
+  CHECK(modrt_context_read_ld(ctx, ld_ctx, 3 * n));
+  double worst = 0.0, peak = 0.0;
+  for (size_t i = 0; i < 3 * n; ++i) {
+    const double d = fabs((double)ld_app[i] - (double)ld_ctx[i]);
+    if (d > worst) worst = d;
+    if (ld_app[i] > peak) peak = ld_app[i];
+  }
+  printf("sun ld from the level's samples: max difference %g of %g from set_lights\n", worst, peak);
+  if (!(peak > 0.0) || !(worst <= 1e-5 * peak)) {
+    fprintf(stderr, "the app's ld differs from set_lights' by %g (peak %g)\n", worst, peak);
+    return 1;
+  }
+  CHECK(modrt_context_set_ld(ctx, ld_app, 3 * n));
+  free(smp);
+  free(albedo);
+  free(ld_app);
+  free(ld_ctx);
   CHECK(modrt_context_update(ctx));
   const float* atlas = NULL;
   size_t count = 0;

@@ -28,10 +28,12 @@
  * Structs. Every struct the caller passes, in or out, starts with `uint32_t struct_size`, which
  * the caller sets to sizeof(the struct) (the *_init functions do, or `= {sizeof(T)}` in C), so
  * that later versions can add fields at the end and tell which layout a caller was built with.
- * This version has one layout of each; any other struct_size is MODRT_ERROR_INVALID_ARGUMENT,
- * naming the argument and the size expected. The records of an array the library fills
- * (modrt_mapped_corner) have no struct_size: their layout is this header's, and a later
- * layout comes with a new function.
+ * A struct that grew keeps accepting its earlier layouts: modrt_context_options and
+ * modrt_timings of version 0.2 (without the fields marked "since 0.3") are read or written up
+ * to their struct_size, and the missing input fields take their defaults. Any other
+ * struct_size is MODRT_ERROR_INVALID_ARGUMENT, naming the argument and the size expected. The records of an
+ * array the library fills (modrt_mapped_corner) have no struct_size: their layout is this header's, and a
+ * later layout comes with a new function.
  *
  * Memory. Loading and context creation allocate; the per-frame calls (set_lights, set_ld,
  * update, the queries and reads) do not allocate (outside an error message on failure). The
@@ -57,7 +59,7 @@ extern "C" {
 #endif
 
 #define MODRT_VERSION_MAJOR 0
-#define MODRT_VERSION_MINOR 2
+#define MODRT_VERSION_MINOR 3
 #define MODRT_VERSION_PATCH 0
 /* The header's version as one number; compare with modrt_version() at run time. */
 #define MODRT_VERSION ((MODRT_VERSION_MAJOR << 16) | (MODRT_VERSION_MINOR << 8) | MODRT_VERSION_PATCH)
@@ -85,7 +87,7 @@ MODRT_API const char* modrt_status_name(modrt_status status);
 /* The message of the last failed call on this thread ("" when none failed yet). Valid until
  * the next failing call on this thread. Never null. */
 MODRT_API const char* modrt_last_error(void);
-/* MODRT_VERSION of the library; "0.2.0". */
+/* MODRT_VERSION of the library; "0.3.0". */
 MODRT_API uint32_t modrt_version(void);
 MODRT_API const char* modrt_version_string(void);
 
@@ -137,6 +139,43 @@ typedef struct modrt_level_info {
 } modrt_level_info;
 MODRT_API modrt_status modrt_level_get_info(const modrt_level* level, modrt_level_info* out);
 
+/* The albedo the level was built with (3 * sample_count floats, RGB in [0, 1], in ld order):
+ * each face's authored albedo (modrt-level, from the level JSON). A context reflects its lights
+ * with it unless modrt_context_set_albedo overrides it. */
+MODRT_API modrt_status modrt_level_get_albedo(const modrt_level* level, float* out, size_t count);
+
+/* One lightmap sample: where it is, which way it faces, whose it is. */
+typedef struct modrt_level_sample {
+  float position[3]; /* world position of the texel centre */
+  float normal[3];   /* unit normal, pointing into its block (towards the light it receives) */
+  uint32_t block;    /* owning block (modrt_level_get_block) */
+  uint32_t face;     /* the block's canonical face (0..5: -X, +X, -Y, +Y, -Z, +Z) */
+} modrt_level_sample;
+/* Every sample in ld order (count = sample_count records): an app that computes ld itself
+ * (a GPU pass, its own lights) writes ld[3 s + c] = albedo[3 s + c] * E_c(position_s) / pi.
+ * Allocates scratch (operator new): call it at load time. */
+MODRT_API modrt_status modrt_level_get_samples(const modrt_level* level, modrt_level_sample* out,
+                                               size_t count);
+
+/* One block of the level (architecture.md §4): a canonical dictionary shape, turned by quarter
+ * turns about +Y and warped through its 8 corners. Per-face arrays are indexed by the
+ * canonical face, whose world direction is world_face[f]. */
+typedef struct modrt_level_block {
+  uint32_t struct_size;                 /* set by the caller: sizeof(modrt_level_block) */
+  uint32_t shape;                       /* dictionary shape index */
+  uint32_t quarter_turns;               /* canonical -> world: this many quarter turns about +Y (0..3) */
+  uint32_t face_mask;                   /* canonical faces present (walls): bit f for face f */
+  int32_t cell[3];                      /* grid cell */
+  float corners[8][3];                  /* world corner x + 2y + 4z of the canonical unit cube */
+  uint32_t world_face[6];               /* world face (0..5) of each canonical face */
+  int32_t neighbour[6];                 /* block joined through each canonical face, or -1 */
+  float albedo[6][3];                   /* linear RGB per canonical face */
+  uint32_t sample_offset, sample_count; /* the block's samples: [offset, offset + count) */
+  int32_t tile_x[6], tile_y[6];         /* padded atlas tile origin per canonical face (-1: no wall) */
+} modrt_level_block;
+MODRT_API modrt_status modrt_level_get_block(const modrt_level* level, uint32_t index,
+                                             modrt_level_block* out);
+
 /* ------------------------------------------------------------------------------------------
  * Context: one level evaluated by one backend. */
 typedef struct modrt_context modrt_context;
@@ -163,9 +202,24 @@ typedef struct modrt_context_options {
    * library was built with EGL, else MODRT_ERROR_UNSUPPORTED). */
   modrt_gl_loader gl_loader;
   void* gl_loader_user;
+  /* Since 0.3. Multi-bounce (architecture.md §2): every update runs the single-bounce
+   * evaluation of ld and then `bounces` feedback steps, ld = ld_direct + rho min(max(lightmap,
+   * 0), bound), each adding one bounce (0 to 64; 0: one bounce, as in 0.2). rho is the
+   * context's albedo (the level's, or set_albedo's) clamped to max_albedo, which is in [0, 1):
+   * the bound max(ld) / (1 - max rho) holds every bounce sum, so no lightmap value grows past
+   * it (feedback_policy.h). With skip_unchanged, an update whose ld and albedo are those of the
+   * last update runs nothing (frames_skipped). */
+  uint32_t bounces;
+  float max_albedo;
+  /* Since 0.3. Nonzero: every update also evaluates vector irradiance (MRT §6.4: four OHLSH
+   * coefficients of E / pi per sample, in its face's frame, for normal-mapped surfaces). Needs
+   * the dictionary's vector operators (modrt-bake bakes them by default); creation fails with
+   * MODRT_ERROR_UNSUPPORTED without them. */
+  int vector_irradiance;
 } modrt_context_options;
 
-/* Defaults: CPU, 1 thread, probes on, timing off, skipping on, 8 lights, shadows on. */
+/* Defaults: CPU, 1 thread, probes on, timing off, skipping on, 8 lights, shadows on, no extra
+ * bounces, max_albedo 0.95, vector irradiance off. */
 MODRT_API void modrt_context_options_init(modrt_context_options* options);
 
 /* Checks that the level was built against the dictionary (MODRT_ERROR_MISMATCH otherwise),
@@ -193,9 +247,12 @@ MODRT_API modrt_status modrt_context_get_sizes(const modrt_context* context, mod
 MODRT_API const char* modrt_context_description(const modrt_context* context);
 
 /* Per-sample albedo (3 * samples floats, RGB, finite, >= 0) that the lights are reflected
- * with: ld = albedo * E / pi. Needed before modrt_context_set_lights. Allocates (the shadow
- * walls and light tables are built here), so call it at load time, not per frame. */
+ * with: ld = albedo * E / pi. Optional: a context starts with the level's own albedo
+ * (modrt_level_get_albedo); this overrides it (e.g. from the app's textures). Does not allocate;
+ * the next set_lights recomputes every block. */
 MODRT_API modrt_status modrt_context_set_albedo(modrt_context* context, const float* albedo, size_t count);
+/* Copies the albedo the context reflects with (3 * samples floats). */
+MODRT_API modrt_status modrt_context_read_albedo(const modrt_context* context, float* out, size_t count);
 
 typedef enum modrt_light_type {
   MODRT_LIGHT_POINT = 0,
@@ -228,9 +285,12 @@ MODRT_API modrt_status modrt_context_set_lights(modrt_context* context, const mo
                                                 size_t count);
 /* Sets ld directly (count = sizes.ld floats, finite, >= 0; the first bad sample is named). */
 MODRT_API modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_t count);
+/* Copies the ld the next update will use (sizes.ld floats): set_ld's, or set_lights' result. */
+MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count);
 
-/* Evaluates the level for the current ld: b, r, lightmap, padded atlas (and probes when on).
- * On failure the previous results stay. */
+/* Evaluates the level for the current ld: b, r, lightmap (plus options.bounces feedback
+ * steps), padded atlas (and probes when on). On failure the previous results stay, except
+ * after a failed feedback step (a GL error), which leaves the results of the steps before it. */
 MODRT_API modrt_status modrt_context_update(modrt_context* context);
 
 /* GLES: the GL texture name of the padded lightmap atlas (GL_TEXTURE_2D, RGB in .rgb;
@@ -247,6 +307,21 @@ MODRT_API modrt_status modrt_context_get_atlas_data(const modrt_context* context
 MODRT_API modrt_status modrt_context_read_lightmap(modrt_context* context, float* out, size_t count);
 MODRT_API modrt_status modrt_context_read_atlas(modrt_context* context, float* out, size_t count);
 
+/* Vector irradiance of the last update (options.vector_irradiance). Per sample s, coefficient
+ * i (0..3) and channel c: out[3 (4 s + i) + c], count = 4 * sizes.lightmap floats. Coefficient
+ * i is in the frame of the sample's face: modrt_mapped_corner.face_u / face_v and the normal
+ * (core's sh.h, ohlsh_eval): a normal map's perturbed normal n in that frame gives
+ * E(n) / pi = sum_i coefficient_i * ohlsh_i(n). GLES: reads back from the GPU (waits). */
+MODRT_API modrt_status modrt_context_read_vector_lightmap(modrt_context* context, float* out, size_t count);
+/* Coefficient `coefficient` (0..3) laid out as the padded atlas (sizes.atlas floats, padding
+ * filled), ready to upload next to the atlas. GLES: reads back (use the textures instead). */
+MODRT_API modrt_status modrt_context_read_vector_atlas(modrt_context* context, int coefficient, float* out,
+                                                       size_t count);
+/* GLES: the four coefficient atlases as GL textures (the atlas's layout and *format, RGB in
+ * .rgb), textures[i] for coefficient i. CPU contexts: MODRT_ERROR_UNSUPPORTED. */
+MODRT_API modrt_status modrt_context_get_vector_textures(const modrt_context* context, uint32_t textures[4],
+                                                         int* format);
+
 typedef enum modrt_probe_kind {
   MODRT_PROBE_RADIANCE = 0,           /* SH9 of incident radiance */
   MODRT_PROBE_IRRADIANCE_OVER_PI = 1, /* SH9 of E / pi: shade a diffuse surface by its normal */
@@ -261,15 +336,16 @@ MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const floa
                                               modrt_probe_kind kind, float out[27]);
 
 /* Wall-clock / GPU nanoseconds of the stages of the last set_lights and update (timing on;
- * otherwise only light_ns and update_ns). CPU: b, r and the lightmap run fused, so b_ns and
- * r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
+ * otherwise only light_ns and update_ns), summed over the update's bounces. CPU: b, r and the lightmap run
+ * fused, so b_ns and r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
  * the atlas, so lightmap_ns is 0 and atlas_ns covers it. */
 typedef struct modrt_timings {
   uint32_t struct_size; /* set by the caller: sizeof(modrt_timings) */
   uint64_t light_ns;    /* set_lights: the CPU direct-light evaluation */
   uint64_t upload_ns;   /* GLES: ld upload */
   uint64_t b_ns, r_ns, lightmap_ns, atlas_ns, probes_ns;
-  uint64_t update_ns; /* the whole modrt_context_update call, CPU clock */
+  uint64_t update_ns;   /* the whole modrt_context_update call, CPU clock */
+  uint64_t feedback_ns; /* since 0.3: the multi-bounce feedback (ld from the lightmap) */
 } modrt_timings;
 MODRT_API modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timings* out);
 
@@ -280,7 +356,8 @@ MODRT_API modrt_status modrt_context_get_timings(const modrt_context* context, m
 typedef struct modrt_skip_stats {
   uint32_t struct_size;     /* set by the caller: sizeof(modrt_skip_stats) */
   uint64_t frames;          /* successful updates */
-  uint64_t frames_skipped;  /* GLES: ld identical to the last update, nothing ran */
+  uint64_t frames_skipped;  /* nothing ran: GLES: ld identical to the last update; with
+                               bounces (CPU and GLES): ld and albedo identical */
   uint64_t blocks_computed; /* b evaluated */
   uint64_t blocks_kept;
   uint64_t slots_computed; /* slots whose r was evaluated */

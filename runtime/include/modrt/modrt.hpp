@@ -100,6 +100,14 @@ class Level : public Handle<modrt_level, modrt_level_destroy> {
     modrt_level_get_info(h_, &i);
     return i;
   }
+  Error albedo(float* out, size_t count) const { return check(modrt_level_get_albedo(h_, out, count)); }
+  Error samples(modrt_level_sample* out, size_t count) const {
+    return check(modrt_level_get_samples(h_, out, count));
+  }
+  Error block(uint32_t index, modrt_level_block& out) const {
+    out = sized<modrt_level_block>();
+    return check(modrt_level_get_block(h_, index, &out));
+  }
 };
 
 inline modrt_context_options default_options(modrt_backend backend = MODRT_BACKEND_CPU) {
@@ -132,6 +140,10 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
     return check(modrt_context_set_lights(h_, lights, count));
   }
   Error set_ld(const float* ld, size_t count) { return check(modrt_context_set_ld(h_, ld, count)); }
+  Error read_ld(float* out, size_t count) const { return check(modrt_context_read_ld(h_, out, count)); }
+  Error read_albedo(float* out, size_t count) const {
+    return check(modrt_context_read_albedo(h_, out, count));
+  }
   Error update() { return check(modrt_context_update(h_)); }
   // 0 for a CPU context.
   uint32_t atlas_texture(int* format = nullptr) const {
@@ -140,6 +152,12 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   }
   Error read_atlas(float* out, size_t count) { return check(modrt_context_read_atlas(h_, out, count)); }
   Error read_lightmap(float* out, size_t count) { return check(modrt_context_read_lightmap(h_, out, count)); }
+  Error read_vector_lightmap(float* out, size_t count) {
+    return check(modrt_context_read_vector_lightmap(h_, out, count));
+  }
+  Error read_vector_atlas(int coefficient, float* out, size_t count) {
+    return check(modrt_context_read_vector_atlas(h_, coefficient, out, count));
+  }
   Error probe_sh(const float position[3], float out[27],
                  modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
     return check(modrt_context_probe_sh(h_, position, kind, out));
