@@ -1021,6 +1021,73 @@ TEST(CApiGles, VectorIrradianceMatchesTheReference) {
   expect_vector_irradiance_matches(MODRT_BACKEND_GLES, 1e-4);
 }
 
+// The probe volume as one world-frame array (for a GPU buffer or 3D texture): each probe's SH9
+// is what modrt_context_probe_sh gives at its position (which test_c_api checks against core's
+// reference rotated into the world), E/pi is radiance with bands scaled by 1, 2/3, 1/4.
+void expect_probe_volume_matches_queries(modrt_backend backend) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  ASSERT_GT(s.probes, 0u);
+  const std::size_t probes = s.probes / 27;
+  ASSERT_EQ(probes, t.level.blocks.size() * s.probe_grid * s.probe_grid * s.probe_grid);
+  std::vector<float> e(s.probes), rad(s.probes), pos(3 * probes);
+  ASSERT_EQ(modrt_context_read_probes(c, MODRT_PROBE_IRRADIANCE_OVER_PI, e.data(), e.size()), MODRT_OK)
+      << modrt_last_error();
+  ASSERT_EQ(modrt_context_read_probes(c, MODRT_PROBE_RADIANCE, rad.data(), rad.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_get_probe_positions(c, pos.data(), pos.size()), MODRT_OK) << modrt_last_error();
+  float peak = 0.0f;
+  for (float v : e) peak = std::max(peak, std::abs(v));
+  ASSERT_GT(peak, 0.0f);
+  for (std::size_t p = 0; p < probes; p += 5) {
+    float q[27];
+    ASSERT_EQ(modrt_context_probe_sh(c, &pos[3 * p], MODRT_PROBE_IRRADIANCE_OVER_PI, q), MODRT_OK)
+        << modrt_last_error();
+    for (int k = 0; k < 27; ++k) ASSERT_NEAR(e[27 * p + std::size_t(k)], q[k], 1e-5f * peak) << "probe " << p;
+    for (int k = 0; k < 27; ++k) {
+      const float band = k < 3 ? 1.0f : k < 12 ? 2.0f / 3.0f : 0.25f;
+      ASSERT_NEAR(e[27 * p + std::size_t(k)], band * rad[27 * p + std::size_t(k)], 1e-6f * peak);
+    }
+    // The position lies inside block p / g^3.
+    const std::size_t block = p / (probes / t.level.blocks.size());
+    const glm::dvec3 canonical =
+        world_to_block(t.level.blocks[block], glm::dvec3(pos[3 * p], pos[3 * p + 1], pos[3 * p + 2]));
+    for (int a = 0; a < 3; ++a) ASSERT_TRUE(canonical[a] > 0.0 && canonical[a] < 1.0) << p;
+  }
+  expect_error(modrt_context_read_probes(c, MODRT_PROBE_RADIANCE, e.data(), e.size() - 1),
+               MODRT_ERROR_INVALID_ARGUMENT, {"modrt_context_read_probes", "out has"});
+  expect_error(modrt_context_read_probes(c, modrt_probe_kind(5), e.data(), e.size()),
+               MODRT_ERROR_INVALID_ARGUMENT, {"unknown probe kind 5"});
+  expect_error(modrt_context_get_probe_positions(c, pos.data(), 3), MODRT_ERROR_INVALID_ARGUMENT,
+               {"the probes need " + std::to_string(3 * probes)});
+  modrt_context_destroy(c);
+  o.probes = 0;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_read_probes(c, MODRT_PROBE_RADIANCE, e.data(), e.size()),
+               MODRT_ERROR_UNSUPPORTED, {"options.probes was 0"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, ProbeVolumeIsTheQueriesAtEveryProbe) { expect_probe_volume_matches_queries(MODRT_BACKEND_CPU); }
+
+TEST(CApiGles, ProbeVolumeIsTheQueriesAtEveryProbe) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  expect_probe_volume_matches_queries(MODRT_BACKEND_GLES);
+}
+
 TEST(CApi, BadCallsReturnNamedErrors) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();

@@ -791,6 +791,61 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
   });
 }
 
+namespace {
+modrt_status check_probes_on(const modrt_context* c, const char* fn) {
+  if (c->probes_on) return MODRT_OK;
+  return fail(MODRT_ERROR_UNSUPPORTED,
+              std::string(fn) + ": no probes: the dictionary has no volume probes or options.probes was 0");
+}
+}  // namespace
+
+modrt_status modrt_context_read_probes(modrt_context* context, modrt_probe_kind kind, float* out,
+                                       size_t count) {
+  return guarded("modrt_context_read_probes", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_probes";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    const int kind_value = c_enum_value(kind);
+    if (kind_value != MODRT_PROBE_RADIANCE && kind_value != MODRT_PROBE_IRRADIANCE_OVER_PI)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": unknown probe kind " + std::to_string(kind_value));
+    if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
+    if (modrt_status s = check_count(fn, "out", count, context->probes.size()); s != MODRT_OK) return s;
+#if MODRT_RUNTIME_GLES
+    if (context->gles && !context->probes_current) {
+      GlStateGuard state(context->gl);
+      if (Status s = context->gles->read_probes(context->probes); !s.ok())
+        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+      context->probes_current = true;
+    }
+#endif
+    context->sampler.world_probes(context->probes, kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI,
+                                  {out, count});
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_probe_positions(const modrt_context* context, float* out, size_t count) {
+  return guarded("modrt_context_get_probe_positions", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_get_probe_positions";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
+    const std::size_t per_block =
+        std::size_t(context->probe_grid) * context->probe_grid * context->probe_grid;
+    const std::size_t probes = per_block * context->lv().blocks.size();
+    if (count != 3 * probes)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out has " + std::to_string(count) +
+                                                    " floats, the probes need " + std::to_string(3 * probes));
+    for (std::size_t b = 0; b < context->lv().blocks.size(); ++b)
+      for (std::size_t p = 0; p < per_block; ++p) {
+        const glm::dvec3 x = context->sampler.probe_position(b, int(p));
+        for (int a = 0; a < 3; ++a) out[3 * (b * per_block + p) + std::size_t(a)] = float(x[a]);
+      }
+    return MODRT_OK;
+  });
+}
+
 modrt_status modrt_context_get_timings(const modrt_context* context, modrt_timings* out) {
   if (!context) return null_arg("modrt_context_get_timings", "context");
   if (!out) return null_arg("modrt_context_get_timings", "out");

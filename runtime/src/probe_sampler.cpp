@@ -78,6 +78,21 @@ ProbeSampler::ProbeSampler(const Level& level, int grid) : level_(&level), grid_
   for (int t = 0; t < 4; ++t) rotation_[std::size_t(t)] = sh9_rotation(t);
 }
 
+namespace {
+// c_world = M c (M = rotation(quarter_turns)), band l scaled by A_l / pi for E / pi (sh.h,
+// irradiance_from_radiance_sh9).
+void to_world(const std::array<double, 81>& m, const double sh[27], bool irradiance, float out[27]) {
+  for (int k = 0; k < 9; ++k) {
+    const double scale = !irradiance ? 1.0 : (k == 0 ? 1.0 : k < 4 ? 2.0 / 3.0 : 0.25);
+    for (int c = 0; c < 3; ++c) {
+      double v = 0.0;
+      for (int j = 0; j < 9; ++j) v += m[std::size_t(9 * k + j)] * sh[3 * j + c];
+      out[3 * k + c] = float(scale * v);
+    }
+  }
+}
+}  // namespace
+
 Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance,
                             float out[27]) const {
   std::size_t block = 0;
@@ -111,17 +126,26 @@ Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, 
     const float* probe = base + 27 * std::size_t(q.x + g * (q.y + g * q.z));
     for (int k = 0; k < 27; ++k) sh[k] += w * double(probe[k]);
   }
-  const std::array<double, 81>& m = rotation(level_->blocks[block].quarter_turns);
-  for (int k = 0; k < 9; ++k) {
-    // Radiance -> E/pi: band l scaled by A_l / pi (sh.h, irradiance_from_radiance_sh9).
-    const double scale = !irradiance ? 1.0 : (k == 0 ? 1.0 : k < 4 ? 2.0 / 3.0 : 0.25);
-    for (int c = 0; c < 3; ++c) {
-      double v = 0.0;
-      for (int j = 0; j < 9; ++j) v += m[std::size_t(9 * k + j)] * sh[3 * j + c];
-      out[3 * k + c] = float(scale * v);
+  to_world(rotation(level_->blocks[block].quarter_turns), sh, irradiance, out);
+  return Status::success();
+}
+
+void ProbeSampler::world_probes(std::span<const float> probes, bool irradiance, std::span<float> out) const {
+  const std::size_t per_block = 27 * std::size_t(grid_) * std::size_t(grid_) * std::size_t(grid_);
+  for (std::size_t b = 0; b < level_->blocks.size(); ++b) {
+    const std::array<double, 81>& m = rotation(level_->blocks[b].quarter_turns);
+    for (std::size_t at = per_block * b; at < per_block * (b + 1) && at + 27 <= probes.size(); at += 27) {
+      double sh[27];
+      for (int k = 0; k < 27; ++k) sh[k] = double(probes[at + std::size_t(k)]);
+      to_world(m, sh, irradiance, out.data() + at);
     }
   }
-  return Status::success();
+}
+
+glm::dvec3 ProbeSampler::probe_position(std::size_t block, int p) const {
+  const int g = grid_;
+  const glm::dvec3 cell(p % g, (p / g) % g, p / (g * g));
+  return block_to_world(level_->blocks[block], (cell + 0.5) / double(g));
 }
 
 }  // namespace modrt::capi

@@ -26,6 +26,14 @@ class ProbeSampler {
   // Fails (invalid_argument) for a point outside every block by more than 1% of a block.
   Status sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance, float out[27]) const;
 
+  // Every probe of `probes` (canonical frames) rotated into the world frame, into `out`
+  // (probes.size() floats, same order); `irradiance` as in sample().
+  void world_probes(std::span<const float> probes, bool irradiance, std::span<float> out) const;
+  // World position of probe p = i + g (j + g k) of block `block`: its canonical cell centre
+  // ((i, j, k) + 0.5) / g through the block's warp.
+  glm::dvec3 probe_position(std::size_t block, int p) const;
+  int grid() const { return grid_; }
+
   // Canonical block coordinates of world point x in block `block`.
   // c_world = M c_canonical for a block turned by `quarter_turns` (0..3).
   const std::array<double, 81>& rotation(int quarter_turns) const {

@@ -121,6 +121,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   options.timing = in.ConsumeBool();
   options.max_lights =
       std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 9) : fuzz_int(in, 0, 9));
+  options.bounces =
+      std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 3) : fuzz_int(in, 0, 3));
+  if (in.ConsumeBool()) options.max_albedo = fuzz_float(in);
+  options.vector_irradiance = in.ConsumeBool();
   modrt_context* context = nullptr;
   const modrt_status created = modrt_context_create(a.dictionary, a.level, &options, nullptr, &context);
   expect_failed(created);
@@ -135,7 +139,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::vector<float> lightmap(sizes.lightmap), atlas(sizes.atlas), previous;
   bool updated = false;
   for (int step = 0; step < 24 && in.remaining_bytes() > 0; ++step) {
-    switch (in.ConsumeIntegralInRange<int>(0, 7)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 8)) {
       case 0: {  // albedo: one value everywhere, or one sample poked
         std::vector<float> albedo(sizes.ld, in.ConsumeBool() ? 0.7f : fuzz_float(in));
         if (in.ConsumeBool())
@@ -199,6 +203,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             modrt_context_get_skip_stats(context, &k) != MODRT_OK)
           std::abort();
         if (k.blocks_computed + k.blocks_kept < k.frames) std::abort();
+        break;
+      }
+      case 7: {  // the vector irradiance and the probe volume of the last update: finite
+        std::vector<float> v(4 * sizes.lightmap), volume(sizes.probes);
+        const modrt_status sv = modrt_context_read_vector_lightmap(context, v.data(), v.size());
+        expect_failed(sv);
+        if (sv == MODRT_OK) require_finite(v, false);
+        if (sizes.probes > 0) {
+          const modrt_status sp = modrt_context_read_probes(context, MODRT_PROBE_IRRADIANCE_OVER_PI,
+                                                            volume.data(), volume.size());
+          expect_failed(sp);
+          if (sp == MODRT_OK) require_finite(volume, false);
+        }
         break;
       }
       default: {  // an unknown probe kind and a null output must be refused, not crash

@@ -335,6 +335,17 @@ typedef enum modrt_probe_kind {
 MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const float position[3],
                                               modrt_probe_kind kind, float out[27]);
 
+/* The whole probe volume of the last update in the world frame (sizes.probes floats), for
+ * sampling on the GPU: probe p = i + g (j + g k) of block b (g = sizes.probe_grid; (i, j, k) on
+ * the block's canonical grid) at out[27 (b g^3 + p) + 3 k + c], coefficient k, channel c, as
+ * modrt_context_probe_sh gives it at that probe's position (modrt_context_get_probe_positions).
+ * Upload it as a buffer or a 3D texture per block. GLES: reads back from the GPU once per update. */
+MODRT_API modrt_status modrt_context_read_probes(modrt_context* context, modrt_probe_kind kind, float* out,
+                                                 size_t count);
+/* World position of every probe (3 * blocks * g^3 floats, the order of read_probes). */
+MODRT_API modrt_status modrt_context_get_probe_positions(const modrt_context* context, float* out,
+                                                         size_t count);
+
 /* Wall-clock / GPU nanoseconds of the stages of the last set_lights and update (timing on;
  * otherwise only light_ns and update_ns), summed over the update's bounces. CPU: b, r and the lightmap run
  * fused, so b_ns and r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
