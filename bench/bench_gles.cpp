@@ -12,6 +12,8 @@
 //     context: 0 auto, 1 egl-surfaceless, 2 osmesa, 3 egl-device (unavailable ones skip)
 //   BM_TbrOnCpu/<blocks>/<context>         Tb->r done on the CPU instead: read b back, SIMD
 //                                          records, upload r (compare with r_us above)
+//   BM_GlesLdSource/<blocks>/<context>/<gpu>  ld from an app's GPU pass: read back and uploaded
+//                                          (gpu 0) or read on the GPU (gpu 1, update_from_texture)
 //   BM_CpuBackendFrame/<blocks>/<vector>   the CPU backend's update (best ISA), for the ratio;
 //                                          vector 1: + read_vector_lightmap (computed on read)
 //
@@ -31,6 +33,8 @@
 #include "modrt/cpu/kernels.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/platform/gl_context.h"
+#include "modrt/platform/gl_program.h"
+#include "modrt/reference_runtime.h"
 
 namespace {
 
@@ -194,6 +198,76 @@ void BM_TbrOnCpu(benchmark::State& state) {
                  cpu::isa_name(isa) + " records + upload r");
 }
 BENCHMARK(BM_TbrOnCpu)->ArgsProduct({{11, 41}, {0, 1, 2, 3}})->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+// ld from a GPU pass (issue 19 item 2). The app's direct-light pass leaves ld in an RGBA32F
+// render target of the runtime's ld layout; per frame, full evaluation (no skipping), glFinish:
+//   gpu 0: the round trip the demo did: glReadPixels of the target, NaN/negative/range
+//          sanitised on the CPU, update(ld) uploads it again
+//   gpu 1: update_from_texture(target): the b pass reads it on the GPU
+void BM_GlesLdSource(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  platform::GlContext* ctx = context(int(state.range(1)));
+  if (!bl || !ctx) {
+    state.SkipWithError("no dictionary/level or no such GL context here");
+    return;
+  }
+  const bool gpu = state.range(2) != 0;
+  gles::GlesRuntimeOptions options;
+  options.skip_unchanged = false;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
+  if (!rt.ok()) {
+    state.SkipWithError(rt.status().to_string().c_str());
+    return;
+  }
+  gles::GlesLevelRuntime& runtime = *rt.value();
+  const platform::GlFunctions& gl = ctx->gl();
+  const gles::GlesLevelRuntime::LinearLayout layout = runtime.ld_layout();
+  const std::size_t texels = std::size_t(layout.width) * std::size_t(layout.height);
+  std::vector<float> rgba(4 * texels, 0.0f), ld(bl->ld.size());
+  for (std::size_t s = 0; s < bl->ld.size() / 3; ++s)
+    for (std::size_t c = 0; c < 3; ++c) rgba[4 * s + c] = bl->ld[3 * s + c];
+  GLuint target = 0;
+  gl.glGenTextures(1, &target);
+  gl.glBindTexture(GL_TEXTURE_2D, target);
+  gl.glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, layout.width, layout.height);
+  gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, layout.width, layout.height, GL_RGBA, GL_FLOAT, rgba.data());
+  Result<GLuint> fbo = platform::create_framebuffer(gl, "bench ld", {target}, "RGBA32F");
+  if (!fbo.ok()) {
+    gl.glDeleteTextures(1, &target);
+    state.SkipWithError(fbo.status().to_string().c_str());
+    return;
+  }
+  const auto frame = [&]() -> bool {
+    if (gpu) return runtime.update_from_texture(target).ok();
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, fbo.value());
+    gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+    gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl.glReadPixels(0, 0, layout.width, layout.height, GL_RGBA, GL_FLOAT, rgba.data());
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    for (std::size_t s = 0; s < ld.size() / 3; ++s)
+      for (std::size_t c = 0; c < 3; ++c) {
+        const float v = rgba[4 * s + c];
+        ld[3 * s + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
+      }
+    return runtime.update(ld).ok();
+  };
+  for (int warm = 0; warm < 3; ++warm) (void)frame();
+  gl.glFinish();
+  for (auto _ : state) {
+    if (!frame()) state.SkipWithError("frame failed");
+    gl.glFinish();
+  }
+  gl.glDeleteFramebuffers(1, &fbo.value());
+  gl.glDeleteTextures(1, &target);
+  state.counters["samples"] = double(bl->ld.size() / 3);
+  state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) +
+                 (gpu ? " ld texture read on the GPU" : " ld read back, sanitised, uploaded"));
+}
+BENCHMARK(BM_GlesLdSource)
+    ->ArgsProduct({{11, 41}, {0, 1, 2}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 
 void BM_CpuBackendFrame(benchmark::State& state) {
   const BenchLevel* bl = bench_level(int(state.range(0)));

@@ -16,6 +16,7 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -30,6 +31,7 @@
 
 #include "counting_allocator.h"
 #include "level_fixtures.h"
+#include "modrt/backends.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
@@ -1086,6 +1088,146 @@ TEST(CApiGles, ProbeVolumeIsTheQueriesAtEveryProbe) {
       platform::create_context(platform::ContextRequest::egl_surfaceless);
   if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
   expect_probe_volume_matches_queries(MODRT_BACKEND_GLES);
+}
+
+// ld from the app's own GPU pass: a texture in the context's ld layout is read on the GPU, with
+// no glReadPixels in the frame (counted through the app's loader); NaN and negative texels read
+// as 0; the lightmap equals the one from the same ld set as floats; errors are named.
+std::atomic<int> g_read_pixels{0};
+PFNGLREADPIXELSPROC g_real_read_pixels = nullptr;
+void GL_APIENTRY counting_read_pixels(GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, GLenum type,
+                                      void* pixels) {
+  ++g_read_pixels;
+  g_real_read_pixels(x, y, w, h, format, type, pixels);
+}
+void* counting_loader(const char* name, void* user) {
+  void* real = reinterpret_cast<void* (*)(const char*)>(user)(name);
+  if (real && std::strcmp(name, "glReadPixels") == 0) {
+    g_real_read_pixels = reinterpret_cast<PFNGLREADPIXELSPROC>(real);
+    return reinterpret_cast<void*>(&counting_read_pixels);
+  }
+  return real;
+}
+
+TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
+  Result<std::unique_ptr<platform::GlContext>> context =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
+  ASSERT_NE(get_proc, nullptr);
+  const platform::GlFunctions& gl = context.value()->gl();
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.gl_loader = counting_loader;
+  o.gl_loader_user = get_proc;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  std::uint32_t width = 0, height = 0;
+  ASSERT_EQ(modrt_context_get_ld_layout(c, &width, &height), MODRT_OK) << modrt_last_error();
+  const std::size_t n = t.level.sample_count;
+  ASSERT_GE(std::size_t(width) * height, n);
+
+  // The app's ld texture (its GPU pass simulated by an upload), with NaN and a negative value.
+  std::vector<float> texels(4 * std::size_t(width) * height, 0.0f), sanitized = t.ld;
+  for (std::size_t s = 0; s < n; ++s)
+    for (std::size_t ch = 0; ch < 3; ++ch) texels[4 * s + ch] = t.ld[3 * s + ch];
+  texels[4 * 3 + 1] = std::numeric_limits<float>::quiet_NaN();
+  texels[4 * 9 + 0] = -5.0f;
+  sanitized[3 * 3 + 1] = 0.0f;
+  sanitized[3 * 9 + 0] = 0.0f;
+  GLuint tex = 0;
+  gl.glGenTextures(1, &tex);
+  gl.glBindTexture(GL_TEXTURE_2D, tex);
+  // Mutable storage, one level, the default GL_NEAREST_MIPMAP_LINEAR: incomplete by its own
+  // sampling state (texelFetch would read 0); the runtime's sampler object makes it complete.
+  const auto tex_image_2d = reinterpret_cast<PFNGLTEXIMAGE2DPROC>(
+      reinterpret_cast<void* (*)(const char*)>(get_proc)("glTexImage2D"));
+  ASSERT_NE(tex_image_2d, nullptr);
+  tex_image_2d(GL_TEXTURE_2D, 0, GL_RGBA32F, GLsizei(width), GLsizei(height), 0, GL_RGBA, GL_FLOAT,
+               texels.data());
+  ASSERT_EQ(gl.glGetError(), GLenum(GL_NO_ERROR));
+
+  g_read_pixels = 0;
+  ASSERT_EQ(modrt_context_set_ld_texture(c, tex), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(g_read_pixels.load(), 0) << "the GPU-ld frames read back";
+  const std::vector<float> from_texture = read_lightmap(c);
+  EXPECT_GT(g_read_pixels.load(), 0) << "the loader wrapper does not see the reads";
+  EXPECT_LT(rel_l2(from_texture, level_reference(t.level, sanitized).lightmap), 1e-4);
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_EQ(k.frames, 2u);
+  EXPECT_EQ(k.frames_skipped, 0u);
+  std::vector<float> ld_copy(3 * n);
+  expect_error(modrt_context_read_ld(c, ld_copy.data(), ld_copy.size()), MODRT_ERROR_UNSUPPORTED,
+               {"GL texture " + std::to_string(tex)});
+  // The same ld as floats: the same lightmap.
+  ASSERT_EQ(modrt_context_set_ld(c, sanitized.data(), sanitized.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_LT(rel_l2(read_lightmap(c), from_texture), 1e-7);
+
+  expect_error(modrt_context_set_ld_texture(c, 0), MODRT_ERROR_INVALID_ARGUMENT, {"texture 0"});
+  expect_error(modrt_context_set_ld_texture(c, 987654), MODRT_ERROR_INVALID_ARGUMENT,
+               {"texture 987654", "not a texture name"});
+  modrt_context_destroy(c);
+  o.bounces = 2;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_set_ld_texture(c, tex), MODRT_ERROR_UNSUPPORTED, {"options.bounces is 2"});
+  modrt_context_destroy(c);
+  o = modrt::rt::default_options(MODRT_BACKEND_CPU);
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_set_ld_texture(c, tex), MODRT_ERROR_UNSUPPORTED, {"CPU context"});
+  expect_error(modrt_context_get_ld_layout(c, &width, &height), MODRT_ERROR_UNSUPPORTED, {"CPU context"});
+  modrt_context_destroy(c);
+  gl.glDeleteTextures(1, &tex);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+// The creator table (modrt/backends.h): each kind creates its backend, which evaluates the level
+// as core's reference does; bad requests are named.
+TEST(BackendTable, EveryKindCreatesItsBackend) {
+  const test::TestLevel& t = test_level("maze11");
+  BackendCreateInfo info;
+  info.level = &t.level;
+  info.dict = &small_test_dictionary();
+  const test::LevelReference ref = level_reference(t.level, t.ld);
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (gl.ok()) {
+    info.gl = &gl.value()->gl();
+    info.gles_context = gl.value()->info().gles;
+  }
+  for (BackendKind kind : {BackendKind::cpu, BackendKind::gles}) {
+    SCOPED_TRACE(backend_kind_name(kind));
+    if (kind == BackendKind::gles && !gl.ok()) continue;
+    Result<std::unique_ptr<Backend>> be = create_backend(kind, info);
+    ASSERT_TRUE(be.ok()) << be.status().to_string();
+    EXPECT_EQ(be.value()->kind(), kind);
+    ASSERT_TRUE(be.value()->update(t.ld).ok());
+    std::vector<float> lightmap(be.value()->sizes().lightmap);
+    ASSERT_TRUE(be.value()->read_lightmap(lightmap).ok());
+    EXPECT_LT(rel_l2(lightmap, ref.lightmap), kind == BackendKind::cpu ? 1e-5 : 1e-4);
+  }
+  const auto expect_refused = [&](BackendKind kind, const BackendCreateInfo& bad, const std::string& words) {
+    Result<std::unique_ptr<Backend>> be = create_backend(kind, bad);
+    ASSERT_FALSE(be.ok());
+    EXPECT_EQ(be.status().code(), ErrorCode::invalid_argument);
+    EXPECT_NE(be.status().message().find(words), std::string::npos) << be.status().message();
+  };
+  BackendCreateInfo no_gl = info;
+  no_gl.gl = nullptr;
+  expect_refused(BackendKind::gles, no_gl, "BackendCreateInfo::gl is null");
+  expect_refused(BackendKind::count, info, "kind 2 is not a backend");
+  expect_refused(BackendKind(-1), info, "kind -1 is not a backend");
+  BackendCreateInfo no_level = info;
+  no_level.level = nullptr;
+  expect_refused(BackendKind::cpu, no_level, "create_backend(cpu): the level or dictionary is null");
 }
 
 TEST(CApi, BadCallsReturnNamedErrors) {

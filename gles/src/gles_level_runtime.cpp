@@ -41,6 +41,13 @@ const char* operator_format_name(OperatorFormat f) {
 
 namespace {
 
+// A float as a GLSL literal that reads back as the same float (9 significant digits).
+std::string glsl_float(float v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9e", double(v));
+  return text;
+}
+
 // Samples per partial sum in b.frag: enough independent fragments to fill a GPU, few enough
 // partials (n / 64) for b_reduce.frag to add cheaply.
 constexpr int kBChunk = 64;
@@ -90,6 +97,7 @@ GlesLevelRuntime::~GlesLevelRuntime() {
   if (!framebuffers_.empty()) gl_.glDeleteFramebuffers(GLsizei(framebuffers_.size()), framebuffers_.data());
   if (!textures_.empty()) gl_.glDeleteTextures(GLsizei(textures_.size()), textures_.data());
   if (vao_) gl_.glDeleteVertexArrays(1, &vao_);
+  if (ld_sampler_) gl_.glDeleteSamplers(1, &ld_sampler_);
 }
 
 Result<std::unique_ptr<GlesLevelRuntime>> GlesLevelRuntime::create(const platform::GlFunctions& gl,
@@ -340,6 +348,10 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   // Per-frame inputs: RGB32F so that the caller's interleaved RGB uploads without repacking.
   const int feedback_rows = linear_rows(samples);
   ld_ = linear_texture("ld", GL_RGB32F, samples);
+  ld_source_ = ld_;
+  gl_.glGenSamplers(1, &ld_sampler_);
+  gl_.glSamplerParameteri(ld_sampler_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  gl_.glSamplerParameteri(ld_sampler_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   ld_direct_ = linear_texture("ld_direct", GL_RGB32F, samples);
   rho_ = linear_texture("albedo", GL_RGB32F, samples);
   if (!limit.ok()) return limit;
@@ -426,8 +438,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       "\n#define R_GROUPS " + std::to_string(r_groups_) + "\n#define N_MAX " + std::to_string(n_max_) +
       "\n#define PROBE_ROWS " + std::to_string(probe_rows_) + "\n#define VECTOR_ROWS " +
       std::to_string(vector_rows_) + "\n#define B_CHUNK " + std::to_string(kBChunk) + "\n#define B_CHUNKS " +
-      std::to_string(b_chunks_) + "\n#define OUTPUT_MAX " +
-      (target_ == TargetFormat::float16 ? "65504.0" : "3.4028234e38") + "\n";
+      std::to_string(b_chunks_) + "\n#define MAX_LIGHT " + glsl_float(kMaxLightValue) +
+      "\n#define OUTPUT_MAX " + (target_ == TargetFormat::float16 ? "65504.0" : "3.4028234e38") + "\n";
   defines_ = defines;
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
@@ -603,9 +615,13 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   if (from_feedback)
     draw(prog_b_feedback_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
          {td_b_, block_info_, ld_feedback_.texture});
-  else
-    draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height, {td_b_, block_info_, ld_},
+  else {
+    gl_.glBindSampler(2, ld_sampler_);  // u_ld's unit (draw binds the textures in order)
+    draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
+         {td_b_, block_info_, ld_source_},
          partial.b ? linear_rects(dirty_block_, groups_ * b_chunks_) : std::span<const Rect>{});
+    gl_.glBindSampler(2, 0);
+  }
   draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
        {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]},
        partial.b ? linear_rects(dirty_block_, groups_) : std::span<const Rect>{});
@@ -705,6 +721,33 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     times_.clutter = drt_ ? timer_->elapsed_ns(kClutter) : 0;
     timer_->reset();
   }
+  return Status::success();
+}
+
+GlesLevelRuntime::LinearLayout GlesLevelRuntime::ld_layout() const {
+  return {kLinearWidth, linear_rows(level_->sample_count)};
+}
+
+Status GlesLevelRuntime::update_from_texture(GLuint ld_texture) {
+  if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles: update_from_texture: " + std::to_string(ld_texture) +
+                             " is not a texture name of this GL context");
+  const Level& level = *level_;
+  std::fill(dirty_block_.begin(), dirty_block_.end(), std::uint8_t(1));
+  std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
+  std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
+  if (timing_) timer_->reset();
+  force_full_ = true;  // the next update() has no ld_prev_ of this frame to compare with
+  ld_source_ = ld_texture;
+  const Status s = run_passes(false, Partial{});
+  ld_source_ = ld_;
+  if (!s.ok()) return s;
+  drt_light_changed_ = false;
+  ++stats_.frames;
+  stats_.blocks_b += level.blocks.size();
+  stats_.blocks_redrawn += level.blocks.size();
+  stats_.slots_r += level.slots.size();
   return Status::success();
 }
 

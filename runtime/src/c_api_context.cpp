@@ -57,6 +57,8 @@ struct modrt_context {
   // Multi-bounce: the ld of the last successful update (with bounces and skipping on, an
   // update with the same ld and albedo runs nothing), and the largest clamped albedo.
   HookVector<float> ld_last;
+  // GLES: the ld source of the next updates when set_ld_texture named one (0: the CPU ld).
+  std::uint32_t ld_texture = 0;
   // Vector irradiance (options.vector_irradiance): the CPU context's own, or the GLES one's
   // read back; vector_plane: one coefficient per sample, for read_vector_atlas.
   HookVector<float> vector, vector_plane;
@@ -460,6 +462,7 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
         !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     context->timings.light_ns = ns_since(t0);
+    context->ld_texture = 0;
     const cpu::CpuDirectLightStats& st = context->direct->stats();
     context->skip.light_blocks_recomputed += st.blocks_recomputed;
     context->skip.light_blocks_kept += st.blocks_kept;
@@ -479,8 +482,47 @@ modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     std::copy(ld, ld + count, context->ld.begin());
     context->direct->invalidate();  // its incremental update assumed its own ld
+    context->ld_texture = 0;
     return MODRT_OK;
   });
+}
+
+modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t texture) {
+  constexpr const char* fn = "modrt_context_set_ld_texture";
+  if (!context) return null_arg(fn, "context");
+  return guarded(fn, [&]() -> modrt_status {
+    if (!context->is_gles())
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  std::string(fn) + ": a CPU context reads ld from memory: use modrt_context_set_ld");
+    if (context->options.bounces > 0)
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  std::string(fn) + ": options.bounces is " + std::to_string(context->options.bounces) +
+                      ": the feedback bound needs the largest ld on the CPU; use modrt_context_set_ld");
+#if MODRT_RUNTIME_GLES
+    if (texture == 0 || context->gl.glIsTexture(texture) != GL_TRUE)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": texture " + std::to_string(texture) +
+                                                    " is not a texture name of the current GL context");
+#endif
+    context->ld_texture = texture;
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_ld_layout(const modrt_context* context, uint32_t* width, uint32_t* height) {
+  constexpr const char* fn = "modrt_context_get_ld_layout";
+  if (!context) return null_arg(fn, "context");
+  if (!width) return null_arg(fn, "width");
+  if (!height) return null_arg(fn, "height");
+#if MODRT_RUNTIME_GLES
+  if (context->gles) {
+    const gles::GlesLevelRuntime::LinearLayout layout = context->gles->ld_layout();
+    *width = std::uint32_t(layout.width);
+    *height = std::uint32_t(layout.height);
+    return MODRT_OK;
+  }
+#endif
+  return fail(MODRT_ERROR_UNSUPPORTED,
+              static_cast<const char*>("modrt_context_get_ld_layout: a CPU context has no ld texture"));
 }
 
 modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count) {
@@ -488,6 +530,9 @@ modrt_status modrt_context_read_ld(const modrt_context* context, float* out, siz
   if (!context) return null_arg(fn, "context");
   if (!out) return null_arg(fn, "out");
   return guarded(fn, [&]() -> modrt_status {
+    if (context->ld_texture)
+      return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": ld comes from GL texture " +
+                                               std::to_string(context->ld_texture) + " (set_ld_texture)");
     if (modrt_status s = check_count(fn, "out", count, context->ld.size()); s != MODRT_OK) return s;
     std::copy(context->ld.begin(), context->ld.end(), out);
     return MODRT_OK;
@@ -540,7 +585,9 @@ modrt_status modrt_context_update(modrt_context* context) {
           return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
                       std::string(fn) + ": " + s.message());
         };
-        if (Status s = rt.update(ld); !s.ok()) return gl_fail(s);
+        if (Status s = context->ld_texture ? rt.update_from_texture(context->ld_texture) : rt.update(ld);
+            !s.ok())
+          return gl_fail(s);
         add_times(rt.pass_times());
         for (std::uint32_t i = 0; i < bounces; ++i) {
           if (Status s = rt.multi_bounce_step(ld); !s.ok()) return gl_fail(s);

@@ -21,8 +21,10 @@
 
 namespace modrt {
 
-enum class BackendKind { cpu, gles };
-const char* backend_kind_name(BackendKind kind);  // "cpu", "gles"
+// Every kind has one entry in the creator table (modrt/backends.h, create_backend), which a
+// static_assert checks against `count`.
+enum class BackendKind { cpu, gles, count };
+const char* backend_kind_name(BackendKind kind);  // "cpu", "gles"; "unknown" otherwise
 
 class Backend {
  public:

@@ -285,7 +285,22 @@ MODRT_API modrt_status modrt_context_set_lights(modrt_context* context, const mo
                                                 size_t count);
 /* Sets ld directly (count = sizes.ld floats, finite, >= 0; the first bad sample is named). */
 MODRT_API modrt_status modrt_context_set_ld(modrt_context* context, const float* ld, size_t count);
-/* Copies the ld the next update will use (sizes.ld floats): set_ld's, or set_lights' result. */
+/* GLES: ld from a GL texture the app rendered itself (a GPU pass over the samples of
+ * modrt_level_get_samples, with its own lights and shadows), read on the GPU by the following
+ * updates: nothing is read back or uploaded. The texture is a GL_TEXTURE_2D of the context's GL
+ * context in the layout modrt_context_get_ld_layout gives (sample s at texel (s % width,
+ * s / width), ld in .rgb), a float format (RGBA32F, RGBA16F, RGB32F); its level 0 is read
+ * through a nearest sampler, whatever its filters. It is not validated on the CPU: NaN and
+ * negative values read as 0, values above 1e30 as 1e30. Every block is recomputed each update
+ * (the runtime does not see the values to skip). It stays the source until set_ld or
+ * set_lights. Fails for a CPU context, texture 0 or a name that is not a texture, and with
+ * options.bounces > 0 (the feedback bound needs the largest ld on the CPU; open work). */
+MODRT_API modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t texture);
+/* The size of that texture: width = the layout's row length, height = rows. GLES only. */
+MODRT_API modrt_status modrt_context_get_ld_layout(const modrt_context* context, uint32_t* width,
+                                                   uint32_t* height);
+/* Copies the ld the next update will use (sizes.ld floats): set_ld's, or set_lights' result.
+ * Fails while the ld comes from a texture (set_ld_texture). */
 MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count);
 
 /* Evaluates the level for the current ld: b, r, lightmap (plus options.bounces feedback

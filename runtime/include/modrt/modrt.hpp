@@ -141,6 +141,14 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   }
   Error set_ld(const float* ld, size_t count) { return check(modrt_context_set_ld(h_, ld, count)); }
   Error read_ld(float* out, size_t count) const { return check(modrt_context_read_ld(h_, out, count)); }
+  // GLES: ld from the app's own texture in ld_layout() (see modrt_context_set_ld_texture).
+  Error set_ld_texture(uint32_t texture) { return check(modrt_context_set_ld_texture(h_, texture)); }
+  Error ld_layout(uint32_t& width, uint32_t& height) const {
+    return check(modrt_context_get_ld_layout(h_, &width, &height));
+  }
+  Error read_probes(float* out, size_t count, modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
+    return check(modrt_context_read_probes(h_, kind, out, count));
+  }
   Error read_albedo(float* out, size_t count) const {
     return check(modrt_context_read_albedo(h_, out, count));
   }

@@ -138,6 +138,21 @@ class GlesLevelRuntime final : public Backend {
   GLuint clutter_texture() const;
   std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const;
 
+  // GPU-resident ld (architecture.md §5 step 1 on the GPU): evaluates the level like update()
+  // with ld read from `ld_texture`, a GL_TEXTURE_2D the caller rendered (its own direct-light
+  // pass over the samples), in the runtime's linear layout: sample s at texel
+  // (s % width, s / width) of ld_layout(), RGB in .rgb, a float format (RGBA32F, RGBA16F,
+  // RGB32F). Its level 0 is read with texelFetch through a nearest sampler object, so its own
+  // filters and mipmaps do not matter. Nothing is read back: ld is not validated on the CPU;
+  // the b pass reads NaN and negative values as 0 and clamps at kMaxLightValue. Every block is
+  // recomputed (the runtime does not see the values to skip). Fails for 0 or a name that is
+  // not a texture; then nothing changes.
+  Status update_from_texture(GLuint ld_texture);
+  struct LinearLayout {
+    int width = 0, height = 0;
+  };
+  LinearLayout ld_layout() const;
+
   TargetFormat target_format() const { return target_; }
   // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
   // texelFetch for bits32; float32 needs OES_texture_float_linear to filter.
@@ -222,6 +237,8 @@ class GlesLevelRuntime final : public Backend {
   GLuint texel_sample_ = 0, sample_info_ = 0, sample_slots_ = 0, sample_rows_ = 0;
   // Per-frame inputs (CPU uploads) and signals.
   GLuint ld_ = 0, ld_direct_ = 0, rho_ = 0;
+  GLuint ld_source_ = 0;   // what the b pass reads: ld_, or update_from_texture's texture
+  GLuint ld_sampler_ = 0;  // nearest, for the ld unit (the caller's texture's filters vary)
   int max_texture_size_ = 0;
   std::vector<GLuint> textures_;  // every texture created, for the destructor
   std::vector<GLuint> framebuffers_;

@@ -32,6 +32,7 @@ namespace modrt::platform {
   X(PFNGLBEGINQUERYPROC, glBeginQuery)                           \
   X(PFNGLBINDBUFFERPROC, glBindBuffer)                           \
   X(PFNGLBINDFRAMEBUFFERPROC, glBindFramebuffer)                 \
+  X(PFNGLBINDSAMPLERPROC, glBindSampler)                         \
   X(PFNGLBINDTEXTUREPROC, glBindTexture)                         \
   X(PFNGLBINDVERTEXARRAYPROC, glBindVertexArray)                 \
   X(PFNGLBLENDFUNCPROC, glBlendFunc)                             \
@@ -51,6 +52,7 @@ namespace modrt::platform {
   X(PFNGLDELETEFRAMEBUFFERSPROC, glDeleteFramebuffers)           \
   X(PFNGLDELETEPROGRAMPROC, glDeleteProgram)                     \
   X(PFNGLDELETEQUERIESPROC, glDeleteQueries)                     \
+  X(PFNGLDELETESAMPLERSPROC, glDeleteSamplers)                   \
   X(PFNGLDELETESHADERPROC, glDeleteShader)                       \
   X(PFNGLDELETETEXTURESPROC, glDeleteTextures)                   \
   X(PFNGLDELETEVERTEXARRAYSPROC, glDeleteVertexArrays)           \
@@ -68,6 +70,7 @@ namespace modrt::platform {
   X(PFNGLGENBUFFERSPROC, glGenBuffers)                           \
   X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers)                 \
   X(PFNGLGENQUERIESPROC, glGenQueries)                           \
+  X(PFNGLGENSAMPLERSPROC, glGenSamplers)                         \
   X(PFNGLGENTEXTURESPROC, glGenTextures)                         \
   X(PFNGLGENVERTEXARRAYSPROC, glGenVertexArrays)                 \
   X(PFNGLGENERATEMIPMAPPROC, glGenerateMipmap)                   \
@@ -81,11 +84,13 @@ namespace modrt::platform {
   X(PFNGLGETSTRINGPROC, glGetString)                             \
   X(PFNGLGETSTRINGIPROC, glGetStringi)                           \
   X(PFNGLGETUNIFORMLOCATIONPROC, glGetUniformLocation)           \
+  X(PFNGLISTEXTUREPROC, glIsTexture)                             \
   X(PFNGLLINKPROGRAMPROC, glLinkProgram)                         \
   X(PFNGLPIXELSTOREIPROC, glPixelStorei)                         \
   X(PFNGLPOLYGONOFFSETPROC, glPolygonOffset)                     \
   X(PFNGLREADBUFFERPROC, glReadBuffer)                           \
   X(PFNGLREADPIXELSPROC, glReadPixels)                           \
+  X(PFNGLSAMPLERPARAMETERIPROC, glSamplerParameteri)             \
   X(PFNGLSCISSORPROC, glScissor)                                 \
   X(PFNGLSHADERSOURCEPROC, glShaderSource)                       \
   X(PFNGLTEXPARAMETERIPROC, glTexParameteri)                     \
