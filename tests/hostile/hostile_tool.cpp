@@ -14,9 +14,9 @@
 //     of a long long (4294967295 -> -1). A failing call prints
 //       modrt-hostile-tool: <call>: <status name>: <message>
 //     and exits 1; a bad command line exits 64 (a broken case, not a library error).
-//     Options: --threads N, --max-lights N, --shadows N, --probes N, --skip N (context
-//     options); --albedo V (every sample, default 0.7); --ld V (set_ld with V everywhere
-//     instead of lights); --ld-count N (the count passed to set_ld); --light TYPE starts a
+//     Options: --threads N, --max-lights N, --shadows N, --probes N, --skip N, --bounces N,
+//     --max-albedo V, --vector N (context options); --albedo V (every sample, default 0.7); --ld V (set_ld
+//     with V everywhere instead of lights); --ld-count N (the count passed to set_ld); --light TYPE starts a
 //     light (point, spot, directional or a number) whose fields follow: --pos x,y,z,
 //     --dir x,y,z, --color r,g,b, --intensity V, --radius V, --inner V, --outer V,
 //     --light-shadows N; --probe x,y,z (probe_sh at that point after the updates, both
@@ -156,6 +156,14 @@ int capi_main(int argc, char** argv) {
       ok = parse_int(v, &options.probes);
     } else if (flag == "--skip") {
       ok = parse_int(v, &options.skip_unchanged);
+    } else if (flag == "--bounces") {
+      int n = 0;
+      ok = parse_int(v, &n);
+      options.bounces = std::uint32_t(n);
+    } else if (flag == "--max-albedo") {
+      ok = parse_floats(v, &options.max_albedo, 1);
+    } else if (flag == "--vector") {
+      ok = parse_int(v, &options.vector_irradiance);
     } else if (flag == "--albedo") {
       ok = parse_floats(v, &albedo, 1);
     } else if (flag == "--ld") {
@@ -270,6 +278,14 @@ int capi_main(int argc, char** argv) {
   for (float v : atlas) at.add(v);
   lm.print("lightmap");
   at.print("atlas");
+  if (options.vector_irradiance) {  // signed coefficients: finite only
+    std::vector<float> vec(4 * sizes.lightmap);
+    if (modrt_status s = modrt_context_read_vector_lightmap(context, vec.data(), vec.size()); s != MODRT_OK)
+      return fail("modrt_context_read_vector_lightmap", s);
+    for (float v : vec)
+      if (!std::isfinite(v))
+        return fail("modrt_context_read_vector_lightmap (a value is not finite)", MODRT_ERROR_NON_FINITE);
+  }
   if (!probe.empty()) {
     for (modrt_probe_kind kind : {MODRT_PROBE_RADIANCE, MODRT_PROBE_IRRADIANCE_OVER_PI}) {
       float sh[27];
