@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "modrt/backends.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
@@ -110,20 +111,17 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   if (!renderer.ok()) return renderer.status();
   run->renderer_ = std::move(renderer).value();
   run->vector_ = check_level_vector_operators(lv, dict).ok();
-  if (options.backend == DemoBackend::gles) {
-    gles::GlesRuntimeOptions go;
-    go.vector_irradiance = run->vector_;
-    Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
-        gles::GlesLevelRuntime::create(gl, context.info().gles, lv, dict, go);
-    if (!rt.ok()) return rt.status();
-    rt.value()->set_timing(true);
-    run->gles_runtime_ = rt.value().get();
-    run->backend_ = std::move(rt).value();
-  } else {
-    Result<std::unique_ptr<Backend>> be = cpu::create_cpu_backend(lv, dict);
-    if (!be.ok()) return be.status();
-    run->backend_ = std::move(be).value();
-  }
+  BackendCreateInfo info;
+  info.level = &lv;
+  info.dict = &dict;
+  info.vector_irradiance = run->vector_;
+  info.timing = true;
+  info.gl = &gl;
+  info.gles_context = context.info().gles;
+  Result<std::unique_ptr<Backend>> be =
+      create_backend(options.backend == DemoBackend::gles ? BackendKind::gles : BackendKind::cpu, info);
+  if (!be.ok()) return be.status();
+  run->backend_ = std::move(be).value();
   if (Status s = run->backend_->set_albedo(albedo); !s.ok()) return s;
   if (!scene.clutter.empty()) {
     // DRT operators once for the static clutter; the light moves, the clutter does not.
@@ -208,7 +206,6 @@ Status DemoRun::clutter_light(const FrameState& state) {
 Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8) {
   const DemoScene& scene = *scene_;
   const platform::GlFunctions& gl = context_->gl();
-  auto* gles_runtime = static_cast<gles::GlesLevelRuntime*>(gles_runtime_);
   const DemoLight& light = scene.lights.front();
   FrameState state;
   state.camera = scene.camera;
@@ -247,8 +244,10 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();
   if (s.ok()) s = backend_->update(ld_);
-  if (s.ok() && gles_runtime) {
-    const gles::GlesPassTimes& pt = gles_runtime->pass_times();
+  // The atlas on the GPU: the backend renders it there (GLES), else it is read and uploaded.
+  const GLuint gpu_atlas = backend_->output_texture(BackendOutput::atlas);
+  if (s.ok() && gpu_atlas) {
+    const BackendStageTimes& pt = backend_->stage_times();
     times_.b += double(pt.b) * 1e-6, times_.r += double(pt.r) * 1e-6,
         times_.lightmaps += double(pt.atlas) * 1e-6, times_.probes += double(pt.probes) * 1e-6,
         times_.vector += double(pt.vector) * 1e-6;
@@ -263,9 +262,11 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     times_.clutter_lightmap += ms_since(tc);
   }
   if (s.ok()) {
-    if (gles_runtime) {
-      state.atlas = gles_runtime->atlas_texture();
-      for (int i = 0; i < 4; ++i) state.vector_atlas[std::size_t(i)] = gles_runtime->vector_texture(i);
+    if (gpu_atlas) {
+      state.atlas = gpu_atlas;
+      for (int i = 0; i < 4; ++i)
+        state.vector_atlas[std::size_t(i)] =
+            backend_->output_texture(BackendOutput(int(BackendOutput::vector0) + i));
     } else if ((s = backend_->read_atlas(atlas_)).ok()) {
       Result<GLuint> up = renderer_->upload_atlas(atlas_);
       if (up.ok())

@@ -108,7 +108,6 @@ class DemoRun {
   std::vector<float> clutter_ld_, clutter_lightmap_;
   DrtStartup drt_startup_;
   std::unique_ptr<Backend> backend_;
-  void* gles_runtime_ = nullptr;                     // the backend as gles::GlesLevelRuntime, when it is one
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
   std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;

@@ -1213,6 +1213,23 @@ TEST(BackendTable, EveryKindCreatesItsBackend) {
     std::vector<float> lightmap(be.value()->sizes().lightmap);
     ASSERT_TRUE(be.value()->read_lightmap(lightmap).ok());
     EXPECT_LT(rel_l2(lightmap, ref.lightmap), kind == BackendKind::cpu ? 1e-5 : 1e-4);
+    // Outputs as textures through the interface (no downcast): the GLES atlas; nothing the
+    // backend does not compute (no vector irradiance, no clutter here); none on the CPU.
+    const std::uint32_t atlas = be.value()->output_texture(BackendOutput::atlas);
+    EXPECT_EQ(atlas != 0, kind == BackendKind::gles);
+    for (BackendOutput o :
+         {BackendOutput::vector0, BackendOutput::vector3, BackendOutput::clutter_atlas, BackendOutput::count})
+      EXPECT_EQ(be.value()->output_texture(o), 0u) << int(o);
+  }
+  // With vector irradiance the four coefficient atlases are textures too.
+  if (gl.ok()) {
+    BackendCreateInfo vec = info;
+    vec.vector_irradiance = true;
+    Result<std::unique_ptr<Backend>> be = create_backend(BackendKind::gles, vec);
+    ASSERT_TRUE(be.ok()) << be.status().to_string();
+    ASSERT_TRUE(be.value()->update(t.ld).ok());
+    for (int i = 0; i < 4; ++i)
+      EXPECT_NE(be.value()->output_texture(BackendOutput(int(BackendOutput::vector0) + i)), 0u) << i;
   }
   const auto expect_refused = [&](BackendKind kind, const BackendCreateInfo& bad, const std::string& words) {
     Result<std::unique_ptr<Backend>> be = create_backend(kind, bad);

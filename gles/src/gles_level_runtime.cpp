@@ -724,6 +724,19 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   return Status::success();
 }
 
+std::uint32_t GlesLevelRuntime::output_texture(BackendOutput output) const {
+  switch (output) {
+    case BackendOutput::atlas: return atlas_.texture;
+    case BackendOutput::vector0: return vector_texture(0);
+    case BackendOutput::vector1: return vector_texture(1);
+    case BackendOutput::vector2: return vector_texture(2);
+    case BackendOutput::vector3: return vector_texture(3);
+    case BackendOutput::clutter_atlas: return clutter_texture();
+    case BackendOutput::count: break;
+  }
+  return 0;
+}
+
 GlesLevelRuntime::LinearLayout GlesLevelRuntime::ld_layout() const {
   return {kLinearWidth, linear_rows(level_->sample_count)};
 }

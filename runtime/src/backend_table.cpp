@@ -34,6 +34,7 @@ Result<std::unique_ptr<Backend>> create_gles(const BackendCreateInfo& info) {
   Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
       gles::GlesLevelRuntime::create(*info.gl, info.gles_context, *info.level, *info.dict, options);
   if (!rt.ok()) return rt.status();
+  rt.value()->set_timing(info.timing);
   return std::unique_ptr<Backend>(std::move(rt).value());
 #else
   (void)info;

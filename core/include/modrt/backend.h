@@ -12,6 +12,7 @@
 // results in place.
 #pragma once
 
+#include <cstdint>
 #include <span>
 
 #include "modrt/drt.h"
@@ -25,6 +26,24 @@ namespace modrt {
 // static_assert checks against `count`.
 enum class BackendKind { cpu, gles, count };
 const char* backend_kind_name(BackendKind kind);  // "cpu", "gles"; "unknown" otherwise
+
+// The results a renderer samples, as GPU textures where the backend keeps them there.
+enum class BackendOutput {
+  atlas,    // the padded lightmap atlas (RGB in .rgb)
+  vector0,  // vector irradiance, OHLSH coefficient 0 .. 3, laid out as the atlas
+  vector1,
+  vector2,
+  vector3,
+  clutter_atlas,  // DRT: the clutter lightmap atlas
+  count
+};
+
+// Time of each stage of the last update() or multi_bounce_step(), nanoseconds, when the
+// backend measures them (GLES with timing on: GPU timer queries where available); 0 otherwise.
+struct BackendStageTimes {
+  std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0, vector = 0;
+  std::uint64_t drt = 0, clutter = 0;  // c + delta passes, clutter atlas passes (with clutter only)
+};
 
 class Backend {
  public:
@@ -58,6 +77,18 @@ class Backend {
   // floats): four OHLSH coefficients x RGB per sample, for normal-mapped surfaces. Fails when
   // the dictionary has no vector operators or the backend was created without them.
   virtual Status read_vector_lightmap(std::span<float> vector_lightmap) = 0;
+
+  // The GL texture name (GL_TEXTURE_2D) holding `output` after the last update, for a renderer
+  // to sample without a copy; 0 when the backend keeps it in CPU memory (read it with the
+  // read_* calls) or does not compute it. Its format: the backend's description.
+  virtual std::uint32_t output_texture(BackendOutput output) const {
+    (void)output;
+    return 0;
+  }
+  virtual const BackendStageTimes& stage_times() const {
+    static const BackendStageTimes none;
+    return none;
+  }
 
   // DRT (architecture.md §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
   // set_clutter() checks the operators against the level (check_drt_operators) and borrows

@@ -26,6 +26,7 @@ struct BackendCreateInfo {
   bool skip_unchanged = true;      // exact skipping of unchanged blocks, slots and tiles
   bool probes = true;              // gles: evaluate the volume probes (cpu: whenever the dictionary has them)
   bool vector_irradiance = false;  // gles: the four OHLSH atlases (cpu: computed on read)
+  bool timing = false;             // gles: per-pass times (Backend::stage_times)
   // gles: the current GL context's entry points (platform::GlContext::gl() or
   // platform::load_gl_functions on the app's context) and whether it is an ES context.
   const platform::GlFunctions* gl = nullptr;

@@ -89,10 +89,7 @@ struct GlesSkipStats {
 };
 
 // Per-pass time of the last update()/multi_bounce_step(), nanoseconds, when timing is on.
-struct GlesPassTimes {
-  std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0, vector = 0;
-  std::uint64_t drt = 0, clutter = 0;  // c + delta passes, clutter atlas passes (with clutter only)
-};
+using GlesPassTimes = BackendStageTimes;
 
 class GlesDrt;
 
@@ -170,6 +167,8 @@ class GlesLevelRuntime final : public Backend {
   // because CPU-clock timing adds a glFinish per pass.
   void set_timing(bool on);
   const GlesPassTimes& pass_times() const { return times_; }
+  const BackendStageTimes& stage_times() const override { return times_; }
+  std::uint32_t output_texture(BackendOutput output) const override;
   const GlesSkipStats& skip_stats() const { return stats_; }
 
  private:
