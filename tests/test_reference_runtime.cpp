@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -51,6 +52,26 @@ Eigen::MatrixXd channels(const std::vector<float>& rgb) {  // 3-interleaved -> r
   Eigen::MatrixXd m(Eigen::Index(rgb.size() / 3), 3);
   for (std::size_t i = 0; i < rgb.size(); ++i) m(Eigen::Index(i / 3), Eigen::Index(i % 3)) = rgb[i];
   return m;
+}
+
+// validate_light_signal's vectorised fast pass must catch every bad value wherever it sits (in
+// a block of 16 or the tail) and accept every good one, with the message naming the value.
+TEST(ReferenceRuntime, LightSignalCheckCatchesEveryBadValueAnywhere) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const std::size_t samples = 23;  // 69 floats: four blocks of 16 and a tail of 5
+  for (float bad : {nan, -nan, inf, -inf, -1e-30f, -1.0f, 2e30f, std::nextafter(kMaxLightValue, inf)})
+    for (std::size_t at :
+         {std::size_t(0), std::size_t(17), std::size_t(63), std::size_t(64), std::size_t(68)}) {
+      std::vector<float> ld(3 * samples, 0.25f);
+      ld[at] = bad;
+      const Status s = validate_light_signal(ld, samples, "ld");
+      ASSERT_FALSE(s.ok()) << bad << " at " << at;
+      EXPECT_NE(s.message().find("sample " + std::to_string(at / 3)), std::string::npos) << s.message();
+    }
+  for (float good : {0.0f, -0.0f, 1e-45f, 1.0f, kMaxLightValue}) {
+    std::vector<float> ld(3 * samples, good);
+    EXPECT_TRUE(validate_light_signal(ld, samples, "ld").ok()) << good;
+  }
 }
 
 TEST(ReferenceRuntime, EveryStageEqualsDoubleLinearAlgebra) {

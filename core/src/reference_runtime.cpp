@@ -3,6 +3,7 @@
 #include "modrt/feedback_policy.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -78,6 +79,24 @@ Status validate_light_signal(std::span<const float> rgb, std::size_t samples, co
     return Status::error(ErrorCode::invalid_argument, std::string(what) + ": has " +
                                                           std::to_string(rgb.size()) +
                                                           " floats, expected 3 x " + std::to_string(samples));
+  // Fast path, every frame: one branch-free pass over the bit patterns (vectorised integer
+  // compares). A float in [+0, kMaxLightValue] has its sign bit clear and, read as an
+  // integer, is at most kMaxLightValue's pattern; NaN, Inf, negative and too large values are not
+  // (nor is -0, which the loop below then accepts). That loop, which names the first bad
+  // value, runs only when the pass found one.
+  // Read as unsigned, a set sign bit is larger than any finite positive pattern: one compare.
+  // Blocks of 16 give the compiler a fixed trip count it vectorises at -O2.
+  constexpr std::uint32_t kMaxBits = std::bit_cast<std::uint32_t>(kMaxLightValue);
+  const auto out_of_range = [](float v) { return std::uint32_t(std::bit_cast<std::uint32_t>(v) > kMaxBits); };
+  std::uint32_t bad = 0;
+  std::size_t at = 0;
+  for (; at + 16 <= rgb.size(); at += 16) {
+    std::uint32_t block = 0;
+    for (std::size_t k = 0; k < 16; ++k) block |= out_of_range(rgb[at + k]);
+    bad |= block;
+  }
+  for (; at < rgb.size(); ++at) bad |= out_of_range(rgb[at]);
+  if (bad == 0) return Status::success();
   static constexpr const char* kChannel[3] = {"R", "G", "B"};
   for (std::size_t i = 0; i < rgb.size(); ++i) {
     const float v = rgb[i];
