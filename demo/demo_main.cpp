@@ -94,6 +94,10 @@ int main(int argc, char** argv) {
   app.add_option("--drt-rays", drt_rays, "Rays per scene sample and clutter texel of the DRT operator build")
       ->check(CLI::Range(8, 65536))
       ->capture_default_str();
+  std::string save_clutter;
+  app.add_option(
+      "--save-clutter", save_clutter,
+      "Write the scene's DRT clutter operators to FILE.modrtdrt (core's drt_io.h) after they are built");
   app.add_flag("!--no-drt", drt,
                "Without Delta Radiance Transfer: the scene's clutter meshes are drawn as ordinary "
                "geometry mapped onto the proxies (MRT alone), for comparison");
@@ -120,6 +124,16 @@ int main(int argc, char** argv) {
   if (Status s = check_writable_directory(out_dir); !s.ok()) {
     std::fprintf(stderr, "modrt-demo: --out: %s\n", s.to_string().c_str());
     return 1;
+  }
+  if (!save_clutter.empty()) {
+    if (!drt) {
+      std::fprintf(stderr, "modrt-demo: --save-clutter needs the DRT operators: not with --no-drt\n");
+      return 2;
+    }
+    if (Status s = check_writable_file(save_clutter); !s.ok()) {
+      std::fprintf(stderr, "modrt-demo: --save-clutter: %s\n", s.to_string().c_str());
+      return 1;
+    }
   }
 
   // ---- scene, dictionary, level ----
@@ -187,6 +201,7 @@ int main(int argc, char** argv) {
   options.exposure = exposure;
   options.bounces = bounces;
   options.drt_rays = drt_rays;
+  options.save_clutter = save_clutter;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
     std::fprintf(stderr, "modrt-demo: %s\n", run.status().to_string().c_str());

@@ -7,6 +7,7 @@
 
 #include "modrt/backends.h"
 #include "modrt/cpu/cpu_backend.h"
+#include "modrt/drt_io.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/drt_build.h"
@@ -134,6 +135,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->drt_startup_.seconds = ms_since(t0) * 1e-3;
     run->drt_startup_.objects = scene.clutter.size();
     run->drt_startup_.bytes = run->drt_->storage_bytes();
+    if (!options.save_clutter.empty())
+      if (Status s = save_drt(options.save_clutter, *run->drt_); !s.ok()) return s;
     if (Status s = run->backend_->set_clutter(run->drt_.get()); !s.ok()) return s;
     // Multi-bounce feeds the clutter's own indirect light back too (docs/drt.md, "Multi-bounce").
     std::vector<float> clutter_albedo;
@@ -149,6 +152,10 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->drt_startup_.texels = run->clutter_position_.size();
     run->clutter_ld_.assign(run->backend_->clutter_sizes().clutter_ld, 0.0f);
     run->clutter_lightmap_.assign(run->backend_->clutter_sizes().clutter_lightmap, 0.0f);
+  } else if (!options.save_clutter.empty()) {
+    return Status::error(
+        ErrorCode::invalid_argument,
+        options.save_clutter + ": the scene has no clutter objects, so there are no DRT operators to write");
   }
   if (options.direct == DemoDirect::cpu) {
     Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(lv, albedo);

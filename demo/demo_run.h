@@ -40,6 +40,9 @@ struct DemoRunOptions {
   // DrtBuildSettings::rays. 256 rather than the build's 1024: a quarter of the start-up
   // time, and docs/drt.md measured the errors against the path tracer within 0.006 of 1024's.
   int drt_rays = 256;
+  // When set: the DRT operators built at create() are written there (.modrtdrt, core's
+  // drt_io.h), for an app that loads them without the precompute library.
+  std::string save_clutter;
 };
 
 // Wall-clock milliseconds per stage, summed over frames (glFinish closes each stage).

@@ -16,10 +16,10 @@ scripts/install-deps.sh
 
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DMODRT_FUZZ=ON -DMODRT_BUILD_GLES=OFF -DMODRT_BUILD_TESTS=OFF -DMODRT_BUILD_DEMO=OFF -DMODRT_BUILD_BENCH=OFF
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_dictionary fuzz_level_file fuzz_level_json fuzz_gltf fuzz_settings fuzz_c_api
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_dictionary fuzz_level_file fuzz_drt_file fuzz_level_json fuzz_gltf fuzz_settings fuzz_c_api
 
 mkdir -p build-fuzz/artifacts
-for name in dictionary level_file level_json gltf settings c_api; do
+for name in dictionary level_file drt_file level_json gltf settings c_api; do
   corpus_name="$name"
   [[ $name == level_json ]] && corpus_name=level
   work="build-fuzz/corpus-$name"

@@ -21,6 +21,7 @@
 #include "demo_run.h"
 #include "gl_test_context.h"
 #include "image_output.h"
+#include "modrt/drt_io.h"
 #include "modrt/level_geometry.h"
 #include "modrt/precompute/level_scene.h"
 #include "scene/clutter_shapes.h"
@@ -332,6 +333,20 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
               std::sqrt(num / den), e.mean, e.p99);
 }
 
+// --save-clutter on a scene without clutter is an error naming the file, not a silent no-op.
+TEST(DemoRender, SaveClutterWithoutClutterIsAnError) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoRunOptions options;
+  options.renderer.width = 32, options.renderer.height = 18;
+  options.save_clutter = (std::filesystem::path(MODRT_TEST_CACHE_DIR) / "no_clutter.modrtdrt").string();
+  Result<std::unique_ptr<DemoRun>> run = DemoRun::create(unwarped_walls(), dict(), *ctx, options);
+  ASSERT_FALSE(run.ok());
+  EXPECT_NE(run.status().message().find("no_clutter.modrtdrt: the scene has no clutter objects"),
+            std::string::npos)
+      << run.status().message();
+}
+
 // DRT in the demo: the default scene (its clutter pillar) plus a clutter box (a mesh with
 // lightmap UVs) in block 0.
 // Both backends build the same operators (same seeds) and must give the same clutter
@@ -360,9 +375,19 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
     options.backend = backend;
     options.drt_rays = 128;
     options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
+    // --save-clutter: the operators built here, written for an app (core's drt_io.h).
+    const std::string saved =
+        (std::filesystem::path(MODRT_TEST_CACHE_DIR) / "demo_clutter.modrtdrt").string();
+    if (backend == DemoBackend::gles) options.save_clutter = saved;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
     ASSERT_TRUE(run.ok()) << run.status().to_string();
     EXPECT_EQ(run.value()->drt_startup().objects, s.clutter.size());
+    if (backend == DemoBackend::gles) {
+      Result<DrtOperators> loaded = load_drt(saved);
+      ASSERT_TRUE(loaded.ok()) << loaded.status().to_string();
+      EXPECT_EQ(loaded->objects.size(), s.clutter.size());
+      EXPECT_TRUE(check_drt_operators(run.value()->level(), loaded.value()).ok());
+    }
     linear.emplace_back(3 * kGoldenWidth * kGoldenHeight);
     images.emplace_back(linear.back().size());
     for (int frame = 0; frame < 3; ++frame) {
