@@ -9,7 +9,7 @@
 // which it reads back and writes as a PNG. Only libmodrt_runtime.so, libEGL and libGLESv2 are
 // linked (OpenImageIO writes the image).
 //
-//   modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A]
+//   modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A] [--bounces N]
 // Exit status: 0 on success, 2 for a usage error (unknown flag, bad value: the message names
 // it), 77 when no EGL display or ES 3 context can be created, else 1.
 #define EGL_EGLEXT_PROTOTYPES
@@ -18,6 +18,7 @@
 #include <GLES3/gl3.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -145,11 +146,15 @@ int main(int argc, char** argv) {
       "modrt-embed-host: an app-owned EGL context handed to modrt's C API; renders the lightmap atlas"};
   std::string dictionary_path, level_path, out_path;
   int scale = 16;
+  int bounces = 2;
   float albedo_value = 0.7f;  // used only with --albedo: else the level's own per-face albedo
   app.add_option("dictionary", dictionary_path, "dictionary file (.modrt)")->required();
   app.add_option("level", level_path, "built level file (.modrtlevel)")->required();
   app.add_option("out", out_path, "output PNG")->required();
   app.add_option("--scale", scale, "pixels per atlas texel")->check(CLI::Range(1, 64))->capture_default_str();
+  app.add_option("--bounces", bounces, "multi-bounce feedback steps per update")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
   CLI::Option* albedo_option =
       app.add_option("--albedo", albedo_value,
                      "one albedo for every sample instead of the level's own (authored per face)")
@@ -158,9 +163,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (app.exit(e) == 0) return 0;  // --help
-    std::fprintf(
-        stderr,
-        "usage: modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A]\n");
+    std::fprintf(stderr,
+                 "usage: modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A] "
+                 "[--bounces N]\n");
     return 2;
   }
 
@@ -190,9 +195,16 @@ int main(int argc, char** argv) {
   // 3. A GLES context of modrt on the app's current context (entry points via eglGetProcAddress).
   modrt_context_options options = modrt::rt::default_options(MODRT_BACKEND_GLES);
   options.timing = 1;
+  options.bounces = std::uint32_t(bounces);
+  options.vector_irradiance = 1;  // for normal maps; a dictionary without the operators says so
   modrt::rt::Context ctx;
-  if (modrt::rt::Error e = modrt::rt::Context::create(dict, level, options, ctx))
-    return fail("context", e.message);
+  modrt::rt::Error created = modrt::rt::Context::create(dict, level, options, ctx);
+  if (created.code == MODRT_ERROR_UNSUPPORTED && options.vector_irradiance) {
+    std::printf("no vector irradiance: %s\n", created.message.c_str());
+    options.vector_irradiance = 0;
+    created = modrt::rt::Context::create(dict, level, options, ctx);
+  }
+  if (created) return fail("context", created.message);
   const modrt_sizes sizes = ctx.sizes();
   std::printf("modrt %s: %s; level %u blocks, %u samples, atlas %ux%u\n", modrt_version_string(),
               ctx.description(), info.block_count, info.sample_count, sizes.atlas_width, sizes.atlas_height);
@@ -225,10 +237,27 @@ int main(int argc, char** argv) {
       "frame: lights %.3f ms (CPU), update %.3f ms (b %.3f, r %.3f, atlas %.3f, probes %.3f ms GPU)\n",
       double(t.light_ns) * 1e-6, double(t.update_ns) * 1e-6, double(t.b_ns) * 1e-6, double(t.r_ns) * 1e-6,
       double(t.atlas_ns) * 1e-6, double(t.probes_ns) * 1e-6);
+  std::printf("bounces per update: %d\n", bounces);
   float sh[27];
   if (sizes.probe_grid > 0 && !ctx.probe_sh(lights[0].position, sh))
     std::printf("probe E/pi at the point light (SH9 DC, RGB): %.4f %.4f %.4f\n", double(sh[0]), double(sh[1]),
                 double(sh[2]));
+  // The whole probe volume in the world frame, as an app uploads it for its dynamic objects.
+  if (sizes.probes > 0) {
+    std::vector<float> volume(sizes.probes);
+    if (modrt::rt::Error e = ctx.read_probes(volume.data(), volume.size())) return fail("probes", e.message);
+    double dc = 0.0;
+    for (std::size_t p = 0; p < volume.size(); p += 27) dc += double(volume[p]);
+    std::printf("probe volume: %zu probes, mean E/pi (SH9 DC, R) %.4f\n", volume.size() / 27,
+                dc / double(volume.size() / 27));
+  }
+  if (options.vector_irradiance) {
+    std::uint32_t vector[4] = {0, 0, 0, 0};
+    if (modrt::rt::Error e = modrt::rt::check(modrt_context_get_vector_textures(ctx.get(), vector, nullptr)))
+      return fail("vector irradiance", e.message);
+    std::printf("vector irradiance: 4 OHLSH atlases, GL textures %u %u %u %u\n", vector[0], vector[1],
+                vector[2], vector[3]);
+  }
 
   // 5. The app renders with the atlas texture into its own framebuffer.
   int format = 0;

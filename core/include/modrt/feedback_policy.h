@@ -50,11 +50,12 @@ inline float largest_light(std::span<const float> light) {
 // The most a texel can reach: ld_max / (1 - rho_max), rho_max < 1 (check_max_albedo).
 inline float feedback_energy_bound(float ld_max, float rho_max) { return ld_max / (1.0f - rho_max); }
 
-// The largest fed-back ld a feedback step can produce, ld_max + rho_max x bound (in double:
-// it is compared with kMaxLightValue, the largest light value every pass accepts, so that a
-// step is refused before it runs rather than half way).
+// The largest fed-back ld a feedback step can produce, ld_max + rho_max x bound, grown by a
+// relative 1e-6 for the float rounding of the step's own product and sum (a few 6e-8 each).
+// In double: it is compared with kMaxLightValue, the largest light value every pass accepts,
+// so that a step is refused before it runs rather than half way.
 inline double feedback_ld_peak(float ld_max, float rho_max) {
-  return double(ld_max) + double(rho_max) * double(feedback_energy_bound(ld_max, rho_max));
+  return (double(ld_max) + double(rho_max) * double(feedback_energy_bound(ld_max, rho_max))) * (1.0 + 1e-6);
 }
 
 }  // namespace modrt
