@@ -250,10 +250,33 @@ modrt_status current_vector(modrt_context* c, const char* fn) {
     c->vector_current = true;
   }
 #endif
-  if (!c->vector_current)
-    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": no update has run yet");
   return MODRT_OK;
 }
+modrt_status check_probe_kind(const char* fn, int kind) {
+  if (kind == MODRT_PROBE_RADIANCE || kind == MODRT_PROBE_IRRADIANCE_OVER_PI) return MODRT_OK;
+  return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": unknown probe kind " + std::to_string(kind));
+}
+
+modrt_status check_probes_on(const modrt_context* c, const char* fn) {
+  if (c->probes_on) return MODRT_OK;
+  return fail(MODRT_ERROR_UNSUPPORTED,
+              std::string(fn) + ": no probes: the dictionary has no volume probes or options.probes was 0");
+}
+
+// The probe volume of the last update in c->probes (GLES: read back once per update).
+modrt_status current_probes(modrt_context* c, const char* fn) {
+  if (modrt_status s = check_probes_on(c, fn); s != MODRT_OK) return s;
+#if MODRT_RUNTIME_GLES
+  if (c->gles && !c->probes_current) {
+    GlStateGuard state(c->gl);
+    if (Status s = c->gles->read_probes(c->probes); !s.ok())
+      return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+    c->probes_current = true;
+  }
+#endif
+  return MODRT_OK;
+}
+
 }  // namespace
 
 extern "C" {
@@ -811,25 +834,13 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
     if (!position) return null_arg(fn, "position");
     if (!out) return null_arg(fn, "out");
     const int kind_value = c_enum_value(kind);
-    if (kind_value != MODRT_PROBE_RADIANCE && kind_value != MODRT_PROBE_IRRADIANCE_OVER_PI)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT,
-                  std::string(fn) + ": unknown probe kind " + std::to_string(kind_value));
-    if (!context->probes_on)
-      return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
-                                               ": no probes: the dictionary has no volume probes or "
-                                               "options.probes was 0");
+    if (modrt_status s = check_probe_kind(fn, kind_value); s != MODRT_OK) return s;
+    if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
     for (int a = 0; a < 3; ++a)
       if (!std::isfinite(position[a]))
         return fail(MODRT_ERROR_NON_FINITE,
                     std::string(fn) + ": position[" + std::to_string(a) + "] is not finite");
-#if MODRT_RUNTIME_GLES
-    if (context->gles && !context->probes_current) {
-      GlStateGuard state(context->gl);
-      if (Status s = context->gles->read_probes(context->probes); !s.ok())
-        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
-      context->probes_current = true;
-    }
-#endif
+    if (modrt_status s = current_probes(context, fn); s != MODRT_OK) return s;
     if (Status s = context->sampler.sample(context->probes, glm::dvec3(position[0], position[1], position[2]),
                                            kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
         !s.ok())
@@ -838,35 +849,17 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
   });
 }
 
-namespace {
-modrt_status check_probes_on(const modrt_context* c, const char* fn) {
-  if (c->probes_on) return MODRT_OK;
-  return fail(MODRT_ERROR_UNSUPPORTED,
-              std::string(fn) + ": no probes: the dictionary has no volume probes or options.probes was 0");
-}
-}  // namespace
-
 modrt_status modrt_context_read_probes(modrt_context* context, modrt_probe_kind kind, float* out,
                                        size_t count) {
   return guarded("modrt_context_read_probes", [&]() -> modrt_status {
     constexpr const char* fn = "modrt_context_read_probes";
     if (!context) return null_arg(fn, "context");
     if (!out) return null_arg(fn, "out");
-    const int kind_value = c_enum_value(kind);
-    if (kind_value != MODRT_PROBE_RADIANCE && kind_value != MODRT_PROBE_IRRADIANCE_OVER_PI)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT,
-                  std::string(fn) + ": unknown probe kind " + std::to_string(kind_value));
+    if (modrt_status s = check_probe_kind(fn, c_enum_value(kind)); s != MODRT_OK) return s;
     if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
     if (modrt_status s = check_count(fn, "out", count, context->probes.size()); s != MODRT_OK) return s;
-#if MODRT_RUNTIME_GLES
-    if (context->gles && !context->probes_current) {
-      GlStateGuard state(context->gl);
-      if (Status s = context->gles->read_probes(context->probes); !s.ok())
-        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
-      context->probes_current = true;
-    }
-#endif
-    context->sampler.world_probes(context->probes, kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI,
+    if (modrt_status s = current_probes(context, fn); s != MODRT_OK) return s;
+    context->sampler.world_probes(context->probes, c_enum_value(kind) == MODRT_PROBE_IRRADIANCE_OVER_PI,
                                   {out, count});
     return MODRT_OK;
   });
