@@ -123,7 +123,12 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
       create_backend(options.backend == DemoBackend::gles ? BackendKind::gles : BackendKind::cpu, info);
   if (!be.ok()) return be.status();
   run->backend_ = std::move(be).value();
-  if (Status s = run->backend_->set_albedo(albedo); !s.ok()) return s;
+  FrameOptions frame;
+  frame.bounces = std::uint32_t(std::clamp(options.bounces, 0, int(kMaxFrameBounces) / 3));
+  Result<FramePipeline> pipeline = FramePipeline::create(*run->backend_, frame);
+  if (!pipeline.ok()) return pipeline.status();
+  run->pipeline_.emplace(std::move(pipeline).value());
+  if (Status s = run->pipeline_->set_albedo(albedo); !s.ok()) return s;
   if (!scene.clutter.empty()) {
     // DRT operators once for the static clutter; the light moves, the clutter does not.
     const Clock::time_point t0 = Clock::now();
@@ -137,13 +142,13 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     run->drt_startup_.bytes = run->drt_->storage_bytes();
     if (!options.save_clutter.empty())
       if (Status s = save_drt(options.save_clutter, *run->drt_); !s.ok()) return s;
-    if (Status s = run->backend_->set_clutter(run->drt_.get()); !s.ok()) return s;
+    if (Status s = run->pipeline_->set_clutter(run->drt_.get()); !s.ok()) return s;
     // Multi-bounce feeds the clutter's own indirect light back too (docs/drt.md, "Multi-bounce").
     std::vector<float> clutter_albedo;
     for (const ClutterObject& object : scene.clutter)
       for (int t = 0; t < clutter_texel_count(object); ++t)
         for (int c = 0; c < 3; ++c) clutter_albedo.push_back(float(object.albedo[c]));
-    if (Status s = run->backend_->set_clutter_albedo(clutter_albedo); !s.ok()) return s;
+    if (Status s = run->pipeline_->set_clutter_albedo(clutter_albedo); !s.ok()) return s;
     run->clutter_scene_ = std::make_unique<precompute::LevelScene>(lv, lv.res, scene.clutter);
     for (const ClutterObject& object : scene.clutter) {
       const ClutterTexelGeometry g = clutter_texel_geometry(object);
@@ -205,7 +210,7 @@ Status DemoRun::clutter_light(const FrameState& state) {
       clutter_ld_[3 * i + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
     }
   }
-  Status s = backend_->set_clutter_light(clutter_ld_, {});
+  Status s = pipeline_->set_clutter_light(clutter_ld_, {});
   times_.clutter_direct += ms_since(t);
   return s;
 }
@@ -250,17 +255,16 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   times_.direct += ms_since(t);
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();
-  if (s.ok()) s = backend_->update(ld_);
+  const std::uint32_t bounces = pipeline_->options().bounces;
+  if (s.ok()) s = pipeline_->run(ld_, frame == 0 ? 3 * bounces : bounces);
   // The atlas on the GPU: the backend renders it there (GLES), else it is read and uploaded.
   const GLuint gpu_atlas = backend_->output_texture(BackendOutput::atlas);
-  if (s.ok() && gpu_atlas) {
-    const BackendStageTimes& pt = backend_->stage_times();
+  if (s.ok() && gpu_atlas) {  // GPU stage times, summed over the frame's update and feedback steps
+    const BackendStageTimes& pt = pipeline_->times();
     times_.b += double(pt.b) * 1e-6, times_.r += double(pt.r) * 1e-6,
         times_.lightmaps += double(pt.atlas) * 1e-6, times_.probes += double(pt.probes) * 1e-6,
         times_.vector += double(pt.vector) * 1e-6;
   }
-  const int steps = frame == 0 ? 3 * options_.bounces : options_.bounces;
-  for (int k = 0; k < steps && s.ok(); ++k) s = backend_->multi_bounce_step(ld_);
   if (s.ok() && !probes_.empty()) s = backend_->read_probes(probes_);
   if (s.ok() && drt_) {
     const Clock::time_point tc = Clock::now();

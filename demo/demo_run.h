@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "modrt/cpu/direct_light.h"
 #include "modrt/dictionary.h"
 #include "modrt/drt.h"
+#include "modrt/frame_pipeline.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/level_scene.h"
@@ -111,6 +113,7 @@ class DemoRun {
   std::vector<float> clutter_ld_, clutter_lightmap_;
   DrtStartup drt_startup_;
   std::unique_ptr<Backend> backend_;
+  std::optional<FramePipeline> pipeline_;            // the frame sequence over backend_
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
   std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;

@@ -75,7 +75,8 @@ inline bool operators_equal(const DrtObjectOperators& a, const DrtObjectOperator
          a.dUb_vec_sample == b.dUb_vec_sample && a.dUb_vec_block == b.dUb_vec_block &&
          a.dUb_vec.data == b.dUb_vec.data && a.dUc_vec_sample == b.dUc_vec_sample &&
          a.dUc_vec.data == b.dUc_vec.data && a.Udyn_probe == b.Udyn_probe && a.Udyn_block == b.Udyn_block &&
-         a.Udyn.data == b.Udyn.data && a.Udyn_c_probe == b.Udyn_c_probe && a.Udyn_c.data == b.Udyn_c.data;
+         a.Udyn.data == b.Udyn.data && a.Udyn_c_probe == b.Udyn_c_probe && a.Udyn_c.data == b.Udyn_c.data &&
+         a.texel_position == b.texel_position && a.texel_normal == b.texel_normal;
 }
 
 // Two boxes in a row on the floor of a closed room, so that many rays pass through both

@@ -163,7 +163,7 @@ TEST(DrtFile, DamageIsRefusedNamingThePart) {
   b.resize(b.size() - 5);
   expect_refused(b, ErrorCode::format_error, "truncated");
   b = good;
-  put_u32(b, 32, 7);
+  put_u32(b, 40, 7);
   reseal(b);
   expect_refused(b, ErrorCode::format_error, "reserved");
   // A huge object count behind valid checksums: refused before allocating.

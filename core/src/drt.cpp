@@ -188,6 +188,13 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
     return Status::error(ErrorCode::invalid_argument, "DRT operators: kb " + std::to_string(drt.kb) +
                                                           " does not match the level's kb " +
                                                           std::to_string(level.kb));
+  if ((drt.level_blocks != 0 && drt.level_blocks != level.blocks.size()) ||
+      (drt.level_samples != 0 && drt.level_samples != level.sample_count))
+    return Status::error(ErrorCode::invalid_argument,
+                         "DRT operators: built for a level of " + std::to_string(drt.level_blocks) +
+                             " blocks and " + std::to_string(drt.level_samples) +
+                             " samples, this level has " + std::to_string(level.blocks.size()) + " and " +
+                             std::to_string(level.sample_count));
   for (std::size_t k = 0; k < drt.objects.size(); ++k) {
     const DrtObjectOperators& o = drt.objects[k];
     auto fail = [&](const std::string& what) {
@@ -204,6 +211,9 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
         return fail("dUb rows not sorted by (sample, block)");
     }
     if (o.Td_c.rows != o.face_count || o.Td_c.cols != o.texel_count) return fail("Td_c is not f x m");
+    if (o.texel_position.size() != o.texel_normal.size() ||
+        (!o.texel_position.empty() && o.texel_position.size() != 3 * std::size_t(o.texel_count)))
+      return fail("texel_position and texel_normal are not both empty or both 3 x m");
     if (o.dUc.rows != o.dUc_sample.size() || (o.dUc.rows > 0 && o.dUc.cols != o.face_count))
       return fail("dUc is not |dUc_sample| x f");
     for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {

@@ -50,6 +50,8 @@ void visit_fields(Object& o, Visitor&& v) {
   v("Cb_vec_truncation_error", o.Cb_vec_truncation_error);
   v("Cc_vec_objects", o.Cc_vec_objects);
   v("Cc_vec", o.Cc_vec);
+  v("texel_position", o.texel_position);  // since version 2
+  v("texel_normal", o.texel_normal);
 }
 
 bool finite(float v) { return std::isfinite(v); }
@@ -132,7 +134,9 @@ Result<std::vector<std::byte>> serialize_drt(const DrtOperators& drt) {
   out.u32(drt.kb);
   out.u32(std::uint32_t(drt.objects.size()));
   out.u32(drt.probes_per_block);
-  for (int i = 0; i < 5; ++i) out.u32(0);
+  out.u32(drt.level_blocks);
+  out.u32(drt.level_samples);
+  for (int i = 0; i < 3; ++i) out.u32(0);
   out.u64(body.bytes.size());
   out.u32(crc32(body.bytes));
   out.u32(crc32(std::span<const std::byte>(out.bytes).first(kHeaderCrcOffset)));
@@ -166,7 +170,7 @@ Result<DrtOperators> parse_drt(std::span<const std::byte> bytes, const std::stri
                                               " is not " + std::to_string(kDrtFileHeaderBytes));
   if (crc32(bytes.first(kHeaderCrcOffset)) != header_u32(bytes, kHeaderCrcOffset))
     return error(ErrorCode::checksum_mismatch, "header checksum mismatch");
-  for (std::size_t at = 28; at < 48; at += 4)
+  for (std::size_t at = 36; at < 48; at += 4)
     if (header_u32(bytes, at) != 0)
       return error(ErrorCode::format_error, "header field at offset " + std::to_string(at) +
                                                 " (reserved) is " + std::to_string(header_u32(bytes, at)) +
@@ -185,6 +189,8 @@ Result<DrtOperators> parse_drt(std::span<const std::byte> bytes, const std::stri
   drt.kb = header_u32(bytes, 16);
   const std::uint32_t objects = header_u32(bytes, 20);
   drt.probes_per_block = header_u32(bytes, 24);
+  drt.level_blocks = header_u32(bytes, 28);
+  drt.level_samples = header_u32(bytes, 32);
   Reader in(body, what);
   // A lower bound on an object's bytes: two counts and at least 4 bytes per field (29).
   if (in.fits("objects", objects, 8 + 4 * 29)) drt.objects.resize(objects);

@@ -3,6 +3,7 @@
 #include "modrt/feedback_policy.h"
 
 #include <algorithm>
+#include <chrono>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,28 +16,40 @@ namespace {
 
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const Level& level, CpuLevelRuntime runtime)
+  CpuBackend(const Level& level, CpuLevelRuntime runtime, const CpuBackendOptions& options)
       : level_(level),
         rt_(std::move(runtime)),
         description_(std::string("cpu ") + isa_name(rt_.isa())),
         lightmap_(rt_.sizes().lightmap, 0.0f),
         atlas_(rt_.sizes().atlas, 0.0f),
-        probes_(rt_.sizes().probes, 0.0f),
-        rho_(rt_.sizes().ld, 0.0f) {}
+        probes_(options.probes ? rt_.sizes().probes : 0, 0.0f),
+        rho_(rt_.sizes().ld, 0.0f),
+        timing_(options.timing) {}
 
   BackendKind kind() const override { return BackendKind::cpu; }
   const char* description() const override { return description_.c_str(); }
   const LevelBufferSizes& sizes() const override { return rt_.sizes(); }
 
   Status update(std::span<const float> ld) override {
+    times_ = BackendStageTimes{};
+    const Clock::time_point t0 = Clock::now();
     if (drt_) {
       if (Status s = rt_.evaluate(ld, base_); !s.ok()) return s;
+      stage(times_.lightmap, t0);
       if (!rho_c_.empty()) c_ = c_direct_;  // a new first bounce: the clutter's direct light only
       return finish_drt();
     }
     if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
+    stage(times_.lightmap, t0);
     return finish();
   }
+  std::span<const float> output_data(BackendOutput output) const override {
+    if (output == BackendOutput::atlas) return atlas_;  // zeros before the first update
+    return {};
+  }
+  const BackendStageTimes& stage_times() const override { return times_; }
+  void set_timing(bool on) override { timing_ = on; }
+  BackendEvaluationStats evaluation_stats() const override { return evaluations_; }
   Status set_albedo(std::span<const float> albedo, float max_albedo) override {
     if (Status s = rt_.set_albedo(albedo, max_albedo); !s.ok()) return s;
     // The clutter path runs the feedback itself (see multi_bounce_step), so it keeps the same
@@ -48,6 +61,8 @@ class CpuBackend final : public Backend {
   Status multi_bounce_step(std::span<const float> ld_direct) override {
     if (!updated_)
       return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call update first");
+    times_ = BackendStageTimes{};
+    const Clock::time_point t0 = Clock::now();
     if (drt_) {
       // The feedback reads the lightmap with the DRT delta, but the level runtime must write
       // the MRT part into base_: with skipping on it keeps unchanged tiles in place, and
@@ -66,16 +81,19 @@ class CpuBackend final : public Backend {
       feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(),
                    feedback_energy_bound(ld_max, rho_max_), ld_feedback_.data(), ld_direct.size());
       if (Status s = rt_.evaluate(ld_feedback_, base_); !s.ok()) return s;
+      stage(times_.lightmap, t0);
       return finish_drt();
     }
     if (Status s = rt_.multi_bounce_step(ld_direct, lightmap_); !s.ok()) return s;
+    stage(times_.lightmap, t0);
     return finish();
   }
   Status read_lightmap(std::span<float> out) override { return copy("lightmap", lightmap_, out); }
   Status read_atlas(std::span<float> out) override { return copy("atlas", atlas_, out); }
   Status read_probes(std::span<float> out) override {
     if (probes_.empty())
-      return Status::error(ErrorCode::invalid_argument, "cpu: the dictionary has no probes");
+      return Status::error(ErrorCode::invalid_argument,
+                           "cpu: no probes: the dictionary has none, or CpuBackendOptions::probes is off");
     return copy("probes", probes_, out);
   }
   // Computed on request from the kept b and r, so frames that never read it pay nothing.
@@ -171,16 +189,48 @@ class CpuBackend final : public Backend {
             " probes per block, the dictionary's grid has " +
             std::to_string(probes_.size() / 27 / std::max<std::size_t>(level_.blocks.size(), 1)));
   }
+  using Clock = std::chrono::steady_clock;
+  // Adds the time since `since` to `field` when timing is on; returns now.
+  Clock::time_point stage(std::uint64_t& field, Clock::time_point since) const {
+    if (!timing_) return since;
+    const Clock::time_point now = Clock::now();
+    field += std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(now - since).count());
+    return now;
+  }
+  // One evaluation of the level runtime: its skip counters (per evaluation) into the totals.
+  void count_evaluation() {
+    const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
+    BackendEvaluationStats& e = evaluations_;
+    ++e.evaluations;
+    if (!rt_.skip_options().enabled) {
+      e.blocks_computed += blocks, e.slots_computed += slots, e.tiles_written += blocks;
+      return;
+    }
+    const CpuSkipStats& s = rt_.skip_stats();
+    e.blocks_computed += s.blocks_computed + s.blocks_dark;
+    e.blocks_kept += s.blocks_kept;
+    e.slots_computed += slots - s.slots_kept;
+    e.slots_kept += s.slots_kept;
+    e.tiles_written += s.tiles_written;
+    e.tiles_kept += s.tiles_skipped;
+  }
   Status finish() {
     updated_ = true;
+    count_evaluation();
+    Clock::time_point t = Clock::now();
     if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
+    t = stage(times_.atlas, t);
     if (probes_.empty()) return Status::success();
     if (Status s = rt_.compute_probes(probes_); !s.ok()) return s;
-    return drt_ ? drt_->apply_probes(rt_.b(), c_, probes_) : Status::success();  // DRT §5 (U_dyn)
+    if (drt_)
+      if (Status s = drt_->apply_probes(rt_.b(), c_, probes_); !s.ok()) return s;  // DRT §5 (U_dyn)
+    stage(times_.probes, t);
+    return Status::success();
   }
   // architecture.md §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
   // Cb b + Cc c + direct.
   Status finish_drt() {
+    const Clock::time_point t = Clock::now();
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
     if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
     clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());  // the lightmap policy, as core
@@ -188,6 +238,7 @@ class CpuBackend final : public Backend {
     if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
     // The clutter lightmap is a lightmap: clamped at 0 (core's drt_evaluate_clutter_lightmap).
     clamp_nonnegative(rt_.isa(), clutter_lightmap_.data(), clutter_lightmap_.size());
+    stage(times_.drt, t);
     return finish();
   }
   Status copy(const char* what, const std::vector<float>& from, std::span<float> to) const {
@@ -217,15 +268,25 @@ class CpuBackend final : public Backend {
   std::vector<float> rho_;
   float rho_max_ = 0.0f;
   bool has_albedo_ = false;
+  bool timing_ = false;
+  BackendStageTimes times_;
+  BackendEvaluationStats evaluations_;
 };
 
 }  // namespace
 
 Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
-                                                    const CpuRuntimeOptions& options) {
-  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict, options);
+                                                    const CpuBackendOptions& options) {
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict, options.runtime);
   if (!rt.ok()) return rt.status();
-  return std::unique_ptr<Backend>(new CpuBackend(level, std::move(rt).value()));
+  return std::unique_ptr<Backend>(new CpuBackend(level, std::move(rt).value(), options));
+}
+
+Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
+                                                    const CpuRuntimeOptions& options) {
+  CpuBackendOptions o;
+  o.runtime = options;
+  return create_cpu_backend(level, dict, o);
 }
 
 }  // namespace modrt::cpu

@@ -741,7 +741,11 @@ GlesLevelRuntime::LinearLayout GlesLevelRuntime::ld_layout() const {
   return {kLinearWidth, linear_rows(level_->sample_count)};
 }
 
-Status GlesLevelRuntime::update_from_texture(GLuint ld_texture) {
+static_assert(int(TargetFormat::float32) == 0 && int(TargetFormat::float16) == 1 &&
+                  int(TargetFormat::bits32) == 2,
+              "output_texture_format: modrt.h's format codes");
+
+Status GlesLevelRuntime::update_from_texture(std::uint32_t ld_texture) {
   if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
     return Status::error(ErrorCode::invalid_argument,
                          "gles: update_from_texture: " + std::to_string(ld_texture) +
@@ -876,7 +880,24 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   if (Status s = check("uploading ld_direct"); !s.ok()) return s;
   // Feedback changes every block's ld; the next update() must not compare against ld_prev_.
   force_full_ = true;
-  return run_passes(true, Partial{});
+  if (Status s = run_passes(true, Partial{}); !s.ok()) return s;
+  ++feedback_steps_;
+  return Status::success();
+}
+
+BackendEvaluationStats GlesLevelRuntime::evaluation_stats() const {
+  // update() counts what it recomputed; a feedback step recomputes every block, slot and tile.
+  const std::uint64_t blocks = level_->blocks.size(), slots = level_->slots.size(), steps = feedback_steps_;
+  BackendEvaluationStats e;
+  e.evaluations = stats_.frames + steps;
+  e.evaluations_skipped = stats_.frames_skipped;
+  e.blocks_computed = stats_.blocks_b + steps * blocks;
+  e.blocks_kept = e.evaluations * blocks - e.blocks_computed;
+  e.slots_computed = stats_.slots_r + steps * slots;
+  e.slots_kept = e.evaluations * slots - e.slots_computed;
+  e.tiles_written = stats_.blocks_redrawn + steps * blocks;
+  e.tiles_kept = e.evaluations * blocks - e.tiles_written;
+  return e;
 }
 
 Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int width, int height, bool bits) {
@@ -1083,6 +1104,10 @@ Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap
 }
 
 GLuint GlesLevelRuntime::clutter_texture() const { return drt_ ? drt_->clutter_texture() : 0; }
+
+TextureSize GlesLevelRuntime::clutter_atlas_size() const {
+  return drt_ ? TextureSize{drt_->clutter_width(), drt_->clutter_height()} : TextureSize{};
+}
 
 std::array<int, 2> GlesLevelRuntime::clutter_atlas_texel(std::size_t object, std::uint32_t t) const {
   return drt_ ? drt_->clutter_texel(object, t) : std::array<int, 2>{-1, -1};

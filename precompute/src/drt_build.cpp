@@ -724,6 +724,15 @@ struct DrtBuilder::Pass {
     const int f_count = queries[k].columns;
     op.texel_count = std::uint32_t(clutter_texel_count(object));
     op.face_count = std::uint32_t(f_count);
+    // Where the texels are, for an app's own direct light at the clutter (drt.h).
+    const ClutterTexelGeometry geometry = clutter_texel_geometry(object);
+    op.texel_position.assign(3 * geometry.position.size(), 0.0f);  // a rebuild reassembles op in place
+    op.texel_normal.assign(3 * geometry.position.size(), 0.0f);
+    for (std::size_t t = 0; t < geometry.position.size(); ++t)
+      for (int a = 0; a < 3; ++a) {
+        op.texel_position[3 * t + std::size_t(a)] = float(geometry.position[t][a]);
+        op.texel_normal[3 * t + std::size_t(a)] = float(geometry.normal[t][a]);
+      }
     // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f; over
     // a mesh chart the mean is weighted by texel area (border texels cover less).
     op.Td_c = Matrix(op.face_count, op.texel_count);
@@ -979,6 +988,8 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
   impl->objects.assign(objects.begin(), objects.end());
   if (!objects.empty()) {
     drt.kb = level_.kb;
+    drt.level_blocks = std::uint32_t(level_.blocks.size());
+    drt.level_samples = level_.sample_count;
     drt.objects.resize(objects.size());
     Result<ObjectQueries> queries = ObjectQueries::make(impl->objects);
     if (!queries.ok()) return queries.status();

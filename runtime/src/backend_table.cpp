@@ -15,9 +15,11 @@ namespace {
 using Creator = Result<std::unique_ptr<Backend>> (*)(const BackendCreateInfo& info);
 
 Result<std::unique_ptr<Backend>> create_cpu(const BackendCreateInfo& info) {
-  cpu::CpuRuntimeOptions options;
-  options.threads = info.threads;
-  options.skip.enabled = info.skip_unchanged;  // every epsilon 0: exact
+  cpu::CpuBackendOptions options;
+  options.runtime.threads = info.threads;
+  options.runtime.skip.enabled = info.skip_unchanged;  // every epsilon 0: exact
+  options.probes = info.probes;
+  options.timing = info.timing;
   return cpu::create_cpu_backend(*info.level, *info.dict, options);
 }
 

@@ -79,16 +79,6 @@ void release(modrt_level* l) {
   if (l->refs.fetch_sub(1, std::memory_order_acq_rel) == 1) destroy_handle(l);
 }
 
-namespace {
-
-// The whole file into memory from the hook: `what` is the API function for messages.
-struct FileImage {
-  const Allocator* alloc = nullptr;
-  std::byte* data = nullptr;
-  std::size_t size = 0;
-  ~FileImage() { alloc->release(data, size); }
-};
-
 modrt_status read_whole_file(const char* path, std::uint64_t max_bytes, FileImage& out) {
   std::FILE* f = std::fopen(path, "rb");
   if (!f) return fail(MODRT_ERROR_IO, std::string(path) + ": cannot open: " + std::strerror(errno));
@@ -126,6 +116,8 @@ modrt_status check_load_args(const char* function, const void* data, size_t size
   if (!data && size > 0) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(function) + ": data is null");
   return MODRT_OK;
 }
+
+namespace {
 
 modrt_status make_dictionary(std::span<const std::byte> bytes, const std::string& what, const Allocator& a,
                              modrt_dictionary** out) {

@@ -11,15 +11,15 @@
 #include <string>
 
 #include "c_api_internal.h"
-#include "modrt/cpu/cpu_level_runtime.h"
+#include "modrt/backends.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/feedback_policy.h"
+#include "modrt/frame_pipeline.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
 #include "modrt/operator_limits.h"
 #include "probe_sampler.h"
 #if MODRT_RUNTIME_GLES
-#include "modrt/gles/gles_level_runtime.h"
 #include "modrt/platform/gl_functions.h"
 #endif
 
@@ -43,44 +43,38 @@ struct modrt_context {
   int probe_grid = 0;
   bool probes_on = false;
 
-  std::optional<cpu::CpuLevelRuntime> cpu;
 #if MODRT_RUNTIME_GLES
-  platform::GlFunctions gl;  // before gles: the runtime keeps a reference to it
-  std::unique_ptr<gles::GlesLevelRuntime> gles;
+  platform::GlFunctions gl;  // before backend: the GLES backend keeps a reference to it
 #endif
+  // The backend from the creator table (modrt/backends.h) and the frame sequence over it.
+  std::unique_ptr<Backend> backend;
+  std::optional<FramePipeline> pipeline;
   std::optional<cpu::CpuDirectLight> direct;
   ProbeSampler sampler;
 
-  // Frame buffers, from the hook. lightmap and atlas only for the CPU backend. albedo: what
-  // the lights are reflected with (the level's, or set_albedo's).
-  HookVector<float> ld, lightmap, atlas, probes, albedo;
-  // Multi-bounce: the ld of the last successful update (with bounces and skipping on, an
-  // update with the same ld and albedo runs nothing), and the largest clamped albedo.
-  HookVector<float> ld_last;
+  // Frame buffers, from the hook. albedo: what the lights are reflected with (the level's, or
+  // set_albedo's). probes, vector: the backend's of the last update, read once per update
+  // (CPU: copied; GLES: read back); vector_plane: one coefficient per sample, for read_vector_atlas.
+  HookVector<float> ld, probes, albedo, vector, vector_plane;
   // GLES: the ld source of the next updates when set_ld_texture named one (0: the CPU ld).
   std::uint32_t ld_texture = 0;
-  // Vector irradiance (options.vector_irradiance): the CPU context's own, or the GLES one's
-  // read back; vector_plane: one coefficient per sample, for read_vector_atlas.
-  HookVector<float> vector, vector_plane;
   bool vector_current = false;
-  bool last_valid = false;
-  float rho_max = 0.0f;
+  bool probes_current = false;
   HookVector<cpu::CpuLight> lights;  // capacity max_lights
-  bool probes_current = false;       // GLES: probes read back since the last update
+
+  // DRT: the clutter set on the backend (a reference kept: the backend borrows its operators).
+  modrt_clutter* clutter = nullptr;
 
   modrt_timings timings{};
-  modrt_skip_stats skip{};
+  std::uint64_t light_blocks_recomputed = 0, light_blocks_kept = 0;
 
   modrt_context(const Allocator& a, modrt_dictionary* d, modrt_level* l)
       : alloc(a),
         dictionary(d),
         level(l),
         ld(HookAllocator<float>(&alloc)),
-        lightmap(HookAllocator<float>(&alloc)),
-        atlas(HookAllocator<float>(&alloc)),
         probes(HookAllocator<float>(&alloc)),
         albedo(HookAllocator<float>(&alloc)),
-        ld_last(HookAllocator<float>(&alloc)),
         vector(HookAllocator<float>(&alloc)),
         vector_plane(HookAllocator<float>(&alloc)),
         lights(HookAllocator<cpu::CpuLight>(&alloc)) {
@@ -88,10 +82,9 @@ struct modrt_context {
     retain(l);
   }
   ~modrt_context() {
-#if MODRT_RUNTIME_GLES
-    gles.reset();
-#endif
-    cpu.reset();
+    pipeline.reset();
+    backend.reset();  // GLES: deletes its GL objects through gl
+    if (clutter) release(clutter);
     release(dictionary);
     release(level);
   }
@@ -104,9 +97,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// options.bounces: feedback steps per update (each one more bounce; 64 bounces of the largest
-// albedo 0.95 leave 0.95^64 = 4 % of the series, as close to converged as steps get).
-constexpr std::uint32_t kMaxBounces = 64;
 std::uint64_t ns_since(Clock::time_point t) {
   return std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t).count());
 }
@@ -123,6 +113,13 @@ modrt_status check_count(const char* function, const char* what, size_t count, s
   return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(function) + ": " + what + " has " +
                                                 std::to_string(count) + " floats, the level needs " +
                                                 std::to_string(expected));
+}
+
+// A backend's failure: a GLES internal error is a GL error.
+modrt_status backend_fail(const modrt_context* c, const char* fn, const Status& s) {
+  const modrt_status code =
+      c->is_gles() && s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code());
+  return fail(code, std::string(fn) + ": " + s.message());
 }
 
 #if MODRT_RUNTIME_GLES
@@ -146,8 +143,16 @@ struct GlStateGuard {
     gl.glActiveTexture(GLenum(texture_unit));
   }
 };
+// The guard around a call into the backend, for a GLES context only.
+struct BackendCall {
+  std::optional<GlStateGuard> guard;
+  explicit BackendCall(const modrt_context* c) {
+    if (c->is_gles()) guard.emplace(c->gl);
+  }
+};
 
-modrt_status create_gles(modrt_context* c) {
+// The GLES backend's creation info: the app's current context, through its loader.
+modrt_status load_gl(modrt_context* c, BackendCreateInfo& info) {
   modrt_gl_loader loader = c->options.gl_loader;
   void* user = c->options.gl_loader_user;
   if (!loader) {
@@ -163,48 +168,59 @@ modrt_status create_gles(modrt_context* c) {
     return fail(MODRT_ERROR_GL,
                 "modrt_context_create: glGetString(GL_VERSION) returned null: is a GL "
                 "context current on this thread?");
-  const bool gles_context = std::strncmp(version, "OpenGL ES", 9) == 0;
-  gles::GlesRuntimeOptions go;
-  go.probes = c->options.probes != 0;
-  go.skip_unchanged = c->options.skip_unchanged != 0;
-  go.vector_irradiance = c->options.vector_irradiance != 0;
-  GlStateGuard state(c->gl);
-  Result<std::unique_ptr<gles::GlesLevelRuntime>> rt =
-      gles::GlesLevelRuntime::create(c->gl, gles_context, c->lv(), c->dict(), go);
-  if (!rt.ok()) {
-    const modrt_status code = rt.status().code() == ErrorCode::internal_error
-                                  ? MODRT_ERROR_GL
-                                  : from_error_code(rt.status().code());
-    return fail(code, "modrt_context_create: " + rt.status().message());
-  }
-  c->gles = std::move(rt).value();
-  c->gles->set_timing(c->options.timing != 0);
-  c->description = c->gles->description();
-  c->probes_on = go.probes && c->sizes.probes > 0;
-  if (go.vector_irradiance) c->vector.assign(c->sizes.vector_lightmap, 0.0f);
+  info.gl = &c->gl;
+  info.gles_context = std::strncmp(version, "OpenGL ES", 9) == 0;
   return MODRT_OK;
 }
+#else
+struct BackendCall {
+  explicit BackendCall(const modrt_context*) {}
+};
 #endif
 
-modrt_status create_cpu(modrt_context* c) {
-  cpu::CpuRuntimeOptions co;
-  co.threads = c->options.threads;
-  co.skip.enabled = c->options.skip_unchanged != 0;  // every epsilon 0: exact
-  Result<cpu::CpuLevelRuntime> rt = cpu::CpuLevelRuntime::create(c->lv(), c->dict(), co);
-  if (!rt.ok())
-    return fail(from_error_code(rt.status().code()), "modrt_context_create: " + rt.status().message());
-  c->cpu.emplace(std::move(rt).value());
-  c->description = std::string("cpu ") + cpu::isa_name(c->cpu->isa());
-  c->lightmap.assign(c->sizes.lightmap, 0.0f);
-  c->atlas.assign(c->sizes.atlas, 0.0f);
-  c->probes_on = c->options.probes != 0 && c->sizes.probes > 0;
-  if (c->options.vector_irradiance != 0) {
-    if (!c->cpu->has_vector_irradiance())
+// The backend of options.backend through the creator table, and the frame pipeline over it.
+modrt_status create_backend(modrt_context* c) {
+  constexpr const char* fn = "modrt_context_create";
+  const modrt_context_options& o = c->options;
+  if (o.vector_irradiance != 0)
+    if (Status s = check_level_vector_operators(c->lv(), c->dict()); !s.ok())
       return fail(MODRT_ERROR_UNSUPPORTED,
-                  "modrt_context_create: options.vector_irradiance is on, but " +
-                      check_level_vector_operators(c->lv(), c->dict()).message() +
+                  std::string(fn) + ": options.vector_irradiance is on, but " + s.message() +
                       " (bake the dictionary with its vector operators or turn vector_irradiance off)");
+  BackendCreateInfo info;
+  info.level = &c->lv();
+  info.dict = &c->dict();
+  info.threads = o.threads;
+  info.skip_unchanged = o.skip_unchanged != 0;
+  info.probes = o.probes != 0;
+  info.vector_irradiance = o.vector_irradiance != 0;
+  info.timing = o.timing != 0;
+  BackendKind kind = BackendKind::cpu;
+#if MODRT_RUNTIME_GLES
+  if (c->is_gles()) {
+    kind = BackendKind::gles;
+    if (modrt_status s = load_gl(c, info); s != MODRT_OK) return s;
+  }
+#endif
+  Result<std::unique_ptr<Backend>> backend = [&] {
+    BackendCall call(c);
+    return modrt::create_backend(kind, info);
+  }();
+  if (!backend.ok()) return backend_fail(c, fn, backend.status());
+  c->backend = std::move(backend).value();
+  c->description = c->backend->description();
+  FrameOptions frame;
+  frame.bounces = o.bounces;
+  frame.skip_unchanged = o.skip_unchanged != 0;
+  Result<FramePipeline> pipeline = FramePipeline::create(*c->backend, frame);
+  if (!pipeline.ok())
+    return fail(from_error_code(pipeline.status().code()),
+                std::string(fn) + ": " + pipeline.status().message());
+  c->pipeline.emplace(std::move(pipeline).value());
+  c->probes_on = o.probes != 0 && c->sizes.probes > 0;
+  if (o.vector_irradiance != 0) {
     c->vector.assign(c->sizes.vector_lightmap, 0.0f);
+    c->vector_plane.assign(c->sizes.lightmap, 0.0f);
   }
   return MODRT_OK;
 }
@@ -212,46 +228,38 @@ modrt_status create_cpu(modrt_context* c) {
 // The multi-bounce feedback's albedo (clamped to options.max_albedo by the backend). Checks
 // what CpuDirectLight checks and more (<= kMaxLightValue), so call it first.
 modrt_status set_feedback_albedo(modrt_context* c, std::span<const float> albedo) {
-  constexpr const char* fn = "modrt_context_set_albedo";
-  Status s;
-#if MODRT_RUNTIME_GLES
-  if (c->gles) {
-    GlStateGuard state(c->gl);
-    s = c->gles->set_albedo(albedo, c->options.max_albedo);
-  } else {
-    s = c->cpu->set_albedo(albedo, c->options.max_albedo);
-  }
-#else
-  s = c->cpu->set_albedo(albedo, c->options.max_albedo);
-#endif
-  if (!s.ok())
-    return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
-                std::string(fn) + ": " + s.message());
-  float rho_max = 0.0f;
-  for (float a : albedo) rho_max = std::max(rho_max, std::min(a, c->options.max_albedo));
-  c->rho_max = rho_max;
-  c->last_valid = false;
+  BackendCall call(c);
+  if (Status s = c->pipeline->set_albedo(albedo, c->options.max_albedo); !s.ok())
+    return backend_fail(c, "modrt_context_set_albedo", s);
   return MODRT_OK;
 }
 
-// The context's vector irradiance of the last update (GLES: read back once per update).
+modrt_status check_updated(const modrt_context* c, const char* fn) {
+  if (c->pipeline->stats().frames > 0) return MODRT_OK;
+  return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": no update has run yet");
+}
+
+// The context's vector irradiance of the last update (read from the backend once per update).
 modrt_status current_vector(modrt_context* c, const char* fn) {
   if (c->vector.empty())
     return fail(
         MODRT_ERROR_UNSUPPORTED,
         std::string(fn) + ": no vector irradiance: the context was created with options.vector_irradiance 0");
-  if (c->skip.frames == 0)
-    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": no update has run yet");
-#if MODRT_RUNTIME_GLES
-  if (c->gles && !c->vector_current) {
-    GlStateGuard state(c->gl);
-    if (Status s = c->gles->read_vector_lightmap(c->vector); !s.ok())
-      return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+  if (modrt_status s = check_updated(c, fn); s != MODRT_OK) return s;
+  if (!c->vector_current) {
+    BackendCall call(c);
+    if (Status s = c->backend->read_vector_lightmap(c->vector); !s.ok()) return backend_fail(c, fn, s);
     c->vector_current = true;
   }
-#endif
   return MODRT_OK;
 }
+modrt_status check_clutter(const modrt_context* c, const char* fn) {
+  if (c->clutter) return MODRT_OK;
+  return fail(MODRT_ERROR_INVALID_ARGUMENT,
+              std::string(fn) + ": the context has no clutter (modrt_context_set_clutter)");
+}
+std::size_t clutter_floats(const modrt_context* c) { return 3 * std::size_t(c->clutter->first_texel.back()); }
+
 modrt_status check_probe_kind(const char* fn, int kind) {
   if (kind == MODRT_PROBE_RADIANCE || kind == MODRT_PROBE_IRRADIANCE_OVER_PI) return MODRT_OK;
   return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": unknown probe kind " + std::to_string(kind));
@@ -263,17 +271,15 @@ modrt_status check_probes_on(const modrt_context* c, const char* fn) {
               std::string(fn) + ": no probes: the dictionary has no volume probes or options.probes was 0");
 }
 
-// The probe volume of the last update in c->probes (GLES: read back once per update).
+// The probe volume of the last update in c->probes (read from the backend once per update;
+// zeros before the first).
 modrt_status current_probes(modrt_context* c, const char* fn) {
   if (modrt_status s = check_probes_on(c, fn); s != MODRT_OK) return s;
-#if MODRT_RUNTIME_GLES
-  if (c->gles && !c->probes_current) {
-    GlStateGuard state(c->gl);
-    if (Status s = c->gles->read_probes(c->probes); !s.ok())
-      return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
+  if (!c->probes_current && c->pipeline->stats().frames > 0) {
+    BackendCall call(c);
+    if (Status s = c->backend->read_probes(c->probes); !s.ok()) return backend_fail(c, fn, s);
     c->probes_current = true;
   }
-#endif
   return MODRT_OK;
 }
 
@@ -336,10 +342,10 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     if (o.max_lights < 1 || o.max_lights > 4096)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_lights " +
                                                     std::to_string(o.max_lights) + " is not in 1..4096");
-    if (o.bounces > kMaxBounces)
+    if (o.bounces > kMaxFrameBounces)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.bounces " +
                                                     std::to_string(o.bounces) + " is not in 0.." +
-                                                    std::to_string(kMaxBounces));
+                                                    std::to_string(kMaxFrameBounces));
     if (!check_max_albedo(o.max_albedo, fn).ok())
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_albedo " +
                                                     std::to_string(o.max_albedo) + " is not in [0, 1)");
@@ -364,13 +370,7 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     c->probe_grid = c->sizes.probes > 0 ? int(c->dict().settings.probe_grid) : 0;
     c->ld.assign(c->sizes.ld, 0.0f);
     c->lights.reserve(o.max_lights);
-    modrt_status st = MODRT_OK;
-#if MODRT_RUNTIME_GLES
-    st = o.backend == MODRT_BACKEND_GLES ? create_gles(c) : create_cpu(c);
-#else
-    st = create_cpu(c);
-#endif
-    if (st != MODRT_OK) return st;
+    if (modrt_status st = create_backend(c); st != MODRT_OK) return st;
     // The lights are reflected with the level's own albedo until set_albedo overrides it.
     c->albedo.assign(c->sizes.ld, 0.0f);
     level_sample_albedo(c->lv(), c->albedo);
@@ -383,8 +383,6 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
                   std::string(fn) + ": " + direct.status().message());
     c->direct.emplace(std::move(direct).value());
     if (modrt_status s = set_feedback_albedo(c, c->albedo); s != MODRT_OK) return s;
-    c->ld_last.assign(c->sizes.ld, 0.0f);
-    if (!c->vector.empty()) c->vector_plane.assign(c->sizes.lightmap, 0.0f);
     if (c->probes_on) {
       c->probes.assign(c->sizes.probes, 0.0f);
       c->sampler = ProbeSampler(c->lv(), c->probe_grid);
@@ -487,8 +485,8 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
     context->timings.light_ns = ns_since(t0);
     context->ld_texture = 0;
     const cpu::CpuDirectLightStats& st = context->direct->stats();
-    context->skip.light_blocks_recomputed += st.blocks_recomputed;
-    context->skip.light_blocks_kept += st.blocks_kept;
+    context->light_blocks_recomputed += st.blocks_recomputed;
+    context->light_blocks_kept += st.blocks_kept;
     return MODRT_OK;
   });
 }
@@ -525,6 +523,8 @@ modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t textu
     if (texture == 0 || context->gl.glIsTexture(texture) != GL_TRUE)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": texture " + std::to_string(texture) +
                                                     " is not a texture name of the current GL context");
+#else
+    (void)texture;
 #endif
     context->ld_texture = texture;
     return MODRT_OK;
@@ -536,14 +536,11 @@ modrt_status modrt_context_get_ld_layout(const modrt_context* context, uint32_t*
   if (!context) return null_arg(fn, "context");
   if (!width) return null_arg(fn, "width");
   if (!height) return null_arg(fn, "height");
-#if MODRT_RUNTIME_GLES
-  if (context->gles) {
-    const gles::GlesLevelRuntime::LinearLayout layout = context->gles->ld_layout();
-    *width = std::uint32_t(layout.width);
-    *height = std::uint32_t(layout.height);
+  if (const TextureSize size = context->backend->ld_texture_size(); size.width > 0) {
+    *width = std::uint32_t(size.width);
+    *height = std::uint32_t(size.height);
     return MODRT_OK;
   }
-#endif
   return fail(MODRT_ERROR_UNSUPPORTED,
               static_cast<const char*>("modrt_context_get_ld_layout: a CPU context has no ld texture"));
 }
@@ -567,135 +564,26 @@ modrt_status modrt_context_update(modrt_context* context) {
     constexpr const char* fn = "modrt_context_update";
     if (!context) return null_arg(fn, "context");
     const Clock::time_point t0 = Clock::now();
-    modrt_timings& t = context->timings;
-    modrt_skip_stats& k = context->skip;
-    const std::size_t blocks = context->lv().blocks.size(), slots = context->lv().slots.size();
-    const std::uint32_t bounces = context->options.bounces;
-    const std::span<const float> ld(context->ld.data(), context->ld.size());
-    if (bounces > 0) {
-      // Same ld and albedo as the last update: the same results, bit for bit.
-      if (context->options.skip_unchanged && context->last_valid &&
-          std::equal(ld.begin(), ld.end(), context->ld_last.begin())) {
-        k.frames += 1;
-        k.frames_skipped += 1;
-        const std::uint64_t light_ns = t.light_ns;
-        t = modrt_timings{};
-        t.struct_size = sizeof t;
-        t.light_ns = light_ns;
-        t.update_ns = ns_since(t0);
-        return MODRT_OK;
-      }
-      // Refused before anything runs, not half way through the bounces (feedback_policy.h).
-      if (const double peak = feedback_ld_peak(largest_light(ld), context->rho_max); peak > kMaxLightValue)
-        return fail(MODRT_ERROR_INVALID_ARGUMENT,
-                    std::string(fn) + ": with bounces, the fed-back light can reach " + std::to_string(peak) +
-                        ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+    FramePipeline& pipeline = *context->pipeline;
+    {
+      BackendCall call(context);
+      const Status s = context->ld_texture ? pipeline.run_from_texture(context->ld_texture)
+                                           : pipeline.run({context->ld.data(), context->ld.size()});
+      if (!s.ok()) return backend_fail(context, fn, s);
     }
-    context->last_valid = false;  // until this update has succeeded
-    t.feedback_ns = 0;
-#if MODRT_RUNTIME_GLES
-    if (context->gles) {
-      gles::GlesLevelRuntime& rt = *context->gles;
-      const gles::GlesSkipStats before = rt.skip_stats();
-      gles::GlesPassTimes sum;
-      const auto add_times = [&sum](const gles::GlesPassTimes& p) {
-        sum.upload += p.upload, sum.feedback += p.feedback, sum.b += p.b, sum.r += p.r, sum.atlas += p.atlas,
-            sum.probes += p.probes;
-      };
-      {
-        GlStateGuard state(context->gl);
-        const auto gl_fail = [&](const Status& s) {
-          return fail(s.code() == ErrorCode::internal_error ? MODRT_ERROR_GL : from_error_code(s.code()),
-                      std::string(fn) + ": " + s.message());
-        };
-        if (Status s = context->ld_texture ? rt.update_from_texture(context->ld_texture) : rt.update(ld);
-            !s.ok())
-          return gl_fail(s);
-        add_times(rt.pass_times());
-        for (std::uint32_t i = 0; i < bounces; ++i) {
-          if (Status s = rt.multi_bounce_step(ld); !s.ok()) return gl_fail(s);
-          add_times(rt.pass_times());
-        }
-      }
-      const gles::GlesSkipStats& after = rt.skip_stats();
-      const std::uint64_t frames = after.frames - before.frames;
-      // Each feedback step recomputes every block, slot and tile.
-      const std::uint64_t b = after.blocks_b - before.blocks_b + bounces * blocks,
-                          r = after.slots_r - before.slots_r + bounces * slots,
-                          tiles = after.blocks_redrawn - before.blocks_redrawn + bounces * blocks;
-      const std::uint64_t evaluations = frames * (1 + bounces);
-      k.frames += frames;
-      k.frames_skipped += after.frames_skipped - before.frames_skipped;
-      k.blocks_computed += b;
-      k.blocks_kept += evaluations * blocks - b;
-      k.slots_computed += r;
-      k.slots_kept += evaluations * slots - r;
-      k.tiles_written += tiles;
-      k.tiles_kept += evaluations * blocks - tiles;
-      t.upload_ns = sum.upload, t.b_ns = sum.b, t.r_ns = sum.r, t.lightmap_ns = 0, t.atlas_ns = sum.atlas,
-      t.probes_ns = sum.probes, t.feedback_ns = sum.feedback;
+    modrt_timings& t = context->timings;
+    const std::uint64_t light_ns = t.light_ns;
+    t = modrt_timings{};
+    t.struct_size = sizeof t;
+    t.light_ns = light_ns;
+    if (!pipeline.last_frame_skipped()) {
+      const BackendStageTimes& st = pipeline.times();
+      t.upload_ns = st.upload, t.b_ns = st.b, t.r_ns = st.r, t.feedback_ns = st.feedback;
+      t.lightmap_ns = st.lightmap + st.drt;  // cpu: b, r and the lightmap fused, with the DRT delta
+      t.atlas_ns = st.atlas + st.clutter;    // with the clutter atlas
+      t.probes_ns = st.probes + st.vector;   // with the vector irradiance
       context->probes_current = false;
       context->vector_current = false;
-      if (bounces > 0) {
-        std::copy(ld.begin(), ld.end(), context->ld_last.begin());
-        context->last_valid = true;
-      }
-      t.update_ns = ns_since(t0);
-      return MODRT_OK;
-    }
-#endif
-    cpu::CpuLevelRuntime& rt = *context->cpu;
-    const bool timing = context->options.timing != 0;
-    const bool skipping = rt.skip_options().enabled;
-    const auto count_skips = [&] {
-      if (skipping) {
-        const cpu::CpuSkipStats& s = rt.skip_stats();
-        k.blocks_computed += s.blocks_computed + s.blocks_dark;
-        k.blocks_kept += s.blocks_kept;
-        k.slots_computed += slots - s.slots_kept;
-        k.slots_kept += s.slots_kept;
-        k.tiles_written += s.tiles_written;
-        k.tiles_kept += s.tiles_skipped;
-      } else {
-        k.blocks_computed += blocks;
-        k.slots_computed += slots;
-        k.tiles_written += blocks;
-      }
-    };
-    // The skip counters of a failed update are not kept.
-    const modrt_skip_stats skip_before = k;
-    const auto failed = [&](const Status& s) {
-      k = skip_before;
-      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
-    };
-    if (Status s = rt.evaluate(ld, context->lightmap); !s.ok()) return failed(s);
-    count_skips();
-    for (std::uint32_t i = 0; i < bounces; ++i) {
-      if (Status s = rt.multi_bounce_step(ld, context->lightmap); !s.ok()) return failed(s);
-      count_skips();
-    }
-    const Clock::time_point t1 = Clock::now();
-    if (Status s = rt.fill_atlas(context->lightmap, context->atlas); !s.ok()) return failed(s);
-    const Clock::time_point t2 = Clock::now();
-    if (context->probes_on)
-      if (Status s = rt.compute_probes(context->probes); !s.ok()) return failed(s);
-    if (!context->vector.empty())
-      if (Status s = rt.compute_vector_irradiance(context->vector); !s.ok()) return failed(s);
-    context->vector_current = true;
-    const Clock::time_point t3 = Clock::now();
-    t.upload_ns = t.b_ns = t.r_ns = 0;
-    if (timing) {
-      t.lightmap_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
-      t.atlas_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count());
-      t.probes_ns = std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t3 - t2).count());
-    } else {
-      t.lightmap_ns = t.atlas_ns = t.probes_ns = 0;
-    }
-    k.frames += 1;
-    context->probes_current = true;
-    if (bounces > 0) {
-      std::copy(ld.begin(), ld.end(), context->ld_last.begin());
-      context->last_valid = true;
     }
     t.update_ns = ns_since(t0);
     return MODRT_OK;
@@ -706,14 +594,11 @@ modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint3
   constexpr const char* fn = "modrt_context_get_atlas_texture";
   if (!context) return null_arg(fn, "context");
   if (!texture) return null_arg(fn, "texture");
-  (void)format;  // used only with the GLES backend built in
-#if MODRT_RUNTIME_GLES
-  if (context->gles) {
-    *texture = context->gles->atlas_texture();
-    if (format) *format = int(context->gles->target_format());
+  if (const std::uint32_t name = context->backend->output_texture(BackendOutput::atlas); name != 0) {
+    *texture = name;
+    if (format) *format = context->backend->output_texture_format();
     return MODRT_OK;
   }
-#endif
   return fail(MODRT_ERROR_UNSUPPORTED,
               static_cast<const char*>("modrt_context_get_atlas_texture: a CPU context has no GL texture: "
                                        "use modrt_context_get_atlas_data"));
@@ -724,13 +609,14 @@ modrt_status modrt_context_get_atlas_data(const modrt_context* context, const fl
   if (!context) return null_arg(fn, "context");
   if (!data) return null_arg(fn, "data");
   if (!count) return null_arg(fn, "count");
-  if (context->is_gles())
+  const std::span<const float> atlas = context->backend->output_data(BackendOutput::atlas);
+  if (atlas.empty())
     return fail(MODRT_ERROR_UNSUPPORTED,
                 static_cast<const char*>(
                     "modrt_context_get_atlas_data: a GLES context keeps the atlas on the GPU: use "
                     "modrt_context_get_atlas_texture or modrt_context_read_atlas"));
-  *data = context->atlas.data();
-  *count = context->atlas.size();
+  *data = atlas.data();
+  *count = atlas.size();
   return MODRT_OK;
 }
 
@@ -740,15 +626,10 @@ modrt_status modrt_context_read_lightmap(modrt_context* context, float* out, siz
     if (!context) return null_arg(fn, "context");
     if (!out) return null_arg(fn, "out");
     if (modrt_status s = check_count(fn, "out", count, context->sizes.lightmap); s != MODRT_OK) return s;
-#if MODRT_RUNTIME_GLES
-    if (context->gles) {
-      GlStateGuard state(context->gl);
-      if (Status s = context->gles->read_lightmap({out, count}); !s.ok())
-        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
-      return MODRT_OK;
-    }
-#endif
-    std::copy(context->lightmap.begin(), context->lightmap.end(), out);
+    if (modrt_status s = check_updated(context, fn); s != MODRT_OK) return s;
+    BackendCall call(context);
+    if (Status s = context->backend->read_lightmap({out, count}); !s.ok())
+      return backend_fail(context, fn, s);
     return MODRT_OK;
   });
 }
@@ -759,15 +640,9 @@ modrt_status modrt_context_read_atlas(modrt_context* context, float* out, size_t
     if (!context) return null_arg(fn, "context");
     if (!out) return null_arg(fn, "out");
     if (modrt_status s = check_count(fn, "out", count, context->sizes.atlas); s != MODRT_OK) return s;
-#if MODRT_RUNTIME_GLES
-    if (context->gles) {
-      GlStateGuard state(context->gl);
-      if (Status s = context->gles->read_atlas({out, count}); !s.ok())
-        return fail(MODRT_ERROR_GL, std::string(fn) + ": " + s.message());
-      return MODRT_OK;
-    }
-#endif
-    std::copy(context->atlas.begin(), context->atlas.end(), out);
+    if (modrt_status s = check_updated(context, fn); s != MODRT_OK) return s;
+    BackendCall call(context);
+    if (Status s = context->backend->read_atlas({out, count}); !s.ok()) return backend_fail(context, fn, s);
     return MODRT_OK;
   });
 }
@@ -809,18 +684,17 @@ modrt_status modrt_context_get_vector_textures(const modrt_context* context, uin
   constexpr const char* fn = "modrt_context_get_vector_textures";
   if (!context) return null_arg(fn, "context");
   if (!textures) return null_arg(fn, "textures");
-  (void)format;
-#if MODRT_RUNTIME_GLES
-  if (context->gles) {
+  if (context->is_gles()) {
     if (context->vector.empty())
       return fail(MODRT_ERROR_UNSUPPORTED,
                   static_cast<const char*>("modrt_context_get_vector_textures: no vector irradiance: the "
                                            "context was created with options.vector_irradiance 0"));
-    for (int i = 0; i < 4; ++i) textures[i] = context->gles->vector_texture(i);
-    if (format) *format = int(context->gles->target_format());
+    constexpr BackendOutput kVector[4] = {BackendOutput::vector0, BackendOutput::vector1,
+                                          BackendOutput::vector2, BackendOutput::vector3};
+    for (int i = 0; i < 4; ++i) textures[i] = context->backend->output_texture(kVector[i]);
+    if (format) *format = context->backend->output_texture_format();
     return MODRT_OK;
   }
-#endif
   return fail(MODRT_ERROR_UNSUPPORTED,
               static_cast<const char*>("modrt_context_get_vector_textures: a CPU context has no GL textures: "
                                        "use modrt_context_read_vector_atlas"));
@@ -902,9 +776,140 @@ modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_sk
   if (modrt_status s = check_struct_size("modrt_context_get_skip_stats", "out", *out, "modrt_skip_stats");
       s != MODRT_OK)
     return s;
-  *out = context->skip;
-  out->struct_size = sizeof *out;
+  const FrameStats f = context->pipeline->stats();
+  modrt_skip_stats k{};
+  k.struct_size = sizeof k;
+  k.frames = f.frames;
+  k.frames_skipped = f.frames_skipped;
+  k.blocks_computed = f.evaluations.blocks_computed;
+  k.blocks_kept = f.evaluations.blocks_kept;
+  k.slots_computed = f.evaluations.slots_computed;
+  k.slots_kept = f.evaluations.slots_kept;
+  k.tiles_written = f.evaluations.tiles_written;
+  k.tiles_kept = f.evaluations.tiles_kept;
+  k.light_blocks_recomputed = context->light_blocks_recomputed;
+  k.light_blocks_kept = context->light_blocks_kept;
+  *out = k;
   return MODRT_OK;
+}
+
+modrt_status modrt_context_set_clutter(modrt_context* context, modrt_clutter* clutter) {
+  return guarded("modrt_context_set_clutter", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_clutter";
+    if (!context) return null_arg(fn, "context");
+    if (clutter)
+      if (Status s = check_drt_operators(context->lv(), clutter->drt); !s.ok())
+        return fail(MODRT_ERROR_MISMATCH,
+                    std::string(fn) + ": the clutter does not fit the context's level: " + s.message());
+    {
+      BackendCall call(context);
+      if (Status s = context->pipeline->set_clutter(clutter ? &clutter->drt : nullptr); !s.ok())
+        return backend_fail(context, fn, s);
+    }
+    if (clutter) retain(clutter);
+    if (context->clutter) release(context->clutter);
+    context->clutter = clutter;
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_set_clutter_light(modrt_context* context, const float* clutter_ld,
+                                             const float* clutter_direct, size_t count) {
+  return guarded("modrt_context_set_clutter_light", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_clutter_light";
+    if (!context) return null_arg(fn, "context");
+    if (modrt_status s = check_clutter(context, fn); s != MODRT_OK) return s;
+    if (!clutter_ld) return null_arg(fn, "clutter_ld");
+    if (count != clutter_floats(context))
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": count is " + std::to_string(count) + ", the clutter has " +
+                      std::to_string(clutter_floats(context)) + " floats (3 per texel)");
+    BackendCall call(context);
+    const std::span<const float> direct =
+        clutter_direct ? std::span<const float>(clutter_direct, count) : std::span<const float>();
+    if (Status s = context->pipeline->set_clutter_light({clutter_ld, count}, direct); !s.ok())
+      return backend_fail(context, fn, s);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_set_clutter_albedo(modrt_context* context, const float* albedo, size_t count) {
+  return guarded("modrt_context_set_clutter_albedo", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_clutter_albedo";
+    if (!context) return null_arg(fn, "context");
+    if (modrt_status s = check_clutter(context, fn); s != MODRT_OK) return s;
+    if (!albedo && count > 0) return null_arg(fn, "albedo");
+    if (count != 0 && count != clutter_floats(context))
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": count is " + std::to_string(count) +
+                                                    ", the clutter has " +
+                                                    std::to_string(clutter_floats(context)) +
+                                                    " floats (3 per texel; 0: no clutter feedback)");
+    BackendCall call(context);
+    const std::span<const float> a = count ? std::span<const float>(albedo, count) : std::span<const float>();
+    if (Status s = context->pipeline->set_clutter_albedo(a, context->options.max_albedo); !s.ok())
+      return backend_fail(context, fn, s);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_read_clutter_lightmap(modrt_context* context, float* out, size_t count) {
+  return guarded("modrt_context_read_clutter_lightmap", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_read_clutter_lightmap";
+    if (!context) return null_arg(fn, "context");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = check_clutter(context, fn); s != MODRT_OK) return s;
+    if (modrt_status s = check_count(fn, "out", count, clutter_floats(context)); s != MODRT_OK) return s;
+    BackendCall call(context);
+    if (Status s = context->backend->read_clutter_lightmap({out, count}); !s.ok())
+      return backend_fail(context, fn, s);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_clutter_texture(const modrt_context* context, uint32_t* texture, int* format,
+                                               uint32_t* width, uint32_t* height) {
+  constexpr const char* fn = "modrt_context_get_clutter_texture";
+  if (!context) return null_arg(fn, "context");
+  if (!texture) return null_arg(fn, "texture");
+  return guarded(fn, [&]() -> modrt_status {
+    if (modrt_status s = check_clutter(context, fn); s != MODRT_OK) return s;
+    const std::uint32_t name = context->backend->output_texture(BackendOutput::clutter_atlas);
+    if (name == 0)
+      return fail(
+          MODRT_ERROR_UNSUPPORTED,
+          std::string(fn) + ": a CPU context has no GL textures: use modrt_context_read_clutter_lightmap");
+    const TextureSize size = context->backend->clutter_atlas_size();
+    *texture = name;
+    if (format) *format = context->backend->output_texture_format();
+    if (width) *width = std::uint32_t(size.width);
+    if (height) *height = std::uint32_t(size.height);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_get_clutter_texel_coords(const modrt_context* context, uint32_t* xy,
+                                                    size_t count) {
+  constexpr const char* fn = "modrt_context_get_clutter_texel_coords";
+  if (!context) return null_arg(fn, "context");
+  if (!xy) return null_arg(fn, "xy");
+  return guarded(fn, [&]() -> modrt_status {
+    if (modrt_status s = check_clutter(context, fn); s != MODRT_OK) return s;
+    const modrt_clutter& c = *context->clutter;
+    if (count != 2 * std::size_t(c.first_texel.back()))
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": xy has " + std::to_string(count) +
+                                                    " values, the clutter needs " +
+                                                    std::to_string(2 * std::size_t(c.first_texel.back())));
+    if (context->backend->output_texture(BackendOutput::clutter_atlas) == 0)
+      return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": a CPU context has no clutter atlas texture");
+    for (std::size_t k = 0; k < c.drt.objects.size(); ++k)
+      for (std::uint32_t t = 0; t < c.drt.objects[k].texel_count; ++t) {
+        const std::array<int, 2> p = context->backend->clutter_atlas_texel(k, t);
+        const std::size_t i = 2 * (std::size_t(c.first_texel[k]) + t);
+        xy[i] = std::uint32_t(p[0]);
+        xy[i + 1] = std::uint32_t(p[1]);
+      }
+    return MODRT_OK;
+  });
 }
 
 }  // extern "C"

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "modrt/dictionary.h"
+#include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/modrt.h"
 #include "modrt/status.h"
@@ -171,7 +172,37 @@ struct modrt_level {
   modrt_level(const modrt::capi::Allocator& a, modrt::Level l) : alloc(a), level(std::move(l)) {}
 };
 
+// A built clutter's operators (.modrtdrt) and where each object's texels start.
+struct modrt_clutter {
+  modrt::capi::Allocator alloc;
+  std::atomic<int> refs{1};
+  modrt::DrtOperators drt;
+  std::vector<std::uint32_t> first_texel;  // per object, and the total at the end
+  modrt_clutter(const modrt::capi::Allocator& a, modrt::DrtOperators d) : alloc(a), drt(std::move(d)) {
+    std::uint32_t t = 0;
+    for (const modrt::DrtObjectOperators& o : drt.objects) {
+      first_texel.push_back(t);
+      t += o.texel_count;
+    }
+    first_texel.push_back(t);
+  }
+};
+
 namespace modrt::capi {
+void retain(modrt_clutter* c);
+void release(modrt_clutter* c);
+
+// A whole file in memory from the hook (freed with the image).
+struct FileImage {
+  const Allocator* alloc = nullptr;
+  std::byte* data = nullptr;
+  std::size_t size = 0;
+  ~FileImage() { alloc->release(data, size); }
+};
+modrt_status read_whole_file(const char* path, std::uint64_t max_bytes, FileImage& out);
+// out non-null, data non-null unless size is 0; `function` starts the message.
+modrt_status check_load_args(const char* function, const void* data, size_t size, void* out);
+
 void retain(modrt_dictionary* d);
 void release(modrt_dictionary* d);
 void retain(modrt_level* l);

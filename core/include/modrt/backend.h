@@ -12,8 +12,11 @@
 // results in place.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 
 #include "modrt/drt.h"
 #include "modrt/feedback_policy.h"
@@ -43,6 +46,27 @@ enum class BackendOutput {
 struct BackendStageTimes {
   std::uint64_t upload = 0, feedback = 0, b = 0, r = 0, atlas = 0, probes = 0, vector = 0;
   std::uint64_t drt = 0, clutter = 0;  // c + delta passes, clutter atlas passes (with clutter only)
+  // b, r and the lightmap together, for a backend that runs them as one fused stage (cpu);
+  // 0 where b and r are timed apart.
+  std::uint64_t lightmap = 0;
+};
+
+// What the evaluations since the backend's creation computed and kept, one count per
+// evaluation (one update(), update_from_texture() or multi_bounce_step() that succeeded):
+// computed + kept = evaluations x the level's blocks (slots). Exact skipping (error bound 0)
+// keeps what an unchanged input reaches (modrt_skip_stats); a feedback step changes every
+// block's ld, so it computes everything.
+struct BackendEvaluationStats {
+  std::uint64_t evaluations = 0;
+  std::uint64_t evaluations_skipped = 0;               // the input was identical to the last one: nothing ran
+  std::uint64_t blocks_computed = 0, blocks_kept = 0;  // b_i = Td_b ld_i (a block whose ld is 0: computed)
+  std::uint64_t slots_computed = 0, slots_kept = 0;    // r_s = Tb->r b
+  std::uint64_t tiles_written = 0, tiles_kept = 0;     // the block's atlas tiles (and its probes)
+};
+
+// The size of a texture in texels.
+struct TextureSize {
+  int width = 0, height = 0;
 };
 
 class Backend {
@@ -85,10 +109,37 @@ class Backend {
     (void)output;
     return 0;
   }
+  // Where the backend keeps `output` in CPU memory (the atlas of modrt::cpu), for a renderer to
+  // upload without a copy; empty when it keeps it on the GPU (output_texture) or does not have it.
+  virtual std::span<const float> output_data(BackendOutput output) const {
+    (void)output;
+    return {};
+  }
+  // The format of every output_texture: 0 RGBA32F, 1 RGBA16F, 2 RGBA32UI holding float bits (fetch
+  // it with texelFetch) — modrt.h's format codes; -1 for a backend without textures.
+  virtual int output_texture_format() const { return -1; }
+
+  // The stage times of the last evaluation (all 0 unless timing is on).
   virtual const BackendStageTimes& stage_times() const {
     static const BackendStageTimes none;
     return none;
   }
+  // Measure stage_times() from the next evaluation on (GLES: a glFinish per pass or GPU timer
+  // queries; cpu: the steady clock around each stage). Off by default.
+  virtual void set_timing(bool on) { (void)on; }
+  virtual BackendEvaluationStats evaluation_stats() const = 0;
+
+  // GPU-resident ld (architecture.md §5 step 1 on the GPU): as update(), with ld read from a GL
+  // texture (GL_TEXTURE_2D) the caller rendered, sample s at texel (s % width, s / width) of
+  // ld_texture_size(), RGB in .rgb, a float format. Nothing is read back, so the values are not
+  // validated on the CPU: NaN and negative texels read as 0, and values clamp at
+  // kMaxLightValue. Backends that keep ld in CPU memory refuse it (invalid_argument).
+  virtual Status update_from_texture(std::uint32_t ld_texture) {
+    (void)ld_texture;
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string(backend_kind_name(kind())) + ": ld comes from CPU memory: use update()");
+  }
+  virtual TextureSize ld_texture_size() const { return {}; }  // {0, 0} without update_from_texture
 
   // DRT (architecture.md §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
   // set_clutter() checks the operators against the level (check_drt_operators) and borrows
@@ -118,6 +169,13 @@ class Backend {
                                     float max_albedo = kDefaultMaxAlbedo) = 0;
   // drt_buffer_sizes of the current clutter (all zero without).
   virtual const DrtBufferSizes& clutter_sizes() const = 0;
+  // The clutter atlas (output_texture(BackendOutput::clutter_atlas)): its size, and where
+  // texel t of object k lies in it; {0, 0} and {-1, -1} for a backend without one.
+  virtual TextureSize clutter_atlas_size() const { return {}; }
+  virtual std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const {
+    (void)object, (void)t;
+    return {-1, -1};
+  }
   // The clutter's vector irradiance of the last update (clutter_sizes().clutter_vector_lightmap
   // floats, core's drt_clutter_vector_lightmap layout: OHLSH E/pi in each clutter texel's
   // frame, for normal-mapped clutter; zeros for objects built without vector operators).

@@ -161,6 +161,11 @@ struct DrtObjectOperators {
   float Cb_vec_truncation_error = 0.0f;
   std::vector<std::uint32_t> Cc_vec_objects;
   Matrix Cc_vec;  // 4m x (sum of the sources' face_count)
+  // Where the texels are (ClutterTexelGeometry's position and outward normal, world space, 3
+  // floats per texel in texel order), so that an app computes the clutter's direct light
+  // (clutter_ld) at them without the clutter scene; the runtime's operators do not read them.
+  // Empty: not recorded (both or neither).
+  std::vector<float> texel_position, texel_normal;
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };
@@ -169,6 +174,9 @@ struct DrtOperators {
   std::uint32_t kb = 0;
   std::vector<DrtObjectOperators> objects;
   std::uint32_t probes_per_block = 0;  // g^3 of the U_dyn operators; 0 when they were not built
+  // The level they were built for, so that operators of another level are refused
+  // (check_drt_operators) rather than applied to samples they do not describe; 0: not recorded.
+  std::uint32_t level_blocks = 0, level_samples = 0;
 
   bool empty() const { return objects.empty(); }
   // Bytes of the run-time operators (float32 matrices and uint32 indices; not the sigmas).

@@ -4,7 +4,7 @@
 // DrtBuilder, written by modrt-demo --save-clutter) so that an app loads them without the
 // precompute library, from a path or a memory buffer. This comment is the contract.
 //
-// ## Layout (format version 1)
+// ## Layout (format version 2)
 //
 // Little-endian; floats are IEEE-754 binary32 stored by their bit pattern as a u32.
 //
@@ -16,7 +16,9 @@
 //    16  u32      kb
 //    20  u32      object count
 //    24  u32      probes_per_block
-//    28  u32[5]   reserved, 0
+//    28  u32      level_blocks (since version 2; 0: not recorded)
+//    32  u32      level_samples (since version 2)
+//    36  u32[3]   reserved, 0
 //    48  u64      body byte size (the rest of the file)
 //    56  u32      CRC-32 of the body
 //    60  u32      CRC-32 of header bytes [0, 60)
@@ -45,7 +47,8 @@
 
 namespace modrt {
 
-inline constexpr std::uint32_t kDrtFileVersion = 1;
+// 2: the texels' positions and normals (DrtObjectOperators::texel_position, texel_normal).
+inline constexpr std::uint32_t kDrtFileVersion = 2;
 inline constexpr char kDrtFileMagic[8] = {'M', 'O', 'D', 'R', 'T', 'D', 'R', 'T'};
 inline constexpr std::size_t kDrtFileHeaderBytes = 64;
 // load_drt refuses larger files; serialize_drt refuses to produce them.

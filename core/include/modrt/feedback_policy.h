@@ -46,6 +46,10 @@ inline ClampedAlbedo clamp_albedo(std::span<const float> albedo, float max_albed
 inline float largest_light(std::span<const float> light) {
   return light.empty() ? 0.0f : *std::max_element(light.begin(), light.end());
 }
+// clamp_albedo's rho_max without writing rho: max(min(a, m)) = min(max(a), m).
+inline float largest_clamped_albedo(std::span<const float> albedo, float max_albedo) {
+  return std::min(largest_light(albedo), max_albedo);
+}
 
 // The most a texel can reach: ld_max / (1 - rho_max), rho_max < 1 (check_max_albedo).
 inline float feedback_energy_bound(float ld_max, float rho_max) { return ld_max / (1.0f - rho_max); }

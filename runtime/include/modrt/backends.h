@@ -24,9 +24,9 @@ struct BackendCreateInfo {
   const Dictionary* dict = nullptr;
   int threads = 1;                 // cpu: threads working on a frame, the caller's included
   bool skip_unchanged = true;      // exact skipping of unchanged blocks, slots and tiles
-  bool probes = true;              // gles: evaluate the volume probes (cpu: whenever the dictionary has them)
+  bool probes = true;              // evaluate the volume probes (when the dictionary has them)
   bool vector_irradiance = false;  // gles: the four OHLSH atlases (cpu: computed on read)
-  bool timing = false;             // gles: per-pass times (Backend::stage_times)
+  bool timing = false;             // per-stage times (Backend::stage_times)
   // gles: the current GL context's entry points (platform::GlContext::gl() or
   // platform::load_gl_functions on the app's context) and whether it is an ES context.
   const platform::GlFunctions* gl = nullptr;

@@ -98,9 +98,10 @@ MODRT_API const char* modrt_version_string(void);
  *
  * Extent (honest): the hook receives every allocation the runtime layer makes itself: the
  * handle objects, the file image read by *_load_file (freed before it returns), and a
- * context's frame buffers (ld, lightmap, atlas, probes) and light list. The decoded operators
- * of a dictionary or level and the backends' own state (core / cpu / gles C++ objects, the
- * direct-light evaluator, GL objects) are allocated with the global operator new of the
+ * context's own buffers (ld, albedo, the probe volume and vector irradiance it hands out) and
+ * light list. The decoded operators of a dictionary or level and the backends' own state
+ * (core / cpu / gles C++ objects with the lightmap and atlas, the direct-light evaluator, GL
+ * objects) are allocated with the global operator new of the
  * process. docs/embedding.md lists the byte split for a sample level. */
 typedef struct modrt_allocator {
   uint32_t struct_size; /* sizeof(modrt_allocator) */
@@ -466,6 +467,70 @@ MODRT_API modrt_status modrt_level_map_mesh_bound(const modrt_level* level, cons
 MODRT_API modrt_status modrt_level_map_mesh(const modrt_level* level, const modrt_mesh_input* mesh,
                                             modrt_mapped_corner* out, size_t capacity, size_t* written,
                                             modrt_mesh_map_stats* stats);
+
+/* ------------------------------------------------------------------------------------------
+ * DRT clutter (since 0.3; architecture.md §6, docs/drt.md): objects inside the level's blocks
+ * (furniture, props) that cast indirect shadows on the walls, reflect light onto them and onto
+ * each other, and get a lightmap of their own. Their operators are built offline for one level
+ * (modrt-demo --save-clutter writes a .modrtdrt file) and set on a context of that level. A
+ * clutter's texels are numbered over all its objects, object by object. */
+typedef struct modrt_clutter modrt_clutter;
+
+/* Parsed and validated (checksums, sizes, finite values) at load; `name` (may be null) starts
+ * every error message. An older file is MODRT_ERROR_VERSION_MISMATCH ("rebuild the clutter
+ * operators"). */
+MODRT_API modrt_status modrt_clutter_load_memory(const void* data, size_t size, const char* name,
+                                                 const modrt_allocator* allocator, modrt_clutter** out);
+MODRT_API modrt_status modrt_clutter_load_file(const char* path, const modrt_allocator* allocator,
+                                               modrt_clutter** out);
+/* Releases the caller's reference (contexts keep their own). Null is ignored. */
+MODRT_API void modrt_clutter_destroy(modrt_clutter* clutter);
+
+typedef struct modrt_clutter_info {
+  uint32_t struct_size; /* set by the caller: sizeof(modrt_clutter_info) */
+  uint32_t object_count;
+  uint32_t texel_count;        /* clutter light, albedo and lightmap hold 3 * texel_count floats */
+  uint32_t has_texel_geometry; /* 1: modrt_clutter_get_texels gives positions and normals */
+} modrt_clutter_info;
+MODRT_API modrt_status modrt_clutter_get_info(const modrt_clutter* clutter, modrt_clutter_info* out);
+
+/* One clutter texel: where it is and which way it faces, for the app's own direct light. */
+typedef struct modrt_clutter_texel {
+  float position[3]; /* world position of the texel centre */
+  float normal[3];   /* unit outward normal */
+  uint32_t object;   /* the object it belongs to */
+} modrt_clutter_texel;
+/* Every texel (count = texel_count records). MODRT_ERROR_UNSUPPORTED when the file does not
+ * record them (has_texel_geometry 0). */
+MODRT_API modrt_status modrt_clutter_get_texels(const modrt_clutter* clutter, modrt_clutter_texel* out,
+                                                size_t count);
+
+/* The clutter the context's updates include, checked against the context's level
+ * (MODRT_ERROR_MISMATCH names the object and the operator); null removes it. The context keeps
+ * a reference. Its light starts at 0 and it has no albedo (no clutter feedback) until set. */
+MODRT_API modrt_status modrt_context_set_clutter(modrt_context* context, modrt_clutter* clutter);
+/* The clutter's light for the following updates, 3 * texel_count floats each, finite and
+ * >= 0: clutter_ld = albedo * E / pi at each texel (what DRT's Td_c reads, as ld is for the
+ * walls); clutter_direct (may be null: none) is added to the clutter lightmap, so that it holds
+ * the clutter's total light. A failed call changes nothing. */
+MODRT_API modrt_status modrt_context_set_clutter_light(modrt_context* context, const float* clutter_ld,
+                                                       const float* clutter_direct, size_t count);
+/* The clutter's albedo for multi-bounce (options.bounces > 0): each feedback step then also
+ * feeds the clutter's indirect light back, clamped like the walls' (options.max_albedo).
+ * 3 * texel_count floats in [0, 1e30]; null with count 0: no clutter feedback. */
+MODRT_API modrt_status modrt_context_set_clutter_albedo(modrt_context* context, const float* albedo,
+                                                        size_t count);
+/* The clutter lightmap of the last update (3 * texel_count floats: the indirect light at each
+ * texel, as E/pi, plus clutter_direct). GLES: reads back from the GPU. */
+MODRT_API modrt_status modrt_context_read_clutter_lightmap(modrt_context* context, float* out, size_t count);
+/* GLES: the clutter atlas of the last update as a GL texture (the atlas's *format; RGB in .rgb)
+ * and its size; texel t of the clutter lies at (xy[2 t], xy[2 t + 1]) of
+ * modrt_context_get_clutter_texel_coords (xy: 2 * texel_count values). CPU contexts:
+ * MODRT_ERROR_UNSUPPORTED (use read_clutter_lightmap). */
+MODRT_API modrt_status modrt_context_get_clutter_texture(const modrt_context* context, uint32_t* texture,
+                                                         int* format, uint32_t* width, uint32_t* height);
+MODRT_API modrt_status modrt_context_get_clutter_texel_coords(const modrt_context* context, uint32_t* xy,
+                                                              size_t count);
 
 #ifdef __cplusplus
 } /* extern "C" */

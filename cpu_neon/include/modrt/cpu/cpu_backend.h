@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // modrt::cpu — CpuLevelRuntime behind the Backend interface (modrt/backend.h), so a caller
 // switches between the CPU and GLES backends by a flag. It keeps the lightmap, atlas and
-// probes in CPU memory; update() fills all three (probes only when the dictionary has them).
+// probes in CPU memory; update() fills all three (probes only when the dictionary has them and
+// CpuBackendOptions::probes is on).
 // read_vector_lightmap() computes the vector irradiance of the last update on request.
 #pragma once
 
@@ -12,7 +13,15 @@
 
 namespace modrt::cpu {
 
+struct CpuBackendOptions {
+  CpuRuntimeOptions runtime;
+  bool probes = true;   // compute the volume probes in every evaluation (when the dictionary has them)
+  bool timing = false;  // stage_times() from the steady clock (Backend::set_timing)
+};
+
 // `level` and `dict` are borrowed and must outlive the backend.
+Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
+                                                    const CpuBackendOptions& options);
 Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
                                                     const CpuRuntimeOptions& options = {});
 

@@ -133,7 +133,8 @@ class GlesLevelRuntime final : public Backend {
   // texel (i, j) of its n-th lit face at (n res + i, y_k + j); otherwise rows of 256 texels.
   // clutter_atlas_texel gives the position of texel t of object k.
   GLuint clutter_texture() const;
-  std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const;
+  std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const override;
+  TextureSize clutter_atlas_size() const override;
 
   // GPU-resident ld (architecture.md §5 step 1 on the GPU): evaluates the level like update()
   // with ld read from `ld_texture`, a GL_TEXTURE_2D the caller rendered (its own direct-light
@@ -144,11 +145,10 @@ class GlesLevelRuntime final : public Backend {
   // the b pass reads NaN and negative values as 0 and clamps at kMaxLightValue. Every block is
   // recomputed (the runtime does not see the values to skip). Fails for 0 or a name that is
   // not a texture; then nothing changes.
-  Status update_from_texture(GLuint ld_texture);
-  struct LinearLayout {
-    int width = 0, height = 0;
-  };
+  Status update_from_texture(std::uint32_t ld_texture) override;
+  using LinearLayout = TextureSize;
   LinearLayout ld_layout() const;
+  TextureSize ld_texture_size() const override { return ld_layout(); }
 
   TargetFormat target_format() const { return target_; }
   // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
@@ -165,11 +165,13 @@ class GlesLevelRuntime final : public Backend {
 
   // Optional per-pass timing (GpuTimer: GPU queries where available). Off by default
   // because CPU-clock timing adds a glFinish per pass.
-  void set_timing(bool on);
+  void set_timing(bool on) override;
   const GlesPassTimes& pass_times() const { return times_; }
   const BackendStageTimes& stage_times() const override { return times_; }
   std::uint32_t output_texture(BackendOutput output) const override;
+  int output_texture_format() const override { return int(target_); }
   const GlesSkipStats& skip_stats() const { return stats_; }
+  BackendEvaluationStats evaluation_stats() const override;
 
  private:
   struct Target {  // one render target texture and its framebuffer
@@ -262,6 +264,7 @@ class GlesLevelRuntime final : public Backend {
   std::vector<std::uint32_t> fed_begin_, fed_slots_;
   bool force_full_ = true;
   GlesSkipStats stats_;
+  std::uint64_t feedback_steps_ = 0;  // multi_bounce_step() calls that succeeded
   bool timing_ = false;
   GlesPassTimes times_;
   std::unique_ptr<platform::GpuTimer> timer_;

@@ -1,0 +1,356 @@
+// SPDX-License-Identifier: MIT
+// DRT clutter through the C API (modrt_clutter, modrt_context_set_clutter*, since 0.3): a
+// .modrtdrt image loaded from memory and from a file; a CPU context against the C++ CPU
+// backend with the same operators (bit-identical: the same backend behind the same frame
+// pipeline), with and without bounces; a GLES context against the CPU one (relative L2 1e-4,
+// float32 targets, as test_gles_drt); the texels' geometry against core's
+// clutter_texel_geometry (float rounding); and bad input refused naming the argument, with
+// nothing changed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "drt_scenes.h"
+#include "modrt/cpu/cpu_backend.h"
+#include "modrt/dictionary_io.h"
+#include "modrt/drt_io.h"
+#include "modrt/file_io.h"
+#include "modrt/frame_pipeline.h"
+#include "modrt/level_geometry.h"
+#include "modrt/level_io.h"
+#include "modrt/modrt.h"
+#include "modrt/modrt.hpp"
+#include "modrt/platform/gl_context.h"
+#include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/level_build.h"
+#include "test_support.h"
+
+namespace modrt {
+namespace {
+
+const Dictionary& dict() { return test::small_test_dictionary(); }
+
+struct Scene {
+  test::ClutterScene scene;
+  Level level;
+  DrtOperators drt;
+  std::vector<std::byte> drt_file, level_file, dict_file;
+  std::vector<float> ld, clutter_ld, clutter_direct, clutter_albedo;
+};
+
+// Four pillars in the middle block of a corridor (their shadows fall through the openings),
+// with vector and probe deltas; ld a fixed pseudo-random signal.
+const Scene& pillars() {
+  static const Scene s = [] {
+    Scene t;
+    t.scene = test::maze_block_four_pillars();
+    t.level = precompute::build_level(t.scene.description, dict()).value();
+    precompute::DrtBuildSettings settings;
+    settings.rays = 64;
+    settings.vector = settings.probes = true;
+    t.drt = precompute::DrtBuilder(t.level, dict(), settings).build(t.scene.clutter).value();
+    t.drt_file = serialize_drt(t.drt).value();
+    t.level_file = serialize_level(t.level).value();
+    t.dict_file = serialize_dictionary(dict()).value();
+    const std::size_t texels = drt_buffer_sizes(t.drt).clutter_texels;
+    for (std::size_t i = 0; i < 3 * std::size_t(t.level.sample_count); ++i)
+      t.ld.push_back(float((i * 7919) % 101) / 100.0f);
+    for (std::size_t i = 0; i < 3 * texels; ++i) {
+      t.clutter_ld.push_back(float((i * 104729) % 97) / 90.0f);
+      t.clutter_direct.push_back(float((i * 31) % 13) / 20.0f);
+      t.clutter_albedo.push_back(0.3f + 0.5f * float(i % 3) / 2.0f);
+    }
+    return t;
+  }();
+  return s;
+}
+
+void expect_error(modrt_status status, modrt_status code, std::initializer_list<std::string> words) {
+  EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
+  const std::string message = modrt_last_error();
+  for (const std::string& w : words)
+    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
+}
+
+double rel_l2(std::span<const float> got, std::span<const float> ref) {
+  EXPECT_EQ(got.size(), ref.size());
+  double num = 0.0, den = 0.0;
+  for (std::size_t i = 0; i < ref.size() && i < got.size(); ++i) {
+    num += (double(got[i]) - ref[i]) * (double(got[i]) - ref[i]);
+    den += double(ref[i]) * ref[i];
+  }
+  return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
+}
+
+// The handles of a context on the pillars' level.
+struct Handles {
+  modrt_dictionary* d = nullptr;
+  modrt_level* l = nullptr;
+  modrt_clutter* clutter = nullptr;
+  Handles() {
+    const Scene& s = pillars();
+    EXPECT_EQ(modrt_dictionary_load_memory(s.dict_file.data(), s.dict_file.size(), "dict", nullptr, &d),
+              MODRT_OK);
+    EXPECT_EQ(modrt_level_load_memory(s.level_file.data(), s.level_file.size(), "pillars", nullptr, &l),
+              MODRT_OK);
+    EXPECT_EQ(modrt_clutter_load_memory(s.drt_file.data(), s.drt_file.size(), "pillars.modrtdrt", nullptr,
+                                        &clutter),
+              MODRT_OK)
+        << modrt_last_error();
+  }
+  ~Handles() {
+    modrt_clutter_destroy(clutter);
+    modrt_level_destroy(l);
+    modrt_dictionary_destroy(d);
+  }
+  modrt_context* context(modrt_backend backend, std::uint32_t bounces) const {
+    modrt_context_options o;
+    modrt_context_options_init(&o);
+    o.backend = backend;
+    o.bounces = bounces;
+    modrt_context* c = nullptr;
+    EXPECT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+    return c;
+  }
+};
+
+struct Results {
+  std::vector<float> lightmap, clutter_lightmap;
+};
+
+// One frame of the pillars with their clutter light (and albedo with bounces) through the C API.
+Results c_api_frame(modrt_context* c, const Handles& h, bool with_albedo) {
+  const Scene& s = pillars();
+  EXPECT_EQ(modrt_context_set_clutter(c, h.clutter), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(
+      modrt_context_set_clutter_light(c, s.clutter_ld.data(), s.clutter_direct.data(), s.clutter_ld.size()),
+      MODRT_OK)
+      << modrt_last_error();
+  if (with_albedo) {
+    EXPECT_EQ(modrt_context_set_clutter_albedo(c, s.clutter_albedo.data(), s.clutter_albedo.size()), MODRT_OK)
+        << modrt_last_error();
+  }
+  EXPECT_EQ(modrt_context_set_ld(c, s.ld.data(), s.ld.size()), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  Results r;
+  r.lightmap.resize(s.ld.size());
+  r.clutter_lightmap.resize(s.clutter_ld.size());
+  EXPECT_EQ(modrt_context_read_lightmap(c, r.lightmap.data(), r.lightmap.size()), MODRT_OK)
+      << modrt_last_error();
+  EXPECT_EQ(modrt_context_read_clutter_lightmap(c, r.clutter_lightmap.data(), r.clutter_lightmap.size()),
+            MODRT_OK)
+      << modrt_last_error();
+  return r;
+}
+
+// The same frame on the C++ CPU backend the context uses: the level's albedo, the same clutter.
+Results cpp_frame(std::uint32_t bounces, bool with_albedo) {
+  const Scene& s = pillars();
+  cpu::CpuRuntimeOptions o;
+  o.skip.enabled = true;  // as options.skip_unchanged's default
+  std::unique_ptr<Backend> be = cpu::create_cpu_backend(s.level, dict(), o).value();
+  FrameOptions fo;
+  fo.bounces = bounces;
+  FramePipeline p = FramePipeline::create(*be, fo).value();
+  EXPECT_TRUE(p.set_albedo(level_sample_albedo(s.level)).ok());
+  EXPECT_TRUE(p.set_clutter(&s.drt).ok());
+  EXPECT_TRUE(p.set_clutter_light(s.clutter_ld, s.clutter_direct).ok());
+  if (with_albedo) {
+    EXPECT_TRUE(p.set_clutter_albedo(s.clutter_albedo).ok());
+  }
+  EXPECT_TRUE(p.run(s.ld).ok());
+  Results r;
+  r.lightmap.resize(s.ld.size());
+  r.clutter_lightmap.resize(s.clutter_ld.size());
+  EXPECT_TRUE(be->read_lightmap(r.lightmap).ok());
+  EXPECT_TRUE(be->read_clutter_lightmap(r.clutter_lightmap).ok());
+  return r;
+}
+
+TEST(CApiClutter, CpuContextIsTheCppBackendBitForBit) {
+  Handles h;
+  for (std::uint32_t bounces : {0u, 2u}) {
+    modrt_context* c = h.context(MODRT_BACKEND_CPU, bounces);
+    const Results got = c_api_frame(c, h, bounces > 0);
+    const Results ref = cpp_frame(bounces, bounces > 0);
+    EXPECT_EQ(got.lightmap, ref.lightmap) << bounces << " bounces";
+    EXPECT_EQ(got.clutter_lightmap, ref.clutter_lightmap) << bounces << " bounces";
+    // The clutter changes the walls: without it the lightmap differs.
+    ASSERT_EQ(modrt_context_set_clutter(c, nullptr), MODRT_OK);
+    ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+    std::vector<float> bare(got.lightmap.size());
+    ASSERT_EQ(modrt_context_read_lightmap(c, bare.data(), bare.size()), MODRT_OK);
+    EXPECT_GT(rel_l2(bare, got.lightmap), 1e-3);
+    expect_error(modrt_context_read_clutter_lightmap(c, bare.data(), got.clutter_lightmap.size()),
+                 MODRT_ERROR_INVALID_ARGUMENT, {"modrt_context_read_clutter_lightmap", "no clutter"});
+    modrt_context_destroy(c);
+  }
+}
+
+// The file a tool writes loads like the memory image, and the texels are where core puts them.
+TEST(CApiClutter, FileInfoAndTexelGeometry) {
+  const Scene& s = pillars();
+  const std::filesystem::path dir = std::filesystem::path(MODRT_TEST_CACHE_DIR) / "c_api";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "pillars.modrtdrt").string();
+  ASSERT_TRUE(save_drt(path, s.drt).ok());
+  modrt_clutter* c = nullptr;
+  ASSERT_EQ(modrt_clutter_load_file(path.c_str(), nullptr, &c), MODRT_OK) << modrt_last_error();
+  modrt_clutter_info info = rt::sized<modrt_clutter_info>();
+  ASSERT_EQ(modrt_clutter_get_info(c, &info), MODRT_OK);
+  EXPECT_EQ(info.object_count, s.scene.clutter.size());
+  EXPECT_EQ(info.texel_count, drt_buffer_sizes(s.drt).clutter_texels);
+  EXPECT_EQ(info.has_texel_geometry, 1u);
+  std::vector<modrt_clutter_texel> texels(info.texel_count);
+  ASSERT_EQ(modrt_clutter_get_texels(c, texels.data(), texels.size()), MODRT_OK) << modrt_last_error();
+  std::size_t t = 0;
+  for (std::size_t k = 0; k < s.scene.clutter.size(); ++k) {
+    const ClutterTexelGeometry g = clutter_texel_geometry(s.scene.clutter[k]);
+    for (std::size_t i = 0; i < g.position.size(); ++i, ++t) {
+      ASSERT_LT(t, texels.size());
+      EXPECT_EQ(texels[t].object, k);
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(texels[t].position[a], float(g.position[i][a]));
+        EXPECT_EQ(texels[t].normal[a], float(g.normal[i][a]));
+      }
+    }
+  }
+  EXPECT_EQ(t, texels.size());
+  expect_error(modrt_clutter_get_texels(c, texels.data(), texels.size() - 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_clutter_get_texels", "out has " + std::to_string(texels.size() - 1) + " records"});
+  modrt_clutter_destroy(c);
+
+  // Operators built without the texels (an app's own builder): no geometry, named.
+  DrtOperators bare = s.drt;
+  for (DrtObjectOperators& o : bare.objects) o.texel_position.clear(), o.texel_normal.clear();
+  const std::vector<std::byte> bytes = serialize_drt(bare).value();
+  ASSERT_EQ(modrt_clutter_load_memory(bytes.data(), bytes.size(), "bare", nullptr, &c), MODRT_OK);
+  ASSERT_EQ(modrt_clutter_get_info(c, &info), MODRT_OK);
+  EXPECT_EQ(info.has_texel_geometry, 0u);
+  expect_error(modrt_clutter_get_texels(c, texels.data(), texels.size()), MODRT_ERROR_UNSUPPORTED,
+               {"records no texel positions"});
+  modrt_clutter_destroy(c);
+}
+
+TEST(CApiClutter, BadInputIsNamedAndChangesNothing) {
+  const Scene& s = pillars();
+  Handles h;
+  modrt_context* c = h.context(MODRT_BACKEND_CPU, 0);
+  std::vector<float> light = s.clutter_ld;
+  expect_error(modrt_context_set_clutter_light(c, light.data(), nullptr, light.size()),
+               MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_clutter_light", "no clutter (modrt_context_set_clutter)"});
+  const Results good = c_api_frame(c, h, false);
+  // Wrong count, NaN, negative, null: refused; the next update gives the same frame.
+  expect_error(modrt_context_set_clutter_light(c, light.data(), nullptr, light.size() - 3),
+               MODRT_ERROR_INVALID_ARGUMENT, {"count is " + std::to_string(light.size() - 3), "3 per texel"});
+  light[10] = std::numeric_limits<float>::quiet_NaN();
+  const modrt_status nan = modrt_context_set_clutter_light(c, light.data(), nullptr, light.size());
+  EXPECT_NE(nan, MODRT_OK);
+  EXPECT_NE(std::string(modrt_last_error()).find("clutter_ld"), std::string::npos) << modrt_last_error();
+  light[10] = -1.0f;
+  EXPECT_NE(modrt_context_set_clutter_light(c, light.data(), nullptr, light.size()), MODRT_OK);
+  expect_error(modrt_context_set_clutter_light(c, nullptr, nullptr, light.size()),
+               MODRT_ERROR_INVALID_ARGUMENT, {"clutter_ld is null"});
+  std::vector<float> albedo = s.clutter_albedo;
+  albedo[4] = std::numeric_limits<float>::infinity();
+  EXPECT_NE(modrt_context_set_clutter_albedo(c, albedo.data(), albedo.size()), MODRT_OK);
+  expect_error(modrt_context_set_clutter_albedo(c, albedo.data(), 5), MODRT_ERROR_INVALID_ARGUMENT,
+               {"count is 5", "0: no clutter feedback"});
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  std::vector<float> lightmap(good.lightmap.size()), clutter_lightmap(good.clutter_lightmap.size());
+  ASSERT_EQ(modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_read_clutter_lightmap(c, clutter_lightmap.data(), clutter_lightmap.size()),
+            MODRT_OK);
+  EXPECT_EQ(lightmap, good.lightmap);
+  EXPECT_EQ(clutter_lightmap, good.clutter_lightmap);
+  expect_error(modrt_context_read_clutter_lightmap(c, clutter_lightmap.data(), 7),
+               MODRT_ERROR_INVALID_ARGUMENT, {"out has 7 floats"});
+  uint32_t texture = 0;
+  expect_error(modrt_context_get_clutter_texture(c, &texture, nullptr, nullptr, nullptr),
+               MODRT_ERROR_UNSUPPORTED, {"a CPU context has no GL textures"});
+
+  // Operators of another level: a mismatch naming the problem; the context keeps its clutter.
+  const test::ClutterScene other = test::box_room_two_boxes();
+  const Level other_level = precompute::build_level(other.description, dict()).value();
+  const DrtOperators other_drt = precompute::DrtBuilder(other_level, dict(), {}).build(other.clutter).value();
+  const std::vector<std::byte> other_file = serialize_drt(other_drt).value();
+  modrt_clutter* wrong = nullptr;
+  ASSERT_EQ(modrt_clutter_load_memory(other_file.data(), other_file.size(), "room", nullptr, &wrong),
+            MODRT_OK);
+  const modrt_status mismatch = modrt_context_set_clutter(c, wrong);
+  expect_error(mismatch, MODRT_ERROR_MISMATCH,
+               {"modrt_context_set_clutter", "does not fit the context's level"});
+  modrt_clutter_destroy(wrong);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  ASSERT_EQ(modrt_context_read_clutter_lightmap(c, clutter_lightmap.data(), clutter_lightmap.size()),
+            MODRT_OK);
+  EXPECT_EQ(clutter_lightmap, good.clutter_lightmap);
+  modrt_context_destroy(c);
+
+  // Damaged and older files.
+  std::vector<std::byte> damaged = s.drt_file;
+  damaged[damaged.size() / 2] ^= std::byte(0x40);
+  modrt_clutter* x = nullptr;
+  expect_error(modrt_clutter_load_memory(damaged.data(), damaged.size(), "damaged.modrtdrt", nullptr, &x),
+               MODRT_ERROR_CHECKSUM_MISMATCH, {"damaged.modrtdrt"});
+  EXPECT_EQ(x, nullptr);
+  std::vector<std::byte> old = s.drt_file;
+  const std::uint32_t v1 = 1;
+  std::memcpy(old.data() + 8, &v1, 4);
+  expect_error(modrt_clutter_load_memory(old.data(), old.size(), "old.modrtdrt", nullptr, &x),
+               MODRT_ERROR_VERSION_MISMATCH, {"old.modrtdrt", "rebuild the clutter operators"});
+  expect_error(modrt_clutter_load_file("/nonexistent/c.modrtdrt", nullptr, &x), MODRT_ERROR_IO,
+               {"/nonexistent/c.modrtdrt"});
+  expect_error(modrt_clutter_load_memory(nullptr, 10, "n", nullptr, &x), MODRT_ERROR_INVALID_ARGUMENT,
+               {"data is null"});
+  modrt_clutter_destroy(nullptr);
+}
+
+// The GLES context: the same frame within 1e-4 of the CPU context, the clutter atlas texture,
+// and every texel at its own place in it.
+TEST(CApiClutter, GlesContextMatchesTheCpuContext) {
+  Result<std::unique_ptr<platform::GlContext>> gl =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  Handles h;
+  for (std::uint32_t bounces : {0u, 2u}) {
+    modrt_context* cpu = h.context(MODRT_BACKEND_CPU, bounces);
+    modrt_context* gles = h.context(MODRT_BACKEND_GLES, bounces);
+    ASSERT_NE(gles, nullptr);
+    const Results a = c_api_frame(cpu, h, bounces > 0), b = c_api_frame(gles, h, bounces > 0);
+    EXPECT_LT(rel_l2(b.lightmap, a.lightmap), 1e-4) << bounces << " bounces";
+    EXPECT_LT(rel_l2(b.clutter_lightmap, a.clutter_lightmap), 1e-4) << bounces << " bounces";
+    uint32_t texture = 0, width = 0, height = 0;
+    int format = -1;
+    ASSERT_EQ(modrt_context_get_clutter_texture(gles, &texture, &format, &width, &height), MODRT_OK)
+        << modrt_last_error();
+    EXPECT_NE(texture, 0u);
+    EXPECT_GE(format, 0);
+    std::vector<uint32_t> xy(2 * a.clutter_lightmap.size() / 3);
+    ASSERT_EQ(modrt_context_get_clutter_texel_coords(gles, xy.data(), xy.size()), MODRT_OK)
+        << modrt_last_error();
+    std::set<std::pair<uint32_t, uint32_t>> seen;
+    for (std::size_t t = 0; t < xy.size() / 2; ++t) {
+      EXPECT_LT(xy[2 * t], width);
+      EXPECT_LT(xy[2 * t + 1], height);
+      seen.insert({xy[2 * t], xy[2 * t + 1]});
+    }
+    EXPECT_EQ(seen.size(), xy.size() / 2);  // one texel per place
+    expect_error(modrt_context_get_clutter_texel_coords(cpu, xy.data(), xy.size()), MODRT_ERROR_UNSUPPORTED,
+                 {"a CPU context has no clutter atlas texture"});
+    modrt_context_destroy(gles);
+    modrt_context_destroy(cpu);
+  }
+}
+
+}  // namespace
+}  // namespace modrt
