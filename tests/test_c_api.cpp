@@ -1175,9 +1175,22 @@ TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
   expect_error(modrt_context_set_ld_texture(c, 987654), MODRT_ERROR_INVALID_ARGUMENT,
                {"texture 987654", "not a texture name"});
   modrt_context_destroy(c);
+  // Multi-bounce from the texture: the bound comes from a GPU reduction, nothing is read back,
+  // and the frame is the one of the same ld as floats (a wrong largest ld, e.g. 0, would clamp
+  // every fed-back texel and leave one bounce).
   o.bounces = 2;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
-  expect_error(modrt_context_set_ld_texture(c, tex), MODRT_ERROR_UNSUPPORTED, {"options.bounces is 2"});
+  g_read_pixels = 0;
+  ASSERT_EQ(modrt_context_set_ld_texture(c, tex), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(g_read_pixels.load(), 0) << "the GPU-ld multi-bounce frames read back";
+  const std::vector<float> bounced_from_texture = read_lightmap(c);
+  ASSERT_EQ(modrt_context_set_ld(c, sanitized.data(), sanitized.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const std::vector<float> bounced = read_lightmap(c);
+  EXPECT_LT(rel_l2(bounced_from_texture, bounced), 1e-6);
+  EXPECT_GT(rel_l2(bounced, from_texture), 1e-2);  // the bounces add light
   modrt_context_destroy(c);
   o = modrt::rt::default_options(MODRT_BACKEND_CPU);
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();

@@ -102,16 +102,19 @@ Status FramePipeline::run(std::span<const float> ld, std::uint32_t bounces) {
 }
 
 Status FramePipeline::run_from_texture(std::uint32_t ld_texture) {
-  if (options_.bounces > 0)
-    return Status::error(
-        ErrorCode::invalid_argument,
-        "bounces is " + std::to_string(options_.bounces) +
-            ": the feedback bound needs the largest ld, which a GL texture keeps on the GPU; "
-            "pass ld from CPU memory");
-  last_valid_ = false;
+  return run_from_texture(ld_texture, options_.bounces);
+}
+
+Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces) {
+  if (Status s = check_bounces(bounces, "frame pipeline: run_from_texture"); !s.ok()) return s;
+  last_valid_ = false;  // the pipeline does not see the texture's values: never skipped
   times_ = BackendStageTimes{};
   if (Status s = backend_->update_from_texture(ld_texture); !s.ok()) return s;
   add_times();
+  for (std::uint32_t i = 0; i < bounces; ++i) {
+    if (Status s = backend_->multi_bounce_step_from_texture(ld_texture); !s.ok()) return s;
+    add_times();
+  }
   ++frames_;
   last_skipped_ = false;
   return Status::success();

@@ -13,15 +13,10 @@ uniform isampler2D u_block_info;  // per block: (shape, sample_offset, sample_co
 uniform usampler2D u_ld;
 vec3 load_ld(int s) { return load_signal(u_ld, s).rgb; }
 #else
-// The caller's ld: an upload validated on the CPU, or a texture the caller rendered
-// (GlesLevelRuntime::update_from_texture), which nothing validated: NaN and negative values
-// read as 0 and values above MAX_LIGHT (kMaxLightValue) as MAX_LIGHT, so a light inside a wall
-// cannot poison the frame. A validated upload is unchanged by this.
+// The caller's ld: an upload validated on the CPU, or a texture the caller rendered (read
+// through sanitize_light).
 uniform sampler2D u_ld;
-vec3 load_ld(int s) {
-  vec3 l = load(u_ld, s).rgb;
-  return clamp(mix(l, vec3(0.0), isnan(l)), 0.0, MAX_LIGHT);
-}
+vec3 load_ld(int s) { return sanitize_light(load(u_ld, s).rgb); }
 #endif
 uniform int u_count;  // blocks * GROUPS * B_CHUNKS
 

@@ -46,6 +46,11 @@ OUTPUT_TYPE store_output(vec4 v) { return clamp(v, vec4(-OUTPUT_MAX), vec4(OUTPU
 #endif
 
 vec4 load(sampler2D t, int i) { return texelFetch(t, lin(i), 0); }
+
+// Light the caller rendered on the GPU (GlesLevelRuntime::update_from_texture), which nothing
+// validated: NaN and negative values read as 0 and values above MAX_LIGHT (kMaxLightValue) as
+// MAX_LIGHT, so a light inside a wall cannot poison the frame. A validated upload is unchanged.
+vec3 sanitize_light(vec3 l) { return clamp(mix(l, vec3(0.0), isnan(l)), 0.0, MAX_LIGHT); }
 ivec4 load_int(isampler2D t, int i) { return texelFetch(t, lin(i), 0); }
 
 // One packed operator row times a three-plane signal, per channel: the sum over `groups`

@@ -72,6 +72,7 @@ class GlesDrt {
   GLuint vector_delta_texture() const { return vector_.entries ? vector_.target.texture : 0; }
   GLuint probe_delta_texture() const { return probes_.entries ? probes_.target.texture : 0; }
   GLuint clutter_texture() const { return clutter_.texture; }
+  bool feeds_back() const { return feed_; }  // set_clutter_albedo gave an albedo
   int clutter_width() const { return clutter_.width; }
   int clutter_height() const { return clutter_.height; }
   // Atlas texel (x, y) of clutter texel t of object `object` (see gles/README.md).

@@ -23,6 +23,7 @@ extern const char* const kReduceFrag;
 extern const char* const kRFrag;
 extern const char* const kAtlasFrag;
 extern const char* const kFeedbackFrag;
+extern const char* const kLdMaxFrag;
 extern const char* const kProbesFrag;
 extern const char* const kVectorFrag;
 
@@ -353,6 +354,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   gl_.glSamplerParameteri(ld_sampler_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   gl_.glSamplerParameteri(ld_sampler_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   ld_direct_ = linear_texture("ld_direct", GL_RGB32F, samples);
+  feedback_source_ = ld_direct_;
   rho_ = linear_texture("albedo", GL_RGB32F, samples);
   if (!limit.ok()) return limit;
   if (Status s = check("uploading operators"); !s.ok()) return s;
@@ -403,6 +405,11 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
   if (Status s = target("feedback ld", kLinearWidth, feedback_rows, GL_RGBA32UI, ld_feedback_); !s.ok())
     return s;
+  if (Status s = target("ld max rows", kLinearWidth, linear_rows(std::size_t(feedback_rows)), GL_RGBA32UI,
+                        ld_max_rows_);
+      !s.ok())
+    return s;
+  if (Status s = target("ld max", 1, 1, GL_RGBA32UI, ld_max_); !s.ok()) return s;
   if (has_probes_) {
     if (Status s = target("probes", kLinearWidth, linear_rows(blocks * std::size_t(probe_rows_)),
                           output_format, probes_);
@@ -478,9 +485,20 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
        "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
   if (Status s = program("feedback.frag", defines, kFeedbackFrag, prog_feedback_); !s.ok()) return s;
-  assign_sampler_units(gl_, prog_feedback_.id, {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas"});
+  assign_sampler_units(gl_, prog_feedback_.id,
+                       {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas", "u_ld_max"});
   set_int(gl_, prog_feedback_.id, "u_count", int(samples));
   prog_feedback_.u_bound = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound");
+  u_bound_scale_ = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound_scale");
+  if (Status s = program("ld_max.frag (rows)", defines + "#define STAGE 1\n", kLdMaxFrag, prog_ld_max_rows_);
+      !s.ok())
+    return s;
+  assign_sampler_units(gl_, prog_ld_max_rows_.id, {"u_ld"});
+  set_int(gl_, prog_ld_max_rows_.id, "u_count", int(samples));
+  if (Status s = program("ld_max.frag", defines + "#define STAGE 2\n", kLdMaxFrag, prog_ld_max_); !s.ok())
+    return s;
+  assign_sampler_units(gl_, prog_ld_max_.id, {"u_rows"});
+  set_int(gl_, prog_ld_max_.id, "u_count", feedback_rows);
   if (has_probes_) {
     if (Status s = program("probes.frag", defines + "#define DRT 0\n", kProbesFrag, prog_probes_); !s.ok())
       return s;
@@ -606,8 +624,12 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     begin_pass(kFeedback);
     gl_.glUseProgram(prog_feedback_.id);
     gl_.glUniform1f(prog_feedback_.u_bound, feedback_bound_);
+    // With ld on the GPU: bound = ld_max x 1 / (1 - rho_max), the policy's formula at ld_max 1.
+    gl_.glUniform1f(u_bound_scale_, feedback_bound_on_gpu_ ? feedback_energy_bound(1.0f, rho_max_) : 0.0f);
+    gl_.glBindSampler(0, ld_sampler_);  // u_ld_direct: the caller's texture reads texel by texel
     draw(prog_feedback_, ld_feedback_.framebuffer, ld_feedback_.width, ld_feedback_.height,
-         {ld_direct_, rho_, sample_info_, atlas_.texture});
+         {feedback_source_, rho_, sample_info_, atlas_.texture, ld_max_.texture});
+    gl_.glBindSampler(0, 0);
     end_pass(kFeedback);
     if (Status s = check("feedback pass"); !s.ok()) return s;
   }
@@ -881,6 +903,43 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   // Feedback changes every block's ld; the next update() must not compare against ld_prev_.
   force_full_ = true;
   if (Status s = run_passes(true, Partial{}); !s.ok()) return s;
+  ++feedback_steps_;
+  return Status::success();
+}
+
+Status GlesLevelRuntime::multi_bounce_step_from_texture(std::uint32_t ld_texture) {
+  constexpr const char* who = "gles: multi_bounce_step_from_texture: ";
+  if (!has_albedo_)
+    return Status::error(ErrorCode::invalid_argument, std::string(who) + "call set_albedo first");
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, std::string(who) + "call update first");
+  if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
+    return Status::error(ErrorCode::invalid_argument, std::string(who) + std::to_string(ld_texture) +
+                                                          " is not a texture name of this GL context");
+  if (drt_ && drt_->feeds_back())
+    return Status::error(
+        ErrorCode::invalid_argument,
+        std::string(who) +
+            "the clutter feeds its own light back (set_clutter_albedo), whose bound needs the "
+            "largest ld on the CPU: pass ld from CPU memory");
+  if (timing_) timer_->reset();
+  gl_.glDisable(GL_BLEND);
+  gl_.glDisable(GL_DEPTH_TEST);
+  gl_.glDisable(GL_SCISSOR_TEST);
+  gl_.glBindVertexArray(vao_);
+  begin_pass(kUpload);  // in place of the upload: the largest ld, on the GPU
+  gl_.glBindSampler(0, ld_sampler_);
+  draw(prog_ld_max_rows_, ld_max_rows_.framebuffer, ld_max_rows_.width, ld_max_rows_.height, {ld_texture});
+  gl_.glBindSampler(0, 0);
+  draw(prog_ld_max_, ld_max_.framebuffer, 1, 1, {ld_max_rows_.texture});
+  end_pass(kUpload);
+  if (Status s = check("ld max passes"); !s.ok()) return s;
+  force_full_ = true;  // feedback changes every block's ld
+  feedback_source_ = ld_texture;
+  feedback_bound_on_gpu_ = true;
+  const Status s = run_passes(true, Partial{});
+  feedback_source_ = ld_direct_;
+  feedback_bound_on_gpu_ = false;
+  if (!s.ok()) return s;
   ++feedback_steps_;
   return Status::success();
 }

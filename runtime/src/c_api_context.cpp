@@ -515,10 +515,6 @@ modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t textu
     if (!context->is_gles())
       return fail(MODRT_ERROR_UNSUPPORTED,
                   std::string(fn) + ": a CPU context reads ld from memory: use modrt_context_set_ld");
-    if (context->options.bounces > 0)
-      return fail(MODRT_ERROR_UNSUPPORTED,
-                  std::string(fn) + ": options.bounces is " + std::to_string(context->options.bounces) +
-                      ": the feedback bound needs the largest ld on the CPU; use modrt_context_set_ld");
 #if MODRT_RUNTIME_GLES
     if (texture == 0 || context->gl.glIsTexture(texture) != GL_TRUE)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": texture " + std::to_string(texture) +

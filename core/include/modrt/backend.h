@@ -140,6 +140,14 @@ class Backend {
                          std::string(backend_kind_name(kind())) + ": ld comes from CPU memory: use update()");
   }
   virtual TextureSize ld_texture_size() const { return {}; }  // {0, 0} without update_from_texture
+  // multi_bounce_step with ld_direct from the texture update_from_texture read, and the bound
+  // found on the GPU (no readback; the fed-back light clamps at kMaxLightValue).
+  virtual Status multi_bounce_step_from_texture(std::uint32_t ld_texture) {
+    (void)ld_texture;
+    return Status::error(
+        ErrorCode::invalid_argument,
+        std::string(backend_kind_name(kind())) + ": ld comes from CPU memory: use multi_bounce_step()");
+  }
 
   // DRT (architecture.md §6, docs/drt.md "Runtime in the backends"): clutter inside the level's blocks.
   // set_clutter() checks the operators against the level (check_drt_operators) and borrows

@@ -8,8 +8,9 @@
 // `bounces` feedback steps multi_bounce_step(ld) (architecture.md §2: each one more bounce,
 // with the albedo clamp and the bound of feedback_policy.h).
 //   - Refused before anything runs: with bounces, an ld whose fed-back light could pass
-//     kMaxLightValue (feedback_ld_peak), so a frame never fails half way; bounces with ld from
-//     a GL texture (the bound needs the largest ld, which stays on the GPU).
+//     kMaxLightValue (feedback_ld_peak), so a frame never fails half way. With ld from a GL
+//     texture the values stay on the GPU: the backend finds the bound there and clamps the
+//     fed-back light at kMaxLightValue instead (Backend::multi_bounce_step_from_texture).
 //   - Skipping: inside update() the backend recomputes only what a changed ld reaches (exact);
 //     a feedback step changes every block's ld, so with bounces and skip_unchanged the pipeline
 //     skips a whole frame whose ld is bit-identical to the last successful frame's while the
@@ -64,8 +65,10 @@ class FramePipeline {
   // One frame from CPU ld (3 x samples), with options().bounces steps, or with `bounces`.
   Status run(std::span<const float> ld);
   Status run(std::span<const float> ld, std::uint32_t bounces);
-  // One frame with ld from a GL texture (Backend::update_from_texture); no feedback steps.
+  // One frame with ld from a GL texture (Backend::update_from_texture, then
+  // multi_bounce_step_from_texture per bounce): nothing is read back.
   Status run_from_texture(std::uint32_t ld_texture);
+  Status run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces);
 
   // The backend's stage times summed over the last frame's evaluations (0 for a skipped frame).
   const BackendStageTimes& times() const { return times_; }

@@ -146,6 +146,12 @@ class GlesLevelRuntime final : public Backend {
   // recomputed (the runtime does not see the values to skip). Fails for 0 or a name that is
   // not a texture; then nothing changes.
   Status update_from_texture(std::uint32_t ld_texture) override;
+  // One multi-bounce step (as multi_bounce_step) with ld_direct read from `ld_texture` (the
+  // layout of update_from_texture) and the bound from its largest value, found by two GPU
+  // passes (ld_max.frag): nothing is read back. The fed-back ld is clamped at kMaxLightValue
+  // (the CPU path refuses such light instead). Refused while the clutter feeds its own light
+  // back (set_clutter_albedo): that bound needs the largest ld on the CPU.
+  Status multi_bounce_step_from_texture(std::uint32_t ld_texture) override;
   using LinearLayout = TextureSize;
   LinearLayout ld_layout() const;
   TextureSize ld_texture_size() const override { return ld_layout(); }
@@ -246,11 +252,17 @@ class GlesLevelRuntime final : public Backend {
   std::vector<GLuint> programs_;
   Signal3 b_partial_, b_, r_partial_, r_;
   Target atlas_, probes_, ld_feedback_;
+  Target ld_max_rows_, ld_max_;  // ld_max.frag's two stages (multi_bounce_step_from_texture)
+  GLuint feedback_source_ =
+      0;  // what the feedback pass reads as ld_direct: ld_direct_, or the caller's texture
+  bool feedback_bound_on_gpu_ = false;
   VectorTarget vector_;
   float feedback_bound_ = 0.0f, rho_max_ = 0.0f, feedback_ld_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
-      prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_;
+      prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_, prog_ld_max_rows_,
+      prog_ld_max_;
+  GLint u_bound_scale_ = -1;     // feedback.frag
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
   // creation; rects_ has capacity for every item so that no frame allocates.
