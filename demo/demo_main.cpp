@@ -263,7 +263,10 @@ int main(int argc, char** argv) {
               frames);
   std::printf("  shadows (cube shadow map, 6 faces)        %8.3f\n", total.shadows / n);
   std::printf("  direct (ld at the proxy samples, %s)     %8.3f\n",
-              options.direct == DemoDirect::cpu ? "CPU evaluator" : "GL pass + readback", total.direct / n);
+              options.direct == DemoDirect::cpu ? "CPU evaluator"
+              : gles_backend                    ? "GL pass, stays on the GPU"
+                                                : "GL pass + readback",
+              total.direct / n);
   std::printf("  indirect (%s backend: update + %d feedback steps%s) %8.3f\n", gles_backend ? "gles" : "cpu",
               bounces, gles_backend ? "" : ", atlas upload", total.indirect / n);
   if (gles_backend)

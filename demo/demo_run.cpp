@@ -166,6 +166,10 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     Result<cpu::CpuDirectLight> direct = cpu::CpuDirectLight::create(lv, albedo);
     if (!direct.ok()) return direct.status();
     run->cpu_direct_ = std::make_unique<cpu::CpuDirectLight>(std::move(direct).value());
+  } else {
+    Result<std::unique_ptr<gles::GlesDirectLight>> direct = gles::GlesDirectLight::create(gl, lv, albedo);
+    if (!direct.ok()) return direct.status();
+    run->gpu_direct_ = std::move(direct).value();
   }
   const LevelBufferSizes& sizes = run->backend_->sizes();
   run->ld_.assign(sizes.ld, 0.0f);
@@ -181,6 +185,12 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
 // light treated as the renderer treats it (a point, E clamped at its radius) and the spot
 // cone of lighting.glsl applied per texel. The renderer draws the clutter's direct light
 // itself, as for every mesh, so the clutter lightmap gets none (clutter_direct empty).
+std::span<const float> DemoRun::ld() {
+  if (gpu_direct_ && backend_->kind() == BackendKind::gles && !gpu_direct_->read_ld(ld_).ok())
+    std::fill(ld_.begin(), ld_.end(), 0.0f);  // a GL error: nothing to show
+  return ld_;
+}
+
 Status DemoRun::clutter_light(const FrameState& state) {
   const Clock::time_point t = Clock::now();
   const DemoLight& light = scene_->lights.front();
@@ -248,15 +258,23 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     l.inner_angle = std::min(light.inner_cone, light.outer_cone);
     l.outer_angle = std::min(light.outer_cone, 3.14159265f);
     s = cpu_direct_->evaluate(std::span(&l, 1), ld_);
-  } else if (s.ok()) {
-    s = renderer_->compute_ld(state, ld_);
+  }
+  // The GPU pass: a GLES backend reads its texture where it is (nothing read back); the CPU
+  // backend needs ld in memory.
+  const bool ld_on_gpu = gpu_direct_ && backend_->kind() == BackendKind::gles;
+  if (s.ok() && gpu_direct_) {
+    s = gpu_direct_->render(SceneRenderer::gpu_light(state), renderer_->shadow_cube());
+    if (s.ok() && !ld_on_gpu) s = gpu_direct_->read_ld(ld_);
   }
   if (s.ok() && drt_) s = clutter_light(state);
   times_.direct += ms_since(t);
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();
   const std::uint32_t bounces = pipeline_->options().bounces;
-  if (s.ok()) s = pipeline_->run(ld_, frame == 0 ? 3 * bounces : bounces);
+  const std::uint32_t steps = frame == 0 ? 3 * bounces : bounces;
+  if (s.ok())
+    s = ld_on_gpu ? pipeline_->run_from_texture(gpu_direct_->ld_texture(), steps)
+                  : pipeline_->run(ld_, steps);
   // The atlas on the GPU: the backend renders it there (GLES), else it is read and uploaded.
   const GLuint gpu_atlas = backend_->output_texture(BackendOutput::atlas);
   if (s.ok() && gpu_atlas) {  // GPU stage times, summed over the frame's update and feedback steps

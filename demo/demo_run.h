@@ -88,8 +88,9 @@ class DemoRun {
   bool vector_irradiance() const { return vector_; }
   int width() const { return options_.renderer.width; }
   int height() const { return options_.renderer.height; }
-  // The ld of the last frame (3 per sample), for tests.
-  std::span<const float> ld() const { return ld_; }
+  // The last frame's ld (3 per sample). With the GLES backend and the GPU pass it stays on the
+  // GPU during the frame; this reads it back (for tests and tools, not per frame).
+  std::span<const float> ld();
   // DRT (empty without clutter): the build, the clutter's ld and clutter lightmap of the
   // last frame (3 per clutter texel).
   const DrtStartup& drt_startup() const { return drt_startup_; }
@@ -113,8 +114,9 @@ class DemoRun {
   std::vector<float> clutter_ld_, clutter_lightmap_;
   DrtStartup drt_startup_;
   std::unique_ptr<Backend> backend_;
-  std::optional<FramePipeline> pipeline_;            // the frame sequence over backend_
-  std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;  // DemoDirect::cpu
+  std::optional<FramePipeline> pipeline_;              // the frame sequence over backend_
+  std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;    // DemoDirect::cpu
+  std::unique_ptr<gles::GlesDirectLight> gpu_direct_;  // DemoDirect::gpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
   std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;
   bool vector_ = false;

@@ -11,6 +11,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "modrt/clutter_mesh.h"
+#include "modrt/gles/gles_direct_light.h"
 #include "modrt/level_geometry.h"
 #include "modrt/light_policy.h"
 #include "modrt/platform/gl_program.h"
@@ -22,20 +23,16 @@ namespace modrt::demo {
 extern const char* const kFullscreenVert;
 extern const char* const kShadowVert;
 extern const char* const kShadowFrag;
-extern const char* const kLighting;
-extern const char* const kLdFrag;
 extern const char* const kSceneVert;
 extern const char* const kSceneFrag;
 extern const char* const kTonemapFrag;
 
 namespace {
 
-constexpr int kLdWidth = 1024;  // geometry images and ld: one texel per sample, rows of 1024
 constexpr float kShadowNear = 0.01f, kShadowFar = 30.0f;
 const char* const kHeader =
     "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp sampler2D;\n"
-    "precision highp samplerCubeShadow;\n#define LD_WIDTH 1024\n#define SHADOW_NEAR 0.01\n#define SHADOW_FAR "
-    "30.0\n";
+    "precision highp samplerCubeShadow;\n";
 
 struct DrawRange {
   GLint first = 0;
@@ -99,27 +96,10 @@ struct SceneRenderer::Impl {
     return t;
   }
   GLint loc(GLuint program, const char* name) const { return gl.glGetUniformLocation(program, name); }
-  // Uniform locations, looked up once at creation (lighting.glsl's for each program using it).
-  struct Lighting {
-    GLint position = -1, rgb = -1, radius = -1, spot_direction = -1, spot_cos = -1;
-  };
-  Lighting lighting(GLuint program) const {
-    return {loc(program, "u_light_position"), loc(program, "u_light_rgb"), loc(program, "u_light_radius"),
-            loc(program, "u_spot_direction"), loc(program, "u_spot_cos")};
-  }
-  Lighting ld_lighting, scene_lighting;
-  void set_lighting(const Lighting& u, const FrameState& l) const {
-    gl.glUniform3f(u.position, l.light_position.x, l.light_position.y, l.light_position.z);
-    gl.glUniform3f(u.rgb, l.light_rgb.x, l.light_rgb.y, l.light_rgb.z);
-    gl.glUniform1f(u.radius, l.light_radius);
-    const glm::vec3 d =
-        glm::length(l.spot_direction) > 0.0f ? glm::normalize(l.spot_direction) : glm::vec3(0, -1, 0);
-    gl.glUniform3f(u.spot_direction, d.x, d.y, d.z);
-    // cos of the cones; a point light (outer cone >= pi) gets -2, below every cosine.
-    const float cos_outer = l.spot_outer >= 3.14159f ? -2.0f : std::cos(l.spot_outer);
-    const float cos_inner =
-        std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
-    gl.glUniform3f(u.spot_cos, cos_outer, cos_inner, 0.0f);
+  // The camera image's light.glsl uniforms (gles::light_glsl(), the ld pass's light model).
+  gles::LightUniforms scene_lighting;
+  void set_lighting(const FrameState& l) const {
+    scene_lighting.set(gl, SceneRenderer::gpu_light(l), {shadow_cube, kShadowNear, kShadowFar});
   }
 
   GLint shadow_view_proj = -1, shadow_offset = -1, tonemap_exposure = -1;
@@ -131,12 +111,10 @@ struct SceneRenderer::Impl {
 
   std::vector<GLuint> programs, framebuffers, textures, buffers;
   GLuint vao = 0, empty_vao = 0, vbo = 0;
-  GLuint shadow_program = 0, ld_program = 0, scene_program = 0, tonemap_program = 0;
+  GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0;
   GLuint shadow_cube = 0;
   std::array<GLuint, 6> shadow_fbo{};
   int shadow_size = 0;
-  GLuint sample_position = 0, sample_normal = 0, sample_albedo = 0, ld_target = 0, ld_fbo = 0;
-  int ld_rows = 0;
   std::size_t samples = 0;
   GLuint color = 0, depth = 0, scene_fbo = 0, display = 0, display_fbo = 0;
   std::array<GLuint, 5> own_atlas{};  // CPU-computed atlas (0) and vector atlases (1..4)
@@ -194,38 +172,21 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   if (Status s = program("demo shadow", {kHeader, kShadowVert}, {kHeader, kShadowFrag}, m.shadow_program);
       !s.ok())
     return s;
-  if (Status s = program("demo ld", {kHeader, kFullscreenVert}, {kHeader, kLighting, kLdFrag}, m.ld_program);
-      !s.ok())
-    return s;
-  if (Status s =
-          program("demo scene", {kHeader, kSceneVert}, {kHeader, kLighting, kSceneFrag}, m.scene_program);
+  if (Status s = program("demo scene", {kHeader, kSceneVert}, {kHeader, gles::light_glsl(), kSceneFrag},
+                         m.scene_program);
       !s.ok())
     return s;
   if (Status s =
           program("demo tonemap", {kHeader, kFullscreenVert}, {kHeader, kTonemapFrag}, m.tonemap_program);
       !s.ok())
     return s;
-  gl.glUseProgram(m.ld_program);
-  platform::assign_sampler_units(gl, m.ld_program,
-                                 {"u_shadow", "u_sample_position", "u_sample_normal", "u_sample_albedo"});
-  {
-    // The footprint floor of the ld pass (light_policy.h), from the smallest block texels: a
-    // lower bound on every block's own floor, equal to it in an unwarped level.
-    double floor_d2 = 0.0;
-    for (std::size_t b = 0; b < level.blocks.size(); ++b) {
-      const double d2 = texel_footprint_d2(block_texel_area(level.blocks[b].corners, level.res));
-      floor_d2 = b == 0 ? d2 : std::min(floor_d2, d2);
-    }
-    gl.glUniform1f(m.loc(m.ld_program, "u_falloff_floor_d2"), float(floor_d2));
-  }
   gl.glUseProgram(m.scene_program);
   platform::assign_sampler_units(gl, m.scene_program,
                                  {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",
                                   "u_vector2", "u_vector3", "u_base_map"});
   gl.glUseProgram(m.tonemap_program);
   platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
-  m.ld_lighting = m.lighting(m.ld_program);
-  m.scene_lighting = m.lighting(m.scene_program);
+  m.scene_lighting = gles::LightUniforms::find(gl, m.scene_program);
   m.shadow_view_proj = m.loc(m.shadow_program, "u_view_proj");
   m.shadow_offset = m.loc(m.shadow_program, "u_offset");
   m.tonemap_exposure = m.loc(m.tonemap_program, "u_exposure");
@@ -413,33 +374,6 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     m.shadow_fbo[std::size_t(f)] = fbo;
   }
 
-  // ---- geometry images of the proxy samples, ld target ----
-  const LevelSampleGeometry geometry = level_sample_geometry(level);
-  m.samples = level.sample_count;
-  gl.glUseProgram(m.ld_program);
-  gl.glUniform1i(m.loc(m.ld_program, "u_count"), GLint(m.samples));
-  gl.glUseProgram(0);
-  m.ld_rows = int(std::max<std::size_t>(1, (m.samples + kLdWidth - 1) / kLdWidth));
-  std::vector<float> pos(4 * std::size_t(kLdWidth) * std::size_t(m.ld_rows), 0.0f), nrm(pos.size(), 0.0f),
-      alb(pos.size(), 0.0f);
-  for (std::size_t s = 0; s < m.samples; ++s)
-    for (int c = 0; c < 3; ++c) {
-      pos[4 * s + std::size_t(c)] = float(geometry.position[s][c]);
-      nrm[4 * s + std::size_t(c)] = float(geometry.normal[s][c]);
-      alb[4 * s + std::size_t(c)] = albedo[3 * s + std::size_t(c)];
-    }
-  for (auto [tex, data] :
-       {std::pair{&m.sample_position, &pos}, {&m.sample_normal, &nrm}, {&m.sample_albedo, &alb}}) {
-    *tex = m.texture(GL_RGBA32F, kLdWidth, m.ld_rows);
-    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kLdWidth, m.ld_rows, GL_RGBA, GL_FLOAT, data->data());
-  }
-  m.ld_target = m.texture(GL_RGBA32F, kLdWidth, m.ld_rows);
-  Result<GLuint> ld_fbo = platform::create_framebuffer(gl, "demo ld", {m.ld_target}, "RGBA32F");
-  if (!ld_fbo.ok()) return ld_fbo.status();
-  m.ld_fbo = ld_fbo.value();
-  m.framebuffers.push_back(m.ld_fbo);
-
   // ---- camera targets ----
   m.color = m.texture(GL_RGBA32F, options.width, options.height);
   m.depth = m.texture(GL_DEPTH_COMPONENT24, options.width, options.height);
@@ -458,8 +392,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   m.display_fbo = display_fbo.value();
   m.framebuffers.push_back(m.display_fbo);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  m.readback.resize(4 * std::max(std::size_t(options.width) * std::size_t(options.height),
-                                 std::size_t(kLdWidth) * std::size_t(m.ld_rows)));
+  m.readback.resize(4 * std::size_t(options.width) * std::size_t(options.height));
   if (Status s = gl_error_status(gl, "creating the sample images and render targets"); !s.ok()) return s;
   std::unique_ptr<SceneRenderer> r(new SceneRenderer(std::move(impl)));
   r->options_ = options;
@@ -511,39 +444,19 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   return gl_error_status(gl, "shadow pass");
 }
 
-Status SceneRenderer::compute_ld(const FrameState& frame, std::span<float> ld) {
-  Impl& m = *impl_;
-  const platform::GlFunctions& gl = m.gl;
-  if (ld.size() != 3 * m.samples)
-    return Status::error(ErrorCode::invalid_argument, "renderer: ld has " + std::to_string(ld.size()) +
-                                                          " floats, expected " +
-                                                          std::to_string(3 * m.samples));
-  gl.glDisable(GL_DEPTH_TEST);
-  gl.glDisable(GL_BLEND);
-  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.ld_fbo);
-  gl.glViewport(0, 0, kLdWidth, m.ld_rows);
-  gl.glUseProgram(m.ld_program);
-  m.set_lighting(m.ld_lighting, frame);
-  bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
-  bind_texture(gl, 1, GL_TEXTURE_2D, m.sample_position);
-  bind_texture(gl, 2, GL_TEXTURE_2D, m.sample_normal);
-  bind_texture(gl, 3, GL_TEXTURE_2D, m.sample_albedo);
-  gl.glBindVertexArray(m.empty_vao);
-  gl.glDrawArrays(GL_TRIANGLES, 0, 3);
-  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
-  gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  gl.glReadPixels(0, 0, kLdWidth, m.ld_rows, GL_RGBA, GL_FLOAT, m.readback.data());
-  gl.glBindVertexArray(0);
-  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  if (Status s = gl_error_status(gl, "ld pass"); !s.ok()) return s;
-  // Sanitised: the runtime rejects NaN or negative ld; a light inside a wall must not
-  // become a failed frame.
-  for (std::size_t s = 0; s < m.samples; ++s)
-    for (std::size_t c = 0; c < 3; ++c) {
-      const float v = m.readback[4 * s + c];
-      ld[3 * s + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;  // NaN and negatives -> 0
-    }
-  return Status::success();
+gles::GpuLight SceneRenderer::gpu_light(const FrameState& frame) {
+  gles::GpuLight l;
+  l.position = frame.light_position;
+  l.rgb = frame.light_rgb;
+  l.radius = frame.light_radius;
+  l.spot_direction = frame.spot_direction;
+  l.spot_inner = frame.spot_inner;
+  l.spot_outer = frame.spot_outer;
+  return l;
+}
+
+gles::GpuShadowCube SceneRenderer::shadow_cube() const {
+  return {impl_->shadow_cube, kShadowNear, kShadowFar};
 }
 
 Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int slot) {
@@ -631,7 +544,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const GLuint p = m.scene_program;
   gl.glUseProgram(p);
-  m.set_lighting(m.scene_lighting, frame);
+  m.set_lighting(frame);
   gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
   gl.glUniform1i(m.su.output, int(frame.output == OutputMode::combined ? 0
                                   : frame.output == OutputMode::direct ? 1

@@ -21,6 +21,7 @@
 
 #include "../scene/demo_scene.h"
 #include "../scene/proxy_mapping.h"
+#include "modrt/gles/gles_direct_light.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_functions.h"
 #include "modrt/status.h"
@@ -79,8 +80,10 @@ class SceneRenderer {
 
   // The light's cube shadow map over every mesh (dynamic ones at dynamic_offset).
   Status render_shadows(const FrameState& frame);
-  // ld = albedo * E/pi at every level sample (3 per sample) with that shadow map; read back.
-  Status compute_ld(const FrameState& frame, std::span<float> ld);
+  // That shadow map, and the frame's light, for the direct-light pass at the level's samples
+  // (gles::GlesDirectLight: the same light.glsl as the camera image).
+  gles::GpuShadowCube shadow_cube() const;
+  static gles::GpuLight gpu_light(const FrameState& frame);
   // Uploads an atlas computed on the CPU (3 floats per texel) into one of the renderer's own
   // atlas textures and returns it: slot 0 for FrameState::atlas, 1..4 for vector_atlas[0..3].
   Result<GLuint> upload_atlas(std::span<const float> atlas_rgb, int slot = 0);

@@ -24,6 +24,9 @@ using platform::set_int;
 constexpr int kLinearShift = 11;
 constexpr int kLinearWidth = 1 << kLinearShift;
 
+// A float as a GLSL literal that reads back as the same float (9 significant digits).
+std::string glsl_float(float v);
+
 // Rows a linear-layout texture needs for `texels` texels (at least one).
 int linear_rows(std::size_t texels);
 

@@ -442,11 +442,13 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       !s.ok())
     return s;
   if (Status s = program("drt_feedback.frag", kDrtFeedbackFrag, d->prog_feedback_,
-                         {"u_clutter_ld", "u_rho", "u_direct", "u_texel_xy", "u_atlas"},
+                         {"u_clutter_ld", "u_rho", "u_direct", "u_texel_xy", "u_atlas", "u_ld_max"},
                          int(d->sizes_.clutter_texels));
       !s.ok())
     return s;
   d->u_feedback_bound_ = gl.glGetUniformLocation(d->prog_feedback_, "u_bound");
+  d->u_feedback_scale_ = gl.glGetUniformLocation(d->prog_feedback_, "u_bound_scale");
+  d->u_feedback_clutter_max_ = gl.glGetUniformLocation(d->prog_feedback_, "u_clutter_ld_max");
   for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
     if (!pass->entries) continue;
     if (Status s = program(
@@ -531,12 +533,19 @@ Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albe
   return Status::success();
 }
 
-void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, float ld_max, float rho_max) {
+void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, float ld_max, float rho_max,
+                        GLuint ld_max_texture) {
   if (feedback && feed_) {
     // The clutter atlas still holds the last evaluation's light (run_clutter comes after).
     gl_.glUseProgram(prog_feedback_);
     gl_.glUniform1f(u_feedback_bound_, drt_feedback_bound(ld_max, rho_max, clutter_ld_max_, rho_c_max_));
-    draw(prog_feedback_, fed_, {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture});
+    // With the walls' ld on the GPU: drt_feedback_bound at ld_max 1 and no clutter light is the
+    // scale 1 / (1 - max albedo); the shader takes the larger of the two lights' maxima.
+    gl_.glUniform1f(u_feedback_scale_,
+                    ld_max_texture ? drt_feedback_bound(1.0f, rho_max, 0.0f, rho_c_max_) : 0.0f);
+    gl_.glUniform1f(u_feedback_clutter_max_, clutter_ld_max_);
+    draw(prog_feedback_, fed_,
+         {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture, ld_max_texture});
     draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});
     light_changed_ = true;      // the next update() starts again from the direct light
   } else if (light_changed_) {  // c depends on the clutter's light only

@@ -60,8 +60,10 @@ class GlesDrt {
   // light changed or after feedback); on a multi-bounce step (feedback) with a clutter albedo
   // it is Td_c of the light fed back from the clutter atlas of the last run, clamped with
   // drt_feedback_bound(ld_max, rho_max, the clutter light's and albedo's maxima).
+  // ld_max_texture (not 0): the walls' ld is on the GPU and ld_max is that texture's texel
+  // (GlesLevelRuntime's ld_max.frag), not the argument.
   void run_scene(const std::array<GLuint, 3>& b, bool feedback = false, float ld_max = 0.0f,
-                 float rho_max = 0.0f);
+                 float rho_max = 0.0f, GLuint ld_max_texture = 0);
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
@@ -72,7 +74,6 @@ class GlesDrt {
   GLuint vector_delta_texture() const { return vector_.entries ? vector_.target.texture : 0; }
   GLuint probe_delta_texture() const { return probes_.entries ? probes_.target.texture : 0; }
   GLuint clutter_texture() const { return clutter_.texture; }
-  bool feeds_back() const { return feed_; }  // set_clutter_albedo gave an albedo
   int clutter_width() const { return clutter_.width; }
   int clutter_height() const { return clutter_.height; }
   // Atlas texel (x, y) of clutter texel t of object `object` (see gles/README.md).
@@ -127,7 +128,7 @@ class GlesDrt {
   Target y_vec_, clutter_vec_;
   DeltaPass scalar_, vector_, probes_;
   GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0;
-  GLint u_feedback_bound_ = -1;
+  GLint u_feedback_bound_ = -1, u_feedback_scale_ = -1, u_feedback_clutter_max_ = -1;
   std::vector<GLuint> textures_, framebuffers_, programs_;
   std::vector<float> zeros_, readback_;
 };

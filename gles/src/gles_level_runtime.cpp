@@ -40,14 +40,13 @@ const char* operator_format_name(OperatorFormat f) {
   return f == OperatorFormat::float16 ? "float16" : "float32";
 }
 
-namespace {
-
-// A float as a GLSL literal that reads back as the same float (9 significant digits).
 std::string glsl_float(float v) {
   char text[32];
   std::snprintf(text, sizeof text, "%.9e", double(v));
   return text;
 }
+
+namespace {
 
 // Samples per partial sum in b.frag: enough independent fragments to fill a GPU, few enough
 // partials (n / 64) for b_reduce.frag to add cheaply.
@@ -664,7 +663,8 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
 
   if (drt_) {  // architecture.md §5 step 7: the delta the atlas pass adds
     begin_pass(kDrt);
-    drt_->run_scene(b_.textures, from_feedback, feedback_ld_max_, rho_max_);
+    drt_->run_scene(b_.textures, from_feedback, feedback_ld_max_, rho_max_,
+                    feedback_bound_on_gpu_ ? ld_max_.texture : 0);
     end_pass(kDrt);
     if (Status s = check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)"); !s.ok()) return s;
   }
@@ -915,12 +915,6 @@ Status GlesLevelRuntime::multi_bounce_step_from_texture(std::uint32_t ld_texture
   if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
     return Status::error(ErrorCode::invalid_argument, std::string(who) + std::to_string(ld_texture) +
                                                           " is not a texture name of this GL context");
-  if (drt_ && drt_->feeds_back())
-    return Status::error(
-        ErrorCode::invalid_argument,
-        std::string(who) +
-            "the clutter feeds its own light back (set_clutter_albedo), whose bound needs the "
-            "largest ld on the CPU: pass ld from CPU memory");
   if (timing_) timer_->reset();
   gl_.glDisable(GL_BLEND);
   gl_.glDisable(GL_DEPTH_TEST);

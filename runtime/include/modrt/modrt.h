@@ -296,9 +296,8 @@ MODRT_API modrt_status modrt_context_set_ld(modrt_context* context, const float*
  * (the runtime does not see the values to skip). It stays the source until set_ld or
  * set_lights. With options.bounces, the feedback bound's largest ld is found on the GPU too (two
  * reduction passes) and the fed-back light is clamped at 1e30 (set_ld refuses light whose
- * bounces could pass it); not with a clutter albedo (its bound needs the largest ld on the CPU:
- * the update fails naming it). Fails for a CPU context, texture 0 or a name that is not a
- * texture. */
+ * bounces could pass it), the clutter's feedback bound (a clutter albedo) included. Fails for a
+ * CPU context, texture 0 or a name that is not a texture. */
 MODRT_API modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t texture);
 /* The size of that texture: width = the layout's row length, height = rows. GLES only. */
 MODRT_API modrt_status modrt_context_get_ld_layout(const modrt_context* context, uint32_t* width,

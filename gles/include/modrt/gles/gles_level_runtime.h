@@ -149,8 +149,8 @@ class GlesLevelRuntime final : public Backend {
   // One multi-bounce step (as multi_bounce_step) with ld_direct read from `ld_texture` (the
   // layout of update_from_texture) and the bound from its largest value, found by two GPU
   // passes (ld_max.frag): nothing is read back. The fed-back ld is clamped at kMaxLightValue
-  // (the CPU path refuses such light instead). Refused while the clutter feeds its own light
-  // back (set_clutter_albedo): that bound needs the largest ld on the CPU.
+  // (the CPU path refuses such light instead). With a clutter albedo the clutter's feedback
+  // bound takes the same GPU maximum.
   Status multi_bounce_step_from_texture(std::uint32_t ld_texture) override;
   using LinearLayout = TextureSize;
   LinearLayout ld_layout() const;

@@ -1,13 +1,17 @@
 // SPDX-License-Identifier: MIT
-// Direct light of the demo's point light (radiant intensity u_light_rgb, W/sr per channel)
-// with a cube shadow map; shared by the ld pass (proxy samples) and the camera image so
-// both see the same light. Returns E/pi.
+// Direct light of one point or spot light (radiant intensity u_light_rgb, W/sr per channel)
+// with an optional cube shadow map; returns E/pi. Shared by the direct-light pass at the proxy
+// samples (direct_light.frag, GlesDirectLight) and a renderer's camera image (modrt-demo's
+// scene.frag includes it through gles::light_glsl()), so that both see the same light. The
+// C++ side sets the uniforms (gles::LightUniforms) and needs "precision highp
+// samplerCubeShadow" declared before this file.
 uniform vec3 u_light_position;
 uniform vec3 u_light_rgb;
 uniform float u_light_radius;
 uniform vec3 u_spot_direction;  // spot lights: unit axis
 uniform vec3 u_spot_cos;        // (cos outer cone, cos inner cone, 0); outer -2 for a point light
 uniform highp samplerCubeShadow u_shadow;
+uniform vec3 u_shadow_params;   // (near, far, 1 with a shadow map / 0 without) of its 90° faces
 // The ld pass: the texel-footprint floor of the inverse-square falloff, A / (2 pi) for the
 // level's smallest block texel area A (modrt/light_policy.h: light_falloff_d2,
 // texel_footprint_d2); the camera image shades points, not texels: 0.
@@ -17,7 +21,7 @@ uniform float u_falloff_floor_d2;
 // it projects to (its major axis), as the shadow pass wrote it.
 float shadow_depth(vec3 v) {
   float d = max(abs(v.x), max(abs(v.y), abs(v.z)));
-  float n = SHADOW_NEAR, f = SHADOW_FAR;
+  float n = u_shadow_params.x, f = u_shadow_params.y;
   float ndc = (f + n) / (f - n) - (2.0 * f * n) / ((f - n) * d);
   return 0.5 * ndc + 0.5;
 }
@@ -30,9 +34,12 @@ vec3 direct_e_over_pi(vec3 position, vec3 normal) {
   if (cosine <= 0.0) return vec3(0.0);
   float cone = smoothstep(u_spot_cos.x, u_spot_cos.y, dot(-l, u_spot_direction));
   if (cone <= 0.0) return vec3(0.0);
-  // Normal offset against acne, scaled with distance (texel footprint grows with it).
-  vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
-  float visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
+  float visible = 1.0;
+  if (u_shadow_params.z > 0.0) {
+    // Normal offset against acne, scaled with distance (texel footprint grows with it).
+    vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
+    visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
+  }
   float falloff = max(max(d2, u_light_radius * u_light_radius), u_falloff_floor_d2);
   return u_light_rgb * (cone * visible * cosine / falloff / 3.14159265);
 }
