@@ -1202,6 +1202,77 @@ TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
   modrt_dictionary_destroy(d);
 }
 
+// The probe volume as a GL texture (world frame, for GPU sampling): no readback in the update or
+// in the call; its texels are read_probes' radiance (relative L2 <= 1e-6: the same rotation in
+// float on the GPU, in double on the CPU); the level has turned blocks, so the rotation is tested.
+TEST(CApiGles, ProbeTextureIsTheWorldFrameVolumeWithoutReadback) {
+  Result<std::unique_ptr<platform::GlContext>> context =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
+  ASSERT_NE(get_proc, nullptr);
+  const platform::GlFunctions& gl = context.value()->gl();
+  const test::TestLevel& t = test_level("maze11");
+  std::size_t turned = 0;
+  for (const LevelBlock& b : t.level.blocks) turned += (b.quarter_turns & 3) != 0;
+  ASSERT_GT(turned, 0u);
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.gl_loader = counting_loader;
+  o.gl_loader_user = get_proc;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  uint32_t texture = 0, width = 0, height = 0;
+  int format = -1;
+  expect_error(modrt_context_get_probe_texture(c, &texture, &format, &width, &height),
+               MODRT_ERROR_INVALID_ARGUMENT, {"no update has run yet"});
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  g_read_pixels = 0;
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_get_probe_texture(c, &texture, &format, &width, &height), MODRT_OK)
+      << modrt_last_error();
+  ASSERT_EQ(modrt_context_get_probe_texture(c, &texture, nullptr, nullptr, nullptr), MODRT_OK);
+  EXPECT_EQ(g_read_pixels.load(), 0) << "the probe texture was read back";
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  ASSERT_GT(s.probes, 0u);
+  ASSERT_GE(std::size_t(width) * height, s.probes / 3);
+  std::vector<float> world(s.probes);
+  ASSERT_EQ(modrt_context_read_probes(c, MODRT_PROBE_RADIANCE, world.data(), world.size()), MODRT_OK);
+  // The texture's texels, read by the test (not through the runtime).
+  GLuint fb = 0;
+  gl.glGenFramebuffers(1, &fb);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, fb);
+  gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+  ASSERT_EQ(gl.glCheckFramebufferStatus(GL_FRAMEBUFFER), GLenum(GL_FRAMEBUFFER_COMPLETE));
+  std::vector<float> texels(4 * std::size_t(width) * height);
+  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  if (format == 2)  // RGBA32UI holding float bits
+    gl.glReadPixels(0, 0, GLsizei(width), GLsizei(height), GL_RGBA_INTEGER, GL_UNSIGNED_INT, texels.data());
+  else
+    gl.glReadPixels(0, 0, GLsizei(width), GLsizei(height), GL_RGBA, GL_FLOAT, texels.data());
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl.glDeleteFramebuffers(1, &fb);
+  ASSERT_EQ(gl.glGetError(), GLenum(GL_NO_ERROR));
+  std::vector<float> from_texture(s.probes);
+  for (std::size_t i = 0; i < s.probes / 3; ++i)
+    for (std::size_t ch = 0; ch < 3; ++ch) from_texture[3 * i + ch] = texels[4 * i + ch];
+  EXPECT_LT(rel_l2(from_texture, world), 1e-6);
+  modrt_context_destroy(c);
+  o = modrt::rt::default_options(MODRT_BACKEND_CPU);
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  expect_error(modrt_context_get_probe_texture(c, &texture, &format, &width, &height),
+               MODRT_ERROR_UNSUPPORTED, {"a CPU context has no GL textures"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
 // The creator table (modrt/backends.h): each kind creates its backend, which evaluates the level
 // as core's reference does; bad requests are named.
 TEST(BackendTable, EveryKindCreatesItsBackend) {

@@ -195,6 +195,36 @@ TEST(CApiClutter, CpuContextIsTheCppBackendBitForBit) {
   }
 }
 
+// The C++ wrapper (modrt.hpp): the same frame as the C calls.
+TEST(CApiClutter, CppWrapper) {
+  const Scene& s = pillars();
+  Handles h;
+  modrt_context* c = h.context(MODRT_BACKEND_CPU, 0);
+  const Results ref = c_api_frame(c, h, false);
+  modrt_context_destroy(c);
+  rt::Dictionary dict;
+  ASSERT_FALSE(rt::Dictionary::load_memory(s.dict_file.data(), s.dict_file.size(), "dict", dict));
+  rt::Level level;
+  ASSERT_FALSE(rt::Level::load_memory(s.level_file.data(), s.level_file.size(), "pillars", level));
+  rt::Clutter clutter;
+  ASSERT_FALSE(rt::Clutter::load_memory(s.drt_file.data(), s.drt_file.size(), "pillars", clutter));
+  EXPECT_EQ(clutter.info().texel_count * 3, s.clutter_ld.size());
+  rt::Context ctx;
+  ASSERT_FALSE(rt::Context::create(dict, level, rt::default_options(), ctx));
+  ASSERT_FALSE(ctx.set_clutter(clutter));
+  ASSERT_FALSE(ctx.set_clutter_light(s.clutter_ld.data(), s.clutter_direct.data(), s.clutter_ld.size()));
+  ASSERT_FALSE(ctx.set_ld(s.ld.data(), s.ld.size()));
+  ASSERT_FALSE(ctx.update());
+  std::vector<float> clutter_lightmap(ref.clutter_lightmap.size());
+  ASSERT_FALSE(ctx.read_clutter_lightmap(clutter_lightmap.data(), clutter_lightmap.size()));
+  EXPECT_EQ(clutter_lightmap, ref.clutter_lightmap);
+  const rt::Error e = ctx.set_clutter_light(s.clutter_ld.data(), nullptr, 3);  // wrong count
+  EXPECT_TRUE(e);
+  EXPECT_EQ(e.code, MODRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(e.message.find("count is 3"), std::string::npos) << e.message;
+  ASSERT_FALSE(ctx.set_clutter(rt::Clutter()));  // removed
+}
+
 // The file a tool writes loads like the memory image, and the texels are where core puts them.
 TEST(CApiClutter, FileInfoAndTexelGeometry) {
   const Scene& s = pillars();

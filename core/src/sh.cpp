@@ -1,6 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/sh.h"
 
+#include <cmath>
+#include <utility>
+
+#include <glm/geometric.hpp>
+
+#include "modrt/cube.h"
+
 namespace modrt {
 
 namespace {
@@ -84,6 +91,47 @@ double ohlsh_eval(const double a[4], const glm::dvec3& unit_normal) {
 
 float ohlsh_eval(const float a[4], const glm::vec3& unit_normal) {
   return eval_sum<float>(a, 4, unit_normal);
+}
+
+// M with sum_k (M c)_k Y_k(d) = sum_k c_k Y_k(R^-1 d) for every d, R = rotate_direction(., turns):
+// least squares over 26 directions (exact: SH9 is closed under rotation), normal equations
+// solved by Gauss-Jordan in double.
+std::array<double, 81> sh9_quarter_turn_rotation(int turns) {
+  std::array<double, 81> ata{}, atb{};
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k) {
+        if (i == 0 && j == 0 && k == 0) continue;
+        const glm::dvec3 d = glm::normalize(glm::dvec3(i, j + 0.25 * i, k - 0.5 * j));
+        double y[9], yr[9];
+        sh9_eval(d, y);
+        sh9_eval(glm::normalize(rotate_direction(d, -turns)), yr);
+        for (int r = 0; r < 9; ++r)
+          for (int c = 0; c < 9; ++c) {
+            ata[std::size_t(9 * r + c)] += y[r] * y[c];
+            atb[std::size_t(9 * r + c)] += y[r] * yr[c];
+          }
+      }
+  for (int col = 0; col < 9; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < 9; ++r)
+      if (std::abs(ata[std::size_t(9 * r + col)]) > std::abs(ata[std::size_t(9 * pivot + col)])) pivot = r;
+    for (int c = 0; c < 9; ++c) {
+      std::swap(ata[std::size_t(9 * col + c)], ata[std::size_t(9 * pivot + c)]);
+      std::swap(atb[std::size_t(9 * col + c)], atb[std::size_t(9 * pivot + c)]);
+    }
+    const double inv = 1.0 / ata[std::size_t(9 * col + col)];
+    for (int c = 0; c < 9; ++c) ata[std::size_t(9 * col + c)] *= inv, atb[std::size_t(9 * col + c)] *= inv;
+    for (int r = 0; r < 9; ++r) {
+      if (r == col) continue;
+      const double f = ata[std::size_t(9 * r + col)];
+      for (int c = 0; c < 9; ++c) {
+        ata[std::size_t(9 * r + c)] -= f * ata[std::size_t(9 * col + c)];
+        atb[std::size_t(9 * r + c)] -= f * atb[std::size_t(9 * col + c)];
+      }
+    }
+  }
+  return atb;
 }
 
 }  // namespace modrt

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/feedback_policy.h"
+#include "modrt/sh.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -24,6 +25,7 @@ extern const char* const kRFrag;
 extern const char* const kAtlasFrag;
 extern const char* const kFeedbackFrag;
 extern const char* const kLdMaxFrag;
+extern const char* const kProbesWorldFrag;
 extern const char* const kProbesFrag;
 extern const char* const kVectorFrag;
 
@@ -176,6 +178,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     block_info[4 * i + 0] = b.shape;
     block_info[4 * i + 1] = std::int32_t(b.sample_offset);
     block_info[4 * i + 2] = std::int32_t(b.sample_count);
+    block_info[4 * i + 3] = b.quarter_turns & 3;  // probes_world.frag
   }
   // Records grouped by slot (stable), so r.frag walks one contiguous range per slot.
   std::vector<std::uint32_t> order(level.records.size());
@@ -414,6 +417,20 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                           output_format, probes_);
         !s.ok())
       return s;
+    if (Status s = target("world-frame probes", kLinearWidth, linear_rows(blocks * std::size_t(probe_rows_)),
+                          output_format, probes_world_);
+        !s.ok())
+      return s;
+    // The four quarter-turn SH9 rotations (sh9_quarter_turn_rotation), one row each.
+    std::vector<float> rotation(4 * 81);
+    for (int turns = 0; turns < 4; ++turns) {
+      const std::array<double, 81> m = sh9_quarter_turn_rotation(turns);
+      for (int k = 0; k < 81; ++k) rotation[std::size_t(81 * turns + k)] = float(m[std::size_t(k)]);
+    }
+    sh_rotation_ = create_texture(gl_, GL_R32F, 81, 4);
+    textures_.push_back(sh_rotation_);
+    gl_.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl_.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, 81, 4, GL_RED, GL_FLOAT, rotation.data());
   }
   if (has_vector_) {
     vector_.width = atlas_w;
@@ -505,6 +522,10 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                          {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
                           "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
     set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
+    if (Status s = program("probes_world.frag", defines, kProbesWorldFrag, prog_probes_world_); !s.ok())
+      return s;
+    assign_sampler_units(gl_, prog_probes_world_.id, {"u_probes", "u_rotation", "u_block_info"});
+    set_int(gl_, prog_probes_world_.id, "u_count", int(blocks) * probe_rows_);
   }
   if (has_vector_) {
     if (Status s = program("vector.frag", defines + "#define DRT 0\n", kVectorFrag, prog_vector_); !s.ok())
@@ -731,6 +752,7 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
   gl_.glUseProgram(0);
   gl_.glBindVertexArray(0);
   updated_ = true;
+  probes_world_current_ = false;
   if (timing_) {
     times_.upload = timer_->elapsed_ns(kUpload);
     times_.feedback = from_feedback ? timer_->elapsed_ns(kFeedback) : 0;
@@ -936,6 +958,27 @@ Status GlesLevelRuntime::multi_bounce_step_from_texture(std::uint32_t ld_texture
   if (!s.ok()) return s;
   ++feedback_steps_;
   return Status::success();
+}
+
+Result<std::uint32_t> GlesLevelRuntime::world_probe_texture() {
+  if (!has_probes_)
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles: no probes (the dictionary has none or GlesRuntimeOptions::probes is off)");
+  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: no update has run yet");
+  if (!probes_world_current_) {  // one pass per update, on request
+    gl_.glDisable(GL_BLEND);
+    gl_.glDisable(GL_DEPTH_TEST);
+    gl_.glDisable(GL_SCISSOR_TEST);
+    gl_.glBindVertexArray(vao_);
+    draw(prog_probes_world_, probes_world_.framebuffer, probes_world_.width, probes_world_.height,
+         {probes_.texture, sh_rotation_, block_info_});
+    gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl_.glUseProgram(0);
+    gl_.glBindVertexArray(0);
+    if (Status s = check("world-frame probe pass"); !s.ok()) return s;
+    probes_world_current_ = true;
+  }
+  return std::uint32_t(probes_world_.texture);
 }
 
 BackendEvaluationStats GlesLevelRuntime::evaluation_stats() const {

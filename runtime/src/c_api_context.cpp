@@ -735,6 +735,31 @@ modrt_status modrt_context_read_probes(modrt_context* context, modrt_probe_kind 
   });
 }
 
+modrt_status modrt_context_get_probe_texture(modrt_context* context, uint32_t* texture, int* format,
+                                             uint32_t* width, uint32_t* height) {
+  constexpr const char* fn = "modrt_context_get_probe_texture";
+  if (!context) return null_arg(fn, "context");
+  if (!texture) return null_arg(fn, "texture");
+  return guarded(fn, [&]() -> modrt_status {
+    if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
+    if (!context->is_gles())
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  std::string(fn) + ": a CPU context has no GL textures: use modrt_context_read_probes");
+    if (modrt_status s = check_updated(context, fn); s != MODRT_OK) return s;
+    BackendCall call(context);
+    Result<std::uint32_t> name = context->backend->world_probe_texture();
+    if (!name.ok()) return backend_fail(context, fn, name.status());
+    *texture = name.value();
+    if (format) *format = context->backend->output_texture_format();
+    // The runtime's linear layout, as the ld texture's (gles/README.md).
+    const std::size_t texels = context->sizes.probes / 3,
+                      row = std::size_t(context->backend->ld_texture_size().width);
+    if (width) *width = std::uint32_t(row);
+    if (height) *height = std::uint32_t((texels + row - 1) / row);
+    return MODRT_OK;
+  });
+}
+
 modrt_status modrt_context_get_probe_positions(const modrt_context* context, float* out, size_t count) {
   return guarded("modrt_context_get_probe_positions", [&]() -> modrt_status {
     constexpr const char* fn = "modrt_context_get_probe_positions";

@@ -118,6 +118,16 @@ class Backend {
   // The format of every output_texture: 0 RGBA32F, 1 RGBA16F, 2 RGBA32UI holding float bits (fetch
   // it with texelFetch) — modrt.h's format codes; -1 for a backend without textures.
   virtual int output_texture_format() const { return -1; }
+  // The probe volume of the last update in the world frame as a GL texture, for a renderer to
+  // sample on the GPU: texel i = (block g^3 + probe) 9 + k at (i % 2048, i / 2048), radiance
+  // SH9 coefficient k in .rgb, each block's canonical-frame probes turned by its quarter turns
+  // (sh9_quarter_turn_rotation); one GPU pass on the first request after an update, nothing
+  // read back. Backends without GL textures or probes fail (invalid_argument).
+  virtual Result<std::uint32_t> world_probe_texture() {
+    return Status::error(
+        ErrorCode::invalid_argument,
+        std::string(backend_kind_name(kind())) + ": no GL textures: read the probes with read_probes");
+  }
 
   // The stage times of the last evaluation (all 0 unless timing is on).
   virtual const BackendStageTimes& stage_times() const {

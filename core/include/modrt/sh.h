@@ -93,6 +93,11 @@ constexpr OhlshMatrix ohlsh_matrix() {
 }
 
 // Evaluates the 9 basis functions at unit_dir (no normalization is done).
+// The SH9 rotation of a block's quarter turns about +Y (cube.h rotate_direction, turns & 3):
+// row-major 9 x 9 M with c_world = M c_canonical (MRT §6.5: a block's probes are stored in
+// its canonical frame). Exact up to rounding: SH9 is closed under rotation.
+std::array<double, 81> sh9_quarter_turn_rotation(int turns);
+
 void sh9_eval(const glm::dvec3& unit_dir, double out[9]);
 void sh9_eval(const glm::vec3& unit_dir, float out[9]);
 Sh9 sh9_eval(const glm::dvec3& unit_dir);

@@ -360,6 +360,14 @@ MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const floa
  * Upload it as a buffer or a 3D texture per block. GLES: reads back from the GPU once per update. */
 MODRT_API modrt_status modrt_context_read_probes(modrt_context* context, modrt_probe_kind kind, float* out,
                                                  size_t count);
+/* GLES (since 0.3): the probe volume of the last update as a GL texture, for sampling on the GPU
+ * (no readback): texel i = 9 p + k of probe p (read_probes' order) at (i % width, i / width),
+ * radiance SH9 coefficient k in the world frame in .rgb (MODRT_PROBE_RADIANCE; scale bands 1 and
+ * 2 by 2/3 and 1/4 for E/pi), *format as the atlas's. One GPU pass on the first call after an
+ * update. CPU contexts: MODRT_ERROR_UNSUPPORTED (use read_probes). format, width, height may be
+ * null. */
+MODRT_API modrt_status modrt_context_get_probe_texture(modrt_context* context, uint32_t* texture, int* format,
+                                                       uint32_t* width, uint32_t* height);
 /* World position of every probe (3 * blocks * g^3 floats, the order of read_probes). */
 MODRT_API modrt_status modrt_context_get_probe_positions(const modrt_context* context, float* out,
                                                          size_t count);

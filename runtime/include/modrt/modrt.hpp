@@ -110,6 +110,32 @@ class Level : public Handle<modrt_level, modrt_level_destroy> {
   }
 };
 
+// DRT clutter operators (a .modrtdrt file), set on a context of their level.
+class Clutter : public Handle<modrt_clutter, modrt_clutter_destroy> {
+ public:
+  static Error load_file(const char* path, Clutter& out, const modrt_allocator* allocator = nullptr) {
+    modrt_clutter* h = nullptr;
+    Error e = check(modrt_clutter_load_file(path, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  static Error load_memory(const void* data, size_t size, const char* name, Clutter& out,
+                           const modrt_allocator* allocator = nullptr) {
+    modrt_clutter* h = nullptr;
+    Error e = check(modrt_clutter_load_memory(data, size, name, allocator, &h));
+    if (!e) out.reset(h);
+    return e;
+  }
+  modrt_clutter_info info() const {
+    modrt_clutter_info i = sized<modrt_clutter_info>();
+    modrt_clutter_get_info(h_, &i);
+    return i;
+  }
+  Error texels(modrt_clutter_texel* out, size_t count) const {
+    return check(modrt_clutter_get_texels(h_, out, count));
+  }
+};
+
 inline modrt_context_options default_options(modrt_backend backend = MODRT_BACKEND_CPU) {
   modrt_context_options o;
   modrt_context_options_init(&o);
@@ -145,6 +171,22 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   Error set_ld_texture(uint32_t texture) { return check(modrt_context_set_ld_texture(h_, texture)); }
   Error ld_layout(uint32_t& width, uint32_t& height) const {
     return check(modrt_context_get_ld_layout(h_, &width, &height));
+  }
+  // DRT clutter (see modrt_context_set_clutter); a null Clutter removes it.
+  Error set_clutter(const Clutter& clutter) { return check(modrt_context_set_clutter(h_, clutter.get())); }
+  Error set_clutter_light(const float* clutter_ld, const float* clutter_direct, size_t count) {
+    return check(modrt_context_set_clutter_light(h_, clutter_ld, clutter_direct, count));
+  }
+  Error set_clutter_albedo(const float* albedo, size_t count) {
+    return check(modrt_context_set_clutter_albedo(h_, albedo, count));
+  }
+  Error read_clutter_lightmap(float* out, size_t count) {
+    return check(modrt_context_read_clutter_lightmap(h_, out, count));
+  }
+  // GLES: the probe volume in the world frame as a GL texture (modrt_context_get_probe_texture).
+  Error probe_texture(uint32_t& texture, int* format = nullptr, uint32_t* width = nullptr,
+                      uint32_t* height = nullptr) {
+    return check(modrt_context_get_probe_texture(h_, &texture, format, width, height));
   }
   Error read_probes(float* out, size_t count, modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
     return check(modrt_context_read_probes(h_, kind, out, count));

@@ -178,6 +178,7 @@ class GlesLevelRuntime final : public Backend {
   int output_texture_format() const override { return int(target_); }
   const GlesSkipStats& skip_stats() const { return stats_; }
   BackendEvaluationStats evaluation_stats() const override;
+  Result<std::uint32_t> world_probe_texture() override;
 
  private:
   struct Target {  // one render target texture and its framebuffer
@@ -252,7 +253,10 @@ class GlesLevelRuntime final : public Backend {
   std::vector<GLuint> programs_;
   Signal3 b_partial_, b_, r_partial_, r_;
   Target atlas_, probes_, ld_feedback_;
-  Target ld_max_rows_, ld_max_;  // ld_max.frag's two stages (multi_bounce_step_from_texture)
+  Target ld_max_rows_, ld_max_;
+  Target probes_world_;                // world_probe_texture()
+  GLuint sh_rotation_ = 0;             // the four quarter-turn SH9 rotations (R32F, 81 x 4)
+  bool probes_world_current_ = false;  // ld_max.frag's two stages (multi_bounce_step_from_texture)
   GLuint feedback_source_ =
       0;  // what the feedback pass reads as ld_direct: ld_direct_, or the caller's texture
   bool feedback_bound_on_gpu_ = false;
@@ -261,7 +265,7 @@ class GlesLevelRuntime final : public Backend {
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
       prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_, prog_ld_max_rows_,
-      prog_ld_max_;
+      prog_ld_max_, prog_probes_world_;
   GLint u_bound_scale_ = -1;     // feedback.frag
   std::vector<float> readback_;  // 4 floats per texel of the largest target
   // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
