@@ -29,6 +29,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "c_api_test_support.h"
 #include "counting_allocator.h"
 #include "level_fixtures.h"
 #include "modrt/backends.h"
@@ -51,21 +52,11 @@
 namespace modrt {
 namespace {
 
+using test::expect_error;
 using test::level_reference;
+using test::rel_l2;
 using test::small_test_dictionary;
 using test::test_level;
-
-double rel_l2(std::span<const float> got, std::span<const float> ref) {
-  EXPECT_EQ(got.size(), ref.size());
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < ref.size() && i < got.size(); ++i) {
-    const double d = double(got[i]) - double(ref[i]);
-    num += d * d;
-    den += double(ref[i]) * ref[i];
-  }
-  if (!std::isfinite(num)) return std::numeric_limits<double>::infinity();
-  return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
-}
 
 struct Assets {
   std::vector<std::byte> dictionary, level;
@@ -97,14 +88,6 @@ modrt_level* load_level_handle(const std::string& name = "maze11") {
             MODRT_OK)
       << modrt_last_error();
   return l;
-}
-
-// Expects `status` to be `code` and the message to contain every one of `words`.
-void expect_error(modrt_status status, modrt_status code, std::initializer_list<std::string> words) {
-  EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
-  const std::string message = modrt_last_error();
-  for (const std::string& w : words)
-    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
 }
 
 std::vector<float> read_lightmap(modrt_context* c) {

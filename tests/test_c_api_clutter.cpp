@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "c_api_test_support.h"
 #include "drt_scenes.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/dictionary_io.h"
@@ -35,6 +36,9 @@
 
 namespace modrt {
 namespace {
+
+using test::expect_error;
+using test::rel_l2;
 
 const Dictionary& dict() { return test::small_test_dictionary(); }
 
@@ -71,23 +75,6 @@ const Scene& pillars() {
     return t;
   }();
   return s;
-}
-
-void expect_error(modrt_status status, modrt_status code, std::initializer_list<std::string> words) {
-  EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
-  const std::string message = modrt_last_error();
-  for (const std::string& w : words)
-    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
-}
-
-double rel_l2(std::span<const float> got, std::span<const float> ref) {
-  EXPECT_EQ(got.size(), ref.size());
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < ref.size() && i < got.size(); ++i) {
-    num += (double(got[i]) - ref[i]) * (double(got[i]) - ref[i]);
-    den += double(ref[i]) * ref[i];
-  }
-  return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
 }
 
 // The handles of a context on the pillars' level.

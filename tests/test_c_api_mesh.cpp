@@ -14,6 +14,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "c_api_test_support.h"
 #include "modrt/level_io.h"
 #include "modrt/mesh_lightmap_uv.h"
 #include "modrt/modrt.h"
@@ -24,6 +25,8 @@
 
 namespace modrt {
 namespace {
+
+using test::expect_error;
 
 const Level& maze11() {
   static const Level level = [] {
@@ -81,13 +84,6 @@ modrt_mesh_input c_input(const Mesh& m) {
   in.indices = m.indices.data();
   in.index_count = m.indices.size();
   return in;
-}
-
-void expect_error(modrt_status status, modrt_status code, std::initializer_list<const char*> words) {
-  EXPECT_EQ(status, code) << modrt_status_name(status) << ": " << modrt_last_error();
-  const std::string message = modrt_last_error();
-  for (const char* w : words)
-    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: " << message;
 }
 
 std::vector<modrt_mapped_corner> sentinel(std::size_t n) {
@@ -207,7 +203,7 @@ TEST(CApiMesh, BadInputIsNamedAndNothingIsWritten) {
     ASSERT_EQ(modrt_level_map_mesh_bound(level, &in, &bound), MODRT_OK);
   }
   auto refused = [&](const modrt_mesh_input& in, std::size_t capacity, modrt_status code,
-                     std::initializer_list<const char*> words) {
+                     std::initializer_list<std::string> words) {
     std::vector<modrt_mapped_corner> out = sentinel(bound + 3);
     std::size_t written = 4242;
     modrt_mesh_map_stats stats{sizeof(modrt_mesh_map_stats), 7, 7, 7, 7};
