@@ -24,45 +24,6 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-// E/pi SH9 of the probe volume at world point x (trilinear between the g^3 probes of the
-// block containing x, canonical block frame) and the world -> canonical rotation.
-void probe_lighting(const Level& level, std::span<const float> probes, int grid, const glm::vec3& x,
-                    FrameState& frame) {
-  std::size_t block = 0;
-  double best = 1e30;
-  glm::dvec3 p(0.5);
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const glm::dvec3 q = world_to_block(level.blocks[i], glm::dvec3(x));
-    double out = 0.0;
-    for (int a = 0; a < 3; ++a) out = std::max({out, -q[a], q[a] - 1.0});
-    if (out < best) best = out, block = i, p = q;
-  }
-  const std::size_t rows = 9 * std::size_t(grid) * std::size_t(grid) * std::size_t(grid);
-  const float* base = probes.data() + 3 * rows * block;
-  glm::vec3 sh[9] = {};
-  glm::dvec3 g = glm::clamp(p * double(grid) - 0.5, glm::dvec3(0.0), glm::dvec3(grid - 1));
-  const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(g)), glm::ivec3(grid - 2 < 0 ? 0 : grid - 2));
-  const glm::dvec3 f = grid > 1 ? g - glm::dvec3(i0) : glm::dvec3(0.0);
-  for (int c = 0; c < 8; ++c) {
-    const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-    const glm::ivec3 q = glm::min(i0 + o, glm::ivec3(grid - 1));
-    const double w = (o.x ? f.x : 1 - f.x) * (o.y ? f.y : 1 - f.y) * (o.z ? f.z : 1 - f.z);
-    const std::size_t probe = std::size_t(q.x + grid * (q.y + grid * q.z));
-    for (int k = 0; k < 9; ++k)
-      for (int ch = 0; ch < 3; ++ch)
-        sh[k][ch] += float(w) * base[3 * (9 * probe + std::size_t(k)) + std::size_t(ch)];
-  }
-  // Radiance -> E/pi: band l scaled by A_l / pi = 1, 2/3, 1/4 (sh.h).
-  for (int k = 0; k < 9; ++k)
-    frame.probe_sh[std::size_t(k)] = sh[k] * (k == 0 ? 1.0f : k < 4 ? 2.0f / 3.0f : 0.25f);
-  const int turns = level.blocks[block].quarter_turns;
-  for (int a = 0; a < 3; ++a) {
-    glm::dvec3 e(0.0);
-    e[a] = 1.0;
-    frame.to_canonical[a] = glm::vec3(rotate_direction(e, -turns));
-  }
-}
-
 }  // namespace
 
 // Catmull-Rom through the closed loop of keys, t in [0, 1).
@@ -177,6 +138,23 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   run->probes_.assign(sizes.probes, 0.0f);
   run->vector_lightmap_.assign(run->vector_ ? sizes.vector_lightmap : 0, 0.0f);
   run->coefficient_.assign(run->vector_ ? sizes.lightmap : 0, 0.0f);
+  if (!run->probes_.empty()) {
+    run->probe_sampler_ = ProbeSampler(lv, int(dict.settings.probe_grid));
+    // A GLES backend turns its probes into the world frame on the GPU (world_probe_texture);
+    // a CPU backend's are turned here and uploaded.
+    if (run->backend_->kind() == BackendKind::gles)
+      run->probes_.clear();
+    else
+      run->world_probes_.assign(sizes.probes, 0.0f);
+  }
+  // DRT on a GLES backend: the clutter lightmap is gathered from its clutter atlas on the GPU.
+  if (run->drt_ && run->backend_->output_texture(BackendOutput::clutter_atlas)) {
+    const Backend& backend = *run->backend_;
+    if (Status s = run->renderer_->set_clutter_atlas_layout(
+            [&backend](std::size_t k, std::uint32_t t) { return backend.clutter_atlas_texel(k, t); });
+        !s.ok())
+      return s;
+  }
   return run;
 }
 
@@ -189,6 +167,13 @@ std::span<const float> DemoRun::ld() {
   if (gpu_direct_ && backend_->kind() == BackendKind::gles && !gpu_direct_->read_ld(ld_).ok())
     std::fill(ld_.begin(), ld_.end(), 0.0f);  // a GL error: nothing to show
   return ld_;
+}
+
+std::span<const float> DemoRun::clutter_lightmap() {
+  if (drt_ && backend_->output_texture(BackendOutput::clutter_atlas) &&
+      !backend_->read_clutter_lightmap(clutter_lightmap_).ok())
+    std::fill(clutter_lightmap_.begin(), clutter_lightmap_.end(), 0.0f);  // a GL error: nothing to show
+  return clutter_lightmap_;
 }
 
 Status DemoRun::clutter_light(const FrameState& state) {
@@ -283,11 +268,40 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
         times_.lightmaps += double(pt.atlas) * 1e-6, times_.probes += double(pt.probes) * 1e-6,
         times_.vector += double(pt.vector) * 1e-6;
   }
-  if (s.ok() && !probes_.empty()) s = backend_->read_probes(probes_);
+  // The probe volume where the dynamic object is: the backend's world-frame texture (GLES), or
+  // the CPU backend's probes turned into the world frame and uploaded.
+  if (s.ok() && probe_sampler_.grid() > 0) {
+    const Result<ProbeCell> cell = probe_sampler_.locate(glm::dvec3(state.dynamic_offset), "dynamic object");
+    if (!cell.ok()) s = cell.status();
+    GLuint probe_texture = 0;
+    if (s.ok() && probes_.empty()) {
+      const Result<std::uint32_t> texture = backend_->world_probe_texture();
+      if (texture.ok())
+        probe_texture = GLuint(texture.value());
+      else
+        s = texture.status();
+    } else if (s.ok() && (s = backend_->read_probes(probes_)).ok()) {
+      probe_sampler_.world_probes(probes_, false, world_probes_);
+      const Result<GLuint> uploaded = renderer_->upload_probes(world_probes_);
+      if (uploaded.ok())
+        probe_texture = uploaded.value();
+      else
+        s = uploaded.status();
+    }
+    if (s.ok()) {
+      state.probes = probe_texture;
+      state.probe_grid = probe_sampler_.grid();
+      state.probe_cell = cell.value();
+    }
+  }
   if (s.ok() && drt_) {
     const Clock::time_point tc = Clock::now();
-    s = backend_->read_clutter_lightmap(clutter_lightmap_);
-    if (s.ok()) s = renderer_->upload_clutter_lightmap(clutter_lightmap_);
+    if (const GLuint clutter_atlas = backend_->output_texture(BackendOutput::clutter_atlas)) {
+      s = renderer_->gather_clutter_lightmap(clutter_atlas);
+    } else {
+      s = backend_->read_clutter_lightmap(clutter_lightmap_);
+      if (s.ok()) s = renderer_->upload_clutter_lightmap(clutter_lightmap_);
+    }
     times_.clutter_lightmap += ms_since(tc);
   }
   if (s.ok()) {
@@ -321,8 +335,6 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   gl.glFinish();
   times_.indirect += ms_since(t);
   if (!s.ok()) return s;
-  if (!probes_.empty())
-    probe_lighting(level_, probes_, int(dict_->settings.probe_grid), state.dynamic_offset, state);
   t = Clock::now();
   s = renderer_->render_image(state, linear_rgb, srgb8);
   times_.render += ms_since(t);

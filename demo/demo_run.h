@@ -18,6 +18,7 @@
 #include "modrt/level.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/probe_sampler.h"
 #include "render/scene_renderer.h"
 #include "scene/demo_scene.h"
 
@@ -54,7 +55,7 @@ struct StageTimes {
   // the frame's first update; feedback steps repeat b, r and lightmaps.
   double b = 0, r = 0, lightmaps = 0, probes = 0, vector = 0;
   // DRT: the clutter's direct light (Embree, included in `direct`) and the clutter lightmap's
-  // readback and upload (included in `indirect`).
+  // gather on the GPU (GLES backend) or readback and upload (CPU backend), included in `indirect`.
   double clutter_direct = 0, clutter_lightmap = 0;
 };
 
@@ -78,6 +79,7 @@ class DemoRun {
 
   const Level& level() const { return level_; }
   const Backend& backend() const { return *backend_; }
+  Backend& backend() { return *backend_; }
   const StageTimes& times() const { return times_; }
   std::size_t mapped_triangles() const { return mapped_triangles_; }
   // Static triangles given to the proxy mapping, those it cut at block boundaries, and those
@@ -95,7 +97,9 @@ class DemoRun {
   // last frame (3 per clutter texel).
   const DrtStartup& drt_startup() const { return drt_startup_; }
   std::span<const float> clutter_ld() const { return clutter_ld_; }
-  std::span<const float> clutter_lightmap() const { return clutter_lightmap_; }
+  // With the GLES backend the clutter lightmap stays on the GPU during the frame; this reads it
+  // back (for tests and tools, not per frame).
+  std::span<const float> clutter_lightmap();
 
  private:
   DemoRun() = default;
@@ -118,6 +122,10 @@ class DemoRun {
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;    // DemoDirect::cpu
   std::unique_ptr<gles::GlesDirectLight> gpu_direct_;  // DemoDirect::gpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;
+  // The probe volume: the dynamic object's cell in it, and for a CPU backend its probes in the
+  // world frame (probes_ is empty with a GLES backend: its world_probe_texture is sampled).
+  ProbeSampler probe_sampler_;
+  std::vector<float> world_probes_;
   std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;
   bool vector_ = false;
   StageTimes times_;

@@ -26,6 +26,7 @@ extern const char* const kShadowFrag;
 extern const char* const kSceneVert;
 extern const char* const kSceneFrag;
 extern const char* const kTonemapFrag;
+extern const char* const kClutterGatherFrag;
 
 namespace {
 
@@ -33,6 +34,9 @@ constexpr float kShadowNear = 0.01f, kShadowFar = 30.0f;
 const char* const kHeader =
     "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp sampler2D;\n"
     "precision highp samplerCubeShadow;\n";
+// The probe texture's width when the renderer uploads it (a CPU backend's probes): rows of at
+// most this many texels, within ES 3.0's minimum GL_MAX_TEXTURE_SIZE.
+constexpr std::size_t kProbeTextureWidth = 2048;
 
 struct DrawRange {
   GLint first = 0;
@@ -104,20 +108,22 @@ struct SceneRenderer::Impl {
 
   GLint shadow_view_proj = -1, shadow_offset = -1, tonemap_exposure = -1;
   struct SceneUniforms {
-    GLint view_proj = -1, output = -1, probe_sh = -1, to_canonical = -1, offset = -1, base_color = -1,
-          has_normal_map = -1, normal_scale = -1, use_vector = -1, dynamic = -1, emissive = -1,
-          has_base_map = -1, clutter = -1;
+    GLint view_proj = -1, output = -1, probe_grid = -1, probe_cell = -1, probe_f = -1, offset = -1,
+          base_color = -1, has_normal_map = -1, normal_scale = -1, use_vector = -1, dynamic = -1,
+          emissive = -1, has_base_map = -1, clutter = -1;
   } su;
 
   std::vector<GLuint> programs, framebuffers, textures, buffers;
   GLuint vao = 0, empty_vao = 0, vbo = 0;
-  GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0;
+  GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0, gather_program = 0;
   GLuint shadow_cube = 0;
   std::array<GLuint, 6> shadow_fbo{};
   int shadow_size = 0;
   std::size_t samples = 0;
   GLuint color = 0, depth = 0, scene_fbo = 0, display = 0, display_fbo = 0;
   std::array<GLuint, 5> own_atlas{};  // CPU-computed atlas (0) and vector atlases (1..4)
+  GLuint own_probes = 0;              // CPU-computed probe volume (upload_probes)
+  std::size_t own_probe_texels = 0;
   int atlas_width = 0, atlas_height = 0;
   std::vector<DrawRange> draws;
   DrawRange light_marker;
@@ -129,6 +135,9 @@ struct SceneRenderer::Impl {
   // lightmap texture; the offset of its texels in the concatenated clutter lightmap.
   std::vector<std::shared_ptr<const ClutterMeshData>> clutter_mesh;
   std::vector<GLuint> clutter_texture;
+  // gather_clutter_lightmap: per mesh object a framebuffer over its texture and its RG32I
+  // cell -> clutter atlas texel map (set_clutter_atlas_layout); 0 for box objects.
+  std::vector<GLuint> clutter_fbo, clutter_cell_texel;
   std::vector<std::size_t> clutter_offset;
   std::size_t clutter_floats = 0;
   bool clutter_uploaded = false;
@@ -180,23 +189,29 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
           program("demo tonemap", {kHeader, kFullscreenVert}, {kHeader, kTonemapFrag}, m.tonemap_program);
       !s.ok())
     return s;
+  if (Status s = program("demo clutter gather", {kHeader, kFullscreenVert}, {kHeader, kClutterGatherFrag},
+                         m.gather_program);
+      !s.ok())
+    return s;
   gl.glUseProgram(m.scene_program);
   platform::assign_sampler_units(gl, m.scene_program,
                                  {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",
-                                  "u_vector2", "u_vector3", "u_base_map"});
+                                  "u_vector2", "u_vector3", "u_base_map", "u_probes"});
   gl.glUseProgram(m.tonemap_program);
   platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
+  gl.glUseProgram(m.gather_program);
+  platform::assign_sampler_units(gl, m.gather_program, {"u_cell_texel", "u_clutter_atlas"});
   m.scene_lighting = gles::LightUniforms::find(gl, m.scene_program);
   m.shadow_view_proj = m.loc(m.shadow_program, "u_view_proj");
   m.shadow_offset = m.loc(m.shadow_program, "u_offset");
   m.tonemap_exposure = m.loc(m.tonemap_program, "u_exposure");
   {
     const GLuint p = m.scene_program;
-    m.su = {m.loc(p, "u_view_proj"),      m.loc(p, "u_output"),       m.loc(p, "u_probe_sh"),
-            m.loc(p, "u_to_canonical"),   m.loc(p, "u_offset"),       m.loc(p, "u_base_color"),
-            m.loc(p, "u_has_normal_map"), m.loc(p, "u_normal_scale"), m.loc(p, "u_use_vector"),
-            m.loc(p, "u_dynamic"),        m.loc(p, "u_emissive"),     m.loc(p, "u_has_base_map"),
-            m.loc(p, "u_clutter")};
+    m.su = {m.loc(p, "u_view_proj"),    m.loc(p, "u_output"),         m.loc(p, "u_probe_grid"),
+            m.loc(p, "u_probe_cell"),   m.loc(p, "u_probe_f"),        m.loc(p, "u_offset"),
+            m.loc(p, "u_base_color"),   m.loc(p, "u_has_normal_map"), m.loc(p, "u_normal_scale"),
+            m.loc(p, "u_use_vector"),   m.loc(p, "u_dynamic"),        m.loc(p, "u_emissive"),
+            m.loc(p, "u_has_base_map"), m.loc(p, "u_clutter")};
   }
   gl.glUseProgram(0);
 
@@ -482,6 +497,109 @@ Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int
   return target;
 }
 
+Result<GLuint> SceneRenderer::upload_probes(std::span<const float> world_probes) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (world_probes.empty() || world_probes.size() % 27 != 0)
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the probe volume has " + std::to_string(world_probes.size()) +
+                             " floats, not a positive multiple of 27 (SH9 RGB per probe)");
+  const std::size_t texels = world_probes.size() / 3;
+  if (m.own_probes && texels != m.own_probe_texels)
+    return Status::error(ErrorCode::invalid_argument, "renderer: the probe volume changed size from " +
+                                                          std::to_string(3 * m.own_probe_texels) + " to " +
+                                                          std::to_string(world_probes.size()) + " floats");
+  const std::size_t width = std::min(texels, kProbeTextureWidth), height = (texels + width - 1) / width;
+  if (height > kProbeTextureWidth)
+    return Status::error(ErrorCode::resource_limit, "renderer: the probe volume (" + std::to_string(texels) +
+                                                        " texels) does not fit a 2048 x 2048 texture");
+  if (!m.own_probes) {
+    m.own_probes = m.texture(GL_RGBA32F, int(width), int(height));
+    m.own_probe_texels = texels;
+  }
+  if (m.readback.size() < 4 * width * height) m.readback.resize(4 * width * height);
+  std::fill(m.readback.begin(), m.readback.begin() + std::ptrdiff_t(4 * width * height), 0.0f);
+  for (std::size_t i = 0; i < texels; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) m.readback[4 * i + c] = world_probes[3 * i + c];
+    m.readback[4 * i + 3] = 1.0f;
+  }
+  gl.glBindTexture(GL_TEXTURE_2D, m.own_probes);
+  gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, GLsizei(width), GLsizei(height), GL_RGBA, GL_FLOAT,
+                     m.readback.data());
+  if (Status s = gl_error_status(gl, "uploading the probe volume"); !s.ok()) return s;
+  return m.own_probes;
+}
+
+Status SceneRenderer::set_clutter_atlas_layout(const ClutterAtlasTexel& atlas_texel) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  m.clutter_fbo.assign(m.clutter_mesh.size(), 0);
+  m.clutter_cell_texel.assign(m.clutter_mesh.size(), 0);
+  std::vector<std::int32_t> cell_texel;
+  for (std::size_t k = 0; k < m.clutter_mesh.size(); ++k) {
+    if (!m.clutter_mesh[k]) continue;
+    const ClutterMeshAtlas& atlas = m.clutter_mesh[k]->atlas;
+    const std::size_t cells = std::size_t(atlas.res) * std::size_t(atlas.res);
+    cell_texel.assign(2 * cells, -1);
+    for (std::size_t c = 0; c < cells; ++c) {
+      const std::int32_t t = atlas.cell_texel[c];
+      if (t < 0) continue;
+      const std::array<int, 2> at = atlas_texel(k, std::uint32_t(t));
+      if (at[0] < 0 || at[1] < 0)
+        return Status::error(ErrorCode::invalid_argument,
+                             "renderer: the backend places texel " + std::to_string(t) +
+                                 " of clutter object " + std::to_string(k) + " nowhere in its clutter atlas");
+      cell_texel[2 * c] = at[0], cell_texel[2 * c + 1] = at[1];
+    }
+    // The padding ring copies its neighbours (as upload_clutter_lightmap does), in order.
+    for (const auto& [to, from] : atlas.padding)
+      for (std::size_t i = 0; i < 2; ++i)
+        cell_texel[2 * std::size_t(to) + i] = cell_texel[2 * std::size_t(from) + i];
+    m.clutter_cell_texel[k] = m.texture(GL_RG32I, atlas.res, atlas.res);
+    gl.glBindTexture(GL_TEXTURE_2D, m.clutter_cell_texel[k]);
+    gl.glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl.glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, atlas.res, atlas.res, GL_RG_INTEGER, GL_INT,
+                       cell_texel.data());
+    Result<GLuint> fbo =
+        platform::create_framebuffer(gl, "demo clutter lightmap", {m.clutter_texture[k]}, "RGBA32F");
+    if (!fbo.ok()) return fbo.status();
+    m.clutter_fbo[k] = fbo.value();
+    m.framebuffers.push_back(fbo.value());
+  }
+  return gl_error_status(gl, "creating the clutter lightmap gather");
+}
+
+Status SceneRenderer::gather_clutter_lightmap(GLuint clutter_atlas) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (m.clutter_fbo.size() != m.clutter_mesh.size())
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: gather_clutter_lightmap needs set_clutter_atlas_layout first");
+  if (!clutter_atlas)
+    return Status::error(ErrorCode::invalid_argument, "renderer: no clutter atlas texture given");
+  gl.glDisable(GL_DEPTH_TEST);
+  gl.glDisable(GL_BLEND);
+  gl.glDisable(GL_CULL_FACE);
+  gl.glDisable(GL_SCISSOR_TEST);
+  gl.glUseProgram(m.gather_program);
+  gl.glBindVertexArray(m.empty_vao);
+  bind_texture(gl, 1, GL_TEXTURE_2D, clutter_atlas);
+  for (std::size_t k = 0; k < m.clutter_mesh.size(); ++k) {
+    if (!m.clutter_fbo[k]) continue;
+    const int res = m.clutter_mesh[k]->atlas.res;
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, m.clutter_fbo[k]);
+    gl.glViewport(0, 0, res, res);
+    bind_texture(gl, 0, GL_TEXTURE_2D, m.clutter_cell_texel[k]);
+    gl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+  gl.glBindVertexArray(0);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl.glUseProgram(0);
+  m.clutter_uploaded = true;
+  return gl_error_status(gl, "gathering the clutter lightmaps");
+}
+
 Status SceneRenderer::upload_clutter_lightmap(std::span<const float> clutter_lightmap) {
   Impl& m = *impl_;
   const platform::GlFunctions& gl = m.gl;
@@ -551,11 +669,11 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
                                                                        : 2));
   const bool vector =
       std::all_of(frame.vector_atlas.begin(), frame.vector_atlas.end(), [](GLuint t) { return t != 0; });
-  float sh[27];
-  for (int k = 0; k < 9; ++k)
-    for (int c = 0; c < 3; ++c) sh[3 * k + c] = frame.probe_sh[std::size_t(k)][c];
-  gl.glUniform3fv(m.su.probe_sh, 9, sh);
-  gl.glUniformMatrix3fv(m.su.to_canonical, 1, GL_FALSE, glm::value_ptr(frame.to_canonical));
+  const ProbeCell& cell = frame.probe_cell;
+  gl.glUniform1i(m.su.probe_grid, frame.probes ? frame.probe_grid : 0);
+  gl.glUniform4i(m.su.probe_cell, int(cell.block), cell.i0.x, cell.i0.y, cell.i0.z);
+  gl.glUniform3f(m.su.probe_f, float(cell.f.x), float(cell.f.y), float(cell.f.z));
+  bind_texture(gl, 8, GL_TEXTURE_2D, frame.probes);
   bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
   bind_texture(gl, 2, GL_TEXTURE_2D, frame.atlas);
   for (int i = 0; i < 4; ++i)

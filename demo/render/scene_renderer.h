@@ -11,12 +11,12 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
-#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
 #include "../scene/demo_scene.h"
@@ -24,6 +24,7 @@
 #include "modrt/gles/gles_direct_light.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_functions.h"
+#include "modrt/probe_sampler.h"
 #include "modrt/status.h"
 
 namespace modrt::demo {
@@ -48,10 +49,13 @@ struct FrameState {
   // OHLSH vector atlases used by normal-mapped materials.
   GLuint atlas = 0;
   std::array<GLuint, 4> vector_atlas{};
-  // Dynamic meshes: E/pi SH9 (RGB per coefficient) in the canonical frame of the block they
-  // are in, and the rotation from world into that frame.
-  std::array<glm::vec3, 9> probe_sh{};
-  glm::mat3 to_canonical{1.0f};
+  // Dynamic meshes: the probe volume as a texture of world-frame radiance SH9
+  // (Backend::world_probe_texture's layout; upload_probes() for a CPU backend's), its grid g,
+  // and the dynamic object's cell in it (ProbeSampler::locate at dynamic_offset). probes = 0:
+  // no probe volume, dynamic meshes get no indirect light.
+  GLuint probes = 0;
+  int probe_grid = 0;
+  ProbeCell probe_cell;
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
 };
@@ -87,11 +91,22 @@ class SceneRenderer {
   // Uploads an atlas computed on the CPU (3 floats per texel) into one of the renderer's own
   // atlas textures and returns it: slot 0 for FrameState::atlas, 1..4 for vector_atlas[0..3].
   Result<GLuint> upload_atlas(std::span<const float> atlas_rgb, int slot = 0);
+  // Uploads a probe volume computed on the CPU (ProbeSampler::world_probes, radiance, 27
+  // floats per probe) into the renderer's own probe texture, laid out as
+  // Backend::world_probe_texture's, and returns it (for FrameState::probes).
+  Result<GLuint> upload_probes(std::span<const float> world_probes);
   // DRT: the clutter lightmap (Backend::read_clutter_lightmap, 3 floats per clutter texel,
   // the scene's clutter objects in order), scattered into each mesh object's res x res
-  // texture through its atlas's cells and padding. Required before render_image when the
-  // scene has clutter.
+  // texture through its atlas's cells and padding. This or gather_clutter_lightmap() is
+  // required before render_image when the scene has clutter.
   Status upload_clutter_lightmap(std::span<const float> clutter_lightmap);
+  // The same on the GPU from a backend's clutter atlas texture (Backend::output_texture(
+  // BackendOutput::clutter_atlas)): set_clutter_atlas_layout() once with where texel t of
+  // object k lies in it (Backend::clutter_atlas_texel), then gather_clutter_lightmap() each
+  // frame, one pass per mesh object; nothing is read back.
+  using ClutterAtlasTexel = std::function<std::array<int, 2>(std::size_t object, std::uint32_t texel)>;
+  Status set_clutter_atlas_layout(const ClutterAtlasTexel& atlas_texel);
+  Status gather_clutter_lightmap(GLuint clutter_atlas);
   // The camera image: linear RGB (3 floats per pixel, rows bottom to top) and sRGB8 (3 bytes
   // per pixel, rows top to bottom, ready for an image file).
   Status render_image(const FrameState& frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);

@@ -18,7 +18,7 @@
 #include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
 #include "modrt/operator_limits.h"
-#include "probe_sampler.h"
+#include "modrt/probe_sampler.h"
 #if MODRT_RUNTIME_GLES
 #include "modrt/platform/gl_functions.h"
 #endif

@@ -3,8 +3,8 @@
 // from the lightmap atlas (bilinear over texelFetch: float32 textures need not be
 // filterable in ES 3.0), or for normal-mapped surfaces from the four OHLSH vector irradiance
 // atlases evaluated at the bumped normal in the proxy face's frame (MRT §6.4), or for
-// dynamic meshes from the probe volume's SH9 (MRT §6.5). u_output: 0 combined, 1 direct,
-// 2 indirect.
+// dynamic meshes from the probe volume's SH9 (MRT §6.5), sampled here from the backend's
+// world-frame probe texture (nothing read back). u_output: 0 combined, 1 direct, 2 indirect.
 uniform vec3 u_base_color;
 uniform int u_has_base_map;
 uniform sampler2D u_base_map;  // sRGB-encoded RGBA8, multiplies u_base_color
@@ -15,8 +15,15 @@ uniform sampler2D u_atlas;
 uniform sampler2D u_vector0, u_vector1, u_vector2, u_vector3;
 uniform int u_use_vector;
 uniform int u_dynamic;
-uniform vec3 u_probe_sh[9];   // E/pi SH9 of the probe volume at the dynamic object (canonical frame)
-uniform mat3 u_to_canonical;  // world -> that block's canonical frame
+// The probe volume in the world frame: texel 9 p + k is radiance SH9 coefficient k of probe
+// p = b g^3 + i + g (j + g k) (Backend::world_probe_texture's layout, row-major at its width);
+// u_probe_grid 0: no probe volume.
+// The dynamic object's cell (ProbeSampler::locate at its position): u_probe_cell = (block,
+// lower corner on that block's g^3 grid), u_probe_f its trilinear weights.
+uniform sampler2D u_probes;
+uniform int u_probe_grid;
+uniform ivec4 u_probe_cell;
+uniform vec3 u_probe_f;
 uniform int u_output;
 uniform int u_emissive;       // the light's own marker
 uniform int u_clutter;        // DRT clutter mesh: u_atlas is its own clutter lightmap
@@ -38,19 +45,37 @@ vec4 bilinear(sampler2D t, vec2 texel) {
   return mix(a, b, f.y);
 }
 
-vec3 sh9(vec3 n) {
+vec3 probe_coefficient(int p, int k) {
+  int i = 9 * p + k;
+  int w = textureSize(u_probes, 0).x;
+  return texelFetch(u_probes, ivec2(i % w, i / w), 0).rgb;
+}
+
+// E/pi at world normal n: the trilinear mix of the cell's 8 probes, radiance bands scaled by
+// A_l / pi = 1, 2/3, 1/4 (core's irradiance_from_radiance_sh9), as ProbeSampler::sample.
+vec3 probe_e_over_pi(vec3 n) {
   float y[9];
   y[0] = 0.282095;
-  y[1] = 0.488603 * n.y;
-  y[2] = 0.488603 * n.z;
-  y[3] = 0.488603 * n.x;
-  y[4] = 1.092548 * n.x * n.y;
-  y[5] = 1.092548 * n.y * n.z;
-  y[6] = 0.315392 * (3.0 * n.z * n.z - 1.0);
-  y[7] = 1.092548 * n.x * n.z;
-  y[8] = 0.546274 * (n.x * n.x - n.y * n.y);
+  y[1] = 0.488603 * n.y * (2.0 / 3.0);
+  y[2] = 0.488603 * n.z * (2.0 / 3.0);
+  y[3] = 0.488603 * n.x * (2.0 / 3.0);
+  y[4] = 1.092548 * n.x * n.y * 0.25;
+  y[5] = 1.092548 * n.y * n.z * 0.25;
+  y[6] = 0.315392 * (3.0 * n.z * n.z - 1.0) * 0.25;
+  y[7] = 1.092548 * n.x * n.z * 0.25;
+  y[8] = 0.546274 * (n.x * n.x - n.y * n.y) * 0.25;
+  int g = u_probe_grid;
   vec3 e = vec3(0.0);
-  for (int k = 0; k < 9; ++k) e += u_probe_sh[k] * y[k];
+  if (g == 0) return e;  // no probe volume
+  for (int c = 0; c < 8; ++c) {
+    ivec3 o = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    vec3 t = mix(vec3(1.0) - u_probe_f, u_probe_f, vec3(o));
+    float w = t.x * t.y * t.z;
+    if (w == 0.0) continue;
+    ivec3 q = min(u_probe_cell.yzw + o, ivec3(g - 1));
+    int p = u_probe_cell.x * g * g * g + q.x + g * (q.y + g * q.z);
+    for (int k = 0; k < 9; ++k) e += w * y[k] * probe_coefficient(p, k);
+  }
   return max(e, vec3(0.0));
 }
 
@@ -72,7 +97,7 @@ void main() {
   vec3 direct = direct_e_over_pi(v_position, shading_n);
   vec3 indirect;
   if (u_dynamic != 0) {
-    indirect = sh9(normalize(u_to_canonical * shading_n));
+    indirect = probe_e_over_pi(shading_n);
   } else if (u_clutter != 0) {
     // The clutter lightmap (Cb b + Cc c, E/pi) at the mesh's lightmap UVs; taps clamped to
     // the texture (a chart may touch the atlas edge).

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-#include "probe_sampler.h"
+#include "modrt/probe_sampler.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "modrt/level_geometry.h"
 #include "modrt/sh.h"
 
-namespace modrt::capi {
+namespace modrt {
 namespace {
 
 // How far canonical p lies outside [0,1]^3 (0 inside).
@@ -52,8 +52,7 @@ void to_world(const std::array<double, 81>& m, const double sh[27], bool irradia
 }
 }  // namespace
 
-Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance,
-                            float out[27]) const {
+Result<ProbeCell> ProbeSampler::locate(const glm::dvec3& x, const char* what) const {
   std::size_t block = 0;
   double best = 1e30;
   glm::dvec3 p(0.5);
@@ -64,28 +63,40 @@ Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, 
     if (o < best) best = o, block = i, p = q;
   }
   if (best > 0.01) {
-    char text[160];
-    std::snprintf(text, sizeof text, "probe position (%g, %g, %g) lies outside every block of the level", x.x,
-                  x.y, x.z);
+    char text[200];
+    std::snprintf(text, sizeof text, "%s (%g, %g, %g) lies outside every block of the level", what, x.x, x.y,
+                  x.z);
     return Status::error(ErrorCode::invalid_argument, text);
   }
   const int g = grid_;
-  const std::size_t per_block = 27 * std::size_t(g) * std::size_t(g) * std::size_t(g);
-  const float* base = probes.data() + per_block * block;
-  double sh[27] = {};
   // Probe centres sit at (i + 0.5) / g; outside the outermost centres the value is held.
-  const glm::dvec3 gc = glm::clamp(p * double(g) - 0.5, glm::dvec3(0.0), glm::dvec3(g - 1));
-  const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(gc)), glm::ivec3(std::max(g - 2, 0)));
-  const glm::dvec3 f = g > 1 ? gc - glm::dvec3(i0) : glm::dvec3(0.0);
+  const glm::dvec3 gc = glm::clamp(p * double(g) - 0.5, glm::dvec3(0.0), glm::dvec3(std::max(g - 1, 0)));
+  ProbeCell cell;
+  cell.block = block;
+  cell.i0 = glm::min(glm::ivec3(glm::floor(gc)), glm::ivec3(std::max(g - 2, 0)));
+  cell.f = g > 1 ? gc - glm::dvec3(cell.i0) : glm::dvec3(0.0);
+  return cell;
+}
+
+Status ProbeSampler::sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance,
+                            float out[27]) const {
+  const Result<ProbeCell> located = locate(x);
+  if (!located.ok()) return located.status();
+  const ProbeCell& cell = located.value();
+  const int g = grid_;
+  const std::size_t per_block = 27 * std::size_t(g) * std::size_t(g) * std::size_t(g);
+  const float* base = probes.data() + per_block * cell.block;
+  double sh[27] = {};
+  const glm::dvec3 f = cell.f;
   for (int c = 0; c < 8; ++c) {
     const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-    const glm::ivec3 q = glm::min(i0 + o, glm::ivec3(g - 1));
+    const glm::ivec3 q = glm::min(cell.i0 + o, glm::ivec3(g - 1));
     const double w = (o.x ? f.x : 1 - f.x) * (o.y ? f.y : 1 - f.y) * (o.z ? f.z : 1 - f.z);
     if (w == 0.0) continue;
     const float* probe = base + 27 * std::size_t(q.x + g * (q.y + g * q.z));
     for (int k = 0; k < 27; ++k) sh[k] += w * double(probe[k]);
   }
-  to_world(rotation(level_->blocks[block].quarter_turns), sh, irradiance, out);
+  to_world(rotation(level_->blocks[cell.block].quarter_turns), sh, irradiance, out);
   return Status::success();
 }
 
@@ -107,4 +118,4 @@ glm::dvec3 ProbeSampler::probe_position(std::size_t block, int p) const {
   return block_to_world(level_->blocks[block], (cell + 0.5) / double(g));
 }
 
-}  // namespace modrt::capi
+}  // namespace modrt

@@ -2,7 +2,9 @@
 // Sampling the level's probe volume at a world point (architecture.md §5 step 9, MRT §6.5): the block
 // containing the point, its canonical coordinates (Newton on the trilinear warp), trilinear
 // weights of the g^3 probes, and the SH9 rotation from the block's canonical frame into the
-// world. Everything is prepared at creation; sample() does not allocate.
+// world. Everything is prepared at creation; locate() and sample() do not allocate. Used by the
+// C API (modrt_context_probe_sh) and by renderers that sample the probe volume on the GPU
+// (locate() gives the cell and weights a shader needs).
 #pragma once
 
 #include <array>
@@ -15,13 +17,25 @@
 #include "modrt/level.h"
 #include "modrt/status.h"
 
-namespace modrt::capi {
+namespace modrt {
+
+// Where a world point lies in the probe volume: its block, the lower corner i0 of the 2 x 2 x 2
+// probes around it on the block's canonical g^3 grid (i0 + 1 clamped to g - 1 at the edges) and
+// the trilinear weights f in [0, 1]^3 towards i0 + 1.
+struct ProbeCell {
+  std::size_t block = 0;
+  glm::ivec3 i0{0};
+  glm::dvec3 f{0.0};
+};
 
 class ProbeSampler {
  public:
   ProbeSampler() = default;
   ProbeSampler(const Level& level, int grid);
 
+  // The cell of world point x. Fails (invalid_argument, naming `what` and x) for a point outside
+  // every block by more than 1% of a block.
+  Result<ProbeCell> locate(const glm::dvec3& x, const char* what = "probe position") const;
   // out[3 k + c], world frame; `irradiance`: E/pi (bands scaled by A_l / pi = 1, 2/3, 1/4).
   // Fails (invalid_argument) for a point outside every block by more than 1% of a block.
   Status sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance, float out[27]) const;
@@ -47,4 +61,4 @@ class ProbeSampler {
   std::array<std::array<double, 81>, 4> rotation_{};
 };
 
-}  // namespace modrt::capi
+}  // namespace modrt
