@@ -24,6 +24,7 @@
 #include "modrt/drt_io.h"
 #include "modrt/level_geometry.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/probe_sampler.h"
 #include "scene/clutter_shapes.h"
 #include "scene/default_scene.h"
 #include "scene/proxy_mapping.h"
@@ -347,14 +348,9 @@ TEST(DemoRender, SaveClutterWithoutClutterIsAnError) {
       << run.status().message();
 }
 
-// DRT in the demo: the default scene (its clutter pillar) plus a clutter box (a mesh with
-// lightmap UVs) in block 0.
-// Both backends build the same operators (same seeds) and must give the same clutter
-// lightmap and image; the clutter lightmap must carry light (an unlit or unread lightmap
-// would leave the box black in the indirect image).
-TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
-  platform::GlContext* ctx = osmesa();
-  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+// The default scene (its clutter pillar) plus a clutter box (a mesh with lightmap UVs) in
+// block 0.
+DemoScene scene_with_clutter_box() {
   DemoScene s = scene();
   const std::array<glm::dvec3, 8> c0 = block_corners(s.level, s.level.blocks[0]);
   const glm::dvec3 centre = trilinear(c0, glm::dvec3(0.5));
@@ -367,7 +363,21 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
   box.cap_triangles = {0, 1, 2, 0, 2, 3};
   box.y0 = centre.y - 0.3, box.y1 = centre.y;
   box.res = 24;
-  ASSERT_TRUE(add_clutter_prism(s, box).ok());
+  if (Status st = add_clutter_prism(s, box); !st.ok()) {
+    std::fprintf(stderr, "clutter box: %s\n", st.to_string().c_str());
+    std::abort();
+  }
+  return s;
+}
+
+// DRT in the demo: scene_with_clutter_box().
+// Both backends build the same operators (same seeds) and must give the same clutter
+// lightmap and image; the clutter lightmap must carry light (an unlit or unread lightmap
+// would leave the box black in the indirect image).
+TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  const DemoScene s = scene_with_clutter_box();
   std::vector<std::vector<std::uint8_t>> images;
   std::vector<std::vector<float>> linear, clutter;
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
@@ -422,6 +432,151 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
   EXPECT_LT(e.p99, 0.5);
   std::printf("  with clutter, GLES vs CPU: clutter lightmap rel L2 %.2e, image %.2e, Delta E p99 %.3f\n",
               rel_l2(clutter[0], clutter[1]), rel_l2(linear[0], linear[1]), e.p99);
+}
+
+// The dynamic mesh's indirect light is the probe volume where the mesh is, sampled in the
+// scene shader from the backend's world-frame probe texture (GLES) or the uploaded CPU probes:
+// a white quad facing the camera in a quarter-turned block (the SH rotation matters) shows,
+// in the indirect output, E/pi of ProbeSampler::sample (core, double) at its position and
+// normal. A wrong cell, weight, block offset, band scale or rotation moves it by far more
+// than float rounding.
+TEST(DemoRender, DynamicMeshShowsTheProbeVolumeAtItsPosition) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoScene s = scene();
+  Result<Level> level = precompute::build_level(s.level, dict());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  const auto turned = std::find_if(level->blocks.begin(), level->blocks.end(),
+                                   [](const LevelBlock& b) { return b.quarter_turns != 0; });
+  ASSERT_NE(turned, level->blocks.end()) << "the default scene's symmetry finds no quarter-turned block";
+  // Off the block's centre in every axis, so that the trilinear weights are all fractional.
+  const glm::dvec3 at = block_to_world(*turned, glm::dvec3(0.43, 0.56, 0.38));
+  const glm::vec3 n = glm::normalize(glm::vec3(0.3f, 0.25f, 0.9f));
+  std::erase_if(s.meshes, [](const Mesh& m) { return m.dynamic; });
+  s.materials.push_back(Material{"probe white", glm::vec3(1.0f)});
+  Mesh quad;
+  quad.name = "probe quad";
+  quad.dynamic = true;
+  quad.material = int(s.materials.size()) - 1;
+  const glm::vec3 t1 = glm::normalize(glm::cross(glm::vec3(0.0f, 1.0f, 0.0f), n)), t2 = glm::cross(n, t1);
+  for (const glm::vec2 c : {glm::vec2(-1, -1), glm::vec2(1, -1), glm::vec2(1, 1), glm::vec2(-1, 1)}) {
+    quad.position.push_back(0.05f * (c.x * t1 + c.y * t2));  // counter-clockwise seen along -n
+    quad.normal.push_back(n);
+  }
+  quad.indices = {0, 1, 2, 0, 2, 3};
+  s.meshes.push_back(quad);
+  s.dynamic_path = {glm::vec3(at)};
+  s.camera.position = glm::vec3(at) + 0.25f * n;
+  s.camera.target = glm::vec3(at);
+  s.camera.up = glm::vec3(0.0f, 1.0f, 0.0f);
+  constexpr int kWidth = 32, kHeight = 18;
+  for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
+    SCOPED_TRACE(backend == DemoBackend::gles ? "GLES backend" : "CPU backend");
+    DemoRunOptions options;
+    options.backend = backend;
+    options.output = OutputMode::indirect;
+    options.drt_rays = 64;
+    options.renderer.width = kWidth, options.renderer.height = kHeight;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    std::vector<float> linear(3 * kWidth * kHeight);
+    std::vector<std::uint8_t> image(linear.size());
+    for (int frame = 0; frame < 2; ++frame) {
+      const Status st = run.value()->render(frame, linear, image);
+      ASSERT_TRUE(st.ok()) << st.to_string();
+    }
+    std::vector<float> probes(run.value()->backend().sizes().probes);
+    ASSERT_FALSE(probes.empty());
+    ASSERT_TRUE(run.value()->backend().read_probes(probes).ok());
+    const ProbeSampler sampler(run.value()->level(), int(dict().settings.probe_grid));
+    float sh[27];
+    ASSERT_TRUE(sampler.sample(probes, glm::dvec3(at), true, sh).ok());
+    const float y[9] = {0.282095f,
+                        0.488603f * n.y,
+                        0.488603f * n.z,
+                        0.488603f * n.x,
+                        1.092548f * n.x * n.y,
+                        1.092548f * n.y * n.z,
+                        0.315392f * (3.0f * n.z * n.z - 1.0f),
+                        1.092548f * n.x * n.z,
+                        0.546274f * (n.x * n.x - n.y * n.y)};
+    const std::size_t centre = 3 * (std::size_t(kHeight / 2) * kWidth + kWidth / 2);
+    for (std::size_t c = 0; c < 3; ++c) {
+      float expected = 0.0f;
+      for (std::size_t k = 0; k < 9; ++k) expected += sh[3 * k + c] * y[k];
+      expected = std::max(expected, 0.0f);
+      ASSERT_GT(expected, 1e-3f);  // lit: a black quad would prove nothing
+      // float shading of double-sampled probes: rounding only.
+      EXPECT_NEAR(linear[centre + c], expected, 1e-4f * expected + 1e-6f) << "channel " << c;
+    }
+    std::printf("  %s: quad E/pi %.5f %.5f %.5f (ProbeSampler)\n",
+                backend == DemoBackend::gles ? "GLES" : "CPU ", linear[centre], linear[centre + 1],
+                linear[centre + 2]);
+  }
+}
+
+// A GL context that counts the glReadPixels calls made through its entry points (every GL call
+// of the demo, its renderer and the backend goes through GlContext::gl()).
+class ReadPixelsCountingContext : public platform::GlContext {
+ public:
+  explicit ReadPixelsCountingContext(platform::GlContext& inner) : inner_(inner) {
+    info_ = inner.info();
+    gl_ = inner.gl();
+    real_read_pixels_ = gl_.glReadPixels;
+    gl_.glReadPixels = &counting_read_pixels;
+  }
+  Status make_current() override { return inner_.make_current(); }
+  struct Read {
+    GLsizei width, height;
+  };
+  static std::vector<Read>& reads() {
+    static std::vector<Read> r;
+    return r;
+  }
+
+ private:
+  static void GL_APIENTRY counting_read_pixels(GLint x, GLint y, GLsizei width, GLsizei height, GLenum format,
+                                               GLenum type, void* pixels) {
+    reads().push_back({width, height});
+    real_read_pixels_(x, y, width, height, format, type, pixels);
+  }
+  static inline PFNGLREADPIXELSPROC real_read_pixels_ = nullptr;
+  platform::GlContext& inner_;
+};
+
+// Issue 19: on the GLES path a frame reads back nothing but its image (linear and sRGB8): ld,
+// the multi-bounce bound, the atlas, the probe volume and the clutter lightmap stay on the GPU.
+// The accessors for tests (clutter_lightmap(), ld()) still read back, on request.
+TEST(DemoRender, GlesFrameReadsBackOnlyItsImage) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  ReadPixelsCountingContext counting(*ctx);
+  const DemoScene s = scene_with_clutter_box();
+  ASSERT_TRUE(std::any_of(s.meshes.begin(), s.meshes.end(), [](const Mesh& m) { return m.dynamic; }));
+  DemoRunOptions options;
+  options.backend = DemoBackend::gles;
+  options.drt_rays = 64;
+  options.renderer.width = 48, options.renderer.height = 27;
+  Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), counting, options);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  ASSERT_TRUE(run.value()->backend().output_texture(BackendOutput::clutter_atlas) != 0);
+  std::vector<float> linear(3 * 48 * 27);
+  std::vector<std::uint8_t> image(linear.size());
+  for (int frame = 0; frame < 3; ++frame) {
+    ReadPixelsCountingContext::reads().clear();
+    const Status st = run.value()->render(frame, linear, image);
+    ASSERT_TRUE(st.ok()) << st.to_string();
+    const auto& reads = ReadPixelsCountingContext::reads();
+    ASSERT_EQ(reads.size(), 2u) << "frame " << frame << ": " << reads.size() << " glReadPixels calls";
+    for (const auto& r : reads) {
+      EXPECT_EQ(r.width, 48);
+      EXPECT_EQ(r.height, 27);
+    }
+  }
+  ReadPixelsCountingContext::reads().clear();
+  const std::span<const float> clutter = run.value()->clutter_lightmap();
+  EXPECT_GE(ReadPixelsCountingContext::reads().size(), 1u);  // on request, not per frame
+  EXPECT_GT(*std::max_element(clutter.begin(), clutter.end()), 0.0f);
 }
 
 // The golden image: frame 0 of the default scene under OSMesa, 320 x 180, small test
