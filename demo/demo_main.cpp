@@ -274,10 +274,9 @@ int main(int argc, char** argv) {
         "    first update's passes: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",
         total.b / n, total.r / n, total.lightmaps / n, total.probes / n, total.vector / n);
   if (run.value()->drt_startup().objects > 0)
-    std::printf(
-        "    DRT: clutter direct light (in direct) %.3f, clutter lightmap readback + upload (in indirect) "
-        "%.3f\n",
-        total.clutter_direct / n, total.clutter_lightmap / n);
+    std::printf("    DRT: clutter direct light (in direct) %.3f, clutter lightmap %s (in indirect) %.3f\n",
+                total.clutter_direct / n, gles_backend ? "gathered on the GPU" : "read back + uploaded",
+                total.clutter_lightmap / n);
   std::printf("  render (camera image, tone map, readback)  %8.3f\n", total.render / n);
   std::printf("  write images                               %8.3f\n", write_ms / n);
   std::printf("vector irradiance on normal maps: %s\n",
