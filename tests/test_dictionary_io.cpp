@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "binary_test_support.h"
 #include "modrt/dictionary.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
@@ -155,47 +156,36 @@ void expect_bit_exact(const Dictionary& a, const Dictionary& b) {
 
 // --- raw file surgery ---
 
-std::uint32_t rd32(const std::vector<std::byte>& b, std::size_t at) {
-  std::uint32_t v = 0;
-  for (std::size_t i = 0; i < 4; ++i) v |= std::to_integer<std::uint32_t>(b[at + i]) << (8 * i);
-  return v;
-}
-std::uint64_t rd64(const std::vector<std::byte>& b, std::size_t at) {
-  return std::uint64_t(rd32(b, at)) | (std::uint64_t(rd32(b, at + 4)) << 32);
-}
-void wr32(std::vector<std::byte>& b, std::size_t at, std::uint32_t v) {
-  for (std::size_t i = 0; i < 4; ++i) b[at + i] = std::byte((v >> (8 * i)) & 0xFFu);
-}
-void wr64(std::vector<std::byte>& b, std::size_t at, std::uint64_t v) {
-  wr32(b, at, std::uint32_t(v));
-  wr32(b, at + 4, std::uint32_t(v >> 32));
-}
+using modrt::test::get_u32;
+using modrt::test::get_u64;
+using modrt::test::put_u32;
+using modrt::test::put_u64;
 
 constexpr std::size_t kSectionCountAt = 96, kTableCrcAt = 100, kHeaderCrcAt = 108;
 std::size_t entry_at(std::size_t i) { return kDictionaryHeaderBytes + i * kDictionarySectionEntryBytes; }
 
 std::size_t find_section(const std::vector<std::byte>& b, DictionarySectionKind kind, std::uint32_t shape) {
-  const std::uint32_t count = rd32(b, kSectionCountAt);
+  const std::uint32_t count = get_u32(b, kSectionCountAt);
   for (std::size_t i = 0; i < count; ++i)
-    if (rd32(b, entry_at(i)) == std::uint32_t(kind) && rd32(b, entry_at(i) + 4) == shape) return i;
+    if (get_u32(b, entry_at(i)) == std::uint32_t(kind) && get_u32(b, entry_at(i) + 4) == shape) return i;
   ADD_FAILURE() << "no section " << dictionary_section_name(std::uint32_t(kind)) << " for shape " << shape;
   return 0;
 }
 
 // Recomputes every checksum, so that a hand-made change reaches the later checks.
 void reseal(std::vector<std::byte>& b) {
-  const std::size_t count = rd32(b, kSectionCountAt);
+  const std::size_t count = get_u32(b, kSectionCountAt);
   for (std::size_t i = 0; i < count && entry_at(i + 1) <= b.size(); ++i) {
-    const std::uint64_t off = rd64(b, entry_at(i) + 24), size = rd64(b, entry_at(i) + 32);
+    const std::uint64_t off = get_u64(b, entry_at(i) + 24), size = get_u64(b, entry_at(i) + 32);
     if (off <= b.size() && size <= b.size() - off)
-      wr32(b, entry_at(i) + 40,
-           crc32(std::span<const std::byte>(b).subspan(std::size_t(off), std::size_t(size))));
+      put_u32(b, entry_at(i) + 40,
+              crc32(std::span<const std::byte>(b).subspan(std::size_t(off), std::size_t(size))));
   }
   if (entry_at(count) <= b.size())
-    wr32(b, kTableCrcAt,
-         crc32(std::span<const std::byte>(b).subspan(kDictionaryHeaderBytes,
-                                                     count * kDictionarySectionEntryBytes)));
-  wr32(b, kHeaderCrcAt, crc32(std::span<const std::byte>(b).first(kHeaderCrcAt)));
+    put_u32(b, kTableCrcAt,
+            crc32(std::span<const std::byte>(b).subspan(kDictionaryHeaderBytes,
+                                                        count * kDictionarySectionEntryBytes)));
+  put_u32(b, kHeaderCrcAt, crc32(std::span<const std::byte>(b).first(kHeaderCrcAt)));
 }
 
 std::vector<std::byte> serialized(const Dictionary& d, bool float16 = false) {
@@ -301,7 +291,7 @@ TEST(DictionaryIo, TruncationAtEveryOffsetFails) {
   const std::vector<std::byte> bytes = serialized(make_dictionary());
   ASSERT_GT(bytes.size(), kDictionaryHeaderBytes);
   // Every byte of header and table, then a dense set of payload offsets and the tail.
-  const std::size_t table_end = entry_at(rd32(bytes, kSectionCountAt));
+  const std::size_t table_end = entry_at(get_u32(bytes, kSectionCountAt));
   for (std::size_t size = 0; size < bytes.size();
        size += (size < table_end + 64 || size + 64 > bytes.size()) ? 1 : 5) {
     Result<Dictionary> r = parse_dictionary(std::span<const std::byte>(bytes).first(size), "cut");
@@ -315,7 +305,7 @@ TEST(DictionaryIo, SingleByteFlipsAreDetected) {
   const std::vector<std::byte> bytes = serialized(make_dictionary());
   std::vector<std::byte> copy = bytes;
   // Every byte of the file, each with one bit flip; header and table bytes with two.
-  const std::size_t table_end = entry_at(rd32(bytes, kSectionCountAt));
+  const std::size_t table_end = entry_at(get_u32(bytes, kSectionCountAt));
   for (std::size_t i = 0; i < bytes.size(); ++i) {
     for (unsigned mask : {0x01u << (i % 8), 0x80u}) {
       if (mask == 0x80u && i >= table_end) continue;
@@ -334,7 +324,7 @@ TEST(DictionaryIo, SingleByteFlipsAreDetected) {
 TEST(DictionaryIo, PayloadFlipIsAChecksumMismatchNamingTheSection) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
   const std::size_t i = find_section(bytes, DictionarySectionKind::Ub_vec, 4);
-  bytes[std::size_t(rd64(bytes, entry_at(i) + 24)) + 5] ^= std::byte(0x10);
+  bytes[std::size_t(get_u64(bytes, entry_at(i) + 24)) + 5] ^= std::byte(0x10);
   Result<Dictionary> r = parse_dictionary(bytes, "d.modrt");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), ErrorCode::checksum_mismatch);
@@ -360,7 +350,7 @@ TEST(DictionaryIo, BadMagic) {
 
 TEST(DictionaryIo, WrongVersionAsksForARebake) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
-  wr32(bytes, 8, kDictionaryFormatVersion + 1);
+  put_u32(bytes, 8, kDictionaryFormatVersion + 1);
   reseal(bytes);
   Result<Dictionary> r = parse_dictionary(bytes, "old.modrt");
   ASSERT_FALSE(r.ok());
@@ -378,7 +368,7 @@ TEST(DictionaryIo, WrongVersionAsksForARebake) {
 TEST(DictionaryIo, OversizedSectionSize) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
   const std::size_t i = find_section(bytes, DictionarySectionKind::Td_b, 1);
-  wr64(bytes, entry_at(i) + 32, std::uint64_t(1) << 40);
+  put_u64(bytes, entry_at(i) + 32, std::uint64_t(1) << 40);
   reseal(bytes);
   Result<Dictionary> r = parse_dictionary(bytes, "big.modrt");
   ASSERT_FALSE(r.ok());
@@ -392,7 +382,7 @@ TEST(DictionaryIo, OversizedSectionSize) {
 TEST(DictionaryIo, OffsetPastTheEnd) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
   const std::size_t i = find_section(bytes, DictionarySectionKind::Ubvol, 5);
-  wr64(bytes, entry_at(i) + 24, bytes.size() + 16);
+  put_u64(bytes, entry_at(i) + 24, bytes.size() + 16);
   reseal(bytes);
   Result<Dictionary> r = parse_dictionary(bytes, "off.modrt");
   ASSERT_FALSE(r.ok());
@@ -401,7 +391,7 @@ TEST(DictionaryIo, OffsetPastTheEnd) {
       << r.status().message();
   EXPECT_TRUE(contains(r.status().message(), "outside")) << r.status().message();
   // An offset that overflows offset + size.
-  wr64(bytes, entry_at(i) + 24, ~std::uint64_t(0) - 4);
+  put_u64(bytes, entry_at(i) + 24, ~std::uint64_t(0) - 4);
   reseal(bytes);
   r = parse_dictionary(bytes, "off.modrt");
   ASSERT_FALSE(r.ok());
@@ -411,9 +401,9 @@ TEST(DictionaryIo, OffsetPastTheEnd) {
 TEST(DictionaryIo, RowsTimesColsOverflowing32Bits) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
   const std::size_t i = find_section(bytes, DictionarySectionKind::Ub, 0);
-  wr32(bytes, entry_at(i) + 8, 0x10000u);
-  wr32(bytes, entry_at(i) + 12, 0x10001u);
-  wr64(bytes, entry_at(i) + 32, std::uint64_t(0x10000u) * 0x10001u * 4);
+  put_u32(bytes, entry_at(i) + 8, 0x10000u);
+  put_u32(bytes, entry_at(i) + 12, 0x10001u);
+  put_u64(bytes, entry_at(i) + 32, std::uint64_t(0x10000u) * 0x10001u * 4);
   reseal(bytes);
   Result<Dictionary> r = parse_dictionary(bytes, "dims.modrt");
   ASSERT_FALSE(r.ok());
@@ -422,9 +412,9 @@ TEST(DictionaryIo, RowsTimesColsOverflowing32Bits) {
                                                  " (Ub, shape 0 (closed)): is 65536x65537, expected 24x3"))
       << r.status().message();
   // Byte size consistent with 32-bit wrapped rows*cols: still refused.
-  wr32(bytes, entry_at(i) + 8, 0x10000u);
-  wr32(bytes, entry_at(i) + 12, 0x10000u);
-  wr64(bytes, entry_at(i) + 32, 0);
+  put_u32(bytes, entry_at(i) + 8, 0x10000u);
+  put_u32(bytes, entry_at(i) + 12, 0x10000u);
+  put_u64(bytes, entry_at(i) + 32, 0);
   reseal(bytes);
   EXPECT_FALSE(parse_dictionary(bytes, "dims.modrt").ok());
 }
@@ -433,7 +423,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   const std::vector<std::byte> good = serialized(make_dictionary());
   for (std::uint32_t kind : {7u, 24u, 99u, 0u}) {
     std::vector<std::byte> bytes = good;
-    wr32(bytes, entry_at(3), kind);
+    put_u32(bytes, entry_at(3), kind);
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "k.modrt");
     ASSERT_FALSE(r.ok());
@@ -444,7 +434,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   {  // Limp relabelled as a second Ub (same dimensions).
     std::vector<std::byte> bytes = good;
     const std::size_t i = find_section(bytes, DictionarySectionKind::Limp, 2);
-    wr32(bytes, entry_at(i), std::uint32_t(DictionarySectionKind::Ub));
+    put_u32(bytes, entry_at(i), std::uint32_t(DictionarySectionKind::Ub));
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "dup.modrt");
     ASSERT_FALSE(r.ok());
@@ -453,7 +443,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   }
   {  // Table shortened by one entry: the last section (Ur_vec) is missing.
     std::vector<std::byte> bytes = good;
-    wr32(bytes, kSectionCountAt, rd32(bytes, kSectionCountAt) - 1);
+    put_u32(bytes, kSectionCountAt, get_u32(bytes, kSectionCountAt) - 1);
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "short.modrt");
     ASSERT_FALSE(r.ok());
@@ -462,7 +452,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
   }
   {  // Hostile section count.
     std::vector<std::byte> bytes = good;
-    wr32(bytes, kSectionCountAt, 0xFFFFFFFFu);
+    put_u32(bytes, kSectionCountAt, 0xFFFFFFFFu);
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "many.modrt");
     ASSERT_FALSE(r.ok());
@@ -484,7 +474,7 @@ TEST(DictionaryIo, UnknownKindsDuplicatesAndMissingSections) {
 
 TEST(DictionaryIo, InvalidSettingsInTheHeader) {
   std::vector<std::byte> bytes = serialized(make_dictionary());
-  wr32(bytes, 16, 0);  // settings.res
+  put_u32(bytes, 16, 0);  // settings.res
   reseal(bytes);
   Result<Dictionary> r = parse_dictionary(bytes, "res0.modrt");
   ASSERT_FALSE(r.ok());
@@ -505,8 +495,8 @@ TEST(DictionaryIo, NanIsRefusedOnSaveAndOnLoad) {
   // Hand-made: a NaN in a payload with valid checksums.
   std::vector<std::byte> bytes = serialized(make_dictionary());
   const std::size_t i = find_section(bytes, DictionarySectionKind::Td_b, 2);
-  const std::size_t cols = rd32(bytes, entry_at(i) + 12);
-  wr32(bytes, std::size_t(rd64(bytes, entry_at(i) + 24)) + 4 * (1 * cols + 5), 0x7FC00000u);
+  const std::size_t cols = get_u32(bytes, entry_at(i) + 12);
+  put_u32(bytes, std::size_t(get_u64(bytes, entry_at(i) + 24)) + 4 * (1 * cols + 5), 0x7FC00000u);
   reseal(bytes);
   ASSERT_TRUE(write_file_atomic(dir.file("nan.modrt"), bytes).ok());
   Result<Dictionary> r = load_dictionary(dir.file("nan.modrt"));
@@ -517,7 +507,7 @@ TEST(DictionaryIo, NanIsRefusedOnSaveAndOnLoad) {
   // A float16 infinity is caught the same way.
   bytes = serialized(make_dictionary(), true);
   const std::size_t j = find_section(bytes, DictionarySectionKind::R_left, kNoShape);
-  const std::size_t at = std::size_t(rd64(bytes, entry_at(j) + 24));
+  const std::size_t at = std::size_t(get_u64(bytes, entry_at(j) + 24));
   bytes[at] = std::byte(0x00);
   bytes[at + 1] = std::byte(0xFC);  // -Inf in binary16
   reseal(bytes);
@@ -635,7 +625,7 @@ TEST(DictionaryIo, PokedOperatorIsRefusedNamingIt) {
   for (const float value : {std::numeric_limits<float>::max(), 1e6f}) {
     std::vector<std::byte> bytes = clean;
     const std::size_t e = entry_at(find_section(bytes, DictionarySectionKind::Ubvol, 3));
-    wr32(bytes, std::size_t(rd64(bytes, e + 24)) + 4 * 2, std::bit_cast<std::uint32_t>(value));
+    put_u32(bytes, std::size_t(get_u64(bytes, e + 24)) + 4 * 2, std::bit_cast<std::uint32_t>(value));
     reseal(bytes);
     Result<Dictionary> r = parse_dictionary(bytes, "poked.modrt");
     ASSERT_FALSE(r.ok());

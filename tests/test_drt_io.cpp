@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "binary_test_support.h"
 #include "drt_test_support.h"
 #include "modrt/drt_io.h"
 #include "modrt/file_io.h"
@@ -17,13 +18,8 @@
 namespace modrt::precompute::drt_test {
 namespace {
 
-void put_u32(std::vector<std::byte>& b, std::size_t at, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) b[at + std::size_t(i)] = std::byte((v >> (8 * i)) & 0xFFu);
-}
-void reseal(std::vector<std::byte>& b) {
-  put_u32(b, 56, crc32(std::span<const std::byte>(b).subspan(kDrtFileHeaderBytes)));
-  put_u32(b, 60, crc32(std::span<const std::byte>(b).first(60)));
-}
+using modrt::test::put_u32;
+void reseal(std::vector<std::byte>& b) { modrt::test::reseal_sealed_file(b); }
 
 void expect_same_matrix(const Matrix& a, const Matrix& b, const std::string& what) {
   EXPECT_EQ(a.rows, b.rows) << what;

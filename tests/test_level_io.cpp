@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "binary_test_support.h"
 #include "level_fixtures.h"
 #include "modrt/file_io.h"
 #include "modrt/level_io.h"
@@ -24,15 +25,8 @@ std::vector<std::byte> serialized(const Level& level) {
   return bytes.ok() ? bytes.value() : std::vector<std::byte>{};
 }
 
-void put_u32(std::vector<std::byte>& b, std::size_t at, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) b[at + std::size_t(i)] = std::byte((v >> (8 * i)) & 0xFFu);
-}
-
-// Recomputes both checksums, so a test can damage a field and reach the decoder's checks.
-void reseal(std::vector<std::byte>& b) {
-  put_u32(b, 56, crc32(std::span<const std::byte>(b).subspan(kLevelFileHeaderBytes)));
-  put_u32(b, 60, crc32(std::span<const std::byte>(b).first(60)));
-}
+using modrt::test::put_u32;
+void reseal(std::vector<std::byte>& b) { modrt::test::reseal_sealed_file(b); }
 
 constexpr std::size_t kAlbedoOffset = kLevelFileBlockAlbedoOffset;
 constexpr std::size_t kBlockBytes = kLevelFileBlockBytes;

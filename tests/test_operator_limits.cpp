@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "binary_test_support.h"
 #include "level_fixtures.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
@@ -25,17 +26,9 @@ namespace {
 
 std::string corpus(const std::string& name) { return std::string(MODRT_CORPUS_DIR) + "/" + name; }
 
-std::uint32_t get_u32(const std::vector<std::byte>& b, std::size_t at) {
-  std::uint32_t v = 0;
-  for (std::size_t i = 0; i < 4; ++i) v |= std::to_integer<std::uint32_t>(b[at + i]) << (8 * i);
-  return v;
-}
-std::uint64_t get_u64(const std::vector<std::byte>& b, std::size_t at) {
-  return std::uint64_t(get_u32(b, at)) | (std::uint64_t(get_u32(b, at + 4)) << 32);
-}
-void put_u32(std::vector<std::byte>& b, std::size_t at, std::uint32_t v) {
-  for (std::size_t i = 0; i < 4; ++i) b[at + i] = std::byte((v >> (8 * i)) & 0xFFu);
-}
+using modrt::test::get_u32;
+using modrt::test::get_u64;
+using modrt::test::put_u32;
 
 // Recomputes every CRC of a dictionary image: each section's, the table's, the header's.
 void reseal_dictionary(std::vector<std::byte>& bytes) {

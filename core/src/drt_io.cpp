@@ -7,15 +7,28 @@
 
 #include "binary_io.h"
 #include "modrt/file_io.h"
+#include "sealed_file.h"
 
 namespace modrt {
 namespace {
 
-using binary::header_u32;
 using binary::Reader;
 using binary::Writer;
 
-constexpr std::size_t kHeaderCrcOffset = 60;
+static_assert(kDrtFileHeaderBytes == binary::kSealedHeaderBytes);
+
+// Fields: kb, objects, probes per block, level blocks, level samples; offsets 36..44 reserved.
+binary::SealedFormat drt_file_format() {
+  binary::SealedFormat f;
+  f.magic = kDrtFileMagic;
+  f.kind = "modrt DRT operator file";
+  f.writer = "DRT operators";
+  f.version = kDrtFileVersion;
+  f.fields = 5;
+  f.max_file_bytes = kMaxDrtFileBytes;
+  f.rebuild = "rebuild the clutter operators (modrt-demo --save-clutter)";
+  return f;
+}
 
 // Every stored operator of an object, in file order: the one list that both the writer and
 // the reader walk, so the two cannot disagree.
@@ -121,27 +134,10 @@ Result<std::vector<std::byte>> serialize_drt(const DrtOperators& drt) {
     body.u32(o.face_count);
     visit_fields(o, FieldWriter{body});
   }
-  const std::uint64_t file_bytes = kDrtFileHeaderBytes + body.bytes.size();
-  if (file_bytes > kMaxDrtFileBytes)
-    return Status::error(ErrorCode::resource_limit,
-                         "DRT operators: the file would be " + std::to_string(file_bytes) +
-                             " bytes, more than the limit of " + std::to_string(kMaxDrtFileBytes));
-  Writer out;
-  out.bytes.reserve(file_bytes);
-  for (char c : kDrtFileMagic) out.bytes.push_back(std::byte(c));
-  out.u32(kDrtFileVersion);
-  out.u32(std::uint32_t(kDrtFileHeaderBytes));
-  out.u32(drt.kb);
-  out.u32(std::uint32_t(drt.objects.size()));
-  out.u32(drt.probes_per_block);
-  out.u32(drt.level_blocks);
-  out.u32(drt.level_samples);
-  for (int i = 0; i < 3; ++i) out.u32(0);
-  out.u64(body.bytes.size());
-  out.u32(crc32(body.bytes));
-  out.u32(crc32(std::span<const std::byte>(out.bytes).first(kHeaderCrcOffset)));
-  out.bytes.insert(out.bytes.end(), body.bytes.begin(), body.bytes.end());
-  return std::move(out.bytes);
+  return binary::seal(drt_file_format(),
+                      {drt.kb, std::uint32_t(drt.objects.size()), drt.probes_per_block, drt.level_blocks,
+                       drt.level_samples, 0, 0, 0},
+                      body.bytes);
 }
 
 Status save_drt(const std::string& path, const DrtOperators& drt) {
@@ -154,43 +150,18 @@ Result<DrtOperators> parse_drt(std::span<const std::byte> bytes, const std::stri
   auto error = [&](ErrorCode code, const std::string& problem) {
     return Status::error(code, what + ": " + problem);
   };
-  if (bytes.size() < kDrtFileHeaderBytes)
-    return error(ErrorCode::format_error, "file is " + std::to_string(bytes.size()) +
-                                              " bytes, shorter than the " +
-                                              std::to_string(kDrtFileHeaderBytes) + "-byte header");
-  if (std::memcmp(bytes.data(), kDrtFileMagic, sizeof kDrtFileMagic) != 0)
-    return error(ErrorCode::format_error, "not a modrt DRT operator file (bad magic; expected \"MODRTDRT\")");
-  if (const std::uint32_t version = header_u32(bytes, 8); version != kDrtFileVersion)
-    return error(ErrorCode::version_mismatch,
-                 "format version " + std::to_string(version) + ", this build reads " +
-                     std::to_string(kDrtFileVersion) +
-                     ": rebuild the clutter operators (modrt-demo --save-clutter)");
-  if (header_u32(bytes, 12) != kDrtFileHeaderBytes)
-    return error(ErrorCode::format_error, "header size " + std::to_string(header_u32(bytes, 12)) +
-                                              " is not " + std::to_string(kDrtFileHeaderBytes));
-  if (crc32(bytes.first(kHeaderCrcOffset)) != header_u32(bytes, kHeaderCrcOffset))
-    return error(ErrorCode::checksum_mismatch, "header checksum mismatch");
-  for (std::size_t at = 36; at < 48; at += 4)
-    if (header_u32(bytes, at) != 0)
-      return error(ErrorCode::format_error, "header field at offset " + std::to_string(at) +
-                                                " (reserved) is " + std::to_string(header_u32(bytes, at)) +
-                                                ", not 0");
-  const std::uint64_t body_bytes =
-      std::uint64_t(header_u32(bytes, 48)) | (std::uint64_t(header_u32(bytes, 52)) << 32);
-  if (body_bytes != bytes.size() - kDrtFileHeaderBytes)
-    return error(ErrorCode::format_error,
-                 "header says the body is " + std::to_string(body_bytes) + " bytes, the file holds " +
-                     std::to_string(bytes.size() - kDrtFileHeaderBytes) + " (truncated?)");
-  const std::span<const std::byte> body = bytes.subspan(kDrtFileHeaderBytes);
-  if (crc32(body) != header_u32(bytes, 56))
-    return error(ErrorCode::checksum_mismatch, "body checksum mismatch");
+  binary::SealedFields header{};
+  const Result<std::span<const std::byte>> sealed =
+      binary::open_sealed(drt_file_format(), bytes, what, header);
+  if (!sealed.ok()) return sealed.status();
+  const std::span<const std::byte> body = sealed.value();
 
   DrtOperators drt;
-  drt.kb = header_u32(bytes, 16);
-  const std::uint32_t objects = header_u32(bytes, 20);
-  drt.probes_per_block = header_u32(bytes, 24);
-  drt.level_blocks = header_u32(bytes, 28);
-  drt.level_samples = header_u32(bytes, 32);
+  drt.kb = header[0];
+  const std::uint32_t objects = header[1];
+  drt.probes_per_block = header[2];
+  drt.level_blocks = header[3];
+  drt.level_samples = header[4];
   Reader in(body, what);
   // A lower bound on an object's bytes: two counts and at least 4 bytes per field (29).
   if (in.fits("objects", objects, 8 + 4 * 29)) drt.objects.resize(objects);

@@ -9,13 +9,31 @@
 #include "binary_io.h"
 #include "modrt/file_io.h"
 #include "modrt/operator_limits.h"
+#include "sealed_file.h"
 
 namespace modrt {
 namespace {
 
-constexpr std::size_t kHeaderCrcOffset = 60;
+static_assert(kLevelFileHeaderBytes == binary::kSealedHeaderBytes);
 
-using binary::header_u32;
+const char* level_version_note(std::uint32_t version) {
+  return version == 1 ? " (version 1 has no per-face albedo)" : "";
+}
+
+// Fields: res, kb, kr, blocks, samples, slots, records; offset 44 reserved.
+binary::SealedFormat level_file_format() {
+  binary::SealedFormat f;
+  f.magic = kLevelFileMagic;
+  f.kind = "modrt level file";
+  f.writer = "level";
+  f.version = kLevelFileVersion;
+  f.fields = 7;
+  f.max_file_bytes = kMaxLevelFileBytes;
+  f.rebuild = "rebuild the level with modrt-level --save";
+  f.version_note = level_version_note;
+  return f;
+}
+
 using binary::kMaxMatrixDimension;
 using binary::Reader;
 using binary::Writer;
@@ -188,29 +206,11 @@ Result<std::vector<std::byte>> serialize_level(const Level& level) {
     body.u32(p.src);
   }
 
-  const std::uint64_t file_bytes = kLevelFileHeaderBytes + body.bytes.size();
-  if (file_bytes > kMaxLevelFileBytes)
-    return Status::error(ErrorCode::resource_limit, "level: the file would be " + std::to_string(file_bytes) +
-                                                        " bytes, more than the limit of " +
-                                                        std::to_string(kMaxLevelFileBytes));
-  Writer out;
-  out.bytes.reserve(file_bytes);
-  for (char c : kLevelFileMagic) out.bytes.push_back(std::byte(c));
-  out.u32(kLevelFileVersion);
-  out.u32(std::uint32_t(kLevelFileHeaderBytes));
-  out.u32(std::uint32_t(level.res));
-  out.u32(level.kb);
-  out.u32(level.kr);
-  out.u32(std::uint32_t(level.blocks.size()));
-  out.u32(level.sample_count);
-  out.u32(std::uint32_t(level.slots.size()));
-  out.u32(std::uint32_t(level.records.size()));
-  out.u32(0);
-  out.u64(body.bytes.size());
-  out.u32(crc32(body.bytes));
-  out.u32(crc32(std::span<const std::byte>(out.bytes).first(kHeaderCrcOffset)));
-  out.bytes.insert(out.bytes.end(), body.bytes.begin(), body.bytes.end());
-  return std::move(out.bytes);
+  return binary::seal(
+      level_file_format(),
+      {std::uint32_t(level.res), level.kb, level.kr, std::uint32_t(level.blocks.size()), level.sample_count,
+       std::uint32_t(level.slots.size()), std::uint32_t(level.records.size()), 0},
+      body.bytes);
 }
 
 Status save_level(const std::string& path, const Level& level) {
@@ -223,46 +223,20 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
   auto error = [&](ErrorCode code, const std::string& problem) {
     return Status::error(code, what + ": " + problem);
   };
-  if (bytes.size() < kLevelFileHeaderBytes)
-    return error(ErrorCode::format_error, "file is " + std::to_string(bytes.size()) +
-                                              " bytes, shorter than the " +
-                                              std::to_string(kLevelFileHeaderBytes) + "-byte header");
-  if (std::memcmp(bytes.data(), kLevelFileMagic, sizeof kLevelFileMagic) != 0)
-    return error(ErrorCode::format_error, "not a modrt level file (bad magic; expected \"MODRTLVL\")");
-  const std::uint32_t version = header_u32(bytes, 8);
-  if (version != kLevelFileVersion)
-    return error(ErrorCode::version_mismatch,
-                 "format version " + std::to_string(version) + ", this build reads " +
-                     std::to_string(kLevelFileVersion) +
-                     (version == 1 ? " (version 1 has no per-face albedo)" : "") +
-                     ": rebuild the level with modrt-level --save");
-  if (header_u32(bytes, 12) != kLevelFileHeaderBytes)
-    return error(ErrorCode::format_error, "header size " + std::to_string(header_u32(bytes, 12)) +
-                                              " is not " + std::to_string(kLevelFileHeaderBytes));
-  if (crc32(bytes.first(kHeaderCrcOffset)) != header_u32(bytes, kHeaderCrcOffset))
-    return error(ErrorCode::checksum_mismatch, "header checksum mismatch");
-  // One encoding per level: the reserved field must be what the writer writes.
-  if (header_u32(bytes, 44) != 0)
-    return error(ErrorCode::format_error, "header field at offset 44 (reserved) is " +
-                                              std::to_string(header_u32(bytes, 44)) + ", not 0");
-  const std::uint64_t body_bytes =
-      std::uint64_t(header_u32(bytes, 48)) | (std::uint64_t(header_u32(bytes, 52)) << 32);
-  if (body_bytes != bytes.size() - kLevelFileHeaderBytes)
-    return error(ErrorCode::format_error,
-                 "header says the body is " + std::to_string(body_bytes) + " bytes, the file holds " +
-                     std::to_string(bytes.size() - kLevelFileHeaderBytes) + " (truncated?)");
-  const std::span<const std::byte> body_span = bytes.subspan(kLevelFileHeaderBytes);
-  if (crc32(body_span) != header_u32(bytes, 56))
-    return error(ErrorCode::checksum_mismatch, "body checksum mismatch");
+  binary::SealedFields header{};
+  const Result<std::span<const std::byte>> body =
+      binary::open_sealed(level_file_format(), bytes, what, header);
+  if (!body.ok()) return body.status();
+  const std::span<const std::byte> body_span = body.value();
 
   Level level;
-  level.res = int(header_u32(bytes, 16));
-  level.kb = header_u32(bytes, 20);
-  level.kr = header_u32(bytes, 24);
-  const std::uint32_t block_count = header_u32(bytes, 28);
-  level.sample_count = header_u32(bytes, 32);
-  const std::uint32_t slot_count = header_u32(bytes, 36);
-  const std::uint32_t record_count = header_u32(bytes, 40);
+  level.res = int(header[0]);
+  level.kb = header[1];
+  level.kr = header[2];
+  const std::uint32_t block_count = header[3];
+  level.sample_count = header[4];
+  const std::uint32_t slot_count = header[5];
+  const std::uint32_t record_count = header[6];
   if (level.res > 4096 || level.kb > kMaxMatrixDimension || level.kr > kMaxMatrixDimension)
     return error(ErrorCode::format_error, "res " + std::to_string(level.res) + ", kb " +
                                               std::to_string(level.kb) + " or kr " +

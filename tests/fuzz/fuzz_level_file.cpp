@@ -12,14 +12,11 @@
 #include <span>
 #include <vector>
 
+#include "binary_test_support.h"
 #include "modrt/file_io.h"
 #include "modrt/level_io.h"
 
 namespace {
-
-void put_u32(std::vector<std::byte>& b, std::size_t at, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) b[at + std::size_t(i)] = std::byte((v >> (8 * i)) & 0xFFu);
-}
 
 void check(std::span<const std::byte> bytes) {
   using namespace modrt;
@@ -39,11 +36,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   check(bytes);
   if (size < kLevelFileHeaderBytes) return 0;
   std::vector<std::byte> sealed(bytes.begin(), bytes.end());
-  const std::uint64_t body = size - kLevelFileHeaderBytes;
-  put_u32(sealed, 48, std::uint32_t(body));
-  put_u32(sealed, 52, std::uint32_t(body >> 32));
-  put_u32(sealed, 56, crc32(std::span<const std::byte>(sealed).subspan(kLevelFileHeaderBytes)));
-  put_u32(sealed, 60, crc32(std::span<const std::byte>(sealed).first(60)));
+  test::put_sealed_body_size(sealed);
+  test::reseal_sealed_file(sealed);
   check(sealed);
   return 0;
 }
