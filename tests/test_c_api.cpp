@@ -1188,6 +1188,111 @@ TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
 // The probe volume as a GL texture (world frame, for GPU sampling): no readback in the update or
 // in the call; its texels are read_probes' radiance (relative L2 <= 1e-6: the same rotation in
 // float on the GPU, in double on the CPU); the level has turned blocks, so the rotation is tested.
+// set_light_gpu: the GPU pass (gles::GlesDirectLight) gives the lightmap set_lights gives for
+// the same unshadowed point and spot light, the updates read its texture without a readback,
+// set_albedo reaches it, and bad input is refused naming the field with the ld source kept.
+TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
+  Result<std::unique_ptr<platform::GlContext>> context =
+      platform::create_context(platform::ContextRequest::egl_surfaceless);
+  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
+  ASSERT_NE(get_proc, nullptr);
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.gl_loader = counting_loader;
+  o.gl_loader_user = get_proc;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  modrt_level_info info = modrt::rt::sized<modrt_level_info>();
+  ASSERT_EQ(modrt_level_get_info(l, &info), MODRT_OK) << modrt_last_error();
+  modrt_light light;
+  modrt_light_init(&light);
+  for (int a = 0; a < 3; ++a) light.position[a] = 0.5f * (info.bounds_min[a] + info.bounds_max[a]);
+  light.color[1] = 0.6f;
+  light.intensity = 2.0f;
+  light.radius = 0.2f;  // above every block's texel floor, so both clamp 1/d^2 alike
+  light.shadows = 0;    // set_lights would shadow by the proxy walls, the GPU pass only by a shadow map
+  auto lightmap_of = [&](bool gpu) {
+    g_read_pixels = 0;
+    EXPECT_EQ(gpu ? modrt_context_set_light_gpu(c, &light, nullptr) : modrt_context_set_lights(c, &light, 1),
+              MODRT_OK)
+        << modrt_last_error();
+    EXPECT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+    if (gpu) {
+      EXPECT_EQ(g_read_pixels.load(), 0) << "the GPU light's frame read back";
+    }
+    return read_lightmap(c);
+  };
+  const std::vector<float> point_gpu = lightmap_of(true), point_cpu = lightmap_of(false);
+  EXPECT_GT(*std::max_element(point_cpu.begin(), point_cpu.end()), 0.0f);
+  // The same light model in float on both sides: rounding only.
+  EXPECT_LT(rel_l2(point_gpu, point_cpu), 1e-4);
+  light.type = MODRT_LIGHT_SPOT;
+  light.direction[0] = 0.3f;  // not normalised: both normalise it
+  light.inner_angle = 0.5f, light.outer_angle = 0.9f;
+  const std::vector<float> spot_gpu = lightmap_of(true), spot_cpu = lightmap_of(false);
+  EXPECT_LT(rel_l2(spot_gpu, spot_cpu), 1e-4);
+  EXPECT_GT(rel_l2(spot_gpu, point_gpu), 0.05);  // the cone matters
+  // A new albedo reaches the GPU pass: half the albedo, half the direct light of the first bounce.
+  std::vector<float> half = t.albedo;
+  for (float& a : half) a *= 0.5f;
+  ASSERT_EQ(modrt_context_set_albedo(c, half.data(), half.size()), MODRT_OK) << modrt_last_error();
+  std::vector<float> spot_half = lightmap_of(true);
+  for (float& v : spot_half) v *= 2.0f;
+  EXPECT_LT(rel_l2(spot_half, spot_gpu), 1e-4);
+  std::printf("  GPU vs CPU light: point rel L2 %.2e, spot %.2e; half albedo %.2e\n",
+              rel_l2(point_gpu, point_cpu), rel_l2(spot_gpu, spot_cpu), rel_l2(spot_half, spot_gpu));
+
+  // Bad input: refused, naming the field; the ld source stays set_light_gpu's texture.
+  const std::vector<float> before = read_lightmap(c);
+  modrt_light bad = light;
+  bad.type = MODRT_LIGHT_DIRECTIONAL;
+  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_context_set_light_gpu", "light.type", "point and spot"});
+  bad = light;
+  bad.position[1] = std::numeric_limits<float>::quiet_NaN();
+  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"position"});
+  bad = light;
+  bad.outer_angle = 4.0f;
+  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"outer_angle"});
+  bad.struct_size = 0;
+  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"light.struct_size is 0"});
+  expect_error(modrt_context_set_light_gpu(c, nullptr, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"light"});
+  modrt_shadow_cube shadow;
+  modrt_shadow_cube_init(&shadow);
+  EXPECT_EQ(shadow.struct_size, sizeof shadow);
+  shadow.texture = 987654;
+  expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT,
+               {"shadow.texture 987654", "not a texture name"});
+  shadow.texture = 0;
+  shadow.near_plane = 0.0f;
+  expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT, {"near_plane"});
+  shadow.struct_size = 0;
+  expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT,
+               {"shadow.struct_size is 0"});
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(read_lightmap(c), before);
+  // Without a shadow map (texture 0 in a valid modrt_shadow_cube): unshadowed, as with null.
+  modrt_shadow_cube_init(&shadow);
+  ASSERT_EQ(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(read_lightmap(c), before);
+  modrt_context_destroy(c);
+
+  o.backend = MODRT_BACKEND_CPU;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_set_light_gpu(c, &light, nullptr), MODRT_ERROR_UNSUPPORTED,
+               {"CPU context", "modrt_context_set_lights"});
+  modrt_context_destroy(c);
+  modrt_dictionary_destroy(d);
+  modrt_level_destroy(l);
+}
+
 TEST(CApiGles, ProbeTextureIsTheWorldFrameVolumeWithoutReadback) {
   Result<std::unique_ptr<platform::GlContext>> context =
       platform::create_context(platform::ContextRequest::egl_surfaceless);

@@ -20,6 +20,7 @@
 #include "modrt/operator_limits.h"
 #include "modrt/probe_sampler.h"
 #if MODRT_RUNTIME_GLES
+#include "modrt/gles/gles_direct_light.h"
 #include "modrt/platform/gl_functions.h"
 #endif
 
@@ -49,6 +50,10 @@ struct modrt_context {
   // The backend from the creator table (modrt/backends.h) and the frame sequence over it.
   std::unique_ptr<Backend> backend;
   std::optional<FramePipeline> pipeline;
+#if MODRT_RUNTIME_GLES
+  // set_light_gpu's pass, made on its first call and again after set_albedo.
+  std::unique_ptr<gles::GlesDirectLight> gpu_direct;
+#endif
   std::optional<cpu::CpuDirectLight> direct;
   ProbeSampler sampler;
 
@@ -431,6 +436,13 @@ modrt_status modrt_context_set_albedo(modrt_context* context, const float* albed
     if (Status s = context->direct->set_albedo(a); !s.ok())  // cannot fail after the feedback's check
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     std::copy(a.begin(), a.end(), context->albedo.begin());
+#if MODRT_RUNTIME_GLES
+    if (context->gpu_direct) {  // its sample images hold the old albedo: made again on the next call
+      BackendCall call(context);
+      if (context->ld_texture == context->gpu_direct->ld_texture()) context->ld_texture = 0;
+      context->gpu_direct.reset();
+    }
+#endif
     return MODRT_OK;
   });
 }
@@ -444,6 +456,25 @@ modrt_status modrt_context_read_albedo(const modrt_context* context, float* out,
     std::copy(context->albedo.begin(), context->albedo.end(), out);
     return MODRT_OK;
   });
+}
+
+// A modrt_light (its struct_size checked by the caller) as modrt::cpu's light; fails for an
+// unknown type, naming light `index`.
+static modrt_status to_cpu_light(const char* fn, std::size_t index, const modrt_light& in, cpu::CpuLight& l) {
+  const int type = c_enum_value(in.type);
+  if (type != MODRT_LIGHT_POINT && type != MODRT_LIGHT_SPOT && type != MODRT_LIGHT_DIRECTIONAL)
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": light " + std::to_string(index) +
+                                                  ": unknown type " + std::to_string(type));
+  l.type = cpu::LightType(std::uint8_t(type));
+  l.position = glm::vec3(in.position[0], in.position[1], in.position[2]);
+  l.direction = glm::vec3(in.direction[0], in.direction[1], in.direction[2]);
+  l.color = glm::vec3(in.color[0], in.color[1], in.color[2]);
+  l.intensity = in.intensity;
+  l.radius = in.radius;
+  l.inner_angle = in.inner_angle;
+  l.outer_angle = in.outer_angle;
+  l.shadows = in.shadows != 0;
+  return MODRT_OK;
 }
 
 modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light* lights, size_t count) {
@@ -463,19 +494,7 @@ modrt_status modrt_context_set_lights(modrt_context* context, const modrt_light*
           st != MODRT_OK)
         return st;
       cpu::CpuLight l;
-      const int type = c_enum_value(in.type);
-      if (type != MODRT_LIGHT_POINT && type != MODRT_LIGHT_SPOT && type != MODRT_LIGHT_DIRECTIONAL)
-        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": light " + std::to_string(i) +
-                                                      ": unknown type " + std::to_string(type));
-      l.type = cpu::LightType(std::uint8_t(type));
-      l.position = glm::vec3(in.position[0], in.position[1], in.position[2]);
-      l.direction = glm::vec3(in.direction[0], in.direction[1], in.direction[2]);
-      l.color = glm::vec3(in.color[0], in.color[1], in.color[2]);
-      l.intensity = in.intensity;
-      l.radius = in.radius;
-      l.inner_angle = in.inner_angle;
-      l.outer_angle = in.outer_angle;
-      l.shadows = in.shadows != 0;
+      if (modrt_status st = to_cpu_light(fn, i, in, l); st != MODRT_OK) return st;
       context->lights.push_back(l);
     }
     const Clock::time_point t0 = Clock::now();
@@ -524,6 +543,80 @@ modrt_status modrt_context_set_ld_texture(modrt_context* context, uint32_t textu
 #endif
     context->ld_texture = texture;
     return MODRT_OK;
+  });
+}
+
+void modrt_shadow_cube_init(modrt_shadow_cube* shadow) {
+  if (!shadow) return;
+  *shadow = modrt_shadow_cube{};
+  shadow->struct_size = sizeof(modrt_shadow_cube);
+  shadow->near_plane = 0.01f;
+  shadow->far_plane = 30.0f;
+}
+
+modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_light* light,
+                                         const modrt_shadow_cube* shadow) {
+  constexpr const char* fn = "modrt_context_set_light_gpu";
+  if (!context) return null_arg(fn, "context");
+  if (!light) return null_arg(fn, "light");
+  return guarded(fn, [&]() -> modrt_status {
+    if (!context->is_gles())
+      return fail(
+          MODRT_ERROR_UNSUPPORTED,
+          std::string(fn) + ": a CPU context evaluates lights on the CPU: use modrt_context_set_lights");
+#if MODRT_RUNTIME_GLES
+    if (modrt_status st = check_struct_size(fn, "light", *light, "modrt_light", "modrt_light_init");
+        st != MODRT_OK)
+      return st;
+    cpu::CpuLight l;
+    if (modrt_status st = to_cpu_light(fn, 0, *light, l); st != MODRT_OK) return st;
+    if (l.type == cpu::LightType::directional)
+      return fail(
+          MODRT_ERROR_UNSUPPORTED,
+          std::string(fn) + ": light.type: the GPU pass has point and spot lights only (use set_lights)");
+    if (Status s = cpu::CpuDirectLight::check_light(0, l); !s.ok())
+      return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    gles::GpuShadowCube cube;
+    if (shadow) {
+      if (modrt_status st =
+              check_struct_size(fn, "shadow", *shadow, "modrt_shadow_cube", "modrt_shadow_cube_init");
+          st != MODRT_OK)
+        return st;
+      if (shadow->texture != 0 && context->gl.glIsTexture(shadow->texture) != GL_TRUE)
+        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.texture " +
+                                                      std::to_string(shadow->texture) +
+                                                      " is not a texture name of the current GL context");
+      if (!(std::isfinite(shadow->near_plane) && std::isfinite(shadow->far_plane) &&
+            shadow->near_plane > 0.0f && shadow->far_plane > shadow->near_plane))
+        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.near_plane " +
+                                                      std::to_string(shadow->near_plane) + " and far_plane " +
+                                                      std::to_string(shadow->far_plane) +
+                                                      " must be finite, 0 < near < far");
+      cube = {shadow->texture, shadow->near_plane, shadow->far_plane};
+    }
+    gles::GpuLight g;
+    g.position = l.position;
+    g.rgb = l.color * l.intensity;
+    g.radius = l.radius;
+    if (l.type == cpu::LightType::spot) {
+      g.spot_direction = glm::normalize(l.direction);
+      g.spot_inner = l.inner_angle;
+      g.spot_outer = l.outer_angle;
+    }
+    BackendCall call(context);
+    if (!context->gpu_direct) {
+      Result<std::unique_ptr<gles::GlesDirectLight>> made = gles::GlesDirectLight::create(
+          context->gl, context->lv(), {context->albedo.data(), context->albedo.size()});
+      if (!made.ok()) return backend_fail(context, fn, made.status());
+      context->gpu_direct = std::move(made).value();
+    }
+    if (Status s = context->gpu_direct->render(g, cube); !s.ok()) return backend_fail(context, fn, s);
+    context->ld_texture = context->gpu_direct->ld_texture();
+    return MODRT_OK;
+#else
+    (void)shadow;
+    return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": this library was built without GLES");
+#endif
   });
 }
 

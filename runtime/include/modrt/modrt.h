@@ -302,6 +302,28 @@ MODRT_API modrt_status modrt_context_set_ld_texture(modrt_context* context, uint
 /* The size of that texture: width = the layout's row length, height = rows. GLES only. */
 MODRT_API modrt_status modrt_context_get_ld_layout(const modrt_context* context, uint32_t* width,
                                                    uint32_t* height);
+/* A cube shadow map of a light, for modrt_context_set_light_gpu: a GL_TEXTURE_CUBE_MAP depth
+ * texture of the context's GL context with GL_TEXTURE_COMPARE_MODE GL_COMPARE_REF_TO_TEXTURE,
+ * face f a 90-degree perspective projection from the light position along the GL cube-map face
+ * axes (+x, -x, +y, -y, +z, -z) with these near and far planes. */
+typedef struct modrt_shadow_cube {
+  uint32_t struct_size;        /* sizeof(modrt_shadow_cube): set by modrt_shadow_cube_init */
+  uint32_t texture;            /* 0: no shadows */
+  float near_plane, far_plane; /* 0 < near < far, finite */
+} modrt_shadow_cube;
+/* Defaults: no texture, near 0.01, far 30. */
+MODRT_API void modrt_shadow_cube_init(modrt_shadow_cube* shadow);
+
+/* GLES (since 0.3): ld of one point or spot light evaluated at the proxy samples on the GPU
+ * (one full-screen pass, gles::GlesDirectLight: the light model of set_lights, with the
+ * context's albedo), shadowed by `shadow` when it is not null and names a texture, and read by
+ * the following updates as a set_ld_texture texture of the context: nothing is read back or
+ * uploaded. Without a shadow map nothing is shadowed (set_lights shadows by the proxy walls).
+ * The light is checked as set_lights checks it (the error names the field); a directional
+ * light is MODRT_ERROR_UNSUPPORTED. On failure the previous ld source stays. CPU contexts:
+ * MODRT_ERROR_UNSUPPORTED (use set_lights). */
+MODRT_API modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_light* light,
+                                                   const modrt_shadow_cube* shadow);
 /* Copies the ld the next update will use (sizes.ld floats): set_ld's, or set_lights' result.
  * Fails while the ld comes from a texture (set_ld_texture). */
 MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count);

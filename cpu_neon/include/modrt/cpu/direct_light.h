@@ -138,6 +138,13 @@ class CpuDirectLight {
   // wrong ld size; then nothing is written and the next call compares against the last good one.
   Status evaluate(std::span<const CpuLight> lights, std::span<float> ld);
 
+  // The checks evaluate() makes of light `index` (the error names the index and field), for a
+  // caller that evaluates the light elsewhere, such as the GPU pass (gles::GlesDirectLight).
+  static Status check_light(std::size_t index, const CpuLight& light) {
+    Prepared unused;
+    return prepare_light(index, light, unused);
+  }
+
   // Replaces the albedo (same checks as create()); the next evaluate() recomputes every block.
   Status set_albedo(std::span<const float> albedo);
   // The next evaluate() recomputes every block (the caller changed the ld buffer).
