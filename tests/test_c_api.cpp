@@ -526,21 +526,23 @@ TEST(CApi, SkipCountersAndTimings) {
   EXPECT_EQ(k.frames, 2u);
   EXPECT_EQ(k.blocks_computed + k.blocks_kept, 2 * blocks);
   EXPECT_EQ(k.blocks_kept, blocks - 1 - dark);
-  // The same ld again: every tile is kept.
+  EXPECT_EQ(k.frames_skipped, 0u);
+  modrt_timings tm = modrt::rt::sized<modrt_timings>();
+  ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
+  EXPECT_GT(tm.update_ns, 0u);
+  EXPECT_GT(tm.lightmap_ns, 0u);
+  EXPECT_GE(tm.update_ns, tm.lightmap_ns + tm.atlas_ns + tm.probes_ns);
+  // The same ld again: every tile is kept, and the frame is a skipped one (nothing recomputed).
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   modrt_skip_stats k3 = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k3), MODRT_OK);
   EXPECT_EQ(k3.tiles_kept - k.tiles_kept, blocks);
   EXPECT_EQ(k3.blocks_kept - k.blocks_kept, blocks - dark);
   EXPECT_EQ(k3.slots_kept - k.slots_kept, t.level.slots.size());
+  EXPECT_EQ(k3.frames_skipped, 1u);
   // Exact: the skipping result equals the full evaluation.
   const test::LevelReference ref = level_reference(t.level, ld);
   EXPECT_LT(rel_l2(read_lightmap(c), ref.lightmap), 1e-5);
-  modrt_timings tm = modrt::rt::sized<modrt_timings>();
-  ASSERT_EQ(modrt_context_get_timings(c, &tm), MODRT_OK);
-  EXPECT_GT(tm.update_ns, 0u);
-  EXPECT_GT(tm.lightmap_ns, 0u);
-  EXPECT_GE(tm.update_ns, tm.lightmap_ns + tm.atlas_ns + tm.probes_ns);
   modrt_context_destroy(c);
   modrt_dictionary_destroy(d);
   modrt_level_destroy(l);

@@ -41,6 +41,13 @@ class CpuBackend final : public Backend {
     }
     if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
     stage(times_.lightmap, t0);
+    // Skipping left every b, r and tile as it was (a repeated ld): the atlas and probes on hand
+    // are this frame's, so nothing more runs (Backend's evaluations_skipped, as GLES).
+    if (updated_ && rt_.skip_options().enabled && rt_.skip_stats().tiles_written == 0) {
+      count_evaluation();
+      ++evaluations_.evaluations_skipped;
+      return Status::success();
+    }
     return finish();
   }
   std::span<const float> output_data(BackendOutput output) const override {

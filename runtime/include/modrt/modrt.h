@@ -415,8 +415,8 @@ MODRT_API modrt_status modrt_context_get_timings(const modrt_context* context, m
 typedef struct modrt_skip_stats {
   uint32_t struct_size;     /* set by the caller: sizeof(modrt_skip_stats) */
   uint64_t frames;          /* successful updates */
-  uint64_t frames_skipped;  /* nothing ran: GLES: ld identical to the last update; with
-                               bounces (CPU and GLES): ld and albedo identical */
+  uint64_t frames_skipped;  /* nothing was recomputed: ld identical to the last update (with
+                               bounces: ld and albedo identical) */
   uint64_t blocks_computed; /* b evaluated */
   uint64_t blocks_kept;
   uint64_t slots_computed; /* slots whose r was evaluated */
