@@ -3,7 +3,7 @@
 // .modrtdrt image loaded from memory and from a file; a CPU context against the C++ CPU
 // backend with the same operators (bit-identical: the same backend behind the same frame
 // pipeline), with and without bounces; a GLES context against the CPU one (relative L2 1e-4,
-// float32 targets, as test_gles_drt); the texels' geometry against core's
+// float32 targets, as test_backend_conformance); the texels' geometry against core's
 // clutter_texel_geometry (float rounding); and bad input refused naming the argument, with
 // nothing changed.
 #include <gtest/gtest.h>

@@ -3,7 +3,8 @@
 // c = Td_c clutter_ld, lightmap += dUb b + dUc c, the clutter lightmap Uc Vc b + direct and its
 // clutter-to-clutter light Cc c, every ISA this CPU (or qemu) supports, within 1e-5 relative L2;
 // the rows of overlapping objects merged (four pillars) and still equal to the reference; no
-// clutter costs nothing.
+// clutter costs nothing. The CPU backend's DRT stages through Backend (deltas in every output,
+// the clutter lightmap never negative, the feedback): test_backend_conformance.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -323,24 +324,8 @@ TEST(CpuDrt, ClutterVectorLightmapMatchesScalarReferenceForEveryIsa) {
     std::vector<float> short_out(sizes.clutter_vector_lightmap - 1);
     EXPECT_EQ(rt->clutter_vector_lightmap(b, c, short_out).code(), ErrorCode::invalid_argument);
   }
-  // Through the backend: the b of its update and the c of its clutter light.
-  Result<std::unique_ptr<Backend>> created = create_cpu_backend(f.level, dict());
-  ASSERT_TRUE(created.ok()) << created.status().to_string();
-  Backend* be = created.value().get();
-  std::vector<float> out(sizes.clutter_vector_lightmap);
-  EXPECT_EQ(be->read_clutter_vector_lightmap(out).code(), ErrorCode::invalid_argument);  // no clutter
-  ASSERT_TRUE(be->set_clutter(&f.drt).ok());
-  const std::vector<float> ld = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
-  const std::vector<float> clutter_ld = random_vector(rng, sizes.clutter_ld, 0.0f, 1.0f);
-  ASSERT_TRUE(be->set_clutter_light(clutter_ld, {}).ok());
-  ASSERT_TRUE(be->update(ld).ok());
-  ASSERT_TRUE(be->read_clutter_vector_lightmap(out).ok());
-  const LevelBufferSizes ls = level_buffer_sizes(f.level, dict());
-  std::vector<float> rb(ls.b), rr(ls.r), lm(ls.lightmap), rc(sizes.c);
-  ASSERT_TRUE(level_evaluate(f.level, dict(), ld, rb, rr, lm).ok());
-  ASSERT_TRUE(drt_compute_c(f.drt, clutter_ld, rc).ok());
-  drt_clutter_vector_lightmap(f.drt, rb, rc, ref);
-  EXPECT_LE(compare(out, ref).rel_l2, 1e-5);
+  // Through the backend (the b of its update, the c of its clutter light):
+  // test_backend_conformance's ClutterVectorLightmapMatchesCore.
 }
 
 TEST(CpuDrt, ProbesAreLeftAsTheyAreWithoutUdyn) {
@@ -361,44 +346,6 @@ TEST(CpuDrt, ProbesAreLeftAsTheyAreWithoutUdyn) {
   EXPECT_EQ(probes, before);
   EXPECT_EQ(rt->apply_probes(b, std::vector<float>(c.size() + 1), probes).code(),
             ErrorCode::invalid_argument);
-}
-
-// The clutter lightmap is a lightmap: never negative (issue 18 item 7, core's
-// drt_evaluate_clutter_lightmap). Cb b is low rank and can ring below zero; here its modes are
-// negated (Uc -> -Uc), so most texels of Cb b are negative (asserted, so the test can fail),
-// and the backend must return max(Cb b + Cc c + direct, 0), the clamped scalar reference.
-TEST(CpuDrt, ClutterLightmapIsNeverNegative) {
-  const DrtFixture& f = fixture();
-  DrtOperators negated = f.drt;
-  for (DrtObjectOperators& o : negated.objects)
-    for (float& v : o.Uc.data) v = -v;
-  const DrtBufferSizes sizes = drt_buffer_sizes(negated);
-  std::mt19937 rng(5);
-  const std::vector<float> ld = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
-  const std::vector<float> clutter_ld = random_vector(rng, sizes.clutter_ld, 0.0f, 1.0f);
-  Result<std::unique_ptr<Backend>> created = create_cpu_backend(f.level, dict());
-  ASSERT_TRUE(created.ok()) << created.status().to_string();
-  Backend& be = *created.value();
-  ASSERT_TRUE(be.set_clutter(&negated).ok());
-  ASSERT_TRUE(be.set_clutter_light(clutter_ld, {}).ok());
-  ASSERT_TRUE(be.update(ld).ok());
-  std::vector<float> out(sizes.clutter_lightmap);
-  ASSERT_TRUE(be.read_clutter_lightmap(out).ok());
-
-  const LevelBufferSizes ls = level_buffer_sizes(f.level, dict());
-  std::vector<float> rb(ls.b), rr(ls.r), lm(ls.lightmap), rc(sizes.c), raw(sizes.clutter_lightmap),
-      ref(sizes.clutter_lightmap);
-  ASSERT_TRUE(level_evaluate(f.level, dict(), ld, rb, rr, lm).ok());
-  ASSERT_TRUE(drt_compute_c(negated, clutter_ld, rc).ok());
-  drt_clutter_lightmap(negated, rb, {}, raw);
-  drt_clutter_add_cc(negated, rc, raw);
-  std::size_t negative = 0;
-  for (float v : raw) negative += v < 0.0f;
-  ASSERT_GT(negative, raw.size() / 4) << "the negated operators should ring negative";
-  drt_evaluate_clutter_lightmap(negated, rb, rc, {}, ref);
-  for (float v : ref) ASSERT_GE(v, 0.0f);
-  for (float v : out) ASSERT_GE(v, 0.0f);
-  EXPECT_LE(compare(out, ref).rel_l2, 1e-5);
 }
 
 TEST(CpuDrt, NoClutterCostsNothingAndBadSizesAreRefused) {

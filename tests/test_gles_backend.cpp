@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: MIT
-// GLES backend conformance (gles/): the lightmaps, atlas, b, r, probes and vector irradiance
-// read back from the fragment-shader passes equal core's scalar reference, for a single
-// block, a corridor and the 11- and 41-block mazes, with and without multi-bounce, under BOTH Mesa contexts
-// this machine offers (EGL surfaceless GLES 3.2 and OSMesa GL 4.5 core running the ES 3.0 shaders), and
-// through EGL device (a GPU where there is one, else Mesa's software device). Tolerances (relative L2 over
-// all values): 1e-4 for float32 and bits32 targets, 2e-3 for float16 targets or float16 operators. A context
-// kind that cannot be created is skipped with the reason printed.
+// What only the GLES backend (gles/) has, under every GL context kind (EGL surfaceless GLES 3.2,
+// OSMesa GL 4.5 core running the ES 3.0 shaders, EGL device: a GPU where there is one, else
+// Mesa's software device; a kind that cannot be created is skipped with the reason): b and r
+// read back against core's scalar reference, partial passes (partial_fraction) bit-identical to
+// the full path, with and without clutter, the GPU-side guard of the fed-back light, the
+// vector-irradiance and probe options, shader errors and pass timers. Every output every
+// backend has is checked through Backend by test_backend_conformance.cpp. Tolerances (relative
+// L2): 1e-4 for float32 and bits32 targets, 2e-3 for float16 targets or float16 operators.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,10 +18,10 @@
 #include <string>
 #include <vector>
 
+#include "drt_backend_fixture.h"
 #include "gl_objects.h"
 #include "gl_test_context.h"
 #include "level_fixtures.h"
-#include "modrt/cpu/cpu_backend.h"
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
 #include "modrt/platform/gl_context.h"
@@ -76,135 +77,27 @@ const FormatCase kFormats[] = {
     {TargetFormat::float32, OperatorFormat::float16, kFloat16Tolerance},
 };
 
-TEST_P(GlesBackend, UpdateMatchesScalarReference) {
+// b and r, which stay inside the backend (read_b / read_r, GLES only): every output built from
+// them is checked through Backend by test_backend_conformance.cpp.
+TEST_P(GlesBackend, BAndRMatchScalarReference) {
   for (const TestLevel& t : test_levels()) {
     const Reference ref = level_reference(t.level, t.ld);
     for (const FormatCase& f : kFormats) {
-      std::unique_ptr<GlesLevelRuntime> rt =
-          make(t.level, {.target = f.target, .operators = f.operators, .vector_irradiance = true});
+      std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {.target = f.target, .operators = f.operators});
       ASSERT_TRUE(rt);
-      const LevelBufferSizes& s = rt->sizes();
-      std::vector<float> b(s.b), r(s.r), lightmap(s.lightmap), atlas(s.atlas), probes(s.probes),
-          vec(s.vector_lightmap);
-      for (int frame = 0; frame < 2; ++frame) {
-        const Status st = rt->update(t.ld);
-        ASSERT_TRUE(st.ok()) << st.to_string();
-      }
+      std::vector<float> b(rt->sizes().b), r(rt->sizes().r);
+      ASSERT_TRUE(rt->update(t.ld).ok());
       ASSERT_TRUE(rt->read_b(b).ok());
       ASSERT_TRUE(rt->read_r(r).ok());
-      ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
-      ASSERT_TRUE(rt->read_atlas(atlas).ok());
-      ASSERT_TRUE(rt->read_probes(probes).ok());
-      ASSERT_TRUE(rt->read_vector_lightmap(vec).ok());
-      const double eb = rel_l2(b, ref.b), er = rel_l2(r, ref.r), el = rel_l2(lightmap, ref.lightmap),
-                   ea = rel_l2(atlas, ref.atlas), ep = rel_l2(probes, ref.probes),
-                   ev = rel_l2(vec, ref.vector_lightmap);
-      const std::string what = t.name + " " + rt->description();
+      const double eb = rel_l2(b, ref.b), er = rel_l2(r, ref.r);
       // b's high modes cancel heavily (Td_b has large mixed-sign rows, see
-      // test_cpu_backend.cpp), so b gets 10x the tolerance; every output is held to it.
-      EXPECT_LE(eb, 10 * f.tolerance) << what << " b";
+      // test_cpu_backend.cpp), so b gets 10x the tolerance.
+      EXPECT_LE(eb, 10 * f.tolerance) << t.name << " " << rt->description() << " b";
       if (!t.level.slots.empty()) {
-        EXPECT_LE(er, f.tolerance) << what << " r";
+        EXPECT_LE(er, f.tolerance) << t.name << " " << rt->description() << " r";
       }
-      EXPECT_LE(el, f.tolerance) << what << " lightmap";
-      EXPECT_LE(ea, f.tolerance) << what << " atlas";
-      EXPECT_LE(ep, f.tolerance) << what << " probes";
-      EXPECT_LE(ev, f.tolerance) << what << " vector irradiance";
-      std::printf("  %-8s %-58s rel L2: b %.2e r %.2e lightmap %.2e atlas %.2e probes %.2e vector %.2e\n",
-                  t.name.c_str(), rt->description(), eb, er, el, ea, ep, ev);
+      std::printf("  %-8s %-58s rel L2: b %.2e r %.2e\n", t.name.c_str(), rt->description(), eb, er);
     }
-  }
-}
-
-// The GLES and CPU backends through the one Backend interface: same inputs, same outputs.
-TEST_P(GlesBackend, AgreesWithCpuBackendThroughBackendInterface) {
-  const TestLevel& t = test_level("maze11");
-  std::unique_ptr<GlesLevelRuntime> g = make(t.level, {.target = std::nullopt, .vector_irradiance = true});
-  ASSERT_TRUE(g);
-  Result<std::unique_ptr<Backend>> c = cpu::create_cpu_backend(t.level, dict());
-  ASSERT_TRUE(c.ok()) << c.status().to_string();
-  std::vector<Backend*> backends = {g.get(), c->get()};
-  std::vector<std::vector<float>> atlases, probes, vectors;
-  for (Backend* be : backends) {
-    ASSERT_TRUE(be->update(t.ld).ok()) << be->description();
-    ASSERT_TRUE(be->set_albedo(t.albedo).ok());
-    ASSERT_TRUE(be->multi_bounce_step(t.ld).ok());
-    atlases.emplace_back(be->sizes().atlas);
-    probes.emplace_back(be->sizes().probes);
-    ASSERT_TRUE(be->read_atlas(atlases.back()).ok());
-    ASSERT_TRUE(be->read_probes(probes.back()).ok());
-    vectors.emplace_back(be->sizes().vector_lightmap);
-    ASSERT_TRUE(be->read_vector_lightmap(vectors.back()).ok()) << be->description();
-  }
-  EXPECT_EQ(g->kind(), BackendKind::gles);
-  EXPECT_EQ(c.value()->kind(), BackendKind::cpu);
-  EXPECT_LE(rel_l2(atlases[0], atlases[1]), kFloat32Tolerance);
-  EXPECT_LE(rel_l2(probes[0], probes[1]), kFloat32Tolerance);
-  EXPECT_LE(rel_l2(vectors[0], vectors[1]), kFloat32Tolerance);
-  std::printf("  %s vs %s: atlas %.2e probes %.2e vector irradiance %.2e\n", g->description(),
-              c.value()->description(), rel_l2(atlases[0], atlases[1]), rel_l2(probes[0], probes[1]),
-              rel_l2(vectors[0], vectors[1]));
-}
-
-TEST_P(GlesBackend, MultiBounceStepsMatchLevelMultiBounce) {
-  constexpr int kSteps = 6;
-  for (const TestLevel& t : test_levels()) {
-    std::vector<float> albedo = t.albedo;
-    for (std::size_t i = 0; i < albedo.size(); i += 7) albedo[i] = 0.99f;  // some clamped to 0.95
-    const LevelBufferSizes s = level_buffer_sizes(t.level, dict());
-    std::vector<float> b(s.b), r(s.r), ref(s.lightmap);
-    MultiBounceSettings settings;
-    settings.max_iterations = kSteps;
-    settings.tolerance = 0.0f;
-    const Result<MultiBounceReport> rep =
-        level_multi_bounce(t.level, dict(), t.ld, albedo, settings, b, r, ref);
-    ASSERT_TRUE(rep.ok()) << rep.status().to_string();
-    std::vector<float> vec_ref(s.vector_lightmap), vec(s.vector_lightmap);
-    ASSERT_TRUE(level_compute_vector_irradiance(t.level, dict(), b, r, vec_ref).ok());
-    for (const FormatCase& f : {kFormats[0], kFormats[1], kFormats[2]}) {
-      std::unique_ptr<GlesLevelRuntime> rt =
-          make(t.level, {.target = f.target, .operators = f.operators, .vector_irradiance = true});
-      ASSERT_TRUE(rt);
-      EXPECT_EQ(rt->multi_bounce_step(t.ld).code(), ErrorCode::invalid_argument);  // no albedo yet
-      ASSERT_TRUE(rt->set_albedo(albedo, settings.max_albedo).ok());
-      ASSERT_TRUE(rt->update(t.ld).ok());
-      for (int k = 0; k < kSteps; ++k) {
-        const Status st = rt->multi_bounce_step(t.ld);
-        ASSERT_TRUE(st.ok()) << st.to_string();
-      }
-      std::vector<float> lightmap(s.lightmap);
-      ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
-      ASSERT_TRUE(rt->read_vector_lightmap(vec).ok());
-      const double e = rel_l2(lightmap, ref), ev = rel_l2(vec, vec_ref);
-      EXPECT_LE(e, f.tolerance) << t.name << " " << rt->description();
-      EXPECT_LE(ev, f.tolerance) << t.name << " " << rt->description() << " vector irradiance";
-      std::printf("  %-8s %-58s multi-bounce x%d rel L2 %.2e, vector irradiance %.2e\n", t.name.c_str(),
-                  rt->description(), kSteps, e, ev);
-    }
-  }
-}
-
-// Issue 18 item 7: the spike of test_cpu_backend's SpikeInLdGivesNoNegativeTexelOnEveryIsa
-// (which asserts that the unclamped lightmap rings below -1) gives no negative texel here
-// either, in every target format (the atlas pass clamps: core's lightmap policy), and every
-// output is finite (a float16 target saturates at 65504).
-TEST_P(GlesBackend, SpikeInLdGivesNoNegativeTexel) {
-  const TestLevel& t = test_level("maze11");
-  std::vector<float> ld(t.ld.size(), 0.0f);
-  ld[3 * 40 + 0] = 1e6f;
-  for (const FormatCase& f : kFormats) {
-    std::unique_ptr<GlesLevelRuntime> rt = make(t.level, {.target = f.target, .operators = f.operators});
-    ASSERT_TRUE(rt);
-    ASSERT_TRUE(rt->update(ld).ok());
-    std::vector<float> lightmap(rt->sizes().lightmap), atlas(rt->sizes().atlas), probes(rt->sizes().probes);
-    ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
-    ASSERT_TRUE(rt->read_atlas(atlas).ok());
-    ASSERT_TRUE(rt->read_probes(probes).ok());
-    EXPECT_GE(*std::min_element(lightmap.begin(), lightmap.end()), 0.0f) << rt->description();
-    EXPECT_GE(*std::min_element(atlas.begin(), atlas.end()), 0.0f) << rt->description();
-    for (const std::vector<float>* v : {&lightmap, &atlas, &probes})
-      EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); }))
-          << rt->description();
   }
 }
 
@@ -227,31 +120,6 @@ TEST_P(GlesBackend, MultiBounceRefusesFeedbackAboveTheLargestLightValue) {
   EXPECT_NE(s.message().find("kMaxLightValue"), std::string::npos) << s.message();
   std::printf("%s\n", s.message().c_str());
   EXPECT_TRUE(rt->multi_bounce_step(t.ld).ok());  // ordinary light is fine
-}
-
-TEST_P(GlesBackend, RejectsBadLightSignalAndKeepsPreviousResult) {
-  const TestLevel& t = test_level("maze11");
-  std::unique_ptr<GlesLevelRuntime> rt = make(t.level);
-  ASSERT_TRUE(rt);
-  std::vector<float> atlas(rt->sizes().atlas), after(rt->sizes().atlas);
-  EXPECT_EQ(rt->read_atlas(atlas).code(), ErrorCode::invalid_argument);  // nothing rendered yet
-  ASSERT_TRUE(rt->update(t.ld).ok());
-  ASSERT_TRUE(rt->read_atlas(atlas).ok());
-  std::vector<float> ld = t.ld;
-  ld[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
-  Status s = rt->update(ld);
-  EXPECT_EQ(s.code(), ErrorCode::non_finite);
-  EXPECT_NE(s.message().find("sample 7 channel G is NaN"), std::string::npos) << s.message();
-  ld = t.ld;
-  ld[5] = -std::numeric_limits<float>::infinity();
-  EXPECT_EQ(rt->update(ld).code(), ErrorCode::non_finite);
-  ld.pop_back();
-  EXPECT_EQ(rt->update(ld).code(), ErrorCode::invalid_argument);
-  ASSERT_TRUE(rt->read_atlas(after).ok());
-  EXPECT_EQ(atlas, after);
-  std::vector<float> short_atlas(atlas.size() - 1);
-  EXPECT_EQ(rt->read_atlas(short_atlas).code(), ErrorCode::invalid_argument);
-  EXPECT_EQ(rt->set_albedo(t.albedo, 1.0f).code(), ErrorCode::invalid_argument);
 }
 
 TEST_P(GlesBackend, ProbesAndVectorIrradianceOffCostNothingAndSayWhy) {
@@ -325,18 +193,13 @@ TEST_P(GlesBackend, PassTimesAreReportedWhenTimingIsOn) {
   EXPECT_EQ(times.feedback, 0u);
 }
 
-// Skipping is exact: over an animated sequence on the 41-block maze in which one or three
-// blocks' ld change per frame (a light moving through the level) and some frames repeat,
-// the incremental runtime's atlas and probes equal the full path's bit for bit, and its
-// counters show what it skipped. After a multi-bounce frame the next update is full again.
-// partial_fraction 1 takes the partial path in every pass whatever changed; the default
-// mixes partial and full passes.
-TEST_P(GlesBackend, SkippingUnchangedWorkIsExact) {
-  for (const float fraction : {1.0f, GlesRuntimeOptions{}.partial_fraction}) {
-    check_skipping(fraction);
-    if (HasFatalFailure()) return;
-  }
-}
+// Partial passes are exact: over an animated sequence on the 41-block maze in which one or
+// three blocks' ld change per frame and some frames repeat, with partial_fraction 1 (the
+// partial path in every pass, whatever changed) the atlas, probes and vector irradiance equal
+// the full path's bit for bit, and the counters show which passes ran partially. The default
+// fraction, which mixes partial and full passes, is test_backend_conformance's
+// SkippingUnchangedWorkIsExact. After a multi-bounce frame the next update is full again.
+TEST_P(GlesBackend, PartialPassesAreExact) { check_skipping(1.0f); }
 
 void GlesBackend::check_skipping(float fraction) {
   const TestLevel& t = test_level("maze41");
@@ -410,6 +273,35 @@ void GlesBackend::check_skipping(float fraction) {
   ASSERT_TRUE(incremental->update(ld).ok());
   ASSERT_TRUE(incremental->read_atlas(a_inc).ok());
   EXPECT_EQ(a_inc, a_full);
+}
+
+// With clutter, partial passes must not keep a delta: a new clutter light alone (same ld) is
+// not a skipped frame, and when one block's ld changes the atlas is redrawn whole (the delta of
+// a sample reads other blocks' b through the openings) while b runs partially.
+TEST_P(GlesBackend, ClutterLightAndPartialUpdatesAreNotSkipped) {
+  const test::DrtFixture& f = test::drt_fixture();
+  std::unique_ptr<GlesLevelRuntime> rt =
+      make(f.level, {.target = TargetFormat::float32, .partial_fraction = 1.0f});
+  ASSERT_TRUE(rt);
+  ASSERT_TRUE(rt->set_clutter(&f.drt).ok());
+  ASSERT_TRUE(rt->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+  ASSERT_TRUE(rt->update(f.ld).ok());
+  std::vector<float> clutter_ld2 = f.clutter_ld;
+  for (float& v : clutter_ld2) v *= 0.25f;
+  ASSERT_TRUE(rt->set_clutter_light(clutter_ld2, f.clutter_direct).ok());
+  ASSERT_TRUE(rt->update(f.ld).ok());
+  std::vector<float> atlas(rt->sizes().atlas);
+  ASSERT_TRUE(rt->read_atlas(atlas).ok());
+  EXPECT_LE(rel_l2(atlas, test::drt_reference(f, f.ld, clutter_ld2).atlas), 2e-6);
+  std::vector<float> ld2 = f.ld;
+  const LevelBlock& mid = f.level.blocks[1];
+  for (std::size_t i = 3 * mid.sample_offset; i < 3 * (mid.sample_offset + mid.sample_count); ++i)
+    ld2[i] *= 3.0f;
+  const std::uint64_t partial_before = rt->skip_stats().frames_partial;
+  ASSERT_TRUE(rt->update(ld2).ok());
+  ASSERT_TRUE(rt->read_atlas(atlas).ok());
+  EXPECT_LE(rel_l2(atlas, test::drt_reference(f, ld2, clutter_ld2).atlas), 2e-6);
+  EXPECT_EQ(rt->skip_stats().frames_partial, partial_before + 1);
 }
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesBackend,
