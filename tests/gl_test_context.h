@@ -59,16 +59,22 @@ inline GlContextSlot& gl_context_for(platform::ContextRequest request) {
   return it->second;
 }
 
+// In a test body (or SetUp): `var`, a platform::GlContext*, is the program's context of this
+// kind made current (gl_context_for); without one the test is skipped naming the kind and why.
+#define MODRT_GL_CONTEXT_OR_SKIP(var, request)                                       \
+  ::modrt::test::GlContextSlot& var##_slot = ::modrt::test::gl_context_for(request); \
+  if (!var##_slot.context)                                                           \
+    GTEST_SKIP() << "no " << ::modrt::platform::context_request_name(request)        \
+                 << " context here: " << var##_slot.status.to_string();              \
+  [[maybe_unused]] ::modrt::platform::GlContext* const var = var##_slot.context.get()
+
 // Base of the tests parameterised by context kind: SetUp makes the kind's context current or
 // skips the test, naming the kind and the reason.
 class GlContextTest : public ::testing::TestWithParam<platform::ContextRequest> {
  protected:
   void SetUp() override {
-    GlContextSlot& slot = gl_context_for(GetParam());
-    if (!slot.context)
-      GTEST_SKIP() << "no " << platform::context_request_name(GetParam())
-                   << " context here: " << slot.status.to_string();
-    context_ = slot.context.get();
+    MODRT_GL_CONTEXT_OR_SKIP(context, GetParam());
+    context_ = context;
   }
   const platform::GlFunctions& gl() const { return context_->gl(); }
   bool gles() const { return context_->info().gles; }

@@ -85,9 +85,9 @@ struct Config {
 std::vector<BackendCase> backend_cases() {
   std::vector<BackendCase> cases;
 #if MODRT_TEST_GLES
-  using platform::ContextRequest;
   using gles::OperatorFormat;
   using gles::TargetFormat;
+  using platform::ContextRequest;
   struct Format {
     TargetFormat target;
     OperatorFormat operators;
@@ -100,7 +100,8 @@ std::vector<BackendCase> backend_cases() {
       {TargetFormat::float16, OperatorFormat::float32, {2e-3, 2e-3, 1e-2}, "float16_targets"},
       {TargetFormat::float32, OperatorFormat::float16, {2e-3, 2e-3, 2e-3}, "float16_operators"},
   };
-  for (ContextRequest context : {ContextRequest::egl_surfaceless, ContextRequest::osmesa, ContextRequest::egl_device})
+  for (ContextRequest context :
+       {ContextRequest::egl_surfaceless, ContextRequest::osmesa, ContextRequest::egl_device})
     for (const Format& f : formats) {
       BackendCase c;
       c.kind = BackendKind::gles;
@@ -117,7 +118,8 @@ std::vector<BackendCase> backend_cases() {
       BackendCase c;
       c.isa = isa;
       c.threads = threads;
-      c.name = std::string(cpu::isa_name(isa)) + "_" + std::to_string(threads) + "_thread" + (threads > 1 ? "s" : "");
+      c.name = std::string(cpu::isa_name(isa)) + "_" + std::to_string(threads) + "_thread" +
+               (threads > 1 ? "s" : "");
       cases.push_back(c);
     }
 #endif
@@ -178,7 +180,8 @@ class BackendConformance : public ::testing::TestWithParam<BackendCase> {
 // gtest names take letters, digits and '_' only ("egl-surfaceless" -> "egl_surfaceless").
 std::string case_name(const ::testing::TestParamInfo<BackendCase>& info) {
   std::string name = info.param.name;
-  std::replace_if(name.begin(), name.end(), [](char ch) { return !std::isalnum((unsigned char)ch); }, '_');
+  std::replace_if(
+      name.begin(), name.end(), [](char ch) { return !std::isalnum((unsigned char)ch); }, '_');
   return name;
 }
 
@@ -299,7 +302,8 @@ TEST_P(BackendConformance, SpikeInLdGivesNoNegativeTexel) {
   EXPECT_GE(*std::min_element(o.lightmap.begin(), o.lightmap.end()), 0.0f) << be->description();
   EXPECT_GE(*std::min_element(o.atlas.begin(), o.atlas.end()), 0.0f) << be->description();
   for (const std::vector<float>* v : {&o.lightmap, &o.atlas, &o.probes, &o.vector})
-    EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); })) << be->description();
+    EXPECT_TRUE(std::all_of(v->begin(), v->end(), [](float x) { return std::isfinite(x); }))
+        << be->description();
 }
 
 // NaN, Inf, negative and wrongly sized input is refused naming the sample and channel, and the
@@ -409,12 +413,13 @@ TEST_P(BackendConformance, SkippingUnchangedWorkIsExact) {
   EXPECT_LT(st.slots_computed, kFrames * slots);
   EXPECT_LT(st.tiles_written, kFrames * blocks);
   EXPECT_EQ(fs.blocks_computed, kFrames * blocks);
-  std::printf("  %s: %d frames, %llu skipped; b for %llu of %llu block-frames (ld changed: %llu), r for %llu of "
-              "%llu slot-frames, tiles for %llu\n",
-              incremental->description(), kFrames, (unsigned long long)st.evaluations_skipped,
-              (unsigned long long)st.blocks_computed, (unsigned long long)(kFrames * blocks),
-              (unsigned long long)changed_blocks, (unsigned long long)st.slots_computed,
-              (unsigned long long)(kFrames * slots), (unsigned long long)st.tiles_written);
+  std::printf(
+      "  %s: %d frames, %llu skipped; b for %llu of %llu block-frames (ld changed: %llu), r for %llu of "
+      "%llu slot-frames, tiles for %llu\n",
+      incremental->description(), kFrames, (unsigned long long)st.evaluations_skipped,
+      (unsigned long long)st.blocks_computed, (unsigned long long)(kFrames * blocks),
+      (unsigned long long)changed_blocks, (unsigned long long)st.slots_computed,
+      (unsigned long long)(kFrames * slots), (unsigned long long)st.tiles_written);
 
   // A feedback step changes every block's ld: the update after it starts from that step's
   // inputs and still equals the full path.
@@ -435,7 +440,8 @@ TEST_P(BackendConformance, ClutterMatchesScalarReference) {
   ASSERT_FALSE(f.drt.objects[1].Cc.empty());
   const DrtReference ref = drt_reference(f, f.ld, f.clutter_ld);
   const std::vector<float> delta_ref = minus(ref.lightmap, ref.mrt);
-  EXPECT_GT(rel_l2(ref.clutter_without_cc, ref.clutter), effect_floor(tolerance())) << "Cc c is too small to test";
+  EXPECT_GT(rel_l2(ref.clutter_without_cc, ref.clutter), effect_floor(tolerance()))
+      << "Cc c is too small to test";
   EXPECT_GT(rel_l2(ref.probes_mrt, ref.probes), effect_floor(tolerance())) << "U_dyn is too small to test";
   EXPECT_GT(rel_l2(ref.vector_mrt, ref.vector), effect_floor(tolerance())) << "dUb_vec is too small to test";
   std::unique_ptr<Backend> be = make(f.level);
@@ -460,9 +466,10 @@ TEST_P(BackendConformance, ClutterMatchesScalarReference) {
     EXPECT_LE(ep, tolerance().drt) << be->description() << " probes";
     EXPECT_LE(ev, tolerance().drt) << be->description() << " vector irradiance";
     if (frame == 0)
-      std::printf("  %-52s rel L2: lightmap %.2e atlas %.2e delta %.2e clutter lightmap %.2e probes %.2e "
-                  "vector %.2e\n",
-                  be->description(), el, ea, ed, ec, ep, ev);
+      std::printf(
+          "  %-52s rel L2: lightmap %.2e atlas %.2e delta %.2e clutter lightmap %.2e probes %.2e "
+          "vector %.2e\n",
+          be->description(), el, ea, ed, ec, ep, ev);
   }
   if (be->kind() == BackendKind::gles) {
     EXPECT_NE(be->output_texture(BackendOutput::clutter_atlas), 0u);
@@ -494,7 +501,8 @@ TEST_P(BackendConformance, ClutterLightAndOneBlocksLdReachEveryDelta) {
   EXPECT_LE(rel_l2(clutter, ref2.clutter), tolerance().drt) << be->description();
   std::vector<float> ld2 = f.ld;
   const LevelBlock& mid = f.level.blocks[1];
-  for (std::size_t i = 3 * mid.sample_offset; i < 3 * (mid.sample_offset + mid.sample_count); ++i) ld2[i] *= 3.0f;
+  for (std::size_t i = 3 * mid.sample_offset; i < 3 * (mid.sample_offset + mid.sample_count); ++i)
+    ld2[i] *= 3.0f;
   ASSERT_TRUE(be->update(ld2).ok());
   ASSERT_TRUE(be->read_atlas(atlas).ok());
   EXPECT_LE(rel_l2(atlas, drt_reference(f, ld2, clutter_ld2).atlas), tolerance().drt) << be->description();
@@ -537,14 +545,15 @@ TEST_P(BackendConformance, ClutterMultiBounceMatchesDrtMultiBounce) {
   const Outputs o = read_outputs(*be);
   std::vector<float> clutter(d.clutter_lightmap);
   ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
-  const double e = rel_l2(o.lightmap, ref), ec = rel_l2(clutter, clutter_ref), ep = rel_l2(o.probes, probe_ref),
-               ev = rel_l2(o.vector, vector_ref);
+  const double e = rel_l2(o.lightmap, ref), ec = rel_l2(clutter, clutter_ref),
+               ep = rel_l2(o.probes, probe_ref), ev = rel_l2(o.vector, vector_ref);
   EXPECT_LE(e, tolerance().drt) << be->description();
   EXPECT_LE(ec, tolerance().drt) << be->description();
   EXPECT_LE(ep, tolerance().drt) << be->description();
   EXPECT_LE(ev, tolerance().drt) << be->description();
-  std::printf("  %-52s multi-bounce x%d with DRT rel L2 %.2e, clutter lightmap %.2e, probes %.2e, vector %.2e\n",
-              be->description(), kSteps, e, ec, ep, ev);
+  std::printf(
+      "  %-52s multi-bounce x%d with DRT rel L2 %.2e, clutter lightmap %.2e, probes %.2e, vector %.2e\n",
+      be->description(), kSteps, e, ec, ep, ev);
 }
 
 // With the clutter's albedo each step also feeds the clutter's indirect light back through c
@@ -560,14 +569,14 @@ TEST_P(BackendConformance, ClutterFeedbackMatchesDrtMultiBounce) {
   settings.max_iterations = kSteps;
   settings.tolerance = 0.0f;
   std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
-  ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, settings, b,
-                               r, ref, c)
+  ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, settings,
+                               b, r, ref, c)
                   .ok());
   drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
   std::vector<float> plain(s.lightmap), c_plain(d.c);
-  ASSERT_TRUE(
-      drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r, plain, c_plain)
-          .ok());
+  ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r,
+                               plain, c_plain)
+                  .ok());
   EXPECT_GT(rel_l2(plain, ref), effect_floor(tolerance())) << "the clutter's bounce should show";
   const DrtReference one = drt_reference(f, f.ld, f.clutter_ld);
 
@@ -634,7 +643,8 @@ TEST_P(BackendConformance, ClutterLightmapIsNeverNegative) {
     for (float& v : o.Uc.data) v = -v;
   const DrtBufferSizes d = drt_buffer_sizes(negated);
   const LevelBufferSizes ls = level_buffer_sizes(f.level, dict());
-  std::vector<float> b(ls.b), r(ls.r), lm(ls.lightmap), c(d.c), raw(d.clutter_lightmap), ref(d.clutter_lightmap);
+  std::vector<float> b(ls.b), r(ls.r), lm(ls.lightmap), c(d.c), raw(d.clutter_lightmap),
+      ref(d.clutter_lightmap);
   ASSERT_TRUE(level_evaluate(f.level, dict(), f.ld, b, r, lm).ok());
   ASSERT_TRUE(drt_compute_c(negated, f.clutter_ld, c).ok());
   drt_clutter_lightmap(negated, b, f.clutter_direct, raw);

@@ -31,6 +31,7 @@
 
 #include "c_api_test_support.h"
 #include "counting_allocator.h"
+#include "gl_test_context.h"
 #include "level_fixtures.h"
 #include "modrt/backends.h"
 #include "modrt/cpu/cpu_backend.h"
@@ -775,9 +776,7 @@ void expect_spike_is_clean(modrt_backend backend) {
 TEST(CApi, SpikeInLdGivesAFiniteNonNegativeLightmap) { expect_spike_is_clean(MODRT_BACKEND_CPU); }
 
 TEST(CApiGles, SpikeInLdGivesAFiniteNonNegativeLightmap) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   expect_spike_is_clean(MODRT_BACKEND_GLES);
 }
 
@@ -865,9 +864,7 @@ void expect_bounces_match(modrt_backend backend, double tolerance) {
 TEST(CApi, BouncesAreTheFeedbackSteps) { expect_bounces_match(MODRT_BACKEND_CPU, 1e-5); }
 
 TEST(CApiGles, BouncesAreTheFeedbackSteps) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   expect_bounces_match(MODRT_BACKEND_GLES, 1e-4);
 }
 
@@ -1002,9 +999,7 @@ void expect_vector_irradiance_matches(modrt_backend backend, double tolerance) {
 TEST(CApi, VectorIrradianceMatchesTheReference) { expect_vector_irradiance_matches(MODRT_BACKEND_CPU, 1e-5); }
 
 TEST(CApiGles, VectorIrradianceMatchesTheReference) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   expect_vector_irradiance_matches(MODRT_BACKEND_GLES, 1e-4);
 }
 
@@ -1069,9 +1064,7 @@ void expect_probe_volume_matches_queries(modrt_backend backend) {
 TEST(CApi, ProbeVolumeIsTheQueriesAtEveryProbe) { expect_probe_volume_matches_queries(MODRT_BACKEND_CPU); }
 
 TEST(CApiGles, ProbeVolumeIsTheQueriesAtEveryProbe) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   expect_probe_volume_matches_queries(MODRT_BACKEND_GLES);
 }
 
@@ -1095,12 +1088,10 @@ void* counting_loader(const char* name, void* user) {
 }
 
 TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
-  Result<std::unique_ptr<platform::GlContext>> context =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(context, platform::ContextRequest::egl_surfaceless);
   void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
   ASSERT_NE(get_proc, nullptr);
-  const platform::GlFunctions& gl = context.value()->gl();
+  const platform::GlFunctions& gl = context->gl();
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
   modrt_level* l = load_level_handle();
@@ -1194,9 +1185,7 @@ TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
 // the same unshadowed point and spot light, the updates read its texture without a readback,
 // set_albedo reaches it, and bad input is refused naming the field with the ld source kept.
 TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
-  Result<std::unique_ptr<platform::GlContext>> context =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(context, platform::ContextRequest::egl_surfaceless);
   void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
   ASSERT_NE(get_proc, nullptr);
   const test::TestLevel& t = test_level("maze11");
@@ -1296,12 +1285,10 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
 }
 
 TEST(CApiGles, ProbeTextureIsTheWorldFrameVolumeWithoutReadback) {
-  Result<std::unique_ptr<platform::GlContext>> context =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!context.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << context.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(context, platform::ContextRequest::egl_surfaceless);
   void* get_proc = dlsym(RTLD_DEFAULT, "eglGetProcAddress");
   ASSERT_NE(get_proc, nullptr);
-  const platform::GlFunctions& gl = context.value()->gl();
+  const platform::GlFunctions& gl = context->gl();
   const test::TestLevel& t = test_level("maze11");
   std::size_t turned = 0;
   for (const LevelBlock& b : t.level.blocks) turned += (b.quarter_turns & 3) != 0;
@@ -1371,15 +1358,15 @@ TEST(BackendTable, EveryKindCreatesItsBackend) {
   info.level = &t.level;
   info.dict = &small_test_dictionary();
   const test::LevelReference ref = level_reference(t.level, t.ld);
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (gl.ok()) {
-    info.gl = &gl.value()->gl();
-    info.gles_context = gl.value()->info().gles;
+  const platform::GlContext* gl =
+      test::gl_context_for(platform::ContextRequest::egl_surfaceless).context.get();
+  if (gl) {
+    info.gl = &gl->gl();
+    info.gles_context = gl->info().gles;
   }
   for (BackendKind kind : {BackendKind::cpu, BackendKind::gles}) {
     SCOPED_TRACE(backend_kind_name(kind));
-    if (kind == BackendKind::gles && !gl.ok()) continue;
+    if (kind == BackendKind::gles && !gl) continue;
     Result<std::unique_ptr<Backend>> be = create_backend(kind, info);
     ASSERT_TRUE(be.ok()) << be.status().to_string();
     EXPECT_EQ(be.value()->kind(), kind);
@@ -1396,7 +1383,7 @@ TEST(BackendTable, EveryKindCreatesItsBackend) {
       EXPECT_EQ(be.value()->output_texture(o), 0u) << int(o);
   }
   // With vector irradiance the four coefficient atlases are textures too.
-  if (gl.ok()) {
+  if (gl) {
     BackendCreateInfo vec = info;
     vec.vector_irradiance = true;
     Result<std::unique_ptr<Backend>> be = create_backend(BackendKind::gles, vec);
@@ -1654,12 +1641,10 @@ TEST(CApi, CppWrapper) {
   EXPECT_EQ(ctx.atlas_texture(), 0u);
 }
 
-// GLES through the C API on a context the test creates itself (EGL surfaceless, as an app
-// owns its EGL context); modrt loads the entry points with eglGetProcAddress.
+// GLES through the C API on a context the test program creates itself (EGL surfaceless, as an
+// app owns its EGL context); modrt loads the entry points with eglGetProcAddress.
 TEST(CApiGles, ContextOnTheCallersEglContext) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
   modrt_level* l = load_level_handle();
@@ -1724,6 +1709,7 @@ void* osmesa_loader(const char* name, void* user) {
 }
 
 TEST(CApiGles, ContextThroughTheAppsLoaderOnOsmesa) {
+  // Its own OSMesa context, not gl_context_for's: the test dlopens and dlcloses the libOSMesa it loaded.
   Result<std::unique_ptr<platform::GlContext>> gl =
       platform::create_context(platform::ContextRequest::osmesa);
   if (!gl.ok()) GTEST_SKIP() << "no OSMesa context here: " << gl.status().to_string();

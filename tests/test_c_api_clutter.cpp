@@ -20,6 +20,7 @@
 
 #include "c_api_test_support.h"
 #include "drt_scenes.h"
+#include "gl_test_context.h"
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/drt_io.h"
@@ -335,9 +336,7 @@ TEST(CApiClutter, BadInputIsNamedAndChangesNothing) {
 // The GLES context: the same frame within 1e-4 of the CPU context, the clutter atlas texture,
 // and every texel at its own place in it.
 TEST(CApiClutter, GlesContextMatchesTheCpuContext) {
-  Result<std::unique_ptr<platform::GlContext>> gl =
-      platform::create_context(platform::ContextRequest::egl_surfaceless);
-  if (!gl.ok()) GTEST_SKIP() << "no EGL surfaceless context here: " << gl.status().to_string();
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
   Handles h;
   for (std::uint32_t bounces : {0u, 2u}) {
     modrt_context* cpu = h.context(MODRT_BACKEND_CPU, bounces);

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "compare_support.h"
 #include "demo_run.h"
 #include "gl_test_context.h"
 #include "image_output.h"
@@ -411,14 +412,7 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
     // The direct light reaches part of the box (the light starts beside block 0's centre).
     EXPECT_GT(*std::max_element(run.value()->clutter_ld().begin(), run.value()->clutter_ld().end()), 0.0f);
   }
-  auto rel_l2 = [](const std::vector<float>& a, const std::vector<float>& b) {
-    double num = 0, den = 0;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      num += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
-      den += double(b[i]) * b[i];
-    }
-    return std::sqrt(num / den);
-  };
+  using test::rel_l2;
   // Finite; slightly negative values are the SVD truncation of Cb (the renderer clamps them).
   double sum = 0.0;
   for (float v : clutter[1]) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "compare_support.h"
 #include "drt_backend_fixture.h"
 #include "gl_objects.h"
 #include "gl_test_context.h"
@@ -42,17 +43,7 @@ using test::test_levels;
 using test::TestLevel;
 using Reference = test::LevelReference;
 
-double rel_l2(std::span<const float> got, std::span<const float> ref) {
-  EXPECT_EQ(got.size(), ref.size());
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < ref.size() && i < got.size(); ++i) {
-    const double d = double(got[i]) - double(ref[i]);
-    num += d * d;
-    den += double(ref[i]) * ref[i];
-  }
-  if (!std::isfinite(num)) return std::numeric_limits<double>::infinity();
-  return den > 0.0 ? std::sqrt(num / den) : std::sqrt(num);
-}
+using test::rel_l2;
 
 class GlesBackend : public test::GlContextTest {
  protected:

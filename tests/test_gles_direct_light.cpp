@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "compare_support.h"
 #include "gl_test_context.h"
 #include "level_fixtures.h"
 #include "modrt/cpu/direct_light.h"
@@ -24,14 +25,7 @@ namespace {
 
 using platform::ContextRequest;
 
-double rel_l2(std::span<const float> got, std::span<const float> ref) {
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < ref.size(); ++i) {
-    num += (double(got[i]) - ref[i]) * (double(got[i]) - ref[i]);
-    den += double(ref[i]) * ref[i];
-  }
-  return std::sqrt(num / den);
-}
+using test::rel_l2;
 
 class GlesDirectLightTest : public test::GlContextTest {};
 
