@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/feedback_policy.h"
+#include "modrt/level_dirty.h"
 
 #include <algorithm>
 #include <cmath>
@@ -111,19 +112,6 @@ bool same_bits(const float* a, const float* b, std::size_t n) {
 
 // What phase 1 did with a block's b (CpuSkipStats).
 enum BlockAction : std::uint8_t { kComputed, kKept, kDark };
-
-// CSR of `count` groups: begin has count + 1 entries, items lists each group's members in
-// increasing order. group_of(m) names the group of member m < members.
-template <class GroupOf>
-void build_csr(std::size_t count, std::size_t members, GroupOf group_of, std::vector<std::uint32_t>& begin,
-               std::vector<std::uint32_t>& items) {
-  begin.assign(count + 1, 0);
-  for (std::size_t m = 0; m < members; ++m) ++begin[group_of(m) + 1];
-  for (std::size_t g = 0; g < count; ++g) begin[g + 1] += begin[g];
-  items.assign(members, 0);
-  std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-  for (std::size_t m = 0; m < members; ++m) items[fill[group_of(m)]++] = std::uint32_t(m);
-}
 
 }  // namespace
 
@@ -276,14 +264,12 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.ld_planar_.assign(3 * rt.max_block_samples_ * std::size_t(options.threads), 0.0f);
   rt.rho_.assign(rt.sizes_.ld, 0.0f);
   rt.ld_feedback_.assign(rt.sizes_.ld, 0.0f);
-  build_csr(
-      level.slots.size(), level.records.size(),
-      [&](std::size_t m) { return std::size_t(level.records[m].slot); }, rt.slot_record_begin_,
-      rt.slot_records_);
-  build_csr(
-      level.blocks.size(), level.slots.size(),
-      [&](std::size_t m) { return std::size_t(level.slots[m].block); }, rt.block_slot_begin_,
-      rt.block_slots_);
+  {  // the level's transport graph, as every backend's skipping reads it (core's level_dirty.h)
+    LevelDependencies deps = level_dependencies(level);
+    rt.slot_record_begin_ = std::move(deps.slot_record_begin),
+    rt.slot_records_ = std::move(deps.slot_records);
+    rt.block_slot_begin_ = std::move(deps.block_slot_begin), rt.block_slots_ = std::move(deps.block_slots);
+  }
   const std::size_t threads = std::size_t(options.threads), blocks = level.blocks.size(),
                     slots = level.slots.size();
   if (check_level_vector_operators(level, dict).ok()) {

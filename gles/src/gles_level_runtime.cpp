@@ -536,8 +536,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                           "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
   }
   gl_.glUseProgram(0);
-  ld_prev_.assign(3 * samples, 0.0f);
-  dirty_block_.assign(blocks, 1);
+  dirty_ = LevelDirtyTracker::create(level);
   dirty_slot_.assign(slots, 1);
   dirty_atlas_.assign(blocks, 1);
   // The tiles each block's samples appear in: its own, plus neighbours' tiles whose padding
@@ -567,15 +566,6 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       block_tile_begin_[i + 1] = std::uint32_t(tile_rects_.size());
     }
   }
-  // Which slots each block's b feeds, so that update() touches only changed blocks' records.
-  fed_begin_.assign(blocks + 1, 0);
-  for (const ResponseRecord& rec : level.records) ++fed_begin_[rec.source_block + 1];
-  for (std::size_t i = 0; i < blocks; ++i) fed_begin_[i + 1] += fed_begin_[i];
-  fed_slots_.assign(level.records.size(), 0);
-  {
-    std::vector<std::uint32_t> next(fed_begin_.begin(), fed_begin_.end() - 1);
-    for (const ResponseRecord& rec : level.records) fed_slots_[next[rec.source_block]++] = rec.slot;
-  }
   rects_.reserve(std::max({blocks, slots, tile_rects_.size()}) + 1);
   gl_.glGenVertexArrays(1, &vao_);  // desktop core profiles draw only with a VAO bound
   timer_ = std::make_unique<platform::GpuTimer>(gl_, gles_context, kScopeCount);
@@ -604,7 +594,7 @@ void GlesLevelRuntime::draw(const Program& program, GLuint framebuffer, int widt
   }
 }
 
-std::span<const GlesLevelRuntime::Rect> GlesLevelRuntime::linear_rects(const std::vector<std::uint8_t>& flags,
+std::span<const GlesLevelRuntime::Rect> GlesLevelRuntime::linear_rects(std::span<const std::uint8_t> flags,
                                                                        int per) {
   rects_.clear();
   const std::size_t n = flags.size();
@@ -661,12 +651,12 @@ Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) 
     gl_.glBindSampler(2, ld_sampler_);  // u_ld's unit (draw binds the textures in order)
     draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
          {td_b_, block_info_, ld_source_},
-         partial.b ? linear_rects(dirty_block_, groups_ * b_chunks_) : std::span<const Rect>{});
+         partial.b ? linear_rects(dirty_.blocks(), groups_ * b_chunks_) : std::span<const Rect>{});
     gl_.glBindSampler(2, 0);
   }
   draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
        {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]},
-       partial.b ? linear_rects(dirty_block_, groups_) : std::span<const Rect>{});
+       partial.b ? linear_rects(dirty_.blocks(), groups_) : std::span<const Rect>{});
   end_pass(kB);
   if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
 
@@ -795,11 +785,10 @@ Status GlesLevelRuntime::update_from_texture(std::uint32_t ld_texture) {
                          "gles: update_from_texture: " + std::to_string(ld_texture) +
                              " is not a texture name of this GL context");
   const Level& level = *level_;
-  std::fill(dirty_block_.begin(), dirty_block_.end(), std::uint8_t(1));
   std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
   std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
   if (timing_) timer_->reset();
-  force_full_ = true;  // the next update() has no ld_prev_ of this frame to compare with
+  force_full_ = true;  // the next update() has no marked ld of this frame to compare with
   ld_source_ = ld_texture;
   const Status s = run_passes(false, Partial{});
   ld_source_ = ld_;
@@ -817,18 +806,7 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   const Level& level = *level_;
   // A new clutter light changes c (and so the delta) whatever ld does.
   const bool full = force_full_ || !options_.skip_unchanged || drt_light_changed_;
-  std::size_t dirty = 0;
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
-    const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
-    const bool changed =
-        full || std::memcmp(ld.data() + first, ld_prev_.data() + first, count * sizeof(float)) != 0;
-    dirty_block_[i] = changed;
-    if (changed) {
-      std::memcpy(ld_prev_.data() + first, ld.data() + first, count * sizeof(float));
-      ++dirty;
-    }
-  }
+  const std::size_t dirty = dirty_.mark(ld, full);
   if (dirty == 0 && !full) {
     ++stats_.frames, ++stats_.frames_skipped;
     times_ = GlesPassTimes{};
@@ -838,30 +816,28 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   const double fraction = double(options_.partial_fraction);
   const bool partial =
       !full && 2 * dirty <= level.blocks.size() && double(dirty) <= fraction * double(level.blocks.size());
-  std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(!partial));
-  for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    if (dirty_block_[i])
-      for (std::uint32_t k = fed_begin_[i]; k < fed_begin_[i + 1]; ++k) dirty_slot_[fed_slots_[k]] = 1;
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) dirty_atlas_[i] = dirty_block_[i] || !partial;
-  for (std::size_t s = 0; s < level.slots.size(); ++s)
-    if (dirty_slot_[s]) dirty_atlas_[level.slots[s].block] = 1;
-  const auto count = [](const std::vector<std::uint8_t>& v) {
-    return std::size_t(std::count(v.begin(), v.end(), 1));
-  };
   Partial pass;
   pass.b = partial;
-  pass.r = partial && double(count(dirty_slot_)) <= fraction * double(level.slots.size());
+  pass.r = partial && double(dirty_.dirty_slots()) <= fraction * double(level.slots.size());
   // With clutter the delta of a sample reads other blocks' b (shadows across openings): the
   // atlas is redrawn whole.
-  pass.atlas = partial && !drt_ && double(count(dirty_atlas_)) <= fraction * double(level.blocks.size());
-  if (!pass.r) std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
-  if (!pass.atlas) std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
+  pass.atlas = partial && !drt_ && double(dirty_.dirty_tiles()) <= fraction * double(level.blocks.size());
+  // What each pass redraws: the dirty items when it runs partially, else everything.
+  const auto take = [](std::span<const std::uint8_t> reached, bool partial_pass,
+                       std::vector<std::uint8_t>& out) {
+    if (partial_pass)
+      std::copy(reached.begin(), reached.end(), out.begin());
+    else
+      std::fill(out.begin(), out.end(), std::uint8_t(1));
+  };
+  take(dirty_.slots(), pass.r, dirty_slot_);
+  take(dirty_.tiles(), pass.atlas, dirty_atlas_);
 
   if (timing_) timer_->reset();
   begin_pass(kUpload);
   if (partial) {
     for (std::size_t i = 0; i < level.blocks.size(); ++i)
-      if (dirty_block_[i])
+      if (dirty_.blocks()[i])
         upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3,
                       ld.data() + 3 * std::size_t(level.blocks[i].sample_offset),
                       level.blocks[i].sample_count, sizeof(float), level.blocks[i].sample_offset);
@@ -877,7 +853,7 @@ Status GlesLevelRuntime::update(std::span<const float> ld) {
   ++stats_.frames;
   stats_.frames_partial += partial;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    stats_.blocks_b += dirty_block_[i];
+    stats_.blocks_b += dirty_.blocks()[i];
     stats_.blocks_redrawn += dirty_atlas_[i];
   }
   for (std::uint8_t d : dirty_slot_) stats_.slots_r += d;
@@ -922,7 +898,7 @@ Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
   upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
   end_pass(kUpload);
   if (Status s = check("uploading ld_direct"); !s.ok()) return s;
-  // Feedback changes every block's ld; the next update() must not compare against ld_prev_.
+  // Feedback changes every block's ld; the next update() must not compare against the ld marked before it.
   force_full_ = true;
   if (Status s = run_passes(true, Partial{}); !s.ok()) return s;
   ++feedback_steps_;

@@ -45,6 +45,7 @@
 #include "modrt/backend.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level.h"
+#include "modrt/level_dirty.h"
 #include "modrt/platform/gl_functions.h"
 #include "modrt/platform/gpu_timer.h"
 
@@ -212,7 +213,7 @@ class GlesLevelRuntime final : public Backend {
   Status run_passes(bool from_feedback, const Partial& partial);
   // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
   // items, consecutive items merged; appended to rects_ (cleared first).
-  std::span<const Rect> linear_rects(const std::vector<std::uint8_t>& flags, int per);
+  std::span<const Rect> linear_rects(std::span<const std::uint8_t> flags, int per);
   Status check(const char* what) const;
   void draw(const Program& program, GLuint framebuffer, int width, int height,
             std::initializer_list<GLuint> textures, std::span<const Rect> rects = {});
@@ -268,16 +269,15 @@ class GlesLevelRuntime final : public Backend {
       prog_ld_max_, prog_probes_world_;
   GLint u_bound_scale_ = -1;     // feedback.frag
   std::vector<float> readback_;  // 4 floats per texel of the largest target
-  // Skip logic (update()): the last uploaded ld and per-frame dirty flags, all sized at
+  // Skip logic (update()): what a changed ld reaches (core's exact dirty tracking), and the
+  // slots and tiles each pass redraws (all of them when the pass runs whole), all sized at
   // creation; rects_ has capacity for every item so that no frame allocates.
-  std::vector<float> ld_prev_;
-  std::vector<std::uint8_t> dirty_block_, dirty_slot_, dirty_atlas_;
+  LevelDirtyTracker dirty_;
+  std::vector<std::uint8_t> dirty_slot_, dirty_atlas_;
   // Atlas tiles showing block i's samples: tile_rects_[block_tile_begin_[i] .. [i + 1]).
   std::vector<std::uint32_t> block_tile_begin_;
   std::vector<Rect> tile_rects_;
   std::vector<Rect> rects_;
-  // Slots fed by block i's b (a record with source i): fed_slots_[fed_begin_[i] .. [i + 1]).
-  std::vector<std::uint32_t> fed_begin_, fed_slots_;
   bool force_full_ = true;
   GlesSkipStats stats_;
   std::uint64_t feedback_steps_ = 0;  // multi_bounce_step() calls that succeeded

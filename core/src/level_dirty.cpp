@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: MIT
+#include "modrt/level_dirty.h"
+
+#include <algorithm>
+#include <cstring>
+
+namespace modrt {
+namespace {
+
+// Rows of `count` groups: begin has count + 1 entries, items each group's members in
+// increasing order; group_of(m) names the group of member m < members.
+template <class GroupOf, class ItemOf>
+void build_rows(std::size_t count, std::size_t members, GroupOf group_of, ItemOf item_of,
+                std::vector<std::uint32_t>& begin, std::vector<std::uint32_t>& items) {
+  begin.assign(count + 1, 0);
+  for (std::size_t m = 0; m < members; ++m) ++begin[group_of(m) + 1];
+  for (std::size_t g = 0; g < count; ++g) begin[g + 1] += begin[g];
+  items.assign(members, 0);
+  std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+  for (std::size_t m = 0; m < members; ++m) items[fill[group_of(m)]++] = std::uint32_t(item_of(m));
+}
+
+}  // namespace
+
+LevelDependencies level_dependencies(const Level& level) {
+  LevelDependencies d;
+  const auto self = [](std::size_t m) { return m; };
+  build_rows(
+      level.slots.size(), level.records.size(), [&](std::size_t m) { return std::size_t(level.records[m].slot); },
+      self, d.slot_record_begin, d.slot_records);
+  build_rows(
+      level.blocks.size(), level.slots.size(), [&](std::size_t m) { return std::size_t(level.slots[m].block); },
+      self, d.block_slot_begin, d.block_slots);
+  build_rows(
+      level.blocks.size(), level.records.size(),
+      [&](std::size_t m) { return std::size_t(level.records[m].source_block); },
+      [&](std::size_t m) { return std::size_t(level.records[m].slot); }, d.fed_slot_begin, d.fed_slots);
+  return d;
+}
+
+LevelDirtyTracker LevelDirtyTracker::create(const Level& level) {
+  LevelDirtyTracker t;
+  t.level_ = &level;
+  t.deps_ = level_dependencies(level);
+  t.ld_last_.assign(3 * std::size_t(level.sample_count), 0.0f);
+  t.block_dirty_.assign(level.blocks.size(), 1);
+  t.slot_dirty_.assign(level.slots.size(), 1);
+  t.tile_dirty_.assign(level.blocks.size(), 1);
+  t.dirty_blocks_ = t.dirty_tiles_ = level.blocks.size();
+  t.dirty_slots_ = level.slots.size();
+  return t;
+}
+
+std::size_t LevelDirtyTracker::mark(std::span<const float> ld, bool everything) {
+  const Level& level = *level_;
+  const bool all = everything || !valid_ || ld.size() != ld_last_.size();
+  dirty_blocks_ = 0;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
+    const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
+    const bool changed = all || std::memcmp(ld.data() + first, ld_last_.data() + first, count * sizeof(float)) != 0;
+    block_dirty_[i] = changed;
+    if (changed) {
+      if (first + count <= ld.size()) std::memcpy(ld_last_.data() + first, ld.data() + first, count * sizeof(float));
+      ++dirty_blocks_;
+    }
+  }
+  std::fill(slot_dirty_.begin(), slot_dirty_.end(), std::uint8_t(0));
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    if (block_dirty_[i])
+      for (std::uint32_t s : deps_.slots_fed_by(i)) slot_dirty_[s] = 1;
+  dirty_slots_ = std::size_t(std::count(slot_dirty_.begin(), slot_dirty_.end(), std::uint8_t(1)));
+  std::copy(block_dirty_.begin(), block_dirty_.end(), tile_dirty_.begin());
+  for (std::size_t s = 0; s < level.slots.size(); ++s)
+    if (slot_dirty_[s]) tile_dirty_[level.slots[s].block] = 1;
+  dirty_tiles_ = std::size_t(std::count(tile_dirty_.begin(), tile_dirty_.end(), std::uint8_t(1)));
+  valid_ = ld.size() == ld_last_.size();
+  return dirty_blocks_;
+}
+
+}  // namespace modrt
