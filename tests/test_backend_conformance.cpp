@@ -5,8 +5,9 @@
 // the multi-bounce feedback, exact skipping, bad input, and with clutter the DRT deltas, the
 // clutter lightmap, its vector irradiance and the clutter's own feedback.
 //
-// Built twice from this file: test_conformance_cpu runs the CPU backend on every ISA this CPU
-// (or qemu) supports with 1 and 2 threads (also in the scalar-only build: the scalar twins);
+// Built twice from this file: test_conformance_cpu runs core's reference backend
+// (reference_backend.h) and the CPU backend on every ISA this CPU (or qemu) supports with 1
+// and 2 threads (also in the scalar-only build: the scalar twins);
 // test_conformance_gles runs the GLES backend on every GL context kind (EGL surfaceless,
 // OSMesa, EGL device; a kind that cannot be created is skipped with the reason) with every
 // target and operator format. Backend-specific options and internals (CPU approximate
@@ -38,6 +39,7 @@
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/isa.h"
 #include "modrt/level_runtime.h"
+#include "modrt/reference_backend.h"
 #if MODRT_TEST_GLES
 #include "gl_test_context.h"
 #include "modrt/gles/gles_level_runtime.h"
@@ -113,6 +115,11 @@ std::vector<BackendCase> backend_cases() {
       cases.push_back(c);
     }
 #else
+  BackendCase reference;  // core's scalar reference behind Backend: every test holds it too
+  reference.kind = BackendKind::reference;
+  reference.tolerance = {1e-6, 1e-6, 1e-6};
+  reference.name = "reference";
+  cases.push_back(reference);
   for (cpu::Isa isa : cpu::supported_isas())
     for (int threads : {1, 2}) {
       BackendCase c;
@@ -163,6 +170,12 @@ class BackendConformance : public ::testing::TestWithParam<BackendCase> {
     if (!rt.ok()) return rt.status();
     return std::unique_ptr<Backend>(std::move(rt).value());
 #else
+    if (c.kind == BackendKind::reference) {
+      ReferenceBackendOptions o;
+      o.probes = config.probes;
+      o.skip_unchanged = config.skip_unchanged;
+      return create_reference_backend(level, dict(), o);
+    }
     cpu::CpuBackendOptions o;
     o.runtime.isa = c.isa;
     o.runtime.threads = c.threads;

@@ -6,8 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -81,7 +81,8 @@ TEST(LevelDirty, MarkReachesWhatTheRecordsCarry) {
       for (std::size_t k = 0; k < n; ++k) {
         const LevelBlock& b = level.blocks[rng() % blocks];
         const std::size_t at = 3 * std::size_t(b.sample_offset) + rng() % (3 * std::size_t(b.sample_count));
-        ld[at] = ld[at] == 0.0f ? (std::signbit(ld[at]) ? 0.0f : -0.0f) : ld[at] * 1.5f;  // -0 vs +0: a change
+        ld[at] =
+            ld[at] == 0.0f ? (std::signbit(ld[at]) ? 0.0f : -0.0f) : ld[at] * 1.5f;  // -0 vs +0: a change
       }
       std::vector<std::uint8_t> changed(blocks, 0);  // bit for bit, from the buffers
       for (std::size_t i = 0; i < blocks; ++i) {

@@ -26,11 +26,13 @@ LevelDependencies level_dependencies(const Level& level) {
   LevelDependencies d;
   const auto self = [](std::size_t m) { return m; };
   build_rows(
-      level.slots.size(), level.records.size(), [&](std::size_t m) { return std::size_t(level.records[m].slot); },
-      self, d.slot_record_begin, d.slot_records);
+      level.slots.size(), level.records.size(),
+      [&](std::size_t m) { return std::size_t(level.records[m].slot); }, self, d.slot_record_begin,
+      d.slot_records);
   build_rows(
-      level.blocks.size(), level.slots.size(), [&](std::size_t m) { return std::size_t(level.slots[m].block); },
-      self, d.block_slot_begin, d.block_slots);
+      level.blocks.size(), level.slots.size(),
+      [&](std::size_t m) { return std::size_t(level.slots[m].block); }, self, d.block_slot_begin,
+      d.block_slots);
   build_rows(
       level.blocks.size(), level.records.size(),
       [&](std::size_t m) { return std::size_t(level.records[m].source_block); },
@@ -58,10 +60,12 @@ std::size_t LevelDirtyTracker::mark(std::span<const float> ld, bool everything) 
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
     const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
-    const bool changed = all || std::memcmp(ld.data() + first, ld_last_.data() + first, count * sizeof(float)) != 0;
+    const bool changed =
+        all || std::memcmp(ld.data() + first, ld_last_.data() + first, count * sizeof(float)) != 0;
     block_dirty_[i] = changed;
     if (changed) {
-      if (first + count <= ld.size()) std::memcpy(ld_last_.data() + first, ld.data() + first, count * sizeof(float));
+      if (first + count <= ld.size())
+        std::memcpy(ld_last_.data() + first, ld.data() + first, count * sizeof(float));
       ++dirty_blocks_;
     }
   }

@@ -45,39 +45,34 @@ Status check_level_matches(const Level& level, const Dictionary& dict) {
   return Status::success();
 }
 
-Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
-                       std::span<float> b) {
-  if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
-  if (b.size() != 3 * std::size_t(level.kb) * level.blocks.size())
-    return Status::error(ErrorCode::invalid_argument, "b: wrong size");
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const LevelBlock& blk = level.blocks[i];
-    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Td_b,
-                       ld.data() + 3 * std::size_t(blk.sample_offset),
-                       b.data() + 3 * std::size_t(level.kb) * i, false);
-  }
-  return Status::success();
+void level_compute_block_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                           std::size_t block, std::span<float> b) {
+  const LevelBlock& blk = level.blocks[block];
+  reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Td_b, ld.data() + 3 * std::size_t(blk.sample_offset),
+                     b.data() + 3 * std::size_t(level.kb) * block, false);
 }
 
-void level_compute_r(const Level& level, std::span<const float> b, std::span<float> r) {
-  std::fill(r.begin(), r.end(), 0.0f);
-  for (const ResponseRecord& rec : level.records)
-    reference_gemv_rgb(rec.T, b.data() + 3 * std::size_t(level.kb) * rec.source_block,
-                       r.data() + 3 * std::size_t(level.kr) * rec.slot, true);
+void level_compute_slot_r(const Level& level, const LevelDependencies& deps, std::span<const float> b,
+                          std::size_t slot, std::span<float> r) {
+  float* rs = r.data() + 3 * std::size_t(level.kr) * slot;
+  std::fill(rs, rs + 3 * std::size_t(level.kr), 0.0f);
+  for (std::uint32_t m : deps.records_of_slot(slot)) {
+    const ResponseRecord& rec = level.records[m];
+    reference_gemv_rgb(rec.T, b.data() + 3 * std::size_t(level.kb) * rec.source_block, rs, true);
+  }
 }
 
-void level_compute_lightmap(const Level& level, const Dictionary& dict, std::span<const float> b,
-                            std::span<const float> r, std::span<float> lightmap) {
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const LevelBlock& blk = level.blocks[i];
-    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub, b.data() + 3 * std::size_t(level.kb) * i,
-                       lightmap.data() + 3 * std::size_t(blk.sample_offset), false);
-  }
+void level_compute_tile(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                        std::span<const float> b, std::span<const float> r, std::size_t block,
+                        std::span<float> lightmap) {
+  const LevelBlock& blk = level.blocks[block];
+  float* dst = lightmap.data() + 3 * std::size_t(blk.sample_offset);
+  reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub, b.data() + 3 * std::size_t(level.kb) * block,
+                     dst, false);
   const Matrix& Ur = dict.interfaces.Ur;
-  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+  for (std::uint32_t s : deps.slots_of_block(block)) {
     const ResponseSlot& slot = level.slots[s];
     const float* rs = r.data() + 3 * std::size_t(level.kr) * s;
-    float* dst = lightmap.data() + 3 * std::size_t(level.blocks[slot.block].sample_offset);
     for (std::uint32_t row = 0; row < Ur.rows; ++row) {
       const std::int32_t sample = slot.ur_row_to_sample[row];
       if (sample < 0) continue;
@@ -88,14 +83,49 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
       for (int c = 0; c < 3; ++c) dst[3 * std::size_t(sample) + c] += float(acc[c]);
     }
   }
-  clamp_lightmap(lightmap);  // the lightmap policy (reference_runtime.h)
+  clamp_lightmap({dst, 3 * std::size_t(blk.sample_count)});  // the lightmap policy (reference_runtime.h)
+}
+
+void level_compute_block_probes(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                                std::span<const float> b, std::span<const float> r, std::size_t block,
+                                std::span<float> probes) {
+  const std::size_t per_block = 3 * std::size_t(dict.shapes[0].Ubvol.rows);
+  float* dst = probes.data() + per_block * block;
+  reference_gemv_rgb(dict.shapes[std::size_t(level.blocks[block].shape)].Ubvol,
+                     b.data() + 3 * std::size_t(level.kb) * block, dst, false);
+  for (std::uint32_t s : deps.slots_of_block(block))
+    reference_gemv_rgb(level.probe_response[std::size_t(level.slots[s].entry_face)],
+                       r.data() + 3 * std::size_t(level.kr) * s, dst, true);
+}
+
+Status level_compute_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                       std::span<float> b) {
+  if (Status s = validate_light_signal(ld, level.sample_count, "ld"); !s.ok()) return s;
+  if (b.size() != 3 * std::size_t(level.kb) * level.blocks.size())
+    return Status::error(ErrorCode::invalid_argument, "b: wrong size");
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) level_compute_block_b(level, dict, ld, i, b);
+  return Status::success();
+}
+
+void level_compute_r(const Level& level, std::span<const float> b, std::span<float> r) {
+  const LevelDependencies deps = level_dependencies(level);
+  for (std::size_t s = 0; s < level.slots.size(); ++s) level_compute_slot_r(level, deps, b, s, r);
+}
+
+void level_compute_lightmap(const Level& level, const Dictionary& dict, std::span<const float> b,
+                            std::span<const float> r, std::span<float> lightmap) {
+  const LevelDependencies deps = level_dependencies(level);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    level_compute_tile(level, dict, deps, b, r, i, lightmap);
 }
 
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
                       std::span<float> b, std::span<float> r, std::span<float> lightmap) {
   if (Status s = level_compute_b(level, dict, ld, b); !s.ok()) return s;
-  level_compute_r(level, b, r);
-  level_compute_lightmap(level, dict, b, r, lightmap);
+  const LevelDependencies deps = level_dependencies(level);  // the oracle allocates per call
+  for (std::size_t s = 0; s < level.slots.size(); ++s) level_compute_slot_r(level, deps, b, s, r);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    level_compute_tile(level, dict, deps, b, r, i, lightmap);
   return Status::success();
 }
 
@@ -133,16 +163,9 @@ void level_fill_atlas(const Level& level, std::span<const float> lightmap, std::
 
 void level_compute_probes(const Level& level, const Dictionary& dict, std::span<const float> b,
                           std::span<const float> r, std::span<float> probes) {
-  const std::size_t per_block = 3 * std::size_t(dict.shapes[0].Ubvol.rows);
+  const LevelDependencies deps = level_dependencies(level);
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    reference_gemv_rgb(dict.shapes[std::size_t(level.blocks[i].shape)].Ubvol,
-                       b.data() + 3 * std::size_t(level.kb) * i, probes.data() + per_block * i, false);
-  for (std::size_t s = 0; s < level.slots.size(); ++s) {
-    const ResponseSlot& slot = level.slots[s];
-    reference_gemv_rgb(level.probe_response[std::size_t(slot.entry_face)],
-                       r.data() + 3 * std::size_t(level.kr) * s, probes.data() + per_block * slot.block,
-                       true);
-  }
+    level_compute_block_probes(level, dict, deps, b, r, i, probes);
 }
 
 Status check_level_vector_operators(const Level& level, const Dictionary& dict) {

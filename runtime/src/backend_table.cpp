@@ -5,6 +5,7 @@
 
 #include "modrt/backends.h"
 #include "modrt/cpu/cpu_backend.h"
+#include "modrt/reference_backend.h"
 #if MODRT_RUNTIME_GLES
 #include "modrt/gles/gles_level_runtime.h"
 #endif
@@ -46,8 +47,15 @@ Result<std::unique_ptr<Backend>> create_gles(const BackendCreateInfo& info) {
 #endif
 }
 
+Result<std::unique_ptr<Backend>> create_reference(const BackendCreateInfo& info) {
+  ReferenceBackendOptions options;
+  options.probes = info.probes;
+  options.skip_unchanged = info.skip_unchanged;
+  return create_reference_backend(*info.level, *info.dict, options);
+}
+
 // Indexed by BackendKind.
-constexpr Creator kCreators[] = {create_cpu, create_gles};
+constexpr Creator kCreators[] = {create_cpu, create_gles, create_reference};
 static_assert(std::size(kCreators) == std::size_t(BackendKind::count), "one creator per BackendKind");
 
 }  // namespace

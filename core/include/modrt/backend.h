@@ -26,9 +26,9 @@
 namespace modrt {
 
 // Every kind has one entry in the creator table (modrt/backends.h, create_backend), which a
-// static_assert checks against `count`.
-enum class BackendKind { cpu, gles, count };
-const char* backend_kind_name(BackendKind kind);  // "cpu", "gles"; "unknown" otherwise
+// static_assert checks against `count`. reference: core's scalar reference (reference_backend.h).
+enum class BackendKind { cpu, gles, reference, count };
+const char* backend_kind_name(BackendKind kind);  // "cpu", "gles", "reference"; "unknown" otherwise
 
 // The results a renderer samples, as GPU textures where the backend keeps them there.
 enum class BackendOutput {

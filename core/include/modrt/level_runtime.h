@@ -10,6 +10,7 @@
 #include <span>
 
 #include "modrt/level.h"
+#include "modrt/level_dirty.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt {
@@ -39,6 +40,24 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
 // Steps 2–5 in one call.
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
                       std::span<float> b, std::span<float> r, std::span<float> lightmap);
+
+// The same steps one item at a time (the reference backend's stages): the whole-level calls
+// above loop over these, so recomputing only the dirty items (level_dirty.h) gives the same
+// bits. No checks: ld must be validated and the level checked (check_level_operators).
+//   b_i = Td_b ld_i (block i)
+void level_compute_block_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
+                           std::size_t block, std::span<float> b);
+//   r_s = sum of T b_source over the records of slot s, in record order
+void level_compute_slot_r(const Level& level, const LevelDependencies& deps, std::span<const float> b,
+                          std::size_t slot, std::span<float> r);
+//   block i's tile of the lightmap: clamp(Ub b_i + Ur r_s of every slot s entering i, in slot order)
+void level_compute_tile(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                        std::span<const float> b, std::span<const float> r, std::size_t block,
+                        std::span<float> lightmap);
+//   block i's probes: Ubvol b_i + the probe response to every slot entering i, in slot order
+void level_compute_block_probes(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                                std::span<const float> b, std::span<const float> r, std::size_t block,
+                                std::span<float> probes);
 
 // Multi-bounce feedback for a level, as multi_bounce() for one block (same clamps). This is
 // the oracle: it iterates to convergence and allocates its scratch per call. Per-frame code
