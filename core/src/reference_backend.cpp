@@ -13,7 +13,9 @@
 namespace modrt {
 namespace {
 
-Status refused(const std::string& what) { return Status::error(ErrorCode::invalid_argument, "reference: " + what); }
+Status refused(const std::string& what) {
+  return Status::error(ErrorCode::invalid_argument, "reference: " + what);
+}
 
 class ReferenceBackend final : public Backend {
  public:
@@ -119,7 +121,8 @@ class ReferenceBackend final : public Backend {
     clutter_fed_.assign(drt_sizes_.clutter_ld, 0.0f);
     return Status::success();
   }
-  Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override {
+  Status set_clutter_light(std::span<const float> clutter_ld,
+                           std::span<const float> clutter_direct) override {
     if (!drt_) return refused("set_clutter_light: no clutter set");
     const std::size_t n = drt_sizes_.clutter_ld;
     if (clutter_ld.size() != n || (!clutter_direct.empty() && clutter_direct.size() != n))
@@ -141,7 +144,8 @@ class ReferenceBackend final : public Backend {
     if (!drt_) return refused("set_clutter_albedo: no clutter set");
     if (Status s = check_max_albedo(max_albedo, "reference: set_clutter_albedo"); !s.ok()) return s;
     if (!clutter_albedo.empty())
-      if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo"); !s.ok())
+      if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo");
+          !s.ok())
         return s;
     rho_c_.assign(clutter_albedo.begin(), clutter_albedo.end());
     rho_c_max_ = clamp_albedo(rho_c_, max_albedo, rho_c_).rho_max;
@@ -189,7 +193,8 @@ class ReferenceBackend final : public Backend {
       clamp_lightmap(lightmap_);
       drt_evaluate_clutter_lightmap(*drt_, b_, c_, clutter_direct_, clutter_lightmap_);
       if (!probes_.empty()) {  // Udyn adds to every block's probes: all of them from this frame's b and r
-        for (std::size_t i = 0; i < blocks; ++i) level_compute_block_probes(level_, dict_, deps, b_, r_, i, probes_);
+        for (std::size_t i = 0; i < blocks; ++i)
+          level_compute_block_probes(level_, dict_, deps, b_, r_, i, probes_);
         drt_apply_probes(*drt_, b_, c_, probes_);
       }
     }
@@ -213,7 +218,8 @@ class ReferenceBackend final : public Backend {
   Status check_probe_grid(const DrtOperators& drt) const {
     bool any = false;
     for (const DrtObjectOperators& o : drt.objects) any |= !o.Udyn.empty() || !o.Udyn_c.empty();
-    if (!any || probes_.empty() || std::size_t(27) * drt.probes_per_block * level_.blocks.size() == probes_.size())
+    if (!any || probes_.empty() ||
+        std::size_t(27) * drt.probes_per_block * level_.blocks.size() == probes_.size())
       return Status::success();
     return refused("the U_dyn operators are for " + std::to_string(drt.probes_per_block) +
                    " probes per block, the dictionary's grid has " +
