@@ -1639,6 +1639,11 @@ TEST(CApi, CppWrapper) {
   ASSERT_FALSE(ctx.read_lightmap(lightmap.data(), lightmap.size()));
   EXPECT_LT(rel_l2(lightmap, level_reference(t.level, t.ld).lightmap), 1e-5);
   EXPECT_EQ(ctx.atlas_texture(), 0u);
+  modrt_light light;
+  modrt_light_init(&light);
+  e = ctx.set_light_gpu(light);  // the GPU light pass needs a GLES context
+  EXPECT_EQ(e.code, MODRT_ERROR_UNSUPPORTED);
+  EXPECT_NE(e.message.find("set_lights"), std::string::npos) << e.message;
 }
 
 // GLES through the C API on a context the test program creates itself (EGL surfaceless, as an

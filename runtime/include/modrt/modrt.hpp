@@ -169,6 +169,11 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   Error read_ld(float* out, size_t count) const { return check(modrt_context_read_ld(h_, out, count)); }
   // GLES: ld from the app's own texture in ld_layout() (see modrt_context_set_ld_texture).
   Error set_ld_texture(uint32_t texture) { return check(modrt_context_set_ld_texture(h_, texture)); }
+  // GLES: ld of one point or spot light evaluated at the samples on the GPU, shadowed by the
+  // app's cube shadow map when `shadow` names one (see modrt_context_set_light_gpu).
+  Error set_light_gpu(const modrt_light& light, const modrt_shadow_cube* shadow = nullptr) {
+    return check(modrt_context_set_light_gpu(h_, &light, shadow));
+  }
   Error ld_layout(uint32_t& width, uint32_t& height) const {
     return check(modrt_context_get_ld_layout(h_, &width, &height));
   }
