@@ -52,12 +52,14 @@ cmake --install "$build_dir" --prefix "$prefix"
 
 dict="$repo_root/tests/fuzz/corpus/dictionary/tiny_interfaces.modrt"
 level="$repo_root/tests/fuzz/corpus/level_file/maze11.modrtlevel"
+# Operators of the DRT fuzz seed: valid structure for the tiny dictionary's kb, no level recorded.
+clutter="$repo_root/tests/fuzz/corpus/drt_file/two_objects.modrtdrt"
 
 echo "test-install.sh: find_package(modrt) consumer"
 cmake -S tests/consumer -B "$work/consumer" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$work/consumer" -j"$jobs"
-"$work/consumer/modrt_consumer" "$dict" "$level"
-"$work/consumer/modrt_consumer_static" "$dict" "$level"
+"$work/consumer/modrt_consumer" "$dict" "$level" "$clutter"
+"$work/consumer/modrt_consumer_static" "$dict" "$level" "$clutter"
 
 echo "test-install.sh: pkg-config consumer"
 export PKG_CONFIG_PATH="$prefix/lib/pkgconfig${PKG_CONFIG_PATH:+:$PKG_CONFIG_PATH}"

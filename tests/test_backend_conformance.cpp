@@ -677,6 +677,30 @@ TEST_P(BackendConformance, ClutterLightmapIsNeverNegative) {
   EXPECT_LE(rel_l2(out, ref), tolerance().drt) << be->description();
 }
 
+// Operators built without U_dyn add nothing to the probes, whatever probe grid their file names
+// (a .modrtdrt from another dictionary's grid): set_clutter and the frames succeed, the probes
+// are the MRT ones and the lightmap still gets its delta.
+TEST_P(BackendConformance, ClutterWithoutUdynLeavesTheProbesOfAnyGrid) {
+  const DrtFixture& f = drt_fixture();
+  DrtOperators no_udyn = f.drt;
+  for (DrtObjectOperators& o : no_udyn.objects) {
+    o.Udyn_probe.clear(), o.Udyn_block.clear(), o.Udyn_c_probe.clear();
+    o.Udyn = {}, o.Udyn_c = {};
+  }
+  no_udyn.probes_per_block = 27;  // not the dictionary's 2^3
+  const DrtReference ref = drt_reference(f, f.ld, f.clutter_ld);
+  std::unique_ptr<Backend> be = make(f.level);
+  ASSERT_TRUE(be);
+  const Status st = be->set_clutter(&no_udyn);
+  ASSERT_TRUE(st.ok()) << be->description() << ": " << st.to_string();
+  ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+  const Status su = be->update(f.ld);
+  ASSERT_TRUE(su.ok()) << be->description() << ": " << su.to_string();
+  const Outputs o = read_outputs(*be);
+  EXPECT_LE(rel_l2(o.probes, ref.probes_mrt), tolerance().drt) << be->description();
+  EXPECT_LE(rel_l2(o.lightmap, ref.lightmap), tolerance().drt) << be->description();
+}
+
 // No clutter (never set, removed, or empty operators) runs no DRT stage and leaves every result
 // bit-identical to a backend that never had any.
 TEST_P(BackendConformance, NoClutterIsBitIdenticalAndCostsNothing) {

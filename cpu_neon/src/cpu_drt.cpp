@@ -327,9 +327,9 @@ Status CpuDrtRuntime::apply_probes(std::span<const float> b, std::span<const flo
   if (b.size() != 3 * kb * level_->blocks.size())
     return wrong_size("b", b.size(), 3 * kb * level_->blocks.size());
   if (c.size() != sizes_.c) return wrong_size("c", c.size(), sizes_.c);
-  // Operators without U_dyn add nothing, to probes of any grid (the backend has the
-  // dictionary's and calls this every frame).
-  if (drt_->probes_per_block == 0) return Status::success();
+  // Operators without U_dyn rows add nothing, to probes of any grid (the backend has the
+  // dictionary's and calls this every frame), whatever grid their file names.
+  if (drt_->probes_per_block == 0 || (probes_.b.empty() && probes_.c.empty())) return Status::success();
   if (probes.size() != size) return wrong_size("probes", probes.size(), size);
   apply_delta(probes_, b, c, probes.data());
   return Status::success();
