@@ -7,9 +7,15 @@
 // light and a sun, updates it on the GPU, and then renders a frame with its own shader: the
 // lightmap atlas texture (modrt_context_get_atlas_texture) drawn into the app's framebuffer,
 // which it reads back and writes as a PNG. Only libmodrt_runtime.so, libEGL and libGLESv2 are
-// linked (OpenImageIO writes the image).
+// linked (OpenImageIO writes the image, tinygltf reads the scene mode's glTF file).
 //
 //   modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A] [--bounces N]
+//
+// The scene mode (host_scene.h) renders a glTF scene with the app's own renderer instead, lit
+// every frame through the C API:
+//
+//   modrt-embed-host --scene S.gltf --dictionary D.modrt --level L.modrtlevel [--clutter C.modrtdrt]
+//                    --out DIR [--frames N] [--width W] [--height H] [--bounces N] [--exposure E]
 // Exit status: 0 on success, 2 for a usage error (unknown flag, bad value: the message names
 // it), 77 when no EGL display or ES 3 context can be created, else 1.
 #define EGL_EGLEXT_PROTOTYPES
@@ -33,6 +39,7 @@
 #include <CLI/CLI.hpp>
 
 #include "cli_checks.h"
+#include "host_scene.h"
 #include "modrt/modrt.hpp"
 
 namespace {
@@ -143,31 +150,80 @@ int main(int argc, char** argv) {
   // Every argument is checked: an unknown flag, a missing value or a value out of range is a
   // usage error (exit 2) naming the flag, never silently ignored.
   CLI::App app{
-      "modrt-embed-host: an app-owned EGL context handed to modrt's C API; renders the lightmap atlas"};
+      "modrt-embed-host: an app-owned EGL context handed to modrt's C API; renders the lightmap atlas, or "
+      "with --scene a glTF scene lit through the C API"};
   std::string dictionary_path, level_path, out_path;
   int scale = 16;
   int bounces = 2;
   float albedo_value = 0.7f;  // used only with --albedo: else the level's own per-face albedo
-  app.add_option("dictionary", dictionary_path, "dictionary file (.modrt)")->required();
-  app.add_option("level", level_path, "built level file (.modrtlevel)")->required();
-  app.add_option("out", out_path, "output PNG")->required();
-  app.add_option("--scale", scale, "pixels per atlas texel")->check(CLI::Range(1, 64))->capture_default_str();
+  modrt::host::SceneModeOptions scene;
+  app.add_option("dictionary", dictionary_path, "atlas mode: dictionary file (.modrt)");
+  app.add_option("level", level_path, "atlas mode: built level file (.modrtlevel)");
+  app.add_option("out", out_path, "atlas mode: output PNG");
+  app.add_option("--scale", scale, "atlas mode: pixels per atlas texel")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   app.add_option("--bounces", bounces, "multi-bounce feedback steps per update")
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
   CLI::Option* albedo_option =
       app.add_option("--albedo", albedo_value,
-                     "one albedo for every sample instead of the level's own (authored per face)")
+                     "atlas mode: one albedo for every sample instead of the level's own (authored per face)")
           ->check(modrt::demo::FiniteRange(0.0, 1.0));
+  CLI::Option* scene_option =
+      app.add_option("--scene", scene.scene, "scene mode: glTF 2.0 scene (.gltf or .glb) to render");
+  app.add_option("--dictionary", scene.dictionary, "scene mode: dictionary file (.modrt)")
+      ->needs(scene_option);
+  app.add_option("--level", scene.level,
+                 "scene mode: the scene's built level (.modrtlevel, modrt-level --save)")
+      ->needs(scene_option);
+  app.add_option("--clutter", scene.clutter,
+                 "scene mode: the scene's DRT clutter operators (.modrtdrt, modrt-demo --save-clutter)")
+      ->needs(scene_option);
+  app.add_option("--out", scene.out_dir, "scene mode: output directory for frame_NNNN.png")
+      ->needs(scene_option);
+  app.add_option("--frames", scene.frames, "scene mode: frames to render")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str()
+      ->needs(scene_option);
+  app.add_option("--width", scene.width, "scene mode: image width")
+      ->check(CLI::Range(16, 8192))
+      ->capture_default_str()
+      ->needs(scene_option);
+  app.add_option("--height", scene.height, "scene mode: image height")
+      ->check(CLI::Range(16, 8192))
+      ->capture_default_str()
+      ->needs(scene_option);
+  app.add_option("--exposure", scene.exposure, "scene mode: exposure before tone mapping")
+      ->check(modrt::demo::FiniteRange(1e-6, 1e6))
+      ->capture_default_str()
+      ->needs(scene_option);
+  const char* usage =
+      "usage: modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A] [--bounces "
+      "N]\n"
+      "       modrt-embed-host --scene S.gltf --dictionary D.modrt --level L.modrtlevel [--clutter "
+      "C.modrtdrt] "
+      "--out DIR [--frames N] [--width W] [--height H] [--bounces N] [--exposure E]\n";
   try {
     app.parse(argc, argv);
+    const bool scene_mode = scene_option->count() > 0;
+    if (scene_mode && (!dictionary_path.empty() || !level_path.empty() || !out_path.empty()))
+      throw CLI::ValidationError(
+          "the scene mode (--scene) takes no positional arguments; give --dictionary, "
+          "--level and --out");
+    if (scene_mode && (scene.dictionary.empty() || scene.level.empty() || scene.out_dir.empty()))
+      throw CLI::ValidationError("--scene needs --dictionary, --level and --out");
+    if (scene_mode && albedo_option->count() > 0)
+      throw CLI::ValidationError(
+          "--albedo is for the atlas mode; the scene mode lights the level's own albedo");
+    if (!scene_mode && (dictionary_path.empty() || level_path.empty() || out_path.empty()))
+      throw CLI::ValidationError("the atlas mode needs DICTIONARY.modrt LEVEL.modrtlevel OUT.png");
   } catch (const CLI::ParseError& e) {
     if (app.exit(e) == 0) return 0;  // --help
-    std::fprintf(stderr,
-                 "usage: modrt-embed-host DICTIONARY.modrt LEVEL.modrtlevel OUT.png [--scale N] [--albedo A] "
-                 "[--bounces N]\n");
+    std::fputs(usage, stderr);
     return 2;
   }
+  scene.bounces = bounces;
 
   // 1. The app's GL context.
   EglContext egl;
@@ -178,6 +234,7 @@ int main(int argc, char** argv) {
   }
   std::printf("app context: %s | %s | %s\n", egl.platform.c_str(), glGetString(GL_RENDERER),
               glGetString(GL_VERSION));
+  if (!scene.scene.empty()) return modrt::host::run_scene_mode(scene);
 
   // 2. Assets: the dictionary from a file, the level from memory (an app's bundle asset).
   modrt::rt::Dictionary dict;
