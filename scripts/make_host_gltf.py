@@ -252,8 +252,11 @@ def main():
     materials.append({"name": "terracotta", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.45, 0.3, 1.0],
                                                                       "metallicFactor": 0.0}})
     pos, nrm, uv1, idx = prism([(0.55, 0.2), (0.8, 0.2), (0.8, 0.45), (0.55, 0.45)], 0.002, 0.42)
+    # glTF numbers TEXCOORD_n from 0 without gaps: the charts are TEXCOORD_0 too (one accessor).
+    charts = floats(uv1, "VEC2")
     meshes.append({"name": "crate", "primitives": [{"attributes": {
-        "POSITION": floats(pos, "VEC3", True), "NORMAL": floats(nrm, "VEC3"), "TEXCOORD_1": floats(uv1, "VEC2")},
+        "POSITION": floats(pos, "VEC3", True), "NORMAL": floats(nrm, "VEC3"), "TEXCOORD_0": charts,
+        "TEXCOORD_1": charts},
         "indices": uints(idx), "material": box_material}]})
     nodes.append({"name": "crate", "mesh": len(meshes) - 1, "extras": {"modrt_clutter": {"res": 24}}})
 
