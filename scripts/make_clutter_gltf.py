@@ -130,7 +130,8 @@ def main():
         uv = view(b"".join(struct.pack("<2f", *t) for t in uvs), len(uvs), "VEC2", 5126)
         idx = view(b"".join(struct.pack("<H", i) for i in indices), len(indices), "SCALAR", 5123)
         gltf_meshes.append({"name": ["pillar", "box"][mi], "primitives": [
-            {"attributes": {"POSITION": pos, "TEXCOORD_1": uv}, "indices": idx, "material": mi}]})
+            # glTF numbers TEXCOORD_n from 0 without gaps: the charts are TEXCOORD_0 too (one accessor).
+            {"attributes": {"POSITION": pos, "TEXCOORD_0": uv, "TEXCOORD_1": uv}, "indices": idx, "material": mi}]})
 
     gltf = {
         "asset": {"version": "2.0", "generator": "modrt scripts/make_clutter_gltf.py"},
