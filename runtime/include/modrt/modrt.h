@@ -162,12 +162,15 @@ MODRT_API modrt_status modrt_level_get_samples(const modrt_level* level, modrt_l
  * turns about +Y and warped through its 8 corners. Per-face arrays are indexed by the
  * canonical face, whose world direction is world_face[f]. */
 typedef struct modrt_level_block {
-  uint32_t struct_size;                 /* set by the caller: sizeof(modrt_level_block) */
-  uint32_t shape;                       /* dictionary shape index */
-  uint32_t quarter_turns;               /* canonical -> world: this many quarter turns about +Y (0..3) */
-  uint32_t face_mask;                   /* canonical faces present (walls): bit f for face f */
-  int32_t cell[3];                      /* grid cell */
-  float corners[8][3];                  /* world corner x + 2y + 4z of the canonical unit cube */
+  uint32_t struct_size;   /* set by the caller: sizeof(modrt_level_block) */
+  uint32_t shape;         /* dictionary shape index */
+  uint32_t quarter_turns; /* canonical -> world: this many quarter turns about +Y (0..3) */
+  uint32_t face_mask;     /* canonical faces present (walls): bit f for face f */
+  int32_t cell[3];        /* grid cell */
+  /* World corner x + 2y + 4z of the unit cube after the quarter turns: the canonical point p
+   * of the block is at trilinear(corners, turn(p)), where turn applies (x, y, z) ->
+   * (z, y, 1 - x) quarter_turns times (core's block_to_world). */
+  float corners[8][3];
   uint32_t world_face[6];               /* world face (0..5) of each canonical face */
   int32_t neighbour[6];                 /* block joined through each canonical face, or -1 */
   float albedo[6][3];                   /* linear RGB per canonical face */
