@@ -1,292 +1,188 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/cpu/cpu_backend.h"
-#include "modrt/feedback_policy.h"
 
 #include <algorithm>
-#include <chrono>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "modrt/cpu/cpu_drt.h"
 #include "modrt/cpu/kernels.h"
+#include "modrt/staged_backend.h"
+
+#include "fp_env.h"
 
 namespace modrt::cpu {
 namespace {
 
-class CpuBackend final : public Backend {
+// CpuLevelRuntime's stages under core's StagedBackend: the runtime computes b, r and the tiles
+// of what the pipeline marks (r and the tiles fused in one task per block, the r stage is
+// empty), the atlas whole, the probes of the marked tiles; CpuDrtRuntime the DRT stages.
+class CpuBackend final : public StagedBackend {
  public:
-  CpuBackend(const Level& level, CpuLevelRuntime runtime, const CpuBackendOptions& options)
-      : level_(level),
+  CpuBackend(const Level& level, const Dictionary& dict, CpuLevelRuntime runtime,
+             const CpuBackendOptions& options, bool skip_unchanged)
+      : StagedBackend(level, dict, StagedBackendOptions{options.probes, skip_unchanged}, "cpu"),
         rt_(std::move(runtime)),
         description_(std::string("cpu ") + isa_name(rt_.isa())),
-        lightmap_(rt_.sizes().lightmap, 0.0f),
-        atlas_(rt_.sizes().atlas, 0.0f),
-        probes_(options.probes ? rt_.sizes().probes : 0, 0.0f),
-        rho_(rt_.sizes().ld, 0.0f),
-        timing_(options.timing) {}
+        lightmap_(sizes().lightmap, 0.0f),
+        atlas_(sizes().atlas, 0.0f),
+        probes_(has_probes() ? sizes().probes : 0, 0.0f),
+        rho_(sizes().ld, 0.0f),
+        ld_feedback_(sizes().ld, 0.0f) {
+    set_timing(options.timing);
+  }
 
   BackendKind kind() const override { return BackendKind::cpu; }
   const char* description() const override { return description_.c_str(); }
-  const LevelBufferSizes& sizes() const override { return rt_.sizes(); }
-
-  Status update(std::span<const float> ld) override {
-    times_ = BackendStageTimes{};
-    const Clock::time_point t0 = Clock::now();
-    if (drt_) {
-      if (Status s = rt_.evaluate(ld, base_); !s.ok()) return s;
-      stage(times_.lightmap, t0);
-      if (!rho_c_.empty()) c_ = c_direct_;  // a new first bounce: the clutter's direct light only
-      return finish_drt();
-    }
-    if (Status s = rt_.evaluate(ld, lightmap_); !s.ok()) return s;
-    stage(times_.lightmap, t0);
-    // Skipping left every b, r and tile as it was (a repeated ld): the atlas and probes on hand
-    // are this frame's, so nothing more runs (Backend's evaluations_skipped, as GLES).
-    if (updated_ && rt_.skip_options().enabled && rt_.skip_stats().tiles_written == 0) {
-      count_evaluation();
-      ++evaluations_.evaluations_skipped;
-      return Status::success();
-    }
-    return finish();
-  }
   std::span<const float> output_data(BackendOutput output) const override {
     if (output == BackendOutput::atlas) return atlas_;  // zeros before the first update
     return {};
   }
-  const BackendStageTimes& stage_times() const override { return times_; }
-  void set_timing(bool on) override { timing_ = on; }
-  BackendEvaluationStats evaluation_stats() const override { return evaluations_; }
-  Status set_albedo(std::span<const float> albedo, float max_albedo) override {
-    if (Status s = rt_.set_albedo(albedo, max_albedo); !s.ok()) return s;
-    // The clutter path runs the feedback itself (see multi_bounce_step), so it keeps the same
-    // clamped albedo as the level runtime.
-    rho_max_ = clamp_albedo(albedo, max_albedo, rho_).rho_max;
-    has_albedo_ = true;
+
+ protected:
+  Status stage_ld(std::span<const float> ld, const StageWork&) override {
+    ld_ = ld;  // read in place by stage_b, within this evaluation
     return Status::success();
   }
-  Status multi_bounce_step(std::span<const float> ld_direct) override {
-    if (!updated_)
-      return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call update first");
-    times_ = BackendStageTimes{};
-    const Clock::time_point t0 = Clock::now();
-    if (drt_) {
-      // The feedback reads the lightmap with the DRT delta, but the level runtime must write
-      // the MRT part into base_: with skipping on it keeps unchanged tiles in place, and
-      // lightmap_'s would carry last frame's delta. Same kernel as CpuLevelRuntime's step.
-      if (!has_albedo_)
-        return Status::error(ErrorCode::invalid_argument, "cpu: multi_bounce_step: call set_albedo first");
-      if (Status s = validate_light_signal(ld_direct, lightmap_.size() / 3, "ld_direct"); !s.ok()) return s;
-      const float ld_max = largest_light(ld_direct);
-      if (!rho_c_.empty()) {  // the clutter's indirect light of the last evaluation, fed back
-        if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
-        if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
-        drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_,
-                             drt_feedback_bound(ld_max, rho_max_, clutter_ld_max_, rho_c_max_), clutter_fed_);
-        if (Status s = drt_->compute_c(clutter_fed_, c_); !s.ok()) return s;
-      }
-      feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(),
-                   feedback_energy_bound(ld_max, rho_max_), ld_feedback_.data(), ld_direct.size());
-      if (Status s = rt_.evaluate(ld_feedback_, base_); !s.ok()) return s;
-      stage(times_.lightmap, t0);
-      return finish_drt();
+  Status stage_albedo(std::span<const float> rho) override {
+    std::copy(rho.begin(), rho.end(), rho_.begin());
+    return Status::success();
+  }
+  Status stage_feedback(std::span<const float> ld_direct, float bound) override {
+    const ScopedFlushDenormals flush(rt_.flush_denormals());
+    feedback_rgb(rt_.isa(), ld_direct.data(), rho_.data(), lightmap_.data(), bound, ld_feedback_.data(),
+                 ld_direct.size());
+    ld_ = ld_feedback_;
+    return Status::success();
+  }
+  Status stage_b(const StageWork& work) override {
+    rt_.compute_b(ld_, work.blocks);
+    return Status::success();
+  }
+  Status stage_r(const StageWork&) override { return Status::success(); }  // in stage_tiles
+  Status stage_tiles(const StageWork& work) override {
+    rt_.compute_r_and_tiles(work.slots, work.tiles,
+                            clutter() ? std::span<float>(base_) : std::span<float>(lightmap_));
+    return Status::success();
+  }
+  // architecture.md §5 step 7: lightmap = base + dUb b + dUc c, clamped as every lightmap.
+  Status stage_deltas(const StageWork&) override {
+    std::copy(base_.begin(), base_.end(), lightmap_.begin());
+    if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
+    clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());
+    return Status::success();
+  }
+  Status stage_atlas(const StageWork&) override { return rt_.fill_atlas(lightmap_, atlas_); }
+  Status stage_probes(const StageWork& work) override {
+    rt_.compute_probes(work.tiles, probes_);
+    return clutter() ? drt_->apply_probes(rt_.b(), c_, probes_) : Status::success();  // DRT §5 (U_dyn)
+  }
+  Status read_output(StageOutput output, std::span<float> out) override {
+    const auto copy = [&](const std::vector<float>& from) {
+      std::copy(from.begin(), from.end(), out.begin());
+      return Status::success();
+    };
+    switch (output) {
+      case StageOutput::lightmap: return copy(lightmap_);
+      case StageOutput::atlas: return copy(atlas_);
+      case StageOutput::probes: return copy(probes_);
+      case StageOutput::clutter_lightmap: return copy(clutter_lightmap_);
+      case StageOutput::vector_lightmap:  // on request from the kept b and r
+        if (Status s = rt_.compute_vector_irradiance(out); !s.ok()) return s;
+        return clutter() ? drt_->apply_vector(rt_.b(), c_, out) : Status::success();  // DRT §5
+      case StageOutput::clutter_vector_lightmap: return drt_->clutter_vector_lightmap(rt_.b(), c_, out);
     }
-    if (Status s = rt_.multi_bounce_step(ld_direct, lightmap_); !s.ok()) return s;
-    stage(times_.lightmap, t0);
-    return finish();
-  }
-  Status read_lightmap(std::span<float> out) override { return copy("lightmap", lightmap_, out); }
-  Status read_atlas(std::span<float> out) override { return copy("atlas", atlas_, out); }
-  Status read_probes(std::span<float> out) override {
-    if (probes_.empty())
-      return Status::error(ErrorCode::invalid_argument,
-                           "cpu: no probes: the dictionary has none, or CpuBackendOptions::probes is off");
-    return copy("probes", probes_, out);
-  }
-  // Computed on request from the kept b and r, so frames that never read it pay nothing.
-  Status read_vector_lightmap(std::span<float> out) override {
-    if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
-    if (Status s = rt_.compute_vector_irradiance(out); !s.ok()) return s;
-    return drt_ ? drt_->apply_vector(rt_.b(), c_, out) : Status::success();  // DRT §5 (dUb_vec, dUc_vec)
+    return Status::success();
   }
 
-  Status set_clutter(const DrtOperators* drt) override {
-    if (!drt || drt->empty()) {
+  Status stage_clutter_set(const DrtOperators* drt) override {
+    if (!drt) {
       drt_.reset();
-      drt_sizes_ = {};
       base_ = {}, c_ = {}, c_direct_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {};
-      ld_feedback_ = {}, rho_c_ = {}, clutter_indirect_ = {}, clutter_fed_ = {};
-      updated_ = false;
+      rho_c_ = {}, clutter_indirect_ = {}, clutter_fed_ = {};
       return Status::success();
     }
-    if (Status s = check_probe_grid(*drt); !s.ok()) return s;
-    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level_, *drt, rt_.isa());
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level(), *drt, rt_.isa());
     if (!rt.ok()) return rt.status();
     drt_.emplace(std::move(rt).value());
-    drt_sizes_ = drt_->sizes();
+    const DrtBufferSizes& sizes = drt_->sizes();
     base_.assign(lightmap_.size(), 0.0f);
-    ld_feedback_.assign(lightmap_.size(), 0.0f);
-    c_.assign(drt_sizes_.c, 0.0f);
+    c_.assign(sizes.c, 0.0f);
     c_direct_ = c_;
-    rho_c_.clear();
-    clutter_ld_.assign(drt_sizes_.clutter_ld, 0.0f);
+    clutter_ld_.assign(sizes.clutter_ld, 0.0f);
     clutter_direct_.clear();
-    clutter_lightmap_.assign(drt_sizes_.clutter_lightmap, 0.0f);
-    updated_ = false;  // the results on hand are without this clutter
+    clutter_direct_.reserve(sizes.clutter_ld);
+    clutter_lightmap_.assign(sizes.clutter_lightmap, 0.0f);
+    rho_c_.clear();
+    rho_c_.reserve(sizes.clutter_ld);
+    clutter_indirect_.assign(sizes.clutter_lightmap, 0.0f);
+    clutter_fed_.assign(sizes.clutter_ld, 0.0f);
     return Status::success();
   }
-  Status set_clutter_light(std::span<const float> clutter_ld,
-                           std::span<const float> clutter_direct) override {
-    if (!drt_) return Status::error(ErrorCode::invalid_argument, "cpu: set_clutter_light: no clutter set");
-    const std::size_t n = drt_sizes_.clutter_ld;
-    if (clutter_ld.size() != n || (!clutter_direct.empty() && clutter_direct.size() != n))
-      return Status::error(ErrorCode::invalid_argument,
-                           "cpu: set_clutter_light: clutter_ld has " + std::to_string(clutter_ld.size()) +
-                               " floats and clutter_direct " + std::to_string(clutter_direct.size()) +
-                               ", expected " + std::to_string(n) + " (clutter_direct may be empty)");
-    if (Status s = validate_light_signal(clutter_ld, n / 3, "clutter_ld"); !s.ok()) return s;
-    if (!clutter_direct.empty())
-      if (Status s = validate_light_signal(clutter_direct, n / 3, "clutter_direct"); !s.ok()) return s;
-    clutter_ld_.assign(clutter_ld.begin(), clutter_ld.end());
-    clutter_ld_max_ = clutter_ld.empty() ? 0.0f : *std::max_element(clutter_ld.begin(), clutter_ld.end());
+  Status stage_clutter_light(std::span<const float> clutter_ld,
+                             std::span<const float> clutter_direct) override {
+    std::copy(clutter_ld.begin(), clutter_ld.end(), clutter_ld_.begin());
     clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
     if (Status s = drt_->compute_c(clutter_ld_, c_direct_); !s.ok()) return s;
     c_ = c_direct_;
     return Status::success();
   }
-  Status set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) override {
-    if (!drt_) return Status::error(ErrorCode::invalid_argument, "cpu: set_clutter_albedo: no clutter set");
-    if (Status s = check_max_albedo(max_albedo, "cpu: set_clutter_albedo"); !s.ok()) return s;
-    if (!clutter_albedo.empty())
-      if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo");
-          !s.ok())
-        return s;
-    rho_c_.assign(clutter_albedo.begin(), clutter_albedo.end());
-    c_ = c_direct_;  // without feedback c stays the direct light's (update() keeps it then)
-    rho_c_max_ = clamp_albedo(rho_c_, max_albedo, rho_c_).rho_max;
-    clutter_indirect_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_lightmap, 0.0f);
-    clutter_fed_.assign(rho_c_.empty() ? 0 : drt_sizes_.clutter_ld, 0.0f);
+  Status stage_clutter_albedo(std::span<const float> rho_c) override {
+    rho_c_.assign(rho_c.begin(), rho_c.end());
+    c_ = c_direct_;
     return Status::success();
   }
-  const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
-  // Computed on request from the kept b and c (DRT §5, C_b vector).
-  Status read_clutter_vector_lightmap(std::span<float> out) override {
-    if (!drt_)
-      return Status::error(ErrorCode::invalid_argument, "cpu: read_clutter_vector_lightmap: no clutter set");
-    if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
-    return drt_->clutter_vector_lightmap(rt_.b(), c_, out);
+  // DRT §4.4: the clutter's indirect light of the last evaluation (Cb b + Cc c) fed back.
+  Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
+    if (source == ClutterCSource::direct) {
+      c_ = c_direct_;
+      return Status::success();
+    }
+    if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
+    if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
+    drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_, feedback.bound(), clutter_fed_);
+    return drt_->compute_c(clutter_fed_, c_);
   }
-  Status read_clutter_lightmap(std::span<float> out) override {
-    if (!drt_)
-      return Status::error(ErrorCode::invalid_argument, "cpu: read_clutter_lightmap: no clutter set");
-    return copy("clutter lightmap", clutter_lightmap_, out);
+  // Cb b + Cc c + direct, clamped at 0 (core's drt_evaluate_clutter_lightmap).
+  Status stage_clutter_lightmap() override {
+    if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
+    if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
+    clamp_nonnegative(rt_.isa(), clutter_lightmap_.data(), clutter_lightmap_.size());
+    return Status::success();
   }
 
  private:
-  // U_dyn operators must be for the dictionary's probe grid (the probes this backend computes).
-  Status check_probe_grid(const DrtOperators& drt) const {
-    bool any = false;
-    for (const DrtObjectOperators& o : drt.objects) any |= !o.Udyn.empty() || !o.Udyn_c.empty();
-    if (!any || probes_.empty() ||
-        std::size_t(27) * drt.probes_per_block * level_.blocks.size() == probes_.size())
-      return Status::success();
-    return Status::error(
-        ErrorCode::invalid_argument,
-        "cpu: the U_dyn operators are for " + std::to_string(drt.probes_per_block) +
-            " probes per block, the dictionary's grid has " +
-            std::to_string(probes_.size() / 27 / std::max<std::size_t>(level_.blocks.size(), 1)));
-  }
-  using Clock = std::chrono::steady_clock;
-  // Adds the time since `since` to `field` when timing is on; returns now.
-  Clock::time_point stage(std::uint64_t& field, Clock::time_point since) const {
-    if (!timing_) return since;
-    const Clock::time_point now = Clock::now();
-    field += std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(now - since).count());
-    return now;
-  }
-  // One evaluation of the level runtime: its skip counters (per evaluation) into the totals.
-  void count_evaluation() {
-    const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
-    BackendEvaluationStats& e = evaluations_;
-    ++e.evaluations;
-    if (!rt_.skip_options().enabled) {
-      e.blocks_computed += blocks, e.slots_computed += slots, e.tiles_written += blocks;
-      return;
-    }
-    const CpuSkipStats& s = rt_.skip_stats();
-    e.blocks_computed += s.blocks_computed + s.blocks_dark;
-    e.blocks_kept += s.blocks_kept;
-    e.slots_computed += slots - s.slots_kept;
-    e.slots_kept += s.slots_kept;
-    e.tiles_written += s.tiles_written;
-    e.tiles_kept += s.tiles_skipped;
-  }
-  Status finish() {
-    updated_ = true;
-    count_evaluation();
-    Clock::time_point t = Clock::now();
-    if (Status s = rt_.fill_atlas(lightmap_, atlas_); !s.ok()) return s;
-    t = stage(times_.atlas, t);
-    if (probes_.empty()) return Status::success();
-    if (Status s = rt_.compute_probes(probes_); !s.ok()) return s;
-    if (drt_)
-      if (Status s = drt_->apply_probes(rt_.b(), c_, probes_); !s.ok()) return s;  // DRT §5 (U_dyn)
-    stage(times_.probes, t);
-    return Status::success();
-  }
-  // architecture.md §5 step 7 after steps 2-5: lightmap = base + dUb b + dUc c, then the clutter lightmap
-  // Cb b + Cc c + direct.
-  Status finish_drt() {
-    const Clock::time_point t = Clock::now();
-    std::copy(base_.begin(), base_.end(), lightmap_.begin());
-    if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
-    clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());  // the lightmap policy, as core
-    if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
-    if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
-    // The clutter lightmap is a lightmap: clamped at 0 (core's drt_evaluate_clutter_lightmap).
-    clamp_nonnegative(rt_.isa(), clutter_lightmap_.data(), clutter_lightmap_.size());
-    stage(times_.drt, t);
-    return finish();
-  }
-  Status copy(const char* what, const std::vector<float>& from, std::span<float> to) const {
-    if (to.size() != from.size())
-      return Status::error(ErrorCode::invalid_argument, std::string("cpu: ") + what + ": has " +
-                                                            std::to_string(to.size()) + " floats, expected " +
-                                                            std::to_string(from.size()));
-    if (!updated_) return Status::error(ErrorCode::invalid_argument, "cpu: read before the first update");
-    std::copy(from.begin(), from.end(), to.begin());
-    return Status::success();
-  }
-
-  const Level& level_;
   CpuLevelRuntime rt_;
   std::string description_;
-  std::vector<float> lightmap_, atlas_, probes_;
-  bool updated_ = false;
-  // DRT (only with clutter): the MRT lightmap the level runtime writes, c, the clutter's light
-  // and lightmap, the feedback ld; the albedo as clamped by set_albedo.
+  std::vector<float> lightmap_, atlas_, probes_, rho_, ld_feedback_;
+  std::span<const float> ld_;  // this evaluation's ld: the caller's or ld_feedback_
+  // DRT (only with clutter): the MRT lightmap the runtime writes (base_), c, the clutter's light
+  // and lightmap; c of the direct light alone, the clamped clutter albedo, the last
+  // evaluation's Cb b + Cc c and the light fed back.
   std::optional<CpuDrtRuntime> drt_;
-  DrtBufferSizes drt_sizes_;
-  std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_, ld_feedback_;
-  // The clutter's feedback (set_clutter_albedo): c of its direct light alone, the clamped
-  // clutter albedo, the last evaluation's Cb b + Cc c and the light fed back.
+  std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_;
   std::vector<float> c_direct_, rho_c_, clutter_indirect_, clutter_fed_;
-  float rho_c_max_ = 0.0f, clutter_ld_max_ = 0.0f;
-  std::vector<float> rho_;
-  float rho_max_ = 0.0f;
-  bool has_albedo_ = false;
-  bool timing_ = false;
-  BackendStageTimes times_;
-  BackendEvaluationStats evaluations_;
 };
 
 }  // namespace
 
 Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,
                                                     const CpuBackendOptions& options) {
-  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict, options.runtime);
+  // The backend skips exactly (StagedBackend's dirty sets); the approximate skips of
+  // CpuSkipOptions are CpuLevelRuntime's own, with their error bounds.
+  const CpuSkipOptions& skip = options.runtime.skip;
+  if (skip.ld_epsilon != 0.0f || skip.dark_ld != 0.0f || skip.record_epsilon != 0.0f ||
+      skip.r_epsilon != 0.0f)
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "cpu backend: CpuSkipOptions' ld_epsilon, dark_ld, record_epsilon and r_epsilon must be 0 "
+        "(the backend skips exactly; approximate skipping is CpuLevelRuntime's)");
+  CpuRuntimeOptions runtime = options.runtime;
+  runtime.skip = CpuSkipOptions{};
+  Result<CpuLevelRuntime> rt = CpuLevelRuntime::create(level, dict, runtime);
   if (!rt.ok()) return rt.status();
-  return std::unique_ptr<Backend>(new CpuBackend(level, std::move(rt).value(), options));
+  return std::unique_ptr<Backend>(new CpuBackend(level, dict, std::move(rt).value(), options, skip.enabled));
 }
 
 Result<std::unique_ptr<Backend>> create_cpu_backend(const Level& level, const Dictionary& dict,

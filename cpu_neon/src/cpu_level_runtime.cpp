@@ -264,6 +264,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.ld_planar_.assign(3 * rt.max_block_samples_ * std::size_t(options.threads), 0.0f);
   rt.rho_.assign(rt.sizes_.ld, 0.0f);
   rt.ld_feedback_.assign(rt.sizes_.ld, 0.0f);
+  rt.work_items_.assign(level.blocks.size(), 0);
   {  // the level's transport graph, as every backend's skipping reads it (core's level_dirty.h)
     LevelDependencies deps = level_dependencies(level);
     rt.slot_record_begin_ = std::move(deps.slot_record_begin),
@@ -584,13 +585,16 @@ void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, 
 }
 
 // Steps 4, 3 and 5 for the tile of block i: r of every slot entering i (records in level
-// order), then lightmap_i = Ub b_i, += Ur r_s scattered onto each slot's entry face.
-void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lightmap) {
+// order; only the flagged slots when `slots` is given), then lightmap_i = Ub b_i, += Ur r_s
+// scattered onto each slot's entry face.
+void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lightmap,
+                                             const std::uint8_t* slots) {
   const Level& level = *level_;
   const std::size_t kb = level.kb, kr = level.kr;
   float* tile = lightmap.data() + 3 * std::size_t(level.blocks[i].sample_offset);
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
+    if (slots && !slots[s]) continue;
     float* r = r_.data() + 3 * kr * s;
     std::fill(r, r + 3 * kr, 0.0f);
     for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
@@ -642,24 +646,53 @@ Status CpuLevelRuntime::fill_atlas(std::span<const float> lightmap, std::span<fl
   return Status::success();
 }
 
-Status CpuLevelRuntime::compute_probes(std::span<float> probes) const {
-  if (probes.size() != sizes_.probes) return wrong_size("probes", probes.size(), sizes_.probes);
+void CpuLevelRuntime::compute_block_probes(std::size_t i, std::span<float> probes) const {
   const Level& level = *level_;
-  if (probes.empty()) return Status::success();
   const std::size_t kb = level.kb, kr = level.kr;
   const std::size_t per_block = 3 * std::size_t(dict_->shapes[0].Ubvol.rows);
-  auto probe_phase = [&](std::size_t i, int) {
-    float* out = probes.data() + per_block * i;
-    const std::size_t shape = std::size_t(level.blocks[i].shape);
-    gemv(shape_ops_[shape].ubvol, dict_->shapes[shape].Ubvol.rows, kb, b_planar_.data() + 3 * kb * i, out,
-         false);
-    for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
-      const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
-      gemv(probe_ops_[face], level.probe_response[face].rows, kr, r_planar_.data() + 3 * kr * s, out, true);
-    }
-  };
-  parallel_for(level.blocks.size(), probe_phase);
+  float* out = probes.data() + per_block * i;
+  const std::size_t shape = std::size_t(level.blocks[i].shape);
+  gemv(shape_ops_[shape].ubvol, dict_->shapes[shape].Ubvol.rows, kb, b_planar_.data() + 3 * kb * i, out,
+       false);
+  for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+    const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
+    gemv(probe_ops_[face], level.probe_response[face].rows, kr, r_planar_.data() + 3 * kr * s, out, true);
+  }
+}
+
+Status CpuLevelRuntime::compute_probes(std::span<float> probes) const {
+  if (probes.size() != sizes_.probes) return wrong_size("probes", probes.size(), sizes_.probes);
+  if (probes.empty()) return Status::success();
+  auto probe_phase = [&](std::size_t i, int) { compute_block_probes(i, probes); };
+  parallel_for(level_->blocks.size(), probe_phase);
   return Status::success();
+}
+
+std::span<const std::uint32_t> CpuLevelRuntime::flagged(std::span<const std::uint8_t> flags) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < flags.size(); ++i)
+    if (flags[i]) work_items_[n++] = std::uint32_t(i);
+  return {work_items_.data(), n};
+}
+
+void CpuLevelRuntime::compute_b(std::span<const float> ld, std::span<const std::uint8_t> blocks) {
+  const std::span<const std::uint32_t> items = flagged(blocks);
+  auto b_phase = [&](std::size_t k, int thread) { compute_block_b(items[k], ld, thread); };
+  parallel_for(items.size(), b_phase);
+}
+
+void CpuLevelRuntime::compute_r_and_tiles(std::span<const std::uint8_t> slots,
+                                          std::span<const std::uint8_t> tiles, std::span<float> lightmap) {
+  const std::span<const std::uint32_t> items = flagged(tiles);
+  auto lightmap_phase = [&](std::size_t k, int) { compute_block_lightmap(items[k], lightmap, slots.data()); };
+  parallel_for(items.size(), lightmap_phase);
+}
+
+void CpuLevelRuntime::compute_probes(std::span<const std::uint8_t> blocks, std::span<float> probes) {
+  if (probes.empty()) return;
+  const std::span<const std::uint32_t> items = flagged(blocks);
+  auto probe_phase = [&](std::size_t k, int) { compute_block_probes(items[k], probes); };
+  parallel_for(items.size(), probe_phase);
 }
 
 Status CpuLevelRuntime::compute_vector_irradiance(std::span<float> vector_lightmap) const {

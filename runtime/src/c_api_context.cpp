@@ -668,7 +668,7 @@ modrt_status modrt_context_update(modrt_context* context) {
     if (!pipeline.last_frame_skipped()) {
       const BackendStageTimes& st = pipeline.times();
       t.upload_ns = st.upload, t.b_ns = st.b, t.r_ns = st.r, t.feedback_ns = st.feedback;
-      t.lightmap_ns = st.lightmap + st.drt;  // cpu: b, r and the lightmap fused, with the DRT delta
+      t.lightmap_ns = st.lightmap + st.drt;  // cpu: r and the tiles fused, with the DRT delta
       t.atlas_ns = st.atlas + st.clutter;    // with the clutter atlas
       t.probes_ns = st.probes + st.vector;   // with the vector irradiance
       context->probes_current = false;

@@ -398,9 +398,9 @@ MODRT_API modrt_status modrt_context_get_probe_positions(const modrt_context* co
                                                          size_t count);
 
 /* Wall-clock / GPU nanoseconds of the stages of the last set_lights and update (timing on;
- * otherwise only light_ns and update_ns), summed over the update's bounces. CPU: b, r and the lightmap run
- * fused, so b_ns and r_ns are 0 and lightmap_ns covers all three. GLES: the lightmap is written straight into
- * the atlas, so lightmap_ns is 0 and atlas_ns covers it. */
+ * otherwise only light_ns and update_ns), summed over the update's bounces. CPU: r runs in the lightmap's
+ * task per block, so r_ns is 0 and lightmap_ns covers r and the tiles. GLES: the lightmap is written
+ * straight into the atlas, so lightmap_ns is 0 and atlas_ns covers it. */
 typedef struct modrt_timings {
   uint32_t struct_size; /* set by the caller: sizeof(modrt_timings) */
   uint64_t light_ns;    /* set_lights: the CPU direct-light evaluation */

@@ -167,6 +167,7 @@ class CpuLevelRuntime {
   CpuLevelRuntime& operator=(const CpuLevelRuntime&) = delete;
 
   Isa isa() const { return isa_; }
+  bool flush_denormals() const { return flush_denormals_; }
   int threads() const { return threads_; }
   OperatorStorage operators() const { return operators_; }
   // Bytes of the operators this runtime's GEMVs read (the list in the header comment): float32,
@@ -180,6 +181,19 @@ class CpuLevelRuntime {
   // sizes().ld / sizes().lightmap floats. Fails (non_finite / invalid_argument, naming the
   // sample and channel) on NaN, Inf or negative ld, and on wrong sizes; then nothing is written.
   Status evaluate(std::span<const float> ld, std::span<float> lightmap);
+
+  // The stages of evaluate() over chosen items, for a caller that tracks what changed itself
+  // (StagedBackend, core's staged_backend.h: flags per block or slot, 1 = compute). ld must
+  // hold valid values (evaluate()'s checks are the caller's) and the lightmap must be the one
+  // these calls wrote before, so that the tiles not computed stay right. compute_b: b_i of
+  // the flagged blocks. compute_r_and_tiles: in one task per flagged tile i, r of the flagged
+  // slots entering i (a flagged slot's tile must be flagged), then tile i = Ub b_i + Ur r. The
+  // results are bit-identical to evaluate()'s; nothing is allocated.
+  void compute_b(std::span<const float> ld, std::span<const std::uint8_t> blocks);
+  void compute_r_and_tiles(std::span<const std::uint8_t> slots, std::span<const std::uint8_t> tiles,
+                           std::span<float> lightmap);
+  // compute_probes for the flagged blocks only (the others keep their probes).
+  void compute_probes(std::span<const std::uint8_t> blocks, std::span<float> probes);
 
   // Multi-bounce feedback. set_albedo() validates the albedo (3 x samples), clamps it to
   // max_albedo (as core's prepare_feedback) and stores it. multi_bounce_step() is one
@@ -224,7 +238,10 @@ class CpuLevelRuntime {
   template <class F>
   void parallel_for(std::size_t count, F& f) const;
   void compute_block_b(std::size_t i, std::span<const float> ld, int thread);
-  void compute_block_lightmap(std::size_t i, std::span<float> lightmap);
+  void compute_block_lightmap(std::size_t i, std::span<float> lightmap,
+                              const std::uint8_t* slots = nullptr);  // slots: flags (null: all)
+  void compute_block_probes(std::size_t i, std::span<float> probes) const;
+  std::span<const std::uint32_t> flagged(std::span<const std::uint8_t> flags);
   void skip_block_b(std::size_t i, std::span<const float> ld, int thread);
   void skip_block_lightmap(std::size_t i, std::span<float> lightmap, int thread);
   void finish_skip_stats();
@@ -268,6 +285,7 @@ class CpuLevelRuntime {
   // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
   std::vector<std::uint32_t> slot_record_begin_, slot_records_, block_slot_begin_, block_slots_;
+  std::vector<std::uint32_t> work_items_;  // the flagged indices of a stage call (blocks capacity)
 
   // Skipping state (all sized by create()). Per block: what phase 1 did (BlockAction), whether
   // b changed, beta_i, ||b_i||_F, the tile's bound and whether it was written, the ld that

@@ -1,0 +1,207 @@
+// SPDX-License-Identifier: MIT
+// modrt — the frame sequence every backend shares (architecture.md §5, "One frame"), stated
+// once: StagedBackend implements the whole Backend interface on top of a narrow stage
+// interface that the scalar reference, modrt::cpu and modrt::gles implement.
+//
+// What StagedBackend owns, for every backend alike:
+//   - input validation (ld, albedo, clutter light and albedo: NaN, Inf, negative, sizes; the
+//     message names the argument, sample and channel) before any stage runs, so a refused call
+//     changes nothing;
+//   - the albedo clamp and the multi-bounce bound (feedback_policy.h: clamp_albedo,
+//     feedback_energy_bound, the feedback_ld_peak refusal; drt.h: drt_feedback_bound);
+//   - exact dirty tracking (level_dirty.h: ld -> blocks -> slots -> tiles) and the skip of a
+//     repeated ld; a feedback step or ld from a texture recomputes everything;
+//   - the DRT sequence: when c is the clutter's direct light again and when its indirect light
+//     is fed back, and that the deltas reach every tile (a changed b shades other blocks);
+//   - the order of the stages, their timing and the evaluation statistics;
+//   - the checks of every read (size, an update has run, the output exists).
+//
+// One evaluation runs, in this order (skipped stages do not run):
+//   feedback (multi-bounce: ld = ld_direct + rho min(max(lightmap, 0), bound)) or ld (upload of
+//   the dirty blocks' ld) | clutter c | b (Td_b ld) | r (Tb->r b) | tiles (Ub b + Ur r) |
+//   deltas (DRT: dUb b + dUc c) | atlas (padding) | vector | probes | clutter lightmap.
+// The MRT stages (b, r, tiles) get the dirty sets; the output stages (deltas, atlas, vector,
+// probes) get them too without clutter, and every tile with clutter. A backend may fuse
+// stages (GLES draws the tiles in its atlas pass), but it runs exactly the work it is given.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "modrt/backend.h"
+#include "modrt/dictionary.h"
+#include "modrt/level.h"
+#include "modrt/level_dirty.h"
+
+namespace modrt {
+
+// The items one stage computes: flags per block (blocks, tiles) and per slot, 1 = compute.
+struct StageWork {
+  std::span<const std::uint8_t> blocks, slots, tiles;
+  std::size_t block_count = 0, slot_count = 0, tile_count = 0;  // how many flags are 1
+  bool everything = false;                                      // every flag is 1
+};
+
+// Where this evaluation's clutter c (3 per clutter face) comes from.
+enum class ClutterCSource {
+  direct,    // c = Td_c clutter_ld, the clutter's direct light (set_clutter_light)
+  feedback,  // c = Td_c drt_clutter_feedback(clutter_ld, rho_c, Cb b + Cc c of the last evaluation, bound)
+};
+
+// The terms of drt_feedback_bound for a clutter feedback step. ld_max_on_gpu: ld came from a
+// texture and the backend found ld_max there (ld_max is then unused).
+struct ClutterFeedback {
+  float ld_max = 0.0f, rho_max = 0.0f, clutter_ld_max = 0.0f, rho_c_max = 0.0f;
+  bool ld_max_on_gpu = false;
+  float bound() const { return drt_feedback_bound(ld_max, rho_max, clutter_ld_max, rho_c_max); }
+};
+
+// The timed stages: each adds to its BackendStageTimes field (upload: the ld stage; lightmap:
+// the tiles stage; drt: clutter c and the deltas; clutter: the clutter lightmap).
+enum class TimedStage { upload, feedback, b, r, lightmap, drt, atlas, vector, probes, clutter, count };
+
+// What a read_* call copies out (StagedBackend checked its size and that an update has run).
+enum class StageOutput {
+  lightmap,
+  atlas,
+  probes,
+  vector_lightmap,
+  clutter_lightmap,
+  clutter_vector_lightmap
+};
+
+struct StagedBackendOptions {
+  bool probes = true;          // evaluate the volume probes (when the dictionary has them)
+  bool skip_unchanged = true;  // recompute only what a changed ld reaches (exact)
+};
+
+class StagedBackend : public Backend {
+ public:
+  const LevelBufferSizes& sizes() const final { return sizes_; }
+  Status update(std::span<const float> ld) final;
+  Status update_from_texture(std::uint32_t ld_texture) final;
+  Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) final;
+  Status multi_bounce_step(std::span<const float> ld_direct) final;
+  Status multi_bounce_step_from_texture(std::uint32_t ld_texture) final;
+  Status read_lightmap(std::span<float> lightmap) final;
+  Status read_atlas(std::span<float> atlas) final;
+  Status read_probes(std::span<float> probes) final;
+  Status read_vector_lightmap(std::span<float> vector_lightmap) final;
+  const BackendStageTimes& stage_times() const final { return times_; }
+  void set_timing(bool on) final { timing_ = on; }
+  BackendEvaluationStats evaluation_stats() const final { return stats_; }
+  Status set_clutter(const DrtOperators* drt) final;
+  Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) final;
+  Status set_clutter_albedo(std::span<const float> clutter_albedo,
+                            float max_albedo = kDefaultMaxAlbedo) final;
+  const DrtBufferSizes& clutter_sizes() const final { return drt_sizes_; }
+  Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) final;
+  Status read_clutter_lightmap(std::span<float> clutter_lightmap) final;
+
+ protected:
+  // `name` prefixes every message ("cpu", "gles", "reference"). `probes`: whether the backend
+  // computes probes (the options' and the dictionary's); level and dict are borrowed.
+  StagedBackend(const Level& level, const Dictionary& dict, const StagedBackendOptions& options,
+                const char* name);
+
+  const Level& level() const { return level_; }
+  const Dictionary& dict() const { return dict_; }
+  bool has_probes() const { return has_probes_; }
+  const DrtOperators* clutter() const { return drt_; }
+  bool timing() const { return timing_; }
+  // invalid_argument, "<name>: <what>".
+  Status refused(const std::string& what) const;
+
+  // ---- The stages. Each may fail only for a reason of its own (a GL error); the inputs
+  // are valid and the sizes right. ----
+  // ld (3 x samples) for this evaluation: at least the blocks work.blocks marks.
+  virtual Status stage_ld(std::span<const float> ld, const StageWork& work) = 0;
+  // ld from the caller's GL texture (Backend::update_from_texture); default: refused.
+  virtual Status stage_ld_texture(std::uint32_t ld_texture);
+  virtual TextureSize stage_ld_texture_size() const { return {}; }
+  // The multi-bounce ld: ld_direct + rho min(max(lightmap, 0), bound), rho of stage_albedo and
+  // the lightmap of the last evaluation (with its DRT delta).
+  virtual Status stage_feedback(std::span<const float> ld_direct, float bound) = 0;
+  // The same with ld_direct from a GL texture and bound = bound_per_ld x (its largest value,
+  // found on the GPU); default: refused.
+  virtual Status stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld);
+  // The clamped albedo (3 x samples) the feedback multiplies by.
+  virtual Status stage_albedo(std::span<const float> rho) = 0;
+  virtual Status stage_b(const StageWork& work) = 0;
+  virtual Status stage_r(const StageWork& work) = 0;
+  virtual Status stage_tiles(const StageWork& work) = 0;
+  virtual Status stage_atlas(const StageWork& work) = 0;
+  // Vector irradiance for a backend that renders it every evaluation (GLES); a backend that
+  // computes it on request (read_output) keeps the default.
+  virtual Status stage_vector(const StageWork& work) {
+    (void)work;
+    return Status::success();
+  }
+  virtual Status stage_probes(const StageWork& work) = 0;
+  // Around each evaluation (GL state); end runs after a failed stage too.
+  virtual Status stage_begin() { return Status::success(); }
+  virtual void stage_end() {}
+  // Copies `output` of the last evaluation into out (its size checked; probes and clutter
+  // outputs exist). Vector outputs may fail when the backend has no vector operators.
+  virtual Status read_output(StageOutput output, std::span<float> out) = 0;
+  // DRT. stage_clutter_set: allocate for `drt` (checked against the level), or release for
+  // nullptr; on failure the previous clutter stays. stage_clutter_light: the validated light
+  // (clutter_direct may be empty); c becomes Td_c clutter_ld. stage_clutter_albedo: the clamped
+  // clutter albedo (empty: none); c becomes the direct light's again.
+  virtual Status stage_clutter_set(const DrtOperators* drt) = 0;
+  virtual Status stage_clutter_light(std::span<const float> clutter_ld,
+                                     std::span<const float> clutter_direct) = 0;
+  virtual Status stage_clutter_albedo(std::span<const float> rho_c) = 0;
+  // c for this evaluation, before the b stage overwrites the last evaluation's b.
+  virtual Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) = 0;
+  // The DRT deltas dUb b + dUc c (and their vector and probe twins) of this evaluation's b and c.
+  virtual Status stage_deltas(const StageWork& work) = 0;
+  // The clutter lightmap Cb b + Cc c + clutter_direct, clamped at 0.
+  virtual Status stage_clutter_lightmap() = 0;
+  // Timing (when on): default, the steady clock around each stage; a backend with GPU timer
+  // queries overrides the three together.
+  virtual void timer_begin(TimedStage stage);
+  virtual void timer_end(TimedStage stage);
+  virtual void timer_collect(BackendStageTimes& times);
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  // One evaluation after its input stage: everything from clutter c to the clutter lightmap.
+  Status evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback);
+  Status run_input_and_evaluate(bool texture, std::span<const float> ld, std::uint32_t ld_texture,
+                                bool feedback, float bound, const ClutterFeedback& clutter_feedback);
+  void count(const StageWork& work);
+  Status check_read(const char* what, std::size_t expected, std::size_t got) const;
+  template <class F>
+  Status timed(TimedStage stage, F&& f);
+
+  const Level& level_;
+  const Dictionary& dict_;
+  StagedBackendOptions options_;
+  std::string name_;
+  LevelBufferSizes sizes_;
+  bool has_probes_ = false;
+  LevelDirtyTracker dirty_;
+  std::vector<std::uint8_t> all_blocks_, all_slots_;  // every flag 1
+  std::vector<float> rho_;                            // the clamped albedo, for stage_albedo
+  float rho_max_ = 0.0f;
+  bool has_albedo_ = false, updated_ = false, timing_ = false;
+  const DrtOperators* drt_ = nullptr;
+  DrtBufferSizes drt_sizes_;
+  std::vector<float> rho_c_;  // the clamped clutter albedo (empty: none)
+  float clutter_ld_max_ = 0.0f, rho_c_max_ = 0.0f;
+  BackendStageTimes times_;
+  BackendEvaluationStats stats_;
+  Clock::time_point stage_start_[std::size_t(TimedStage::count)];
+  std::uint64_t stage_ns_[std::size_t(TimedStage::count)] = {};
+};
+
+// U_dyn operators (DrtBuildSettings::probes) are for `drt.probes_per_block` probes per block;
+// a backend rendering probes_per_block probes per block (0: none) refuses others.
+Status check_drt_probe_grid(const DrtOperators& drt, std::size_t probes_per_block, const char* who);
+
+}  // namespace modrt

@@ -1,0 +1,311 @@
+// SPDX-License-Identifier: MIT
+#include "modrt/staged_backend.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <string>
+
+#include "modrt/feedback_policy.h"
+#include "modrt/operator_limits.h"
+#include "modrt/reference_runtime.h"
+
+namespace modrt {
+
+Status check_drt_probe_grid(const DrtOperators& drt, std::size_t probes_per_block, const char* who) {
+  bool any = false;
+  for (const DrtObjectOperators& o : drt.objects) any |= !o.Udyn.empty() || !o.Udyn_c.empty();
+  if (!any || probes_per_block == 0 || drt.probes_per_block == probes_per_block) return Status::success();
+  return Status::error(ErrorCode::invalid_argument, std::string(who) + ": the U_dyn operators are for " +
+                                                        std::to_string(drt.probes_per_block) +
+                                                        " probes per block, the dictionary's grid has " +
+                                                        std::to_string(probes_per_block));
+}
+
+StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const StagedBackendOptions& options,
+                             const char* name)
+    : level_(level),
+      dict_(dict),
+      options_(options),
+      name_(name),
+      sizes_(level_buffer_sizes(level, dict)),
+      has_probes_(options.probes && sizes_.probes > 0),
+      dirty_(LevelDirtyTracker::create(level)),
+      all_blocks_(level.blocks.size(), 1),
+      all_slots_(level.slots.size(), 1),
+      rho_(sizes_.ld, 0.0f) {}
+
+Status StagedBackend::refused(const std::string& what) const {
+  return Status::error(ErrorCode::invalid_argument, name_ + ": " + what);
+}
+
+void StagedBackend::timer_begin(TimedStage stage) { stage_start_[std::size_t(stage)] = Clock::now(); }
+
+void StagedBackend::timer_end(TimedStage stage) {
+  const auto ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - stage_start_[std::size_t(stage)]);
+  stage_ns_[std::size_t(stage)] += std::uint64_t(ns.count());
+}
+
+void StagedBackend::timer_collect(BackendStageTimes& t) {
+  const auto take = [this](TimedStage s) {
+    const std::uint64_t v = stage_ns_[std::size_t(s)];
+    stage_ns_[std::size_t(s)] = 0;
+    return v;
+  };
+  t.upload = take(TimedStage::upload), t.feedback = take(TimedStage::feedback);
+  t.b = take(TimedStage::b), t.r = take(TimedStage::r), t.lightmap = take(TimedStage::lightmap);
+  t.drt = take(TimedStage::drt), t.atlas = take(TimedStage::atlas), t.vector = take(TimedStage::vector);
+  t.probes = take(TimedStage::probes), t.clutter = take(TimedStage::clutter);
+}
+
+template <class F>
+Status StagedBackend::timed(TimedStage stage, F&& f) {
+  if (!timing_) return f();
+  timer_begin(stage);
+  Status s = f();
+  timer_end(stage);
+  return s;
+}
+
+void StagedBackend::count(const StageWork& w) {
+  const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
+  ++stats_.evaluations;
+  stats_.blocks_computed += w.block_count, stats_.blocks_kept += blocks - w.block_count;
+  stats_.slots_computed += w.slot_count, stats_.slots_kept += slots - w.slot_count;
+  stats_.tiles_written += w.tile_count, stats_.tiles_kept += blocks - w.tile_count;
+}
+
+// architecture.md §5 steps 2–9 after the input stage; see the header for the order.
+Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback) {
+  // With clutter the deltas read every block's b (shadows across openings): every tile's output.
+  StageWork out = mrt;
+  if (drt_)
+    out = StageWork{all_blocks_,    all_slots_,         all_blocks_, mrt.block_count,
+                    mrt.slot_count, all_blocks_.size(), true};
+  if (drt_ && (clutter_feedback || !rho_c_.empty())) {
+    const ClutterCSource source = clutter_feedback ? ClutterCSource::feedback : ClutterCSource::direct;
+    if (Status s = timed(TimedStage::drt, [&] { return stage_clutter_c(source, feedback); }); !s.ok())
+      return s;
+  }
+  if (Status s = timed(TimedStage::b, [&] { return stage_b(mrt); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::r, [&] { return stage_r(mrt); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::lightmap, [&] { return stage_tiles(mrt); }); !s.ok()) return s;
+  if (drt_)
+    if (Status s = timed(TimedStage::drt, [&] { return stage_deltas(out); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::atlas, [&] { return stage_atlas(out); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::vector, [&] { return stage_vector(out); }); !s.ok()) return s;
+  if (has_probes_)
+    if (Status s = timed(TimedStage::probes, [&] { return stage_probes(out); }); !s.ok()) return s;
+  if (drt_)
+    if (Status s = timed(TimedStage::clutter, [&] { return stage_clutter_lightmap(); }); !s.ok()) return s;
+  return Status::success();
+}
+
+// The input stage (ld, ld texture or feedback) and the evaluation, between stage_begin and
+// stage_end; whatever fails, the next update runs whole.
+Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float> ld,
+                                             std::uint32_t ld_texture, bool feedback, float bound,
+                                             const ClutterFeedback& clutter_feedback) {
+  const StageWork all{all_blocks_,       all_slots_,         all_blocks_, all_blocks_.size(),
+                      all_slots_.size(), all_blocks_.size(), true};
+  const StageWork dirty{dirty_.blocks(),
+                        dirty_.slots(),
+                        dirty_.tiles(),
+                        dirty_.dirty_blocks(),
+                        dirty_.dirty_slots(),
+                        dirty_.dirty_tiles(),
+                        dirty_.dirty_blocks() == all_blocks_.size()};
+  const StageWork& mrt = (texture || feedback) ? all : dirty;
+  if (Status s = stage_begin(); !s.ok()) return s;
+  Status s;
+  if (feedback && texture)
+    s = timed(TimedStage::feedback, [&] { return stage_feedback_texture(ld_texture, bound); });
+  else if (feedback)
+    s = timed(TimedStage::feedback, [&] { return stage_feedback(ld, bound); });
+  else if (texture)
+    s = timed(TimedStage::upload, [&] { return stage_ld_texture(ld_texture); });
+  else
+    s = timed(TimedStage::upload, [&] { return stage_ld(ld, mrt); });
+  const bool clutter_fed = feedback && drt_ && !rho_c_.empty();
+  if (s.ok()) s = evaluate(mrt, clutter_fed, clutter_feedback);
+  stage_end();
+  if (timing_) {
+    times_ = BackendStageTimes{};
+    timer_collect(times_);
+  }
+  if (!s.ok()) {
+    dirty_.invalidate();
+    return s;
+  }
+  // After a feedback step or ld from a texture, the next update compares with no ld of its own.
+  if (texture || feedback) dirty_.invalidate();
+  count(mrt);
+  updated_ = true;
+  return Status::success();
+}
+
+Status StagedBackend::update(std::span<const float> ld) {
+  if (Status s = validate_light_signal(ld, level_.sample_count, "ld"); !s.ok()) return s;
+  const bool everything = !options_.skip_unchanged || !updated_;
+  if (dirty_.mark(ld, everything) == 0 && !everything) {  // the results on hand are this frame's
+    const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
+    ++stats_.evaluations, ++stats_.evaluations_skipped;
+    stats_.blocks_kept += blocks, stats_.slots_kept += slots, stats_.tiles_kept += blocks;
+    times_ = BackendStageTimes{};
+    return Status::success();
+  }
+  return run_input_and_evaluate(false, ld, 0, false, 0.0f, {});
+}
+
+Status StagedBackend::update_from_texture(std::uint32_t ld_texture) {
+  return run_input_and_evaluate(true, {}, ld_texture, false, 0.0f, {});
+}
+
+Status StagedBackend::stage_ld_texture(std::uint32_t ld_texture) {
+  (void)ld_texture;
+  return refused("ld comes from CPU memory: use update()");
+}
+
+Status StagedBackend::stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld) {
+  (void)ld_texture, (void)bound_per_ld;
+  return refused("ld comes from CPU memory: use multi_bounce_step()");
+}
+
+Status StagedBackend::set_albedo(std::span<const float> albedo, float max_albedo) {
+  if (Status s = check_max_albedo(max_albedo, (name_ + ": set_albedo").c_str()); !s.ok()) return s;
+  if (Status s = validate_light_signal(albedo, level_.sample_count, "albedo"); !s.ok()) return s;
+  const float rho_max = clamp_albedo(albedo, max_albedo, rho_).rho_max;
+  if (Status s = stage_albedo(rho_); !s.ok()) return s;
+  rho_max_ = rho_max;
+  has_albedo_ = true;
+  return Status::success();
+}
+
+Status StagedBackend::multi_bounce_step(std::span<const float> ld_direct) {
+  if (!has_albedo_) return refused("multi_bounce_step: call set_albedo first");
+  if (!updated_) return refused("multi_bounce_step: call update first");
+  if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
+  const float ld_max = largest_light(ld_direct);
+  // The fed-back ld is at most ld_max + rho_max x bound; refused when that can pass the largest
+  // light value, so that every stage stays within the float range operator_limits.h assumes.
+  if (const double fed = feedback_ld_peak(ld_max, rho_max_); fed > kMaxLightValue) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%g", fed);
+    return refused(std::string("multi_bounce_step: the fed-back light can reach ") + text +
+                   ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
+  }
+  const ClutterFeedback clutter{ld_max, rho_max_, clutter_ld_max_, rho_c_max_, false};
+  return run_input_and_evaluate(false, ld_direct, 0, true, feedback_energy_bound(ld_max, rho_max_), clutter);
+}
+
+Status StagedBackend::multi_bounce_step_from_texture(std::uint32_t ld_texture) {
+  if (!has_albedo_) return refused("multi_bounce_step_from_texture: call set_albedo first");
+  if (!updated_) return refused("multi_bounce_step_from_texture: call update first");
+  // ld_max is found on the GPU: the bound is ld_max x feedback_energy_bound(1, rho_max).
+  const ClutterFeedback clutter{0.0f, rho_max_, clutter_ld_max_, rho_c_max_, true};
+  return run_input_and_evaluate(true, {}, ld_texture, true, feedback_energy_bound(1.0f, rho_max_), clutter);
+}
+
+Status StagedBackend::check_read(const char* what, std::size_t expected, std::size_t got) const {
+  if (got != expected)
+    return refused(std::string(what) + ": has " + std::to_string(got) + " floats, expected " +
+                   std::to_string(expected));
+  if (!updated_) return refused("read before the first update");
+  return Status::success();
+}
+
+Status StagedBackend::read_lightmap(std::span<float> out) {
+  if (Status s = check_read("lightmap", sizes_.lightmap, out.size()); !s.ok()) return s;
+  return read_output(StageOutput::lightmap, out);
+}
+
+Status StagedBackend::read_atlas(std::span<float> out) {
+  if (Status s = check_read("atlas", sizes_.atlas, out.size()); !s.ok()) return s;
+  return read_output(StageOutput::atlas, out);
+}
+
+Status StagedBackend::read_probes(std::span<float> out) {
+  if (!has_probes_)
+    return refused("no probes: the dictionary has none, or the backend's probes option is off");
+  if (Status s = check_read("probes", sizes_.probes, out.size()); !s.ok()) return s;
+  return read_output(StageOutput::probes, out);
+}
+
+Status StagedBackend::read_vector_lightmap(std::span<float> out) {
+  if (Status s = check_read("vector lightmap", sizes_.vector_lightmap, out.size()); !s.ok()) return s;
+  return read_output(StageOutput::vector_lightmap, out);
+}
+
+Status StagedBackend::set_clutter(const DrtOperators* drt) {
+  if (drt && !drt->empty()) {
+    if (Status s = check_drt_operators(level_, *drt); !s.ok()) return s;
+    const std::size_t per_block =
+        has_probes_ && !level_.blocks.empty() ? sizes_.probes / 27 / level_.blocks.size() : 0;
+    if (Status s = check_drt_probe_grid(*drt, per_block, name_.c_str()); !s.ok()) return s;
+  } else {
+    drt = nullptr;
+  }
+  if (Status s = stage_clutter_set(drt); !s.ok()) return s;
+  drt_ = drt;
+  drt_sizes_ = drt ? drt_buffer_sizes(*drt) : DrtBufferSizes{};
+  rho_c_.clear();
+  rho_c_.reserve(drt_sizes_.clutter_ld);  // set_clutter_albedo allocates nothing
+  clutter_ld_max_ = rho_c_max_ = 0.0f;
+  dirty_.invalidate();
+  updated_ = false;  // the results on hand are not of this clutter
+  return Status::success();
+}
+
+Status StagedBackend::set_clutter_light(std::span<const float> clutter_ld,
+                                        std::span<const float> clutter_direct) {
+  if (!drt_) return refused("set_clutter_light: no clutter set");
+  const std::size_t n = drt_sizes_.clutter_ld;
+  if (clutter_ld.size() != n || (!clutter_direct.empty() && clutter_direct.size() != n))
+    return refused("set_clutter_light: clutter_ld has " + std::to_string(clutter_ld.size()) +
+                   " floats and clutter_direct " + std::to_string(clutter_direct.size()) + ", expected " +
+                   std::to_string(n) + " (clutter_direct may be empty)");
+  if (Status s = validate_light_signal(clutter_ld, n / 3, "clutter_ld"); !s.ok()) return s;
+  if (!clutter_direct.empty())
+    if (Status s = validate_light_signal(clutter_direct, n / 3, "clutter_direct"); !s.ok()) return s;
+  if (Status s = stage_clutter_light(clutter_ld, clutter_direct); !s.ok()) return s;
+  clutter_ld_max_ = largest_light(clutter_ld);
+  dirty_.invalidate();  // c changed whatever ld does
+  return Status::success();
+}
+
+Status StagedBackend::set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) {
+  if (!drt_) return refused("set_clutter_albedo: no clutter set");
+  if (Status s = check_max_albedo(max_albedo, (name_ + ": set_clutter_albedo").c_str()); !s.ok()) return s;
+  if (!clutter_albedo.empty()) {
+    if (clutter_albedo.size() != drt_sizes_.clutter_ld)
+      return refused("set_clutter_albedo: clutter_albedo has " + std::to_string(clutter_albedo.size()) +
+                     " floats, expected " + std::to_string(drt_sizes_.clutter_ld) + " (or none)");
+    if (Status s = validate_light_signal(clutter_albedo, drt_sizes_.clutter_texels, "clutter_albedo");
+        !s.ok())
+      return s;
+  }
+  rho_c_.resize(clutter_albedo.size());  // within the capacity set_clutter reserved
+  const float rho_c_max = clamp_albedo(clutter_albedo, max_albedo, rho_c_).rho_max;
+  if (Status s = stage_clutter_albedo(rho_c_); !s.ok()) {
+    rho_c_.clear();
+    return s;
+  }
+  rho_c_max_ = rho_c_max;
+  return Status::success();
+}
+
+Status StagedBackend::read_clutter_vector_lightmap(std::span<float> out) {
+  if (!drt_) return refused("read_clutter_vector_lightmap: no clutter set");
+  if (Status s = check_read("clutter vector lightmap", drt_sizes_.clutter_vector_lightmap, out.size());
+      !s.ok())
+    return s;
+  return read_output(StageOutput::clutter_vector_lightmap, out);
+}
+
+Status StagedBackend::read_clutter_lightmap(std::span<float> out) {
+  if (!drt_) return refused("read_clutter_lightmap: no clutter set");
+  if (Status s = check_read("clutter lightmap", drt_sizes_.clutter_lightmap, out.size()); !s.ok()) return s;
+  return read_output(StageOutput::clutter_lightmap, out);
+}
+
+}  // namespace modrt
