@@ -74,7 +74,7 @@ class ReferenceBackend final : public StagedBackend {
   // architecture.md §6: lightmap = base + dUb b + dUc c, clamped as every lightmap.
   Status stage_deltas(const StageWork&) override {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
-    drt_apply(level(), *clutter(), b_, c_, lightmap_);
+    drt_apply(level(), *clutter(), b_, cl_.c, lightmap_);
     clamp_lightmap(lightmap_);
     return Status::success();
   }
@@ -85,7 +85,7 @@ class ReferenceBackend final : public StagedBackend {
   Status stage_probes(const StageWork& work) override {
     for (std::size_t i = 0; i < level().blocks.size(); ++i)
       if (work.tiles[i]) level_compute_block_probes(level(), dict(), deps_, b_, r_, i, probes_);
-    if (clutter()) drt_apply_probes(*clutter(), b_, c_, probes_);  // Udyn b + Udyn_c c
+    if (clutter()) drt_apply_probes(*clutter(), b_, cl_.c, probes_);  // Udyn b + Udyn_c c
     return Status::success();
   }
   Status read_output(StageOutput output, std::span<float> out) override {
@@ -95,56 +95,46 @@ class ReferenceBackend final : public StagedBackend {
       case StageOutput::probes: std::copy(probes_.begin(), probes_.end(), out.begin()); break;
       case StageOutput::vector_lightmap:
         if (Status s = level_compute_vector_irradiance(level(), dict(), b_, r_, out); !s.ok()) return s;
-        if (clutter()) drt_apply_vector(level(), *clutter(), b_, c_, out);  // DRT §5 (dUb_vec, dUc_vec)
+        if (clutter()) drt_apply_vector(level(), *clutter(), b_, cl_.c, out);  // DRT §5 (dUb_vec, dUc_vec)
         break;
       case StageOutput::clutter_lightmap:
-        std::copy(clutter_lightmap_.begin(), clutter_lightmap_.end(), out.begin());
+        std::copy(cl_.clutter_lightmap.begin(), cl_.clutter_lightmap.end(), out.begin());
         break;
-      case StageOutput::clutter_vector_lightmap: drt_clutter_vector_lightmap(*clutter(), b_, c_, out); break;
+      case StageOutput::clutter_vector_lightmap:
+        drt_clutter_vector_lightmap(*clutter(), b_, cl_.c, out);
+        break;
     }
     return Status::success();
   }
 
   Status stage_clutter_set(const DrtOperators* drt) override {
-    const DrtBufferSizes sizes = drt ? drt_buffer_sizes(*drt) : DrtBufferSizes{};
-    c_.assign(sizes.c, 0.0f);
-    c_direct_ = c_;
-    clutter_ld_.assign(sizes.clutter_ld, 0.0f);
-    clutter_direct_.clear();
-    clutter_direct_.reserve(sizes.clutter_ld);
-    clutter_lightmap_.assign(sizes.clutter_lightmap, 0.0f);
-    rho_c_.clear();
-    rho_c_.reserve(sizes.clutter_ld);
-    clutter_indirect_.assign(sizes.clutter_lightmap, 0.0f);
-    clutter_fed_.assign(sizes.clutter_ld, 0.0f);
+    cl_.allocate(drt ? drt_buffer_sizes(*drt) : DrtBufferSizes{});
     return Status::success();
   }
   Status stage_clutter_light(std::span<const float> clutter_ld,
                              std::span<const float> clutter_direct) override {
-    std::copy(clutter_ld.begin(), clutter_ld.end(), clutter_ld_.begin());
-    clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
-    if (Status s = drt_compute_c(*clutter(), clutter_ld_, c_direct_); !s.ok()) return s;
-    c_ = c_direct_;
+    cl_.set_light(clutter_ld, clutter_direct);
+    if (Status s = drt_compute_c(*clutter(), cl_.clutter_ld, cl_.c_direct); !s.ok()) return s;
+    cl_.c = cl_.c_direct;
     return Status::success();
   }
-  Status stage_clutter_albedo(std::span<const float> rho_c) override {
-    rho_c_.assign(rho_c.begin(), rho_c.end());
-    c_ = c_direct_;
+  Status stage_clutter_albedo(std::span<const float>) override {
+    cl_.c = cl_.c_direct;
     return Status::success();
   }
   // DRT §4.4: the clutter's indirect light of the last evaluation (Cb b + Cc c) fed back.
   Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
     if (source == ClutterCSource::direct) {
-      c_ = c_direct_;
+      cl_.c = cl_.c_direct;
       return Status::success();
     }
-    drt_clutter_lightmap(*clutter(), b_, {}, clutter_indirect_);
-    drt_clutter_add_cc(*clutter(), c_, clutter_indirect_);
-    drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_, feedback.bound(), clutter_fed_);
-    return drt_compute_c(*clutter(), clutter_fed_, c_);
+    drt_clutter_lightmap(*clutter(), b_, {}, cl_.indirect);
+    drt_clutter_add_cc(*clutter(), cl_.c, cl_.indirect);
+    drt_clutter_feedback(cl_.clutter_ld, clutter_albedo(), cl_.indirect, feedback.bound(), cl_.fed);
+    return drt_compute_c(*clutter(), cl_.fed, cl_.c);
   }
   Status stage_clutter_lightmap() override {
-    drt_evaluate_clutter_lightmap(*clutter(), b_, c_, clutter_direct_, clutter_lightmap_);
+    drt_evaluate_clutter_lightmap(*clutter(), b_, cl_.c, cl_.clutter_direct, cl_.clutter_lightmap);
     return Status::success();
   }
 
@@ -154,8 +144,7 @@ class ReferenceBackend final : public StagedBackend {
   // base_: the MRT lightmap (Ub b + Ur r), lightmap_ with the DRT delta when there is clutter.
   std::vector<float> ld_, b_, r_, base_, lightmap_, atlas_, probes_;
   FeedbackClamp feedback_;  // the clamped albedo and the bound of the step
-  std::vector<float> c_, c_direct_, clutter_ld_, clutter_direct_, clutter_lightmap_;
-  std::vector<float> rho_c_, clutter_indirect_, clutter_fed_;
+  ClutterBuffers cl_;
 };
 
 }  // namespace

@@ -21,6 +21,22 @@ Status check_drt_probe_grid(const DrtOperators& drt, std::size_t probes_per_bloc
                                                         std::to_string(probes_per_block));
 }
 
+void ClutterBuffers::allocate(const DrtBufferSizes& sizes) {
+  c.assign(sizes.c, 0.0f);
+  c_direct = c;
+  clutter_ld.assign(sizes.clutter_ld, 0.0f);
+  clutter_direct.clear();
+  clutter_direct.reserve(sizes.clutter_ld);
+  clutter_lightmap.assign(sizes.clutter_lightmap, 0.0f);
+  indirect.assign(sizes.clutter_lightmap, 0.0f);
+  fed.assign(sizes.clutter_ld, 0.0f);
+}
+
+void ClutterBuffers::set_light(std::span<const float> ld, std::span<const float> direct) {
+  std::copy(ld.begin(), ld.end(), clutter_ld.begin());
+  clutter_direct.assign(direct.begin(), direct.end());  // within the capacity allocate() reserved
+}
+
 StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const StagedBackendOptions& options,
                              const char* name)
     : level_(level),
@@ -54,7 +70,8 @@ void StagedBackend::timer_collect(BackendStageTimes& t) {
   };
   t.upload = take(TimedStage::upload), t.feedback = take(TimedStage::feedback);
   t.b = take(TimedStage::b), t.r = take(TimedStage::r), t.lightmap = take(TimedStage::lightmap);
-  t.drt = take(TimedStage::drt), t.atlas = take(TimedStage::atlas), t.vector = take(TimedStage::vector);
+  t.drt = take(TimedStage::clutter_c) + take(TimedStage::drt), t.atlas = take(TimedStage::atlas),
+  t.vector = take(TimedStage::vector);
   t.probes = take(TimedStage::probes), t.clutter = take(TimedStage::clutter);
 }
 
@@ -128,7 +145,7 @@ Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float
     s = timed(TimedStage::upload, [&] { return stage_ld(ld, mrt); });
   const bool clutter_fed = feedback && drt_ && !rho_c_.empty();
   if (s.ok()) s = evaluate(mrt, clutter_fed, clutter_feedback);
-  stage_end();
+  stage_end(s.ok());
   if (timing_) {
     times_ = BackendStageTimes{};
     timer_collect(times_);

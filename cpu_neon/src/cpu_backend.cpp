@@ -69,14 +69,14 @@ class CpuBackend final : public StagedBackend {
   // architecture.md §5 step 7: lightmap = base + dUb b + dUc c, clamped as every lightmap.
   Status stage_deltas(const StageWork&) override {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
-    if (Status s = drt_->apply(rt_.b(), c_, lightmap_); !s.ok()) return s;
+    if (Status s = drt_->apply(rt_.b(), cl_.c, lightmap_); !s.ok()) return s;
     clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());
     return Status::success();
   }
   Status stage_atlas(const StageWork&) override { return rt_.fill_atlas(lightmap_, atlas_); }
   Status stage_probes(const StageWork& work) override {
     rt_.compute_probes(work.tiles, probes_);
-    return clutter() ? drt_->apply_probes(rt_.b(), c_, probes_) : Status::success();  // DRT §5 (U_dyn)
+    return clutter() ? drt_->apply_probes(rt_.b(), cl_.c, probes_) : Status::success();  // DRT §5 (U_dyn)
   }
   Status read_output(StageOutput output, std::span<float> out) override {
     const auto copy = [&](const std::vector<float>& from) {
@@ -87,11 +87,11 @@ class CpuBackend final : public StagedBackend {
       case StageOutput::lightmap: return copy(lightmap_);
       case StageOutput::atlas: return copy(atlas_);
       case StageOutput::probes: return copy(probes_);
-      case StageOutput::clutter_lightmap: return copy(clutter_lightmap_);
+      case StageOutput::clutter_lightmap: return copy(cl_.clutter_lightmap);
       case StageOutput::vector_lightmap:  // on request from the kept b and r
         if (Status s = rt_.compute_vector_irradiance(out); !s.ok()) return s;
-        return clutter() ? drt_->apply_vector(rt_.b(), c_, out) : Status::success();  // DRT §5
-      case StageOutput::clutter_vector_lightmap: return drt_->clutter_vector_lightmap(rt_.b(), c_, out);
+        return clutter() ? drt_->apply_vector(rt_.b(), cl_.c, out) : Status::success();  // DRT §5
+      case StageOutput::clutter_vector_lightmap: return drt_->clutter_vector_lightmap(rt_.b(), cl_.c, out);
     }
     return Status::success();
   }
@@ -99,56 +99,44 @@ class CpuBackend final : public StagedBackend {
   Status stage_clutter_set(const DrtOperators* drt) override {
     if (!drt) {
       drt_.reset();
-      base_ = {}, c_ = {}, c_direct_ = {}, clutter_ld_ = {}, clutter_direct_ = {}, clutter_lightmap_ = {};
-      rho_c_ = {}, clutter_indirect_ = {}, clutter_fed_ = {};
+      base_ = {}, cl_ = {};
       return Status::success();
     }
     Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level(), *drt, rt_.isa());
     if (!rt.ok()) return rt.status();
     drt_.emplace(std::move(rt).value());
-    const DrtBufferSizes& sizes = drt_->sizes();
     base_.assign(lightmap_.size(), 0.0f);
-    c_.assign(sizes.c, 0.0f);
-    c_direct_ = c_;
-    clutter_ld_.assign(sizes.clutter_ld, 0.0f);
-    clutter_direct_.clear();
-    clutter_direct_.reserve(sizes.clutter_ld);
-    clutter_lightmap_.assign(sizes.clutter_lightmap, 0.0f);
-    rho_c_.clear();
-    rho_c_.reserve(sizes.clutter_ld);
-    clutter_indirect_.assign(sizes.clutter_lightmap, 0.0f);
-    clutter_fed_.assign(sizes.clutter_ld, 0.0f);
+    cl_.allocate(drt_->sizes());
     return Status::success();
   }
   Status stage_clutter_light(std::span<const float> clutter_ld,
                              std::span<const float> clutter_direct) override {
-    std::copy(clutter_ld.begin(), clutter_ld.end(), clutter_ld_.begin());
-    clutter_direct_.assign(clutter_direct.begin(), clutter_direct.end());
-    if (Status s = drt_->compute_c(clutter_ld_, c_direct_); !s.ok()) return s;
-    c_ = c_direct_;
+    cl_.set_light(clutter_ld, clutter_direct);
+    if (Status s = drt_->compute_c(cl_.clutter_ld, cl_.c_direct); !s.ok()) return s;
+    cl_.c = cl_.c_direct;
     return Status::success();
   }
-  Status stage_clutter_albedo(std::span<const float> rho_c) override {
-    rho_c_.assign(rho_c.begin(), rho_c.end());
-    c_ = c_direct_;
+  Status stage_clutter_albedo(std::span<const float>) override {
+    cl_.c = cl_.c_direct;
     return Status::success();
   }
   // DRT §4.4: the clutter's indirect light of the last evaluation (Cb b + Cc c) fed back.
   Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
     if (source == ClutterCSource::direct) {
-      c_ = c_direct_;
+      cl_.c = cl_.c_direct;
       return Status::success();
     }
-    if (Status s = drt_->clutter_lightmap(rt_.b(), {}, clutter_indirect_); !s.ok()) return s;
-    if (Status s = drt_->clutter_add_cc(c_, clutter_indirect_); !s.ok()) return s;
-    drt_clutter_feedback(clutter_ld_, rho_c_, clutter_indirect_, feedback.bound(), clutter_fed_);
-    return drt_->compute_c(clutter_fed_, c_);
+    if (Status s = drt_->clutter_lightmap(rt_.b(), {}, cl_.indirect); !s.ok()) return s;
+    if (Status s = drt_->clutter_add_cc(cl_.c, cl_.indirect); !s.ok()) return s;
+    drt_clutter_feedback(cl_.clutter_ld, clutter_albedo(), cl_.indirect, feedback.bound(), cl_.fed);
+    return drt_->compute_c(cl_.fed, cl_.c);
   }
   // Cb b + Cc c + direct, clamped at 0 (core's drt_evaluate_clutter_lightmap).
   Status stage_clutter_lightmap() override {
-    if (Status s = drt_->clutter_lightmap(rt_.b(), clutter_direct_, clutter_lightmap_); !s.ok()) return s;
-    if (Status s = drt_->clutter_add_cc(c_, clutter_lightmap_); !s.ok()) return s;
-    clamp_nonnegative(rt_.isa(), clutter_lightmap_.data(), clutter_lightmap_.size());
+    if (Status s = drt_->clutter_lightmap(rt_.b(), cl_.clutter_direct, cl_.clutter_lightmap); !s.ok())
+      return s;
+    if (Status s = drt_->clutter_add_cc(cl_.c, cl_.clutter_lightmap); !s.ok()) return s;
+    clamp_nonnegative(rt_.isa(), cl_.clutter_lightmap.data(), cl_.clutter_lightmap.size());
     return Status::success();
   }
 
@@ -157,12 +145,10 @@ class CpuBackend final : public StagedBackend {
   std::string description_;
   std::vector<float> lightmap_, atlas_, probes_, rho_, ld_feedback_;
   std::span<const float> ld_;  // this evaluation's ld: the caller's or ld_feedback_
-  // DRT (only with clutter): the MRT lightmap the runtime writes (base_), c, the clutter's light
-  // and lightmap; c of the direct light alone, the clamped clutter albedo, the last
-  // evaluation's Cb b + Cc c and the light fed back.
+  // DRT (only with clutter): the MRT lightmap the runtime writes (base_) and the clutter's light.
   std::optional<CpuDrtRuntime> drt_;
-  std::vector<float> base_, c_, clutter_ld_, clutter_direct_, clutter_lightmap_;
-  std::vector<float> c_direct_, rho_c_, clutter_indirect_, clutter_fed_;
+  std::vector<float> base_;
+  ClutterBuffers cl_;
 };
 
 }  // namespace

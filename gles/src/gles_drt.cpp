@@ -242,13 +242,8 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
         [](const DrtObjectOperators& o) {
           return std::pair<Index, const Matrix*>{&o.dUc_vec_sample, &o.dUc_vec};
         });
-  if (setup.probe_count > 0 && any_probes) {  // DRT §5, U_dyn
-    if (std::size_t(drt.probes_per_block) * level.blocks.size() != setup.probe_count)
-      return Status::error(
-          ErrorCode::invalid_argument,
-          "gles drt: the U_dyn operators are for " + std::to_string(drt.probes_per_block) +
-              " probes per block, the dictionary's grid has " +
-              std::to_string(setup.probe_count / std::max<std::size_t>(level.blocks.size(), 1)));
+  // DRT §5, U_dyn; its grid is the runtime's (StagedBackend::set_clutter, check_drt_probe_grid).
+  if (setup.probe_count > 0 && any_probes) {
     probes = build_delta(
         9, setup.probe_count,
         [](const DrtObjectOperators& o) {
@@ -497,53 +492,33 @@ void GlesDrt::draw(GLuint program, const Target& target, std::initializer_list<G
   gl_.glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
-Status GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) {
-  const std::size_t n = sizes_.clutter_ld;
-  if (clutter_ld.size() != n) return wrong_size("clutter_ld", clutter_ld.size(), n);
-  if (!clutter_direct.empty() && clutter_direct.size() != n)
-    return wrong_size("clutter_direct (may be empty)", clutter_direct.size(), n);
-  if (Status s = validate_light_signal(clutter_ld, sizes_.clutter_texels, "clutter_ld"); !s.ok()) return s;
-  if (!clutter_direct.empty())
-    if (Status s = validate_light_signal(clutter_direct, sizes_.clutter_texels, "clutter_direct"); !s.ok())
-      return s;
+void GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) {
   upload_linear(gl_, clutter_ld_, GL_RGB, GL_FLOAT, 3, clutter_ld.data(), sizes_.clutter_texels,
                 sizeof(float));
-  clutter_ld_max_ = 0.0f;
-  for (float v : clutter_ld) clutter_ld_max_ = std::max(clutter_ld_max_, v);
   upload_linear(gl_, clutter_direct_, GL_RGB, GL_FLOAT, 3,
                 clutter_direct.empty() ? zeros_.data() : clutter_direct.data(), sizes_.clutter_texels,
                 sizeof(float));
   light_changed_ = true;
-  return Status::success();
 }
 
-Status GlesDrt::set_albedo(std::span<const float> clutter_albedo, float max_albedo) {
-  if (Status s = check_max_albedo(max_albedo, "gles drt: clutter albedo"); !s.ok()) return s;
-  if (!clutter_albedo.empty()) {
-    if (clutter_albedo.size() != sizes_.clutter_ld)
-      return wrong_size("clutter_albedo (may be empty)", clutter_albedo.size(), sizes_.clutter_ld);
-    if (Status s = validate_light_signal(clutter_albedo, sizes_.clutter_texels, "clutter_albedo"); !s.ok())
-      return s;
-  }
-  feed_ = !clutter_albedo.empty();
-  if (!feed_) return Status::success();
-  std::vector<float> rho(clutter_albedo.begin(), clutter_albedo.end());
-  rho_c_max_ = clamp_albedo(rho, max_albedo, rho).rho_max;
-  upload_linear(gl_, rho_c_, GL_RGB, GL_FLOAT, 3, rho.data(), sizes_.clutter_texels, sizeof(float));
-  return Status::success();
+void GlesDrt::set_albedo(std::span<const float> rho_c) {
+  feed_ = !rho_c.empty();
+  light_changed_ = true;  // c returns to the direct light's
+  if (feed_)
+    upload_linear(gl_, rho_c_, GL_RGB, GL_FLOAT, 3, rho_c.data(), sizes_.clutter_texels, sizeof(float));
 }
 
-void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, float ld_max, float rho_max,
+void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
                         GLuint ld_max_texture) {
   if (feedback && feed_) {
     // The clutter atlas still holds the last evaluation's light (run_clutter comes after).
     gl_.glUseProgram(prog_feedback_);
-    gl_.glUniform1f(u_feedback_bound_, drt_feedback_bound(ld_max, rho_max, clutter_ld_max_, rho_c_max_));
+    gl_.glUniform1f(u_feedback_bound_, bound.bound());
     // With the walls' ld on the GPU: drt_feedback_bound at ld_max 1 and no clutter light is the
     // scale 1 / (1 - max albedo); the shader takes the larger of the two lights' maxima.
     gl_.glUniform1f(u_feedback_scale_,
-                    ld_max_texture ? drt_feedback_bound(1.0f, rho_max, 0.0f, rho_c_max_) : 0.0f);
-    gl_.glUniform1f(u_feedback_clutter_max_, clutter_ld_max_);
+                    ld_max_texture ? drt_feedback_bound(1.0f, bound.rho_max, 0.0f, bound.rho_c_max) : 0.0f);
+    gl_.glUniform1f(u_feedback_clutter_max_, bound.clutter_ld_max);
     draw(prog_feedback_, fed_,
          {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture, ld_max_texture});
     draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});

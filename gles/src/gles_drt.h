@@ -26,6 +26,7 @@
 #include "modrt/drt.h"
 #include "modrt/level.h"
 #include "modrt/platform/gl_functions.h"
+#include "modrt/staged_backend.h"
 #include "modrt/status.h"
 
 namespace modrt::gles {
@@ -52,18 +53,20 @@ class GlesDrt {
   GlesDrt& operator=(const GlesDrt&) = delete;
 
   const DrtBufferSizes& sizes() const { return sizes_; }
-  // Validates and uploads the clutter's light (see Backend::set_clutter_light).
-  Status set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
-  // The clutter's albedo for multi-bounce (see Backend::set_clutter_albedo); empty: none.
-  Status set_albedo(std::span<const float> clutter_albedo, float max_albedo);
+  // Uploads the clutter's light, validated by the caller (StagedBackend::set_clutter_light;
+  // clutter_direct may be empty); the next run_scene computes c of it.
+  void set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
+  // The clutter's albedo for multi-bounce, clamped by the caller (StagedBackend::
+  // set_clutter_albedo); empty: none. The next run_scene without feedback returns c to the
+  // direct light's.
+  void set_albedo(std::span<const float> rho_c);
   // c and the per-sample delta, from b's planes. c is Td_c clutter_ld (recomputed when the
-  // light changed or after feedback); on a multi-bounce step (feedback) with a clutter albedo
-  // it is Td_c of the light fed back from the clutter atlas of the last run, clamped with
-  // drt_feedback_bound(ld_max, rho_max, the clutter light's and albedo's maxima).
-  // ld_max_texture (not 0): the walls' ld is on the GPU and ld_max is that texture's texel
-  // (GlesLevelRuntime's ld_max.frag), not the argument.
-  void run_scene(const std::array<GLuint, 3>& b, bool feedback = false, float ld_max = 0.0f,
-                 float rho_max = 0.0f, GLuint ld_max_texture = 0);
+  // light changed or after feedback); with `feedback` (a multi-bounce step with a clutter
+  // albedo) it is Td_c of the light fed back from the clutter atlas of the last run, clamped
+  // at feedback.bound() (drt_feedback_bound). ld_max_texture (not 0): the walls' ld is on the
+  // GPU and ld_max is that texture's texel (GlesLevelRuntime's ld_max.frag), not feedback's.
+  void run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
+                 GLuint ld_max_texture = 0);
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
@@ -118,7 +121,6 @@ class GlesDrt {
   // Clutter feedback: clamped albedo, each clutter texel's atlas position, the light fed back.
   GLuint rho_c_ = 0, texel_xy_ = 0;
   bool feed_ = false;
-  float rho_c_max_ = 0.0f, clutter_ld_max_ = 0.0f;
   Target c_, y_, clutter_, fed_;
   // Vector clutter (only when some object has Uc_vec or Cc_vec): tables and targets of the
   // second drt_vc / drt_clutter instance.

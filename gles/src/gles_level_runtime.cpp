@@ -90,7 +90,10 @@ void pack_columns(const Matrix& m, std::size_t group_base, std::size_t n_max, st
 
 }  // namespace
 
-GlesLevelRuntime::GlesLevelRuntime(const platform::GlFunctions& gl) : gl_(gl) {}
+GlesLevelRuntime::GlesLevelRuntime(const platform::GlFunctions& gl, const Level& level,
+                                   const Dictionary& dict, const GlesRuntimeOptions& options)
+    : StagedBackend(level, dict, StagedBackendOptions{options.probes, options.skip_unchanged}, "gles"),
+      gl_(gl) {}
 
 GlesLevelRuntime::~GlesLevelRuntime() {
   timer_.reset();
@@ -108,7 +111,7 @@ Result<std::unique_ptr<GlesLevelRuntime>> GlesLevelRuntime::create(const platfor
                                                                    const GlesRuntimeOptions& options) {
   if (!gl.glGetError) return Status::error(ErrorCode::invalid_argument, "gles: GL functions are not loaded");
   if (Status s = check_level_operators(level, dict); !s.ok()) return s;
-  std::unique_ptr<GlesLevelRuntime> rt(new GlesLevelRuntime(gl));
+  std::unique_ptr<GlesLevelRuntime> rt(new GlesLevelRuntime(gl, level, dict, options));
   while (gl.glGetError() != GL_NO_ERROR) {
   }  // errors left by the caller are not ours
   if (Status s = rt->build(level, dict, gles_context, options); !s.ok()) return s;
@@ -130,7 +133,6 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   level_ = &level;
   dict_ = &dict;
   options_ = options;
-  sizes_ = level_buffer_sizes(level, dict);
   groups_ = groups_of(level.kb);
   r_groups_ = groups_of(level.kr);
   for (const ShapeOperators& op : dict.shapes) n_max_ = std::max(n_max_, int(op.sample_count()));
@@ -536,9 +538,6 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
                           "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
   }
   gl_.glUseProgram(0);
-  dirty_ = LevelDirtyTracker::create(level);
-  dirty_slot_.assign(slots, 1);
-  dirty_atlas_.assign(blocks, 1);
   // The tiles each block's samples appear in: its own, plus neighbours' tiles whose padding
   // copies its edge texels (architecture.md §4), so that a changed block redraws all of them.
   {
@@ -613,149 +612,263 @@ std::span<const GlesLevelRuntime::Rect> GlesLevelRuntime::linear_rects(std::span
   return rects_;
 }
 
-void GlesLevelRuntime::begin_pass(int scope) {
-  if (timing_) timer_->begin(scope);
+// TimedStage -> the timer scope of its passes; -1: the stage draws nothing of its own (the
+// tiles are drawn by the atlas pass, c by the delta pass).
+static int scope_of(TimedStage stage) {
+  switch (stage) {
+    case TimedStage::upload: return kUpload;
+    case TimedStage::feedback: return kFeedback;
+    case TimedStage::b: return kB;
+    case TimedStage::r: return kR;
+    case TimedStage::drt: return kDrt;
+    case TimedStage::atlas: return kAtlas;
+    case TimedStage::vector: return kVector;
+    case TimedStage::probes: return kProbes;
+    case TimedStage::clutter: return kClutter;
+    case TimedStage::lightmap:
+    case TimedStage::clutter_c:
+    case TimedStage::count: break;
+  }
+  return -1;
 }
 
-void GlesLevelRuntime::end_pass(int scope) {
-  if (timing_) timer_->end(scope);
+void GlesLevelRuntime::timer_begin(TimedStage stage) {
+  if (const int scope = scope_of(stage); scope >= 0) timer_->begin(scope);
 }
 
-void GlesLevelRuntime::set_timing(bool on) { timing_ = on; }
+void GlesLevelRuntime::timer_end(TimedStage stage) {
+  if (const int scope = scope_of(stage); scope >= 0) timer_->end(scope);
+}
 
-Status GlesLevelRuntime::run_passes(bool from_feedback, const Partial& partial) {
-  const int blocks = int(level_->blocks.size());
+void GlesLevelRuntime::timer_collect(BackendStageTimes& t) {
+  t.upload = timer_->elapsed_ns(kUpload);
+  t.feedback = timer_->elapsed_ns(kFeedback);
+  t.b = timer_->elapsed_ns(kB);
+  t.r = timer_->elapsed_ns(kR);
+  t.atlas = timer_->elapsed_ns(kAtlas);
+  t.probes = timer_->elapsed_ns(kProbes);
+  t.vector = timer_->elapsed_ns(kVector);
+  t.drt = timer_->elapsed_ns(kDrt);
+  t.clutter = timer_->elapsed_ns(kClutter);
+  timer_->reset();
+}
+
+Status GlesLevelRuntime::stage_begin() {
+  if (timing()) timer_->reset();
+  eval_ = Evaluation{};
+  ld_source_ = ld_;
+  feedback_source_ = ld_direct_;
   gl_.glDisable(GL_BLEND);
   gl_.glDisable(GL_DEPTH_TEST);
   gl_.glDisable(GL_SCISSOR_TEST);
   gl_.glBindVertexArray(vao_);
+  return Status::success();
+}
 
-  if (from_feedback) {
-    begin_pass(kFeedback);
-    gl_.glUseProgram(prog_feedback_.id);
-    gl_.glUniform1f(prog_feedback_.u_bound, feedback_bound_);
-    // With ld on the GPU: bound = ld_max x 1 / (1 - rho_max), the policy's formula at ld_max 1.
-    gl_.glUniform1f(u_bound_scale_, feedback_bound_on_gpu_ ? feedback_energy_bound(1.0f, rho_max_) : 0.0f);
-    gl_.glBindSampler(0, ld_sampler_);  // u_ld_direct: the caller's texture reads texel by texel
-    draw(prog_feedback_, ld_feedback_.framebuffer, ld_feedback_.width, ld_feedback_.height,
-         {feedback_source_, rho_, sample_info_, atlas_.texture, ld_max_.texture});
-    gl_.glBindSampler(0, 0);
-    end_pass(kFeedback);
-    if (Status s = check("feedback pass"); !s.ok()) return s;
+void GlesLevelRuntime::stage_end(bool ok) {
+  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl_.glUseProgram(0);
+  gl_.glBindVertexArray(0);
+  ld_source_ = ld_;
+  feedback_source_ = ld_direct_;
+  if (!ok) return;
+  probes_world_current_ = false;
+  if (eval_.feedback) return;  // skip_stats counts the updates
+  ++stats_.frames;
+  stats_.frames_partial += eval_.pass.b;
+  stats_.blocks_b += eval_.blocks_b, stats_.slots_r += eval_.slots_r,
+      stats_.blocks_redrawn += eval_.blocks_redrawn;
+}
+
+GlesSkipStats GlesLevelRuntime::skip_stats() const {
+  GlesSkipStats s = stats_;
+  const std::uint64_t skipped = evaluation_stats().evaluations_skipped;
+  s.frames += skipped, s.frames_skipped = skipped;
+  return s;
+}
+
+// Each pass runs over its changed items only while they are few (partial_fraction).
+Status GlesLevelRuntime::stage_ld(std::span<const float> ld, const StageWork& work) {
+  const Level& level = *level_;
+  const std::size_t blocks = level.blocks.size(), slots = level.slots.size();
+  const double fraction = double(options_.partial_fraction);
+  const bool partial = !work.everything && 2 * work.block_count <= blocks &&
+                       double(work.block_count) <= fraction * double(blocks);
+  eval_.pass.b = partial;
+  eval_.pass.r = partial && double(work.slot_count) <= fraction * double(slots);
+  // With clutter the pipeline marks every tile (a delta reads other blocks' b).
+  eval_.pass.atlas = partial && double(work.tile_count) <= fraction * double(blocks);
+  eval_.blocks_b = work.block_count;
+  eval_.slots_r = eval_.pass.r ? work.slot_count : slots;
+  eval_.blocks_redrawn = eval_.pass.atlas ? work.tile_count : blocks;
+  if (partial) {
+    for (std::size_t i = 0; i < blocks; ++i)
+      if (work.blocks[i])
+        upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3,
+                      ld.data() + 3 * std::size_t(level.blocks[i].sample_offset),
+                      level.blocks[i].sample_count, sizeof(float), level.blocks[i].sample_offset);
+  } else {
+    upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3, ld.data(), level.sample_count, sizeof(float));
   }
-  begin_pass(kB);
-  if (from_feedback)
+  return check("uploading ld");
+}
+
+Status GlesLevelRuntime::check_texture_name(std::uint32_t texture, const char* who) const {
+  if (texture != 0 && gl_.glIsTexture(texture) == GL_TRUE) return Status::success();
+  return refused(std::string(who) + ": " + std::to_string(texture) +
+                 " is not a texture name of this GL context");
+}
+
+Status GlesLevelRuntime::stage_ld_texture(std::uint32_t ld_texture) {
+  if (Status s = check_texture_name(ld_texture, "update_from_texture"); !s.ok()) return s;
+  ld_source_ = ld_texture;
+  eval_.blocks_b = level_->blocks.size();
+  eval_.slots_r = level_->slots.size();
+  eval_.blocks_redrawn = level_->blocks.size();
+  return Status::success();
+}
+
+Status GlesLevelRuntime::stage_albedo(std::span<const float> rho) {
+  upload_linear(gl_, rho_, GL_RGB, GL_FLOAT, 3, rho.data(), level_->sample_count, sizeof(float));
+  return check("uploading albedo");
+}
+
+// feedback.frag: ld = ld_direct + rho min(max(atlas, 0), bound). With ld on the GPU, bound =
+// ld_max x bound_scale, ld_max from ld_max.frag's texel.
+Status GlesLevelRuntime::draw_feedback(float bound, float bound_scale) {
+  gl_.glUseProgram(prog_feedback_.id);
+  gl_.glUniform1f(prog_feedback_.u_bound, bound);
+  gl_.glUniform1f(u_bound_scale_, bound_scale);
+  gl_.glBindSampler(0, ld_sampler_);  // u_ld_direct: the caller's texture reads texel by texel
+  draw(prog_feedback_, ld_feedback_.framebuffer, ld_feedback_.width, ld_feedback_.height,
+       {feedback_source_, rho_, sample_info_, atlas_.texture, ld_max_.texture});
+  gl_.glBindSampler(0, 0);
+  eval_.feedback = true;
+  return check("feedback pass");
+}
+
+Status GlesLevelRuntime::stage_feedback(std::span<const float> ld_direct, float bound) {
+  upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
+  if (Status s = check("uploading ld_direct"); !s.ok()) return s;
+  return draw_feedback(bound, 0.0f);
+}
+
+Status GlesLevelRuntime::stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld) {
+  if (Status s = check_texture_name(ld_texture, "multi_bounce_step_from_texture"); !s.ok()) return s;
+  gl_.glBindSampler(0, ld_sampler_);  // the largest ld, on the GPU
+  draw(prog_ld_max_rows_, ld_max_rows_.framebuffer, ld_max_rows_.width, ld_max_rows_.height, {ld_texture});
+  gl_.glBindSampler(0, 0);
+  draw(prog_ld_max_, ld_max_.framebuffer, 1, 1, {ld_max_rows_.texture});
+  if (Status s = check("ld max passes"); !s.ok()) return s;
+  feedback_source_ = ld_texture;
+  eval_.ld_max_on_gpu = true;
+  return draw_feedback(0.0f, bound_per_ld);
+}
+
+Status GlesLevelRuntime::stage_b(const StageWork& work) {
+  if (eval_.feedback)
     draw(prog_b_feedback_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
          {td_b_, block_info_, ld_feedback_.texture});
   else {
     gl_.glBindSampler(2, ld_sampler_);  // u_ld's unit (draw binds the textures in order)
     draw(prog_b_, b_partial_.framebuffer, b_partial_.width, b_partial_.height,
          {td_b_, block_info_, ld_source_},
-         partial.b ? linear_rects(dirty_.blocks(), groups_ * b_chunks_) : std::span<const Rect>{});
+         eval_.pass.b ? linear_rects(work.blocks, groups_ * b_chunks_) : std::span<const Rect>{});
     gl_.glBindSampler(2, 0);
   }
   draw(prog_b_reduce_, b_.framebuffer, b_.width, b_.height,
        {b_partial_.textures[0], b_partial_.textures[1], b_partial_.textures[2]},
-       partial.b ? linear_rects(dirty_.blocks(), groups_) : std::span<const Rect>{});
-  end_pass(kB);
-  if (Status s = check("b pass (Td_b ld)"); !s.ok()) return s;
+       eval_.pass.b ? linear_rects(work.blocks, groups_) : std::span<const Rect>{});
+  return check("b pass (Td_b ld)");
+}
 
-  begin_pass(kR);
-  if (!level_->slots.empty() && !(partial.r && linear_rects(dirty_slot_, 1).empty())) {
-    draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
-         {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]},
-         partial.r ? linear_rects(dirty_slot_, r_groups_ * groups_) : std::span<const Rect>{});
-    draw(prog_r_reduce_, r_.framebuffer, r_.width, r_.height,
-         {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]},
-         partial.r ? linear_rects(dirty_slot_, r_groups_) : std::span<const Rect>{});
-  }
-  end_pass(kR);
-  if (Status s = check("r pass (Tb_r b)"); !s.ok()) return s;
+Status GlesLevelRuntime::stage_r(const StageWork& work) {
+  if (level_->slots.empty() || (eval_.pass.r && linear_rects(work.slots, 1).empty()))
+    return Status::success();
+  draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
+       {t_, slot_info_, record_block_, b_.textures[0], b_.textures[1], b_.textures[2]},
+       eval_.pass.r ? linear_rects(work.slots, r_groups_ * groups_) : std::span<const Rect>{});
+  draw(prog_r_reduce_, r_.framebuffer, r_.width, r_.height,
+       {r_partial_.textures[0], r_partial_.textures[1], r_partial_.textures[2]},
+       eval_.pass.r ? linear_rects(work.slots, r_groups_) : std::span<const Rect>{});
+  return check("r pass (Tb_r b)");
+}
 
-  if (drt_) {  // architecture.md §5 step 7: the delta the atlas pass adds
-    begin_pass(kDrt);
-    drt_->run_scene(b_.textures, from_feedback, feedback_ld_max_, rho_max_,
-                    feedback_bound_on_gpu_ ? ld_max_.texture : 0);
-    end_pass(kDrt);
-    if (Status s = check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)"); !s.ok()) return s;
-  }
+// The clutter feedback reads the clutter atlas of the last evaluation, which stays in place
+// until stage_clutter_lightmap: the c pass runs with the deltas (GlesDrt::run_scene).
+Status GlesLevelRuntime::stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) {
+  eval_.clutter_feedback = source == ClutterCSource::feedback;
+  eval_.clutter = feedback;
+  return Status::success();
+}
 
-  begin_pass(kAtlas);
-  if (partial.atlas) {
-    rects_.clear();
-    for (std::size_t i = 0; i < dirty_atlas_.size(); ++i)
-      if (dirty_atlas_[i])
+Status GlesLevelRuntime::stage_deltas(const StageWork&) {
+  drt_->run_scene(b_.textures, eval_.clutter_feedback, eval_.clutter,
+                  eval_.ld_max_on_gpu ? ld_max_.texture : 0);
+  return check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)");
+}
+
+Status GlesLevelRuntime::stage_atlas(const StageWork& work) {
+  rects_.clear();
+  if (eval_.pass.atlas)
+    for (std::size_t i = 0; i < work.tiles.size(); ++i)
+      if (work.tiles[i])
         rects_.insert(rects_.end(), tile_rects_.begin() + block_tile_begin_[i],
                       tile_rects_.begin() + block_tile_begin_[i + 1]);
-  }
   if (drt_)
     draw(prog_atlas_drt_, atlas_.framebuffer, atlas_.width, atlas_.height,
          {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
           b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2],
-          drt_->delta_texture()});
+          drt_->delta_texture()},
+         eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   else
     draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
          {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
           b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-         partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
-  end_pass(kAtlas);
-  if (Status s = check("atlas pass (Ub b + Ur r, padding)"); !s.ok()) return s;
+         eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+  return check("atlas pass (Ub b + Ur r, padding)");
+}
 
-  if (has_vector_) {  // the same tiles as the atlas (rects_ still holds them)
-    begin_pass(kVector);
-    if (drt_ && drt_->vector_delta_texture())
-      draw(prog_vector_drt_, vector_.framebuffer, vector_.width, vector_.height,
-           {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
-            slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
-            r_.textures[2], drt_->vector_delta_texture()});
-    else
-      draw(prog_vector_, vector_.framebuffer, vector_.width, vector_.height,
-           {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
-            slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
-            r_.textures[2]},
-           partial.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
-    end_pass(kVector);
-    if (Status s = check("vector irradiance pass (Ub_vec b + Ur_vec r)"); !s.ok()) return s;
-  }
+// The same tiles as the atlas (rects_ still holds them).
+Status GlesLevelRuntime::stage_vector(const StageWork&) {
+  if (!has_vector_) return Status::success();
+  const std::span<const Rect> rects =
+      eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{};
+  if (drt_ && drt_->vector_delta_texture())
+    draw(prog_vector_drt_, vector_.framebuffer, vector_.width, vector_.height,
+         {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
+          slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
+          r_.textures[2], drt_->vector_delta_texture()},
+         rects);
+  else
+    draw(prog_vector_, vector_.framebuffer, vector_.width, vector_.height,
+         {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,
+          slot_info_, b_.textures[0], b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1],
+          r_.textures[2]},
+         rects);
+  return check("vector irradiance pass (Ub_vec b + Ur_vec r)");
+}
 
-  if (has_probes_ && blocks > 0) {
-    begin_pass(kProbes);
-    if (drt_ && drt_->probe_delta_texture())
-      draw(prog_probes_drt_, probes_.framebuffer, probes_.width, probes_.height,
-           {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
-            b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2], drt_->probe_delta_texture()});
-    else
-      draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
-           {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
-            b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-           partial.atlas ? linear_rects(dirty_atlas_, probe_rows_) : std::span<const Rect>{});
-    end_pass(kProbes);
-    if (Status s = check("probe pass (Ubvol b + Urvol r)"); !s.ok()) return s;
-  }
-  if (drt_) {  // DRT §4.3
-    begin_pass(kClutter);
-    drt_->run_clutter(b_.textures);
-    end_pass(kClutter);
-    if (Status s = check("clutter atlas pass (Uc Vc b + direct)"); !s.ok()) return s;
-  }
-  gl_.glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  gl_.glUseProgram(0);
-  gl_.glBindVertexArray(0);
-  updated_ = true;
-  probes_world_current_ = false;
-  if (timing_) {
-    times_.upload = timer_->elapsed_ns(kUpload);
-    times_.feedback = from_feedback ? timer_->elapsed_ns(kFeedback) : 0;
-    times_.b = timer_->elapsed_ns(kB);
-    times_.r = timer_->elapsed_ns(kR);
-    times_.atlas = timer_->elapsed_ns(kAtlas);
-    times_.probes = has_probes_ ? timer_->elapsed_ns(kProbes) : 0;
-    times_.vector = has_vector_ ? timer_->elapsed_ns(kVector) : 0;
-    times_.drt = drt_ ? timer_->elapsed_ns(kDrt) : 0;
-    times_.clutter = drt_ ? timer_->elapsed_ns(kClutter) : 0;
-    timer_->reset();
-  }
-  return Status::success();
+Status GlesLevelRuntime::stage_probes(const StageWork& work) {
+  if (level_->blocks.empty()) return Status::success();
+  const std::span<const Rect> rects =
+      eval_.pass.atlas ? linear_rects(work.tiles, probe_rows_) : std::span<const Rect>{};
+  if (drt_ && drt_->probe_delta_texture())
+    draw(prog_probes_drt_, probes_.framebuffer, probes_.width, probes_.height,
+         {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
+          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2], drt_->probe_delta_texture()},
+         rects);
+  else
+    draw(prog_probes_, probes_.framebuffer, probes_.width, probes_.height,
+         {ubvol_, probe_response_, block_info_, block_slots_, slot_info_, b_.textures[0], b_.textures[1],
+          b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
+         rects);
+  return check("probe pass (Ubvol b + Urvol r)");
+}
+
+Status GlesLevelRuntime::stage_clutter_lightmap() {  // DRT §4.3
+  drt_->run_clutter(b_.textures);
+  return check("clutter atlas pass (Uc Vc b + direct)");
 }
 
 std::uint32_t GlesLevelRuntime::output_texture(BackendOutput output) const {
@@ -779,168 +892,11 @@ static_assert(int(TargetFormat::float32) == 0 && int(TargetFormat::float16) == 1
                   int(TargetFormat::bits32) == 2,
               "output_texture_format: modrt.h's format codes");
 
-Status GlesLevelRuntime::update_from_texture(std::uint32_t ld_texture) {
-  if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
-    return Status::error(ErrorCode::invalid_argument,
-                         "gles: update_from_texture: " + std::to_string(ld_texture) +
-                             " is not a texture name of this GL context");
-  const Level& level = *level_;
-  std::fill(dirty_slot_.begin(), dirty_slot_.end(), std::uint8_t(1));
-  std::fill(dirty_atlas_.begin(), dirty_atlas_.end(), std::uint8_t(1));
-  if (timing_) timer_->reset();
-  force_full_ = true;  // the next update() has no marked ld of this frame to compare with
-  ld_source_ = ld_texture;
-  const Status s = run_passes(false, Partial{});
-  ld_source_ = ld_;
-  if (!s.ok()) return s;
-  drt_light_changed_ = false;
-  ++stats_.frames;
-  stats_.blocks_b += level.blocks.size();
-  stats_.blocks_redrawn += level.blocks.size();
-  stats_.slots_r += level.slots.size();
-  return Status::success();
-}
-
-Status GlesLevelRuntime::update(std::span<const float> ld) {
-  if (Status s = validate_light_signal(ld, level_->sample_count, "ld"); !s.ok()) return s;
-  const Level& level = *level_;
-  // A new clutter light changes c (and so the delta) whatever ld does.
-  const bool full = force_full_ || !options_.skip_unchanged || drt_light_changed_;
-  const std::size_t dirty = dirty_.mark(ld, full);
-  if (dirty == 0 && !full) {
-    ++stats_.frames, ++stats_.frames_skipped;
-    times_ = GlesPassTimes{};
-    return Status::success();
-  }
-  // Each pass runs over its changed items only while they are few (partial_fraction).
-  const double fraction = double(options_.partial_fraction);
-  const bool partial =
-      !full && 2 * dirty <= level.blocks.size() && double(dirty) <= fraction * double(level.blocks.size());
-  Partial pass;
-  pass.b = partial;
-  pass.r = partial && double(dirty_.dirty_slots()) <= fraction * double(level.slots.size());
-  // With clutter the delta of a sample reads other blocks' b (shadows across openings): the
-  // atlas is redrawn whole.
-  pass.atlas = partial && !drt_ && double(dirty_.dirty_tiles()) <= fraction * double(level.blocks.size());
-  // What each pass redraws: the dirty items when it runs partially, else everything.
-  const auto take = [](std::span<const std::uint8_t> reached, bool partial_pass,
-                       std::vector<std::uint8_t>& out) {
-    if (partial_pass)
-      std::copy(reached.begin(), reached.end(), out.begin());
-    else
-      std::fill(out.begin(), out.end(), std::uint8_t(1));
-  };
-  take(dirty_.slots(), pass.r, dirty_slot_);
-  take(dirty_.tiles(), pass.atlas, dirty_atlas_);
-
-  if (timing_) timer_->reset();
-  begin_pass(kUpload);
-  if (partial) {
-    for (std::size_t i = 0; i < level.blocks.size(); ++i)
-      if (dirty_.blocks()[i])
-        upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3,
-                      ld.data() + 3 * std::size_t(level.blocks[i].sample_offset),
-                      level.blocks[i].sample_count, sizeof(float), level.blocks[i].sample_offset);
-  } else {
-    upload_linear(gl_, ld_, GL_RGB, GL_FLOAT, 3, ld.data(), level.sample_count, sizeof(float));
-  }
-  end_pass(kUpload);
-  force_full_ = true;  // until this frame has fully succeeded
-  if (Status s = check("uploading ld"); !s.ok()) return s;
-  if (Status s = run_passes(false, pass); !s.ok()) return s;
-  force_full_ = false;
-  drt_light_changed_ = false;
-  ++stats_.frames;
-  stats_.frames_partial += partial;
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    stats_.blocks_b += dirty_.blocks()[i];
-    stats_.blocks_redrawn += dirty_atlas_[i];
-  }
-  for (std::uint8_t d : dirty_slot_) stats_.slots_r += d;
-  return Status::success();
-}
-
-Status GlesLevelRuntime::set_albedo(std::span<const float> albedo, float max_albedo) {
-  if (Status s = validate_light_signal(albedo, level_->sample_count, "albedo"); !s.ok()) return s;
-  if (Status s = check_max_albedo(max_albedo, "gles: multi-bounce"); !s.ok()) return s;
-  // Clamped on the CPU once (as core's prepare_feedback), uploaded once; reuses readback_
-  // as scratch so that nothing is allocated after create().
-  std::vector<float>& rho = readback_;
-  rho_max_ = clamp_albedo(albedo, max_albedo, std::span<float>(rho.data(), albedo.size())).rho_max;
-  upload_linear(gl_, rho_, GL_RGB, GL_FLOAT, 3, rho.data(), level_->sample_count, sizeof(float));
-  has_albedo_ = true;
-  return check("uploading albedo");
-}
-
-Status GlesLevelRuntime::multi_bounce_step(std::span<const float> ld_direct) {
-  if (!has_albedo_)
-    return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call set_albedo first");
-  if (!updated_)
-    return Status::error(ErrorCode::invalid_argument, "gles: multi_bounce_step: call update first");
-  if (Status s = validate_light_signal(ld_direct, level_->sample_count, "ld_direct"); !s.ok()) return s;
-  const float ld_max = largest_light(ld_direct);
-  const float bound = feedback_energy_bound(ld_max, rho_max_);
-  // The fed-back ld (computed on the GPU, never validated there) is at most ld_max + rho_max
-  // x bound; the CPU runtime validates its fed-back ld like any ld (<= kMaxLightValue), so
-  // the same rule here keeps every pass within the float range operator_limits.h assumes.
-  if (const double fed = feedback_ld_peak(ld_max, rho_max_); fed > kMaxLightValue) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%g", fed);
-    return Status::error(
-        ErrorCode::invalid_argument,
-        std::string("gles: multi_bounce_step: the fed-back light can reach ") + text +
-            ", above the largest light value 1e30 (kMaxLightValue): rescale the scene's light");
-  }
-  feedback_bound_ = bound;
-  feedback_ld_max_ = ld_max;
-  if (timing_) timer_->reset();
-  begin_pass(kUpload);
-  upload_linear(gl_, ld_direct_, GL_RGB, GL_FLOAT, 3, ld_direct.data(), level_->sample_count, sizeof(float));
-  end_pass(kUpload);
-  if (Status s = check("uploading ld_direct"); !s.ok()) return s;
-  // Feedback changes every block's ld; the next update() must not compare against the ld marked before it.
-  force_full_ = true;
-  if (Status s = run_passes(true, Partial{}); !s.ok()) return s;
-  ++feedback_steps_;
-  return Status::success();
-}
-
-Status GlesLevelRuntime::multi_bounce_step_from_texture(std::uint32_t ld_texture) {
-  constexpr const char* who = "gles: multi_bounce_step_from_texture: ";
-  if (!has_albedo_)
-    return Status::error(ErrorCode::invalid_argument, std::string(who) + "call set_albedo first");
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, std::string(who) + "call update first");
-  if (ld_texture == 0 || gl_.glIsTexture(ld_texture) != GL_TRUE)
-    return Status::error(ErrorCode::invalid_argument, std::string(who) + std::to_string(ld_texture) +
-                                                          " is not a texture name of this GL context");
-  if (timing_) timer_->reset();
-  gl_.glDisable(GL_BLEND);
-  gl_.glDisable(GL_DEPTH_TEST);
-  gl_.glDisable(GL_SCISSOR_TEST);
-  gl_.glBindVertexArray(vao_);
-  begin_pass(kUpload);  // in place of the upload: the largest ld, on the GPU
-  gl_.glBindSampler(0, ld_sampler_);
-  draw(prog_ld_max_rows_, ld_max_rows_.framebuffer, ld_max_rows_.width, ld_max_rows_.height, {ld_texture});
-  gl_.glBindSampler(0, 0);
-  draw(prog_ld_max_, ld_max_.framebuffer, 1, 1, {ld_max_rows_.texture});
-  end_pass(kUpload);
-  if (Status s = check("ld max passes"); !s.ok()) return s;
-  force_full_ = true;  // feedback changes every block's ld
-  feedback_source_ = ld_texture;
-  feedback_bound_on_gpu_ = true;
-  const Status s = run_passes(true, Partial{});
-  feedback_source_ = ld_direct_;
-  feedback_bound_on_gpu_ = false;
-  if (!s.ok()) return s;
-  ++feedback_steps_;
-  return Status::success();
-}
-
 Result<std::uint32_t> GlesLevelRuntime::world_probe_texture() {
   if (!has_probes_)
     return Status::error(ErrorCode::invalid_argument,
                          "gles: no probes (the dictionary has none or GlesRuntimeOptions::probes is off)");
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: no update has run yet");
+  if (!updated()) return Status::error(ErrorCode::invalid_argument, "gles: no update has run yet");
   if (!probes_world_current_) {  // one pass per update, on request
     gl_.glDisable(GL_BLEND);
     gl_.glDisable(GL_DEPTH_TEST);
@@ -955,21 +911,6 @@ Result<std::uint32_t> GlesLevelRuntime::world_probe_texture() {
     probes_world_current_ = true;
   }
   return std::uint32_t(probes_world_.texture);
-}
-
-BackendEvaluationStats GlesLevelRuntime::evaluation_stats() const {
-  // update() counts what it recomputed; a feedback step recomputes every block, slot and tile.
-  const std::uint64_t blocks = level_->blocks.size(), slots = level_->slots.size(), steps = feedback_steps_;
-  BackendEvaluationStats e;
-  e.evaluations = stats_.frames + steps;
-  e.evaluations_skipped = stats_.frames_skipped;
-  e.blocks_computed = stats_.blocks_b + steps * blocks;
-  e.blocks_kept = e.evaluations * blocks - e.blocks_computed;
-  e.slots_computed = stats_.slots_r + steps * slots;
-  e.slots_kept = e.evaluations * slots - e.slots_computed;
-  e.tiles_written = stats_.blocks_redrawn + steps * blocks;
-  e.tiles_kept = e.evaluations * blocks - e.tiles_written;
-  return e;
 }
 
 Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int width, int height, bool bits) {
@@ -988,7 +929,7 @@ Status GlesLevelRuntime::read_target(GLuint framebuffer, int attachment, int wid
 
 Status GlesLevelRuntime::read_signal3(const Signal3& s, int groups, std::size_t items, std::size_t modes,
                                       std::span<float> out) {
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
+  if (!updated()) return refused("read before the first update");
   for (int c = 0; c < 3; ++c) {
     if (Status st = read_target(s.framebuffer, c, s.width, s.height, true); !st.ok()) return st;
     for (std::size_t i = 0; i < items; ++i)
@@ -1000,88 +941,73 @@ Status GlesLevelRuntime::read_signal3(const Signal3& s, int groups, std::size_t 
 }
 
 Status GlesLevelRuntime::read_b(std::span<float> b) {
-  if (b.size() != sizes_.b) return wrong_size("b", b.size(), sizes_.b);
+  if (b.size() != sizes().b) return wrong_size("b", b.size(), sizes().b);
   return read_signal3(b_, groups_, level_->blocks.size(), level_->kb, b);
 }
 
 Status GlesLevelRuntime::read_r(std::span<float> r) {
-  if (r.size() != sizes_.r) return wrong_size("r", r.size(), sizes_.r);
+  if (r.size() != sizes().r) return wrong_size("r", r.size(), sizes().r);
   if (level_->slots.empty()) return Status::success();
   return read_signal3(r_, r_groups_, level_->slots.size(), level_->kr, r);
 }
 
-Status GlesLevelRuntime::read_atlas(std::span<float> atlas) {
-  if (atlas.size() != sizes_.atlas) return wrong_size("atlas", atlas.size(), sizes_.atlas);
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  if (atlas.empty()) return Status::success();
-  if (Status s =
-          read_target(atlas_.framebuffer, 0, atlas_.width, atlas_.height, target_ == TargetFormat::bits32);
-      !s.ok())
-    return s;
-  for (std::size_t i = 0; i < atlas.size() / 3; ++i)
-    for (std::size_t c = 0; c < 3; ++c) atlas[3 * i + c] = readback_[4 * i + c];
-  return Status::success();
-}
-
-Status GlesLevelRuntime::read_lightmap(std::span<float> lightmap) {
-  if (lightmap.size() != sizes_.lightmap) return wrong_size("lightmap", lightmap.size(), sizes_.lightmap);
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  if (lightmap.empty()) return Status::success();
-  if (Status s =
-          read_target(atlas_.framebuffer, 0, atlas_.width, atlas_.height, target_ == TargetFormat::bits32);
-      !s.ok())
-    return s;
+// The readbacks (a renderer samples the textures instead).
+Status GlesLevelRuntime::read_output(StageOutput output, std::span<float> out) {
+  const bool bits = target_ == TargetFormat::bits32;
   const std::vector<std::uint32_t>& texel = level_->atlas.sample_texel;
-  for (std::size_t s = 0; s < texel.size(); ++s)
-    for (std::size_t c = 0; c < 3; ++c) lightmap[3 * s + c] = readback_[4 * std::size_t(texel[s]) + c];
-  return Status::success();
-}
-
-Status GlesLevelRuntime::read_probes(std::span<float> probes) {
-  if (!has_probes_)
-    return Status::error(ErrorCode::invalid_argument,
-                         "gles: no probes (the dictionary has none or GlesRuntimeOptions::probes is off)");
-  if (probes.size() != sizes_.probes) return wrong_size("probes", probes.size(), sizes_.probes);
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  if (Status s =
-          read_target(probes_.framebuffer, 0, probes_.width, probes_.height, target_ == TargetFormat::bits32);
-      !s.ok())
-    return s;
-  for (std::size_t i = 0; i < probes.size() / 3; ++i)
-    for (std::size_t c = 0; c < 3; ++c) probes[3 * i + c] = readback_[4 * i + c];
-  return Status::success();
-}
-
-Status GlesLevelRuntime::read_vector_lightmap(std::span<float> vector_lightmap) {
-  if (!has_vector_)
-    return Status::error(ErrorCode::invalid_argument,
-                         "gles: no vector irradiance (GlesRuntimeOptions::vector_irradiance is off)");
-  if (vector_lightmap.size() != sizes_.vector_lightmap)
-    return wrong_size("vector lightmap", vector_lightmap.size(), sizes_.vector_lightmap);
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  const std::vector<std::uint32_t>& texel = level_->atlas.sample_texel;
-  for (int i = 0; i < 4; ++i) {
-    if (Status s = read_target(vector_.framebuffer, i, vector_.width, vector_.height,
-                               target_ == TargetFormat::bits32);
-        !s.ok())
-      return s;
-    for (std::size_t s = 0; s < texel.size(); ++s)
-      for (std::size_t c = 0; c < 3; ++c)
-        vector_lightmap[3 * (4 * s + std::size_t(i)) + c] = readback_[4 * std::size_t(texel[s]) + c];
+  switch (output) {
+    case StageOutput::atlas:
+    case StageOutput::lightmap: {
+      if (out.empty()) return Status::success();
+      if (Status s = read_target(atlas_.framebuffer, 0, atlas_.width, atlas_.height, bits); !s.ok()) return s;
+      if (output == StageOutput::atlas)
+        for (std::size_t i = 0; i < out.size() / 3; ++i)
+          for (std::size_t c = 0; c < 3; ++c) out[3 * i + c] = readback_[4 * i + c];
+      else
+        for (std::size_t s = 0; s < texel.size(); ++s)
+          for (std::size_t c = 0; c < 3; ++c) out[3 * s + c] = readback_[4 * std::size_t(texel[s]) + c];
+      return Status::success();
+    }
+    case StageOutput::probes:
+      if (Status s = read_target(probes_.framebuffer, 0, probes_.width, probes_.height, bits); !s.ok())
+        return s;
+      for (std::size_t i = 0; i < out.size() / 3; ++i)
+        for (std::size_t c = 0; c < 3; ++c) out[3 * i + c] = readback_[4 * i + c];
+      return Status::success();
+    case StageOutput::vector_lightmap:
+      if (!has_vector_) return refused("no vector irradiance (GlesRuntimeOptions::vector_irradiance is off)");
+      for (int i = 0; i < 4; ++i) {
+        if (Status s = read_target(vector_.framebuffer, i, vector_.width, vector_.height, bits); !s.ok())
+          return s;
+        for (std::size_t s = 0; s < texel.size(); ++s)
+          for (std::size_t c = 0; c < 3; ++c)
+            out[3 * (4 * s + std::size_t(i)) + c] = readback_[4 * std::size_t(texel[s]) + c];
+      }
+      return Status::success();
+    case StageOutput::clutter_lightmap:
+      if (Status s = drt_->read_clutter_lightmap(out); !s.ok()) return s;
+      return check("reading back the clutter atlas");
+    case StageOutput::clutter_vector_lightmap: {
+      gl_.glDisable(GL_BLEND);
+      gl_.glDisable(GL_DEPTH_TEST);
+      gl_.glDisable(GL_SCISSOR_TEST);
+      gl_.glBindVertexArray(vao_);
+      const Status s = drt_->read_clutter_vector_lightmap(b_.textures, out);
+      gl_.glUseProgram(0);
+      gl_.glBindVertexArray(0);
+      if (!s.ok()) return s;
+      return check("rendering and reading back the clutter's vector irradiance");
+    }
   }
   return Status::success();
 }
 
-Status GlesLevelRuntime::set_clutter(const DrtOperators* drt) {
-  if (!drt || drt->empty()) {
+// The level passes that add a delta, built with DRT 1 on first use, and the DRT passes.
+Status GlesLevelRuntime::stage_clutter_set(const DrtOperators* drt) {
+  if (!drt) {
     drt_.reset();
-    drt_sizes_ = {};
-    force_full_ = true;
-    updated_ = false;  // the results on hand include the old clutter
     return Status::success();
   }
-  if (Status s = check_drt_operators(*level_, *drt); !s.ok()) return s;
-  // The level passes that add a delta, built with DRT 1 on first use.
   auto drt_program = [&](const char* name, const char* fragment, Program& out,
                          std::initializer_list<const char*> samplers, int count) -> Status {
     if (out.id) return Status::success();
@@ -1132,47 +1058,20 @@ Status GlesLevelRuntime::set_clutter(const DrtOperators* drt) {
   setup.probe_count = has_probes_ ? level_->blocks.size() * std::size_t(probe_rows_ / 9) : 0;
   Result<std::unique_ptr<GlesDrt>> created = GlesDrt::create(gl_, *level_, *drt, setup);
   if (!created.ok()) return created.status();
+  if (Status s = check("creating the DRT passes"); !s.ok()) return s;
   drt_ = std::move(created).value();
-  drt_sizes_ = drt_->sizes();
-  force_full_ = true;
-  updated_ = false;
-  return check("creating the DRT passes");
+  return Status::success();
 }
 
-Status GlesLevelRuntime::set_clutter_light(std::span<const float> clutter_ld,
-                                           std::span<const float> clutter_direct) {
-  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: set_clutter_light: no clutter set");
-  if (Status s = drt_->set_light(clutter_ld, clutter_direct); !s.ok()) return s;
-  drt_light_changed_ = true;
+Status GlesLevelRuntime::stage_clutter_light(std::span<const float> clutter_ld,
+                                             std::span<const float> clutter_direct) {
+  drt_->set_light(clutter_ld, clutter_direct);
   return check("uploading the clutter light");
 }
 
-Status GlesLevelRuntime::set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) {
-  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: set_clutter_albedo: no clutter set");
-  if (Status s = drt_->set_albedo(clutter_albedo, max_albedo); !s.ok()) return s;
+Status GlesLevelRuntime::stage_clutter_albedo(std::span<const float> rho_c) {
+  drt_->set_albedo(rho_c);
   return check("uploading the clutter albedo");
-}
-
-Status GlesLevelRuntime::read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) {
-  if (!drt_)
-    return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_vector_lightmap: no clutter set");
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  gl_.glDisable(GL_BLEND);
-  gl_.glDisable(GL_DEPTH_TEST);
-  gl_.glDisable(GL_SCISSOR_TEST);
-  gl_.glBindVertexArray(vao_);
-  const Status s = drt_->read_clutter_vector_lightmap(b_.textures, clutter_vector_lightmap);
-  gl_.glUseProgram(0);
-  gl_.glBindVertexArray(0);
-  if (!s.ok()) return s;
-  return check("rendering and reading back the clutter's vector irradiance");
-}
-
-Status GlesLevelRuntime::read_clutter_lightmap(std::span<float> clutter_lightmap) {
-  if (!drt_) return Status::error(ErrorCode::invalid_argument, "gles: read_clutter_lightmap: no clutter set");
-  if (!updated_) return Status::error(ErrorCode::invalid_argument, "gles: read before the first update");
-  if (Status s = drt_->read_clutter_lightmap(clutter_lightmap); !s.ok()) return s;
-  return check("reading back the clutter atlas");
 }
 
 GLuint GlesLevelRuntime::clutter_texture() const { return drt_ ? drt_->clutter_texture() : 0; }

@@ -62,7 +62,20 @@ struct ClutterFeedback {
 
 // The timed stages: each adds to its BackendStageTimes field (upload: the ld stage; lightmap:
 // the tiles stage; drt: clutter c and the deltas; clutter: the clutter lightmap).
-enum class TimedStage { upload, feedback, b, r, lightmap, drt, atlas, vector, probes, clutter, count };
+enum class TimedStage {
+  upload,
+  feedback,
+  clutter_c,
+  b,
+  r,
+  lightmap,
+  drt,
+  atlas,
+  vector,
+  probes,
+  clutter,
+  count
+};
 
 // What a read_* call copies out (StagedBackend checked its size and that an update has run).
 enum class StageOutput {
@@ -72,6 +85,17 @@ enum class StageOutput {
   vector_lightmap,
   clutter_lightmap,
   clutter_vector_lightmap
+};
+
+// The clutter's light on the CPU, for a backend whose DRT stages run there (the reference,
+// modrt::cpu): c of this evaluation and of the direct light alone, the clutter's light, its
+// lightmap, and the last evaluation's indirect light (Cb b + Cc c) with the light fed back.
+// allocate() sizes everything (capacity for clutter_direct too) so that no frame allocates.
+struct ClutterBuffers {
+  std::vector<float> c, c_direct, clutter_ld, clutter_direct, clutter_lightmap, indirect, fed;
+  void allocate(const DrtBufferSizes& sizes);
+  // clutter_ld and clutter_direct (may be empty) copied in; c_direct is then the caller's.
+  void set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
 };
 
 struct StagedBackendOptions {
@@ -113,6 +137,11 @@ class StagedBackend : public Backend {
   bool has_probes() const { return has_probes_; }
   const DrtOperators* clutter() const { return drt_; }
   bool timing() const { return timing_; }
+  bool updated() const { return updated_; }
+  // The clamped clutter albedo of set_clutter_albedo (3 per clutter texel; empty: none).
+  std::span<const float> clutter_albedo() const {
+    return rho_c_;
+  }  // an evaluation has succeeded since the last set_clutter
   // invalid_argument, "<name>: <what>".
   Status refused(const std::string& what) const;
 
@@ -142,9 +171,9 @@ class StagedBackend : public Backend {
     return Status::success();
   }
   virtual Status stage_probes(const StageWork& work) = 0;
-  // Around each evaluation (GL state); end runs after a failed stage too.
+  // Around each evaluation (GL state); stage_end runs after a failed stage too (ok false).
   virtual Status stage_begin() { return Status::success(); }
-  virtual void stage_end() {}
+  virtual void stage_end(bool ok) { (void)ok; }
   // Copies `output` of the last evaluation into out (its size checked; probes and clutter
   // outputs exist). Vector outputs may fail when the backend has no vector operators.
   virtual Status read_output(StageOutput output, std::span<float> out) = 0;

@@ -48,6 +48,7 @@
 #include "modrt/level_dirty.h"
 #include "modrt/platform/gl_functions.h"
 #include "modrt/platform/gpu_timer.h"
+#include "modrt/staged_backend.h"
 
 namespace modrt::gles {
 
@@ -94,7 +95,11 @@ using GlesPassTimes = BackendStageTimes;
 
 class GlesDrt;
 
-class GlesLevelRuntime final : public Backend {
+// The GLES stages of core's StagedBackend (staged_backend.h): the pipeline validates, tracks
+// what changed and sequences the frame; this class draws the passes. b, r, the atlas and the
+// probes run over the changed items only while they are few (partial_fraction); the tiles are
+// drawn by the atlas pass, and c with the DRT deltas.
+class GlesLevelRuntime final : public StagedBackend {
  public:
   // Checks the level against the dictionary, the context's limits and formats, compiles the
   // shaders (a failure names the shader and carries the compiler log), uploads every
@@ -109,26 +114,10 @@ class GlesLevelRuntime final : public Backend {
 
   BackendKind kind() const override { return BackendKind::gles; }
   const char* description() const override { return description_.c_str(); }
-  const LevelBufferSizes& sizes() const override { return sizes_; }
-
-  Status update(std::span<const float> ld) override;
-  Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) override;
-  Status multi_bounce_step(std::span<const float> ld_direct) override;
-  Status read_lightmap(std::span<float> lightmap) override;
-  Status read_atlas(std::span<float> atlas) override;
-  Status read_probes(std::span<float> probes) override;
-  Status read_vector_lightmap(std::span<float> vector_lightmap) override;
-  // DRT (Backend::set_clutter). With clutter, the atlas pass adds the delta and the atlas is
+  // DRT (Backend::set_clutter): with clutter, the atlas pass adds the delta and the atlas is
   // always redrawn whole (a delta can change where ld did not); a change of the clutter's
-  // light alone is not a skipped frame.
-  Status set_clutter(const DrtOperators* drt) override;
-  Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) override;
-  Status set_clutter_albedo(std::span<const float> clutter_albedo,
-                            float max_albedo = kDefaultMaxAlbedo) override;
-  // Rendered on request (two passes) from the last update's b and c.
-  Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) override;
-  const DrtBufferSizes& clutter_sizes() const override { return drt_sizes_; }
-  Status read_clutter_lightmap(std::span<float> clutter_lightmap) override;
+  // light alone is not a skipped frame. read_clutter_vector_lightmap renders on request (two
+  // passes) from the last update's b and c.
   // The clutter atlas (the atlas's format; RGB in .rgb), 0 without clutter. Object k's texels
   // fill a band of rows: with m = f res^2 (boxes) its f faces side by side, res x res each,
   // texel (i, j) of its n-th lit face at (n res + i, y_k + j); otherwise rows of 256 texels.
@@ -136,27 +125,21 @@ class GlesLevelRuntime final : public Backend {
   GLuint clutter_texture() const;
   std::array<int, 2> clutter_atlas_texel(std::size_t object, std::uint32_t t) const override;
   TextureSize clutter_atlas_size() const override;
-
-  // GPU-resident ld (architecture.md §5 step 1 on the GPU): evaluates the level like update()
-  // with ld read from `ld_texture`, a GL_TEXTURE_2D the caller rendered (its own direct-light
-  // pass over the samples), in the runtime's linear layout: sample s at texel
+  // GPU-resident ld (architecture.md §5 step 1 on the GPU; Backend::update_from_texture): ld
+  // read from `ld_texture`, a GL_TEXTURE_2D the caller rendered (its own direct-light pass over
+  // the samples, e.g. GlesDirectLight), in the runtime's linear layout: sample s at texel
   // (s % width, s / width) of ld_layout(), RGB in .rgb, a float format (RGBA32F, RGBA16F,
   // RGB32F). Its level 0 is read with texelFetch through a nearest sampler object, so its own
   // filters and mipmaps do not matter. Nothing is read back: ld is not validated on the CPU;
   // the b pass reads NaN and negative values as 0 and clamps at kMaxLightValue. Every block is
   // recomputed (the runtime does not see the values to skip). Fails for 0 or a name that is
-  // not a texture; then nothing changes.
-  Status update_from_texture(std::uint32_t ld_texture) override;
-  // One multi-bounce step (as multi_bounce_step) with ld_direct read from `ld_texture` (the
-  // layout of update_from_texture) and the bound from its largest value, found by two GPU
-  // passes (ld_max.frag): nothing is read back. The fed-back ld is clamped at kMaxLightValue
-  // (the CPU path refuses such light instead). With a clutter albedo the clutter's feedback
-  // bound takes the same GPU maximum.
-  Status multi_bounce_step_from_texture(std::uint32_t ld_texture) override;
+  // not a texture; then nothing changes. multi_bounce_step_from_texture: the bound from the
+  // texture's largest value, found by two GPU passes (ld_max.frag); the fed-back ld is clamped
+  // at kMaxLightValue (the CPU path refuses such light instead). With a clutter albedo the
+  // clutter's feedback bound takes the same GPU maximum.
   using LinearLayout = TextureSize;
   LinearLayout ld_layout() const;
   TextureSize ld_texture_size() const override { return ld_layout(); }
-
   TargetFormat target_format() const { return target_; }
   // The padded lightmap atlas (level.atlas.width x height; RGB in .rgb). Sample it with
   // texelFetch for bits32; float32 needs OES_texture_float_linear to filter.
@@ -169,17 +152,39 @@ class GlesLevelRuntime final : public Backend {
   // The b and r of the last update (level_runtime.h layouts), for tests and tools.
   Status read_b(std::span<float> b);
   Status read_r(std::span<float> r);
-
-  // Optional per-pass timing (GpuTimer: GPU queries where available). Off by default
-  // because CPU-clock timing adds a glFinish per pass.
-  void set_timing(bool on) override;
-  const GlesPassTimes& pass_times() const { return times_; }
-  const BackendStageTimes& stage_times() const override { return times_; }
+  // Per-pass timing (Backend::set_timing; GpuTimer: GPU queries where available, else a
+  // glFinish per pass). Off by default.
+  const GlesPassTimes& pass_times() const { return stage_times(); }
   std::uint32_t output_texture(BackendOutput output) const override;
   int output_texture_format() const override { return int(target_); }
-  const GlesSkipStats& skip_stats() const { return stats_; }
-  BackendEvaluationStats evaluation_stats() const override;
+  GlesSkipStats skip_stats() const;
   Result<std::uint32_t> world_probe_texture() override;
+
+ protected:
+  Status stage_ld(std::span<const float> ld, const StageWork& work) override;
+  Status stage_ld_texture(std::uint32_t ld_texture) override;
+  Status stage_feedback(std::span<const float> ld_direct, float bound) override;
+  Status stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld) override;
+  Status stage_albedo(std::span<const float> rho) override;
+  Status stage_b(const StageWork& work) override;
+  Status stage_r(const StageWork& work) override;
+  Status stage_tiles(const StageWork&) override { return Status::success(); }  // in stage_atlas
+  Status stage_atlas(const StageWork& work) override;
+  Status stage_vector(const StageWork& work) override;
+  Status stage_probes(const StageWork& work) override;
+  Status stage_begin() override;
+  void stage_end(bool ok) override;
+  Status read_output(StageOutput output, std::span<float> out) override;
+  Status stage_clutter_set(const DrtOperators* drt) override;
+  Status stage_clutter_light(std::span<const float> clutter_ld,
+                             std::span<const float> clutter_direct) override;
+  Status stage_clutter_albedo(std::span<const float> rho_c) override;
+  Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override;
+  Status stage_deltas(const StageWork& work) override;
+  Status stage_clutter_lightmap() override;
+  void timer_begin(TimedStage stage) override;
+  void timer_end(TimedStage stage) override;
+  void timer_collect(BackendStageTimes& times) override;
 
  private:
   struct Target {  // one render target texture and its framebuffer
@@ -201,7 +206,8 @@ class GlesLevelRuntime final : public Backend {
     GLuint id = 0;
     GLint u_bound = -1;  // feedback's per-frame uniform; everything else is set once
   };
-  explicit GlesLevelRuntime(const platform::GlFunctions& gl);
+  GlesLevelRuntime(const platform::GlFunctions& gl, const Level& level, const Dictionary& dict,
+                   const GlesRuntimeOptions& options);
   Status build(const Level& level, const Dictionary& dict, bool gles_context,
                const GlesRuntimeOptions& options);
   struct Rect {
@@ -210,15 +216,22 @@ class GlesLevelRuntime final : public Backend {
   struct Partial {                             // which passes run over their dirty_* items only
     bool b = false, r = false, atlas = false;  // atlas covers the probes too
   };
-  Status run_passes(bool from_feedback, const Partial& partial);
+  // What the current evaluation does: its partial passes, whether ld is fed back (and its
+  // largest value found on the GPU), the clutter's c source, and what it recomputes.
+  struct Evaluation {
+    Partial pass;
+    bool feedback = false, ld_max_on_gpu = false, clutter_feedback = false;
+    ClutterFeedback clutter;
+    std::size_t blocks_b = 0, slots_r = 0, blocks_redrawn = 0;
+  };
+  Status draw_feedback(float bound, float bound_scale);
+  Status check_texture_name(std::uint32_t texture, const char* who) const;
   // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
   // items, consecutive items merged; appended to rects_ (cleared first).
   std::span<const Rect> linear_rects(std::span<const std::uint8_t> flags, int per);
   Status check(const char* what) const;
   void draw(const Program& program, GLuint framebuffer, int width, int height,
             std::initializer_list<GLuint> textures, std::span<const Rect> rects = {});
-  void begin_pass(int scope);
-  void end_pass(int scope);
   Status read_target(GLuint framebuffer, int attachment, int width, int height, bool bits);
   Status read_signal3(const Signal3& s, int groups, std::size_t items, std::size_t modes,
                       std::span<float> out);
@@ -227,17 +240,14 @@ class GlesLevelRuntime final : public Backend {
   const Level* level_ = nullptr;
   // DRT: null without clutter. The atlas program with the delta is built on first use.
   std::unique_ptr<GlesDrt> drt_;
-  DrtBufferSizes drt_sizes_;
-  bool drt_light_changed_ = false;
   std::string defines_;
   GLenum operator_format_ = 0, output_format_ = 0;
   const Dictionary* dict_ = nullptr;
-  LevelBufferSizes sizes_;
   TargetFormat target_ = TargetFormat::float32;
   GlesRuntimeOptions options_;
   std::string description_;
   int groups_ = 0, r_groups_ = 0, n_max_ = 0, probe_rows_ = 0, b_chunks_ = 1, vector_rows_ = 0;
-  bool has_probes_ = false, has_vector_ = false, has_albedo_ = false, updated_ = false;
+  bool has_probes_ = false, has_vector_ = false;
 
   // Operator and table textures (uploaded once).
   GLuint td_b_ = 0, ub_ = 0, ur_ = 0, t_ = 0, ubvol_ = 0, probe_response_ = 0, ub_vec_ = 0,
@@ -260,29 +270,20 @@ class GlesLevelRuntime final : public Backend {
   bool probes_world_current_ = false;  // ld_max.frag's two stages (multi_bounce_step_from_texture)
   GLuint feedback_source_ =
       0;  // what the feedback pass reads as ld_direct: ld_direct_, or the caller's texture
-  bool feedback_bound_on_gpu_ = false;
   VectorTarget vector_;
-  float feedback_bound_ = 0.0f, rho_max_ = 0.0f, feedback_ld_max_ = 0.0f;
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
       prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_, prog_ld_max_rows_,
       prog_ld_max_, prog_probes_world_;
   GLint u_bound_scale_ = -1;     // feedback.frag
   std::vector<float> readback_;  // 4 floats per texel of the largest target
-  // Skip logic (update()): what a changed ld reaches (core's exact dirty tracking), and the
-  // slots and tiles each pass redraws (all of them when the pass runs whole), all sized at
-  // creation; rects_ has capacity for every item so that no frame allocates.
-  LevelDirtyTracker dirty_;
-  std::vector<std::uint8_t> dirty_slot_, dirty_atlas_;
-  // Atlas tiles showing block i's samples: tile_rects_[block_tile_begin_[i] .. [i + 1]).
+  // Atlas tiles showing block i's samples: tile_rects_[block_tile_begin_[i] .. [i + 1]);
+  // rects_ has capacity for every item so that no frame allocates.
   std::vector<std::uint32_t> block_tile_begin_;
   std::vector<Rect> tile_rects_;
   std::vector<Rect> rects_;
-  bool force_full_ = true;
-  GlesSkipStats stats_;
-  std::uint64_t feedback_steps_ = 0;  // multi_bounce_step() calls that succeeded
-  bool timing_ = false;
-  GlesPassTimes times_;
+  Evaluation eval_;
+  GlesSkipStats stats_;  // the evaluated updates (skip_stats adds the skipped ones)
   std::unique_ptr<platform::GpuTimer> timer_;
 };
 
