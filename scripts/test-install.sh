@@ -18,7 +18,9 @@
 #   scripts/test-install.sh BUILD_DIR                # another runtime-only build directory
 #
 # The consumer (plain C: its project enables no C++ compiler) runs on a committed tiny
-# dictionary and level (the fuzz seeds). Exits non-zero if anything fails.
+# dictionary and level (the fuzz seeds); its GPU half (tests/consumer/gpu.c) renders ld in its
+# own EGL context and samples the GLES context's atlas and probe textures in its own shaders.
+# Exits non-zero if anything fails.
 set -euo pipefail
 
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -28,7 +30,7 @@ full_build=""
 while (($#)); do
   case "$1" in
     --full-build) full_build="${2:?--full-build needs a build directory}"; shift 2 ;;
-    -h | --help) sed -n '3,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '3,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "test-install.sh: unknown option '$1'" >&2; exit 2 ;;
     *) build_dir="$1"; shift ;;
   esac
@@ -60,6 +62,20 @@ cmake -S tests/consumer -B "$work/consumer" -DCMAKE_PREFIX_PATH="$prefix" -DCMAK
 cmake --build "$work/consumer" -j"$jobs"
 "$work/consumer/modrt_consumer" "$dict" "$level" "$clutter"
 "$work/consumer/modrt_consumer_static" "$dict" "$level" "$clutter"
+# The GPU half: the consumer's own EGL context and ld pass, the GLES context's textures sampled
+# in its own shaders, against a CPU context (exit 77: no EGL surfaceless GLES 3 context here).
+if [[ -x $work/consumer/modrt_consumer_gpu ]]; then
+  rc=0
+  "$work/consumer/modrt_consumer_gpu" "$dict" "$level" || rc=$?
+  if ((rc == 77)); then
+    echo "test-install.sh: modrt_consumer_gpu skipped: no EGL surfaceless GLES 3 context"
+  elif ((rc != 0)); then
+    exit "$rc"
+  fi
+else
+  echo "test-install.sh: modrt_consumer_gpu not built (pkg-config egl glesv2 not found)" >&2
+  exit 1
+fi
 
 echo "test-install.sh: pkg-config consumer"
 export PKG_CONFIG_PATH="$prefix/lib/pkgconfig${PKG_CONFIG_PATH:+:$PKG_CONFIG_PATH}"
