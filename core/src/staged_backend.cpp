@@ -132,7 +132,8 @@ Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float
                         dirty_.dirty_slots(),
                         dirty_.dirty_tiles(),
                         dirty_.dirty_blocks() == all_blocks_.size()};
-  const StageWork& mrt = (texture || feedback) ? all : dirty;
+  // Without skipping the dirty sets are not kept (update() marks nothing): every item runs.
+  const StageWork& mrt = (texture || feedback || !options_.skip_unchanged) ? all : dirty;
   if (Status s = stage_begin(); !s.ok()) return s;
   Status s;
   if (feedback && texture)
@@ -163,8 +164,8 @@ Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float
 
 Status StagedBackend::update(std::span<const float> ld) {
   if (Status s = validate_light_signal(ld, level_.sample_count, "ld"); !s.ok()) return s;
-  const bool everything = !options_.skip_unchanged || !updated_;
-  if (dirty_.mark(ld, everything) == 0 && !everything) {  // the results on hand are this frame's
+  const bool everything = !updated_;
+  if (options_.skip_unchanged && dirty_.mark(ld, everything) == 0 && !everything) {  // this frame's results
     const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
     ++stats_.evaluations, ++stats_.evaluations_skipped;
     stats_.blocks_kept += blocks, stats_.slots_kept += slots, stats_.tiles_kept += blocks;
