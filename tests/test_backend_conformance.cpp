@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "compare_support.h"
+#include "counting_allocator.h"
 #include "drt_backend_fixture.h"
 #include "level_fixtures.h"
 #include "modrt/backend.h"
@@ -620,6 +621,47 @@ TEST_P(BackendConformance, ClutterFeedbackMatchesDrtMultiBounce) {
   EXPECT_LE(rel_l2(clutter, one.clutter), tolerance().drt) << be->description();
   std::printf("  %-52s multi-bounce x%d with clutter feedback rel L2 %.2e, clutter lightmap %.2e\n",
               be->description(), kSteps, e, ec);
+}
+
+// No frame allocates (operator new), on any path of the pipeline: an update that changes ld,
+// one that repeats it (skipped), a feedback step, reads; with clutter also its light, albedo,
+// the clutter feedback and the clutter lightmap's read. The first round warms up (shaders).
+TEST_P(BackendConformance, FramesAllocateNothing) {
+  const DrtFixture& f = drt_fixture();
+  std::unique_ptr<Backend> be = make(f.level);
+  ASSERT_TRUE(be);
+  const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+  std::vector<float> ld2 = f.ld;
+  for (std::size_t i = 0; i < ld2.size() / 7; ++i) ld2[i] *= 1.5f;  // the first block(s) change
+  const std::vector<float> clutter_albedo(d.clutter_ld, 0.5f);
+  std::vector<float> lightmap(be->sizes().lightmap), clutter(d.clutter_lightmap);
+  const auto frames = [&](bool with_clutter) {
+    bool ok = be->update(f.ld).ok() && be->update(ld2).ok() && be->update(ld2).ok() &&
+              be->multi_bounce_step(ld2).ok() && be->read_lightmap(lightmap).ok();
+    if (with_clutter)
+      ok = ok && be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok() &&
+           be->set_clutter_albedo(clutter_albedo).ok() && be->update(f.ld).ok() &&
+           be->multi_bounce_step(f.ld).ok() && be->read_clutter_lightmap(clutter).ok();
+    return ok;
+  };
+  const auto allocations = [&](bool with_clutter) {
+    g_allocations = 0;
+    g_count_allocations = true;
+    const bool ok = frames(with_clutter);
+    g_count_allocations = false;
+    EXPECT_TRUE(ok) << be->description();
+    return g_allocations.load();
+  };
+  ASSERT_TRUE(be->set_albedo(f.albedo).ok());
+  ASSERT_TRUE(frames(false));
+  EXPECT_EQ(allocations(false), 0) << be->description() << ": without clutter";
+  ASSERT_TRUE(be->set_clutter(&f.drt).ok());
+  ASSERT_TRUE(frames(true));
+  // The reference's DRT stages are core's drt.h functions, which keep per-call scratch vectors
+  // (reference_backend.h); the backends an app runs allocate nothing.
+  if (be->kind() != BackendKind::reference) {
+    EXPECT_EQ(allocations(true), 0) << be->description() << ": with clutter";
+  }
 }
 
 // The clutter's vector irradiance (Uc_vec (Vc_vec b) + Cc_vec c, DRT §5) from the last

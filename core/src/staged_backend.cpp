@@ -190,7 +190,7 @@ Status StagedBackend::stage_feedback_texture(std::uint32_t ld_texture, float bou
 }
 
 Status StagedBackend::set_albedo(std::span<const float> albedo, float max_albedo) {
-  if (Status s = check_max_albedo(max_albedo, (name_ + ": set_albedo").c_str()); !s.ok()) return s;
+  if (Status s = check_max_albedo(max_albedo, "set_albedo"); !s.ok()) return refused(s.message());
   if (Status s = validate_light_signal(albedo, level_.sample_count, "albedo"); !s.ok()) return s;
   const float rho_max = clamp_albedo(albedo, max_albedo, rho_).rho_max;
   if (Status s = stage_albedo(rho_); !s.ok()) return s;
@@ -293,7 +293,8 @@ Status StagedBackend::set_clutter_light(std::span<const float> clutter_ld,
 
 Status StagedBackend::set_clutter_albedo(std::span<const float> clutter_albedo, float max_albedo) {
   if (!drt_) return refused("set_clutter_albedo: no clutter set");
-  if (Status s = check_max_albedo(max_albedo, (name_ + ": set_clutter_albedo").c_str()); !s.ok()) return s;
+  // (The message is built only on failure: this call allocates nothing.)
+  if (Status s = check_max_albedo(max_albedo, "set_clutter_albedo"); !s.ok()) return refused(s.message());
   if (!clutter_albedo.empty()) {
     if (clutter_albedo.size() != drt_sizes_.clutter_ld)
       return refused("set_clutter_albedo: clutter_albedo has " + std::to_string(clutter_albedo.size()) +

@@ -6,7 +6,8 @@
 // request; the multi-bounce feedback of reference_runtime.h (apply_feedback, the bound of
 // feedback_policy.h); DRT with drt.h's functions. Accumulates in double as the rest of core.
 // Slow; for conformance, a build without SIMD or GL, and as the pipeline's plainest backend.
-// Allocates at creation and in set_clutter; a frame does not.
+// Allocates at creation and in set_clutter; a frame without clutter does not (with clutter,
+// drt.h's functions keep per-call scratch vectors; test FramesAllocateNothing).
 #pragma once
 
 #include <memory>
