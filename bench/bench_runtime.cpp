@@ -26,6 +26,7 @@
 
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
+#include "modrt/level_dirty.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
@@ -228,8 +229,9 @@ void scalar_level_frame(benchmark::State& state, const DictionarySlot& d) {
     return;
   }
   LevelFixture& f = *fs.fixture;
+  const LevelDependencies deps = level_dependencies(f.level);  // built once, as a runtime would
   for (auto _ : state) {
-    const Status s = level_evaluate(f.level, *d.dict, f.ld_direct, f.b, f.r, f.lightmap);
+    const Status s = level_evaluate(f.level, *d.dict, deps, f.ld_direct, f.b, f.r, f.lightmap);
     if (!s.ok()) {
       state.SkipWithError(s.to_string().c_str());
       break;
@@ -304,10 +306,11 @@ void BM_LevelMultiBounceIteration(benchmark::State& state) {
     state.SkipWithError(s.to_string().c_str());
     return;
   }
+  const LevelDependencies deps = level_dependencies(f.level);
   for (auto _ : state) {
     const bool clamped = apply_feedback(f.clamp, f.ld_direct, f.lightmap, f.ld);
     benchmark::DoNotOptimize(clamped);
-    const Status s = level_evaluate(f.level, *d.dict, f.ld, f.b, f.r, f.lightmap);
+    const Status s = level_evaluate(f.level, *d.dict, deps, f.ld, f.b, f.r, f.lightmap);
     if (!s.ok()) {
       state.SkipWithError(s.to_string().c_str());
       break;

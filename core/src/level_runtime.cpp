@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "modrt/level_dirty.h"
 #include "modrt/operator_limits.h"
 
 namespace modrt {
@@ -121,8 +122,13 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
 
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
                       std::span<float> b, std::span<float> r, std::span<float> lightmap) {
+  return level_evaluate(level, dict, level_dependencies(level), ld, b, r, lightmap);
+}
+
+Status level_evaluate(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                      std::span<const float> ld, std::span<float> b, std::span<float> r,
+                      std::span<float> lightmap) {
   if (Status s = level_compute_b(level, dict, ld, b); !s.ok()) return s;
-  const LevelDependencies deps = level_dependencies(level);  // the oracle allocates per call
   for (std::size_t s = 0; s < level.slots.size(); ++s) level_compute_slot_r(level, deps, b, s, r);
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
     level_compute_tile(level, dict, deps, b, r, i, lightmap);
@@ -139,11 +145,12 @@ Result<MultiBounceReport> level_multi_bounce(const Level& level, const Dictionar
   report.albedo_clamped = clamp->albedo_clamped;
   report.energy_bound = clamp->energy_bound;
   std::vector<float> ld(ld_direct.begin(), ld_direct.end()), b_prev(b.size());
-  if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
+  const LevelDependencies deps = level_dependencies(level);
+  if (Status s = level_evaluate(level, dict, deps, ld, b, r, lightmap); !s.ok()) return s;
   for (int it = 1; it <= settings.max_iterations; ++it) {
     report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
     std::copy(b.begin(), b.end(), b_prev.begin());
-    if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
+    if (Status s = level_evaluate(level, dict, deps, ld, b, r, lightmap); !s.ok()) return s;
     report.iterations = it;
     if (feedback_converged(b, b_prev, settings.tolerance)) {
       report.converged = true;

@@ -40,6 +40,11 @@ void level_compute_lightmap(const Level& level, const Dictionary& dict, std::spa
 // Steps 2–5 in one call.
 Status level_evaluate(const Level& level, const Dictionary& dict, std::span<const float> ld,
                       std::span<float> b, std::span<float> r, std::span<float> lightmap);
+// The same with the level's transport graph built once by the caller (level_dependencies):
+// allocates nothing (the overload above builds the graph on every call).
+Status level_evaluate(const Level& level, const Dictionary& dict, const LevelDependencies& deps,
+                      std::span<const float> ld, std::span<float> b, std::span<float> r,
+                      std::span<float> lightmap);
 
 // The same steps one item at a time (the reference backend's stages): the whole-level calls
 // above loop over these, so recomputing only the dirty items (level_dirty.h) gives the same
