@@ -40,6 +40,7 @@
 #include "modrt/cube.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
+#include "modrt/frame_pipeline.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
@@ -919,6 +920,143 @@ TEST(CApi, SixtyFourBouncesConvergeAndOptionsAreChecked) {
   modrt_context_destroy(c);
   modrt_level_destroy(l);
   modrt_dictionary_destroy(d);
+}
+
+// modrt_context_set_bounces: the bounce count changes between updates of one context, each
+// update the C++ FramePipeline::run(ld, N) over the same CPU backend (bit-identical on the CPU,
+// relative L2 1e-4 for GLES), without allocating (CPU); the same ld with another count is not
+// skipped, the same count again is; a count above 64 and null arguments are named errors that
+// change nothing.
+void expect_bounces_per_update(modrt_backend backend, double tolerance) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  o.bounces = 2;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  std::uint32_t n = 99;
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(n, 2u);
+
+  // The C++ side: the CPU backend of the creator table and the frame pipeline over it, with
+  // the context's options (one thread, skipping, probes) and the level's albedo.
+  BackendCreateInfo info;
+  info.level = &t.level;
+  info.dict = &small_test_dictionary();
+  std::unique_ptr<Backend> be = create_backend(BackendKind::cpu, info).value();
+  FramePipeline pipeline = FramePipeline::create(*be).value();
+  ASSERT_TRUE(pipeline.set_albedo(level_sample_albedo(t.level), kDefaultMaxAlbedo).ok());
+  std::vector<float> expected(be->sizes().lightmap);
+
+  std::vector<float> ld2 = t.ld;
+  for (std::size_t i = 0; i < ld2.size(); ++i) ld2[i] *= 0.5f + float(i % 7) / 7.0f;
+  struct Step {
+    std::uint32_t bounces;
+    const std::vector<float>* ld;
+    bool skipped;  // with skip_unchanged: the last update's ld, albedo and count
+  };
+  const Step steps[] = {{2, &t.ld, false}, {5, &t.ld, false}, {5, &t.ld, true}, {0, &t.ld, false},
+                        {1, &t.ld, false}, {64, &ld2, false}, {3, &ld2, false}};
+  const std::vector<float>* previous_ld = nullptr;
+  std::uint32_t previous_bounces = 0;
+  double sum_previous = 0.0;
+  for (const Step& step : steps) {
+    SCOPED_TRACE("bounces " + std::to_string(step.bounces));
+    modrt_skip_stats k0 = modrt::rt::sized<modrt_skip_stats>(), k1 = k0;
+    ASSERT_EQ(modrt_context_get_skip_stats(c, &k0), MODRT_OK);
+    ASSERT_EQ(modrt_context_set_ld(c, step.ld->data(), step.ld->size()), MODRT_OK) << modrt_last_error();
+    g_allocations = 0;
+    g_count_allocations = true;
+    const modrt_status set = modrt_context_set_bounces(c, step.bounces);
+    const modrt_status updated = modrt_context_update(c);
+    g_count_allocations = false;
+    ASSERT_EQ(set, MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(updated, MODRT_OK) << modrt_last_error();
+    if (backend == MODRT_BACKEND_CPU) {  // a GL driver (Mesa) allocates inside its own calls
+      EXPECT_EQ(g_allocations.load(), 0);
+    }
+    ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+    EXPECT_EQ(n, step.bounces);
+    ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
+    EXPECT_EQ(k1.frames_skipped - k0.frames_skipped, step.skipped ? 1u : 0u);
+
+    ASSERT_TRUE(pipeline.run(*step.ld, step.bounces).ok());
+    EXPECT_EQ(pipeline.last_frame_skipped(), step.skipped);
+    ASSERT_TRUE(be->read_lightmap(expected).ok());
+    const std::vector<float> got = read_lightmap(c);
+    if (tolerance == 0.0) {
+      EXPECT_EQ(got, expected);
+    } else {
+      EXPECT_LT(rel_l2(got, expected), tolerance);
+    }
+    // More bounces on the same ld: more light; fewer: less.
+    double sum = 0.0;
+    for (float v : got) sum += v;
+    if (previous_ld == step.ld && step.bounces > previous_bounces) {
+      EXPECT_GT(sum, sum_previous);
+    }
+    if (previous_ld == step.ld && step.bounces < previous_bounces) {
+      EXPECT_LT(sum, sum_previous);
+    }
+    previous_ld = step.ld;
+    previous_bounces = step.bounces;
+    sum_previous = sum;
+  }
+
+  // Refused, naming the argument; nothing changes: the count stays, the next update is the
+  // last one again (skipped: same ld, albedo and count).
+  const std::vector<float> before = read_lightmap(c);
+  expect_error(modrt_context_set_bounces(c, 65), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_bounces", "bounces 65", "0..64"});
+  expect_error(modrt_context_set_bounces(c, 0xffffffffu), MODRT_ERROR_INVALID_ARGUMENT,
+               {"bounces 4294967295", "0..64"});
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+  EXPECT_EQ(n, 3u);
+  modrt_skip_stats k0 = modrt::rt::sized<modrt_skip_stats>(), k1 = k0;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k0), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
+  EXPECT_EQ(k1.frames_skipped, k0.frames_skipped + 1);
+  EXPECT_EQ(read_lightmap(c), before);
+  expect_error(modrt_context_set_bounces(nullptr, 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_bounces", "context is null"});
+  expect_error(modrt_context_get_bounces(nullptr, &n), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_get_bounces", "context is null"});
+  expect_error(modrt_context_get_bounces(c, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_get_bounces", "bounces is null"});
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+  EXPECT_EQ(n, 3u);
+
+  // The C++ wrapper.
+  {
+    modrt::rt::Dictionary dw;
+    modrt::rt::Level lw;
+    ASSERT_FALSE(modrt::rt::Dictionary::load_memory(assets().dictionary.data(), assets().dictionary.size(),
+                                                    "dict", dw));
+    ASSERT_FALSE(modrt::rt::Level::load_memory(assets().level.data(), assets().level.size(), "maze11", lw));
+    modrt::rt::Context cw;
+    ASSERT_FALSE(modrt::rt::Context::create(dw, lw, modrt::rt::default_options(backend), cw));
+    EXPECT_EQ(cw.bounces(), 0u);
+    EXPECT_FALSE(cw.set_bounces(7));
+    EXPECT_EQ(cw.bounces(), 7u);
+    EXPECT_TRUE(cw.set_bounces(65));
+    EXPECT_EQ(cw.bounces(), 7u);
+  }
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, BouncesChangePerUpdateAsTheFramePipelineRuns) {
+  expect_bounces_per_update(MODRT_BACKEND_CPU, 0.0);
+}
+
+TEST(CApiGles, BouncesChangePerUpdateAsTheFramePipelineRuns) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  expect_bounces_per_update(MODRT_BACKEND_GLES, 1e-4);
 }
 
 // options.vector_irradiance: the four OHLSH coefficients per sample against core's

@@ -656,8 +656,9 @@ modrt_status modrt_context_update(modrt_context* context) {
     FramePipeline& pipeline = *context->pipeline;
     {
       BackendCall call(context);
-      const Status s = context->ld_texture ? pipeline.run_from_texture(context->ld_texture)
-                                           : pipeline.run({context->ld.data(), context->ld.size()});
+      const std::uint32_t bounces = context->options.bounces;  // set_bounces' or options.bounces
+      const Status s = context->ld_texture ? pipeline.run_from_texture(context->ld_texture, bounces)
+                                           : pipeline.run({context->ld.data(), context->ld.size()}, bounces);
       if (!s.ok()) return backend_fail(context, fn, s);
     }
     modrt_timings& t = context->timings;
@@ -677,6 +678,27 @@ modrt_status modrt_context_update(modrt_context* context) {
     t.update_ns = ns_since(t0);
     return MODRT_OK;
   });
+}
+
+modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces) {
+  constexpr const char* fn = "modrt_context_set_bounces";
+  if (!context) return null_arg(fn, "context");
+  if (bounces > kMaxFrameBounces) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s: bounces %u is not in 0..%u", fn, unsigned(bounces),
+                  unsigned(kMaxFrameBounces));
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
+  }
+  context->options.bounces = bounces;
+  return MODRT_OK;
+}
+
+modrt_status modrt_context_get_bounces(const modrt_context* context, uint32_t* bounces) {
+  constexpr const char* fn = "modrt_context_get_bounces";
+  if (!context) return null_arg(fn, "context");
+  if (!bounces) return null_arg(fn, "bounces");
+  *bounces = context->options.bounces;
+  return MODRT_OK;
 }
 
 modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint32_t* texture, int* format) {

@@ -212,7 +212,7 @@ typedef struct modrt_context_options {
    * context's albedo (the level's, or set_albedo's) clamped to max_albedo, which is in [0, 1):
    * the bound max(ld) / (1 - max rho) holds every bounce sum, so no lightmap value grows past
    * it (feedback_policy.h). With skip_unchanged, an update whose ld and albedo are those of the
-   * last update runs nothing (frames_skipped). */
+   * last update runs nothing (frames_skipped). modrt_context_set_bounces changes it later. */
   uint32_t bounces;
   float max_albedo;
   /* Since 0.3. Nonzero: every update also evaluates vector irradiance (MRT §6.4: four OHLSH
@@ -331,10 +331,21 @@ MODRT_API modrt_status modrt_context_set_light_gpu(modrt_context* context, const
  * Fails while the ld comes from a texture (set_ld_texture). */
 MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count);
 
-/* Evaluates the level for the current ld: b, r, lightmap (plus options.bounces feedback
- * steps), padded atlas (and probes when on). On failure the previous results stay, except
- * after a failed feedback step (a GL error), which leaves the results of the steps before it. */
+/* Evaluates the level for the current ld: b, r, lightmap (plus the feedback steps of
+ * options.bounces or modrt_context_set_bounces), padded atlas (and probes when on). On failure the previous
+ * results stay, except after a failed feedback step (a GL error), which leaves the results of the steps
+ * before it. */
 MODRT_API modrt_status modrt_context_update(modrt_context* context);
+
+/* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64), as
+ * options.bounces gives them at creation, changed without recreating the context (nothing is
+ * allocated): e.g. more bounces while the light stands still, fewer while it moves. The next
+ * update runs the single-bounce evaluation and then `bounces` feedback steps; with
+ * skip_unchanged, an update is skipped only when its ld, albedo and bounce count are the last
+ * update's. A value above 64 is MODRT_ERROR_INVALID_ARGUMENT naming `bounces`, and the count
+ * stays as it was. modrt_context_get_bounces gives the current count. */
+MODRT_API modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces);
+MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, uint32_t* bounces);
 
 /* GLES: the GL texture name of the padded lightmap atlas (GL_TEXTURE_2D, RGB in .rgb;
  * *format receives 0 for RGBA32F, 1 for RGBA16F, 2 for RGBA32UI holding float bits, which
