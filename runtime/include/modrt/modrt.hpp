@@ -224,6 +224,12 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
                  modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
     return check(modrt_context_probe_sh(h_, position, kind, out));
   }
+  // The probe cell of a world point, for sampling the probe volume on the GPU
+  // (modrt_context_locate_probe).
+  Error locate_probe(const float position[3], modrt_probe_cell& out) const {
+    out = sized<modrt_probe_cell>();
+    return check(modrt_context_locate_probe(h_, position, &out));
+  }
   modrt_timings timings() const {
     modrt_timings t = sized<modrt_timings>();
     modrt_context_get_timings(h_, &t);
