@@ -40,12 +40,14 @@
 #include "modrt/cube.h"
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"
+#include "modrt/frame_pipeline.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
 #include "modrt/modrt.h"
 #include "modrt/modrt.hpp"
 #include "modrt/platform/gl_context.h"
+#include "modrt/probe_sampler.h"
 #include "modrt/reference_runtime.h"
 #include "modrt/sh.h"
 #include "test_support.h"
@@ -921,6 +923,143 @@ TEST(CApi, SixtyFourBouncesConvergeAndOptionsAreChecked) {
   modrt_dictionary_destroy(d);
 }
 
+// modrt_context_set_bounces: the bounce count changes between updates of one context, each
+// update the C++ FramePipeline::run(ld, N) over the same CPU backend (bit-identical on the CPU,
+// relative L2 1e-4 for GLES), without allocating (CPU); the same ld with another count is not
+// skipped, the same count again is; a count above 64 and null arguments are named errors that
+// change nothing.
+void expect_bounces_per_update(modrt_backend backend, double tolerance) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  o.bounces = 2;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  std::uint32_t n = 99;
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(n, 2u);
+
+  // The C++ side: the CPU backend of the creator table and the frame pipeline over it, with
+  // the context's options (one thread, skipping, probes) and the level's albedo.
+  BackendCreateInfo info;
+  info.level = &t.level;
+  info.dict = &small_test_dictionary();
+  std::unique_ptr<Backend> be = create_backend(BackendKind::cpu, info).value();
+  FramePipeline pipeline = FramePipeline::create(*be).value();
+  ASSERT_TRUE(pipeline.set_albedo(level_sample_albedo(t.level), kDefaultMaxAlbedo).ok());
+  std::vector<float> expected(be->sizes().lightmap);
+
+  std::vector<float> ld2 = t.ld;
+  for (std::size_t i = 0; i < ld2.size(); ++i) ld2[i] *= 0.5f + float(i % 7) / 7.0f;
+  struct Step {
+    std::uint32_t bounces;
+    const std::vector<float>* ld;
+    bool skipped;  // with skip_unchanged: the last update's ld, albedo and count
+  };
+  const Step steps[] = {{2, &t.ld, false}, {5, &t.ld, false}, {5, &t.ld, true}, {0, &t.ld, false},
+                        {1, &t.ld, false}, {64, &ld2, false}, {3, &ld2, false}};
+  const std::vector<float>* previous_ld = nullptr;
+  std::uint32_t previous_bounces = 0;
+  double sum_previous = 0.0;
+  for (const Step& step : steps) {
+    SCOPED_TRACE("bounces " + std::to_string(step.bounces));
+    modrt_skip_stats k0 = modrt::rt::sized<modrt_skip_stats>(), k1 = k0;
+    ASSERT_EQ(modrt_context_get_skip_stats(c, &k0), MODRT_OK);
+    ASSERT_EQ(modrt_context_set_ld(c, step.ld->data(), step.ld->size()), MODRT_OK) << modrt_last_error();
+    g_allocations = 0;
+    g_count_allocations = true;
+    const modrt_status set = modrt_context_set_bounces(c, step.bounces);
+    const modrt_status updated = modrt_context_update(c);
+    g_count_allocations = false;
+    ASSERT_EQ(set, MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(updated, MODRT_OK) << modrt_last_error();
+    if (backend == MODRT_BACKEND_CPU) {  // a GL driver (Mesa) allocates inside its own calls
+      EXPECT_EQ(g_allocations.load(), 0);
+    }
+    ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+    EXPECT_EQ(n, step.bounces);
+    ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
+    EXPECT_EQ(k1.frames_skipped - k0.frames_skipped, step.skipped ? 1u : 0u);
+
+    ASSERT_TRUE(pipeline.run(*step.ld, step.bounces).ok());
+    EXPECT_EQ(pipeline.last_frame_skipped(), step.skipped);
+    ASSERT_TRUE(be->read_lightmap(expected).ok());
+    const std::vector<float> got = read_lightmap(c);
+    if (tolerance == 0.0) {
+      EXPECT_EQ(got, expected);
+    } else {
+      EXPECT_LT(rel_l2(got, expected), tolerance);
+    }
+    // More bounces on the same ld: more light; fewer: less.
+    double sum = 0.0;
+    for (float v : got) sum += v;
+    if (previous_ld == step.ld && step.bounces > previous_bounces) {
+      EXPECT_GT(sum, sum_previous);
+    }
+    if (previous_ld == step.ld && step.bounces < previous_bounces) {
+      EXPECT_LT(sum, sum_previous);
+    }
+    previous_ld = step.ld;
+    previous_bounces = step.bounces;
+    sum_previous = sum;
+  }
+
+  // Refused, naming the argument; nothing changes: the count stays, the next update is the
+  // last one again (skipped: same ld, albedo and count).
+  const std::vector<float> before = read_lightmap(c);
+  expect_error(modrt_context_set_bounces(c, 65), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_bounces", "bounces 65", "0..64"});
+  expect_error(modrt_context_set_bounces(c, 0xffffffffu), MODRT_ERROR_INVALID_ARGUMENT,
+               {"bounces 4294967295", "0..64"});
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+  EXPECT_EQ(n, 3u);
+  modrt_skip_stats k0 = modrt::rt::sized<modrt_skip_stats>(), k1 = k0;
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k0), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
+  EXPECT_EQ(k1.frames_skipped, k0.frames_skipped + 1);
+  EXPECT_EQ(read_lightmap(c), before);
+  expect_error(modrt_context_set_bounces(nullptr, 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_bounces", "context is null"});
+  expect_error(modrt_context_get_bounces(nullptr, &n), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_get_bounces", "context is null"});
+  expect_error(modrt_context_get_bounces(c, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_get_bounces", "bounces is null"});
+  ASSERT_EQ(modrt_context_get_bounces(c, &n), MODRT_OK);
+  EXPECT_EQ(n, 3u);
+
+  // The C++ wrapper.
+  {
+    modrt::rt::Dictionary dw;
+    modrt::rt::Level lw;
+    ASSERT_FALSE(modrt::rt::Dictionary::load_memory(assets().dictionary.data(), assets().dictionary.size(),
+                                                    "dict", dw));
+    ASSERT_FALSE(modrt::rt::Level::load_memory(assets().level.data(), assets().level.size(), "maze11", lw));
+    modrt::rt::Context cw;
+    ASSERT_FALSE(modrt::rt::Context::create(dw, lw, modrt::rt::default_options(backend), cw));
+    EXPECT_EQ(cw.bounces(), 0u);
+    EXPECT_FALSE(cw.set_bounces(7));
+    EXPECT_EQ(cw.bounces(), 7u);
+    EXPECT_TRUE(cw.set_bounces(65));
+    EXPECT_EQ(cw.bounces(), 7u);
+  }
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, BouncesChangePerUpdateAsTheFramePipelineRuns) {
+  expect_bounces_per_update(MODRT_BACKEND_CPU, 0.0);
+}
+
+TEST(CApiGles, BouncesChangePerUpdateAsTheFramePipelineRuns) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  expect_bounces_per_update(MODRT_BACKEND_GLES, 1e-4);
+}
+
 // options.vector_irradiance: the four OHLSH coefficients per sample against core's
 // level_compute_vector_irradiance, each coefficient's padded atlas against level_fill_atlas of
 // that coefficient, the GLES textures, and the errors of a context without it.
@@ -1053,6 +1192,165 @@ void expect_probe_volume_matches_queries(modrt_backend backend) {
   modrt_context_destroy(c);
   modrt_level_destroy(l);
   modrt_dictionary_destroy(d);
+}
+
+// modrt_context_locate_probe: the cell of a world point is core's ProbeSampler::locate (block,
+// lower corner, weights as floats), the 8 probe indices and corner weights mix the world-frame
+// volume of read_probes into modrt_context_probe_sh's value (within 1e-5 of the largest
+// coefficient) at points all over the maze (turned blocks, near faces, beyond the outermost
+// probe centres, 0.5% outside a block); bad input is named and leaves *out as it was.
+void expect_probe_cells_match_the_sampler(modrt_backend backend) {
+  const test::TestLevel& t = test_level("maze11");
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  modrt_sizes s = modrt::rt::sized<modrt_sizes>();
+  ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
+  const int g = int(s.probe_grid);
+  ASSERT_GT(g, 1);
+  // Before any update: the cell is geometry only.
+  const LevelBlock& first = t.level.blocks[0];
+  const glm::dvec3 x0 = block_to_world(first, glm::dvec3(0.3, 0.4, 0.6));
+  const float p0[3] = {float(x0.x), float(x0.y), float(x0.z)};
+  modrt_probe_cell cell = modrt::rt::sized<modrt_probe_cell>();
+  ASSERT_EQ(modrt_context_locate_probe(c, p0, &cell), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(cell.struct_size, sizeof cell);
+  EXPECT_EQ(cell.block, 0u);
+
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  std::vector<float> world(s.probes);
+  ASSERT_EQ(modrt_context_read_probes(c, MODRT_PROBE_RADIANCE, world.data(), world.size()), MODRT_OK)
+      << modrt_last_error();
+  float peak = 0.0f;
+  for (float v : world) peak = std::max(peak, std::abs(v));
+  ASSERT_GT(peak, 0.0f);
+
+  const ProbeSampler sampler(t.level, g);
+  std::vector<glm::dvec3> canonical_points = {{0.5, 0.5, 0.5},  {0.01, 0.5, 0.99},  {0.999, 0.001, 0.5},
+                                              {0.5, 0.02, 0.5}, {-0.005, 0.5, 0.5}, {0.25, 0.75, 0.125},
+                                              {0.2, 0.2, 1.004}};
+  std::uint32_t seed = 12345;
+  auto next = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return double(seed >> 8) / double(1u << 24);
+  };
+  for (int i = 0; i < 12; ++i) canonical_points.push_back({next(), next(), next()});
+  int turned = 0, held = 0, checked = 0;
+  for (std::size_t b = 0; b < t.level.blocks.size(); ++b)
+    for (const glm::dvec3& q : canonical_points) {
+      const glm::dvec3 x = block_to_world(t.level.blocks[b], q);
+      const float pos[3] = {float(x.x), float(x.y), float(x.z)};
+      SCOPED_TRACE("block " + std::to_string(b) + " at (" + std::to_string(q.x) + ", " + std::to_string(q.y) +
+                   ", " + std::to_string(q.z) + ")");
+      const Result<ProbeCell> ref = sampler.locate(glm::dvec3(pos[0], pos[1], pos[2]));
+      ASSERT_TRUE(ref.ok()) << ref.status().to_string();
+      cell = modrt::rt::sized<modrt_probe_cell>();
+      g_allocations = 0;
+      g_count_allocations = true;
+      const modrt_status located = modrt_context_locate_probe(c, pos, &cell);
+      g_count_allocations = false;
+      ASSERT_EQ(located, MODRT_OK) << modrt_last_error();
+      EXPECT_EQ(g_allocations.load(), 0);
+      const ProbeCell& r = ref.value();
+      ASSERT_EQ(cell.block, r.block);
+      EXPECT_EQ(cell.quarter_turns, std::uint32_t(t.level.blocks[r.block].quarter_turns & 3));
+      EXPECT_EQ(cell.grid, std::uint32_t(g));
+      float total = 0.0f;
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(cell.lower[a], r.i0[a]);
+        EXPECT_EQ(cell.weight[a], float(r.f[a]));
+        held += cell.weight[a] == 0.0f || cell.weight[a] == 1.0f;
+      }
+      for (int k = 0; k < 8; ++k) {
+        const glm::ivec3 corner =
+            glm::min(r.i0 + glm::ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1), glm::ivec3(g - 1));
+        EXPECT_EQ(cell.probe[k], std::uint32_t(r.block * std::size_t(g * g * g) +
+                                               std::size_t(corner.x + g * (corner.y + g * corner.z))));
+        total += cell.corner_weight[k];
+      }
+      EXPECT_NEAR(total, 1.0f, 1e-6f);
+      turned += cell.quarter_turns != 0;
+      // What a shader does with the cell: mix the 8 world-frame probes.
+      float sh[27];
+      ASSERT_EQ(modrt_context_probe_sh(c, pos, MODRT_PROBE_RADIANCE, sh), MODRT_OK) << modrt_last_error();
+      for (int k = 0; k < 27; ++k) {
+        double mixed = 0.0;
+        for (int corner = 0; corner < 8; ++corner)
+          mixed += double(cell.corner_weight[corner]) *
+                   world[27 * std::size_t(cell.probe[corner]) + std::size_t(k)];
+        ASSERT_NEAR(mixed, sh[k], 1e-5 * peak) << "coefficient " << k;
+      }
+      ++checked;
+    }
+  EXPECT_GT(turned, 0) << "no turned block: the frame is untested";
+  EXPECT_GT(held, 0) << "no point beyond the outermost probe centres";
+  EXPECT_EQ(checked, int(t.level.blocks.size() * canonical_points.size()));
+
+  // Bad input: named, *out unchanged.
+  modrt_probe_cell keep;
+  std::memset(&keep, 0xab, sizeof keep);
+  keep.struct_size = sizeof keep;
+  modrt_probe_cell bad = keep;
+  const auto unchanged = [&] { EXPECT_EQ(std::memcmp(&bad, &keep, sizeof keep), 0); };
+  expect_error(modrt_context_locate_probe(nullptr, p0, &bad), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe", "context is null"});
+  expect_error(modrt_context_locate_probe(c, nullptr, &bad), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe", "position is null"});
+  expect_error(modrt_context_locate_probe(c, p0, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe", "out is null"});
+  unchanged();
+  bad.struct_size = sizeof bad - 4;
+  keep.struct_size = bad.struct_size;
+  expect_error(modrt_context_locate_probe(c, p0, &bad), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe", "out.struct_size is " + std::to_string(sizeof bad - 4),
+                "expected " + std::to_string(sizeof bad), "sizeof(modrt_probe_cell)"});
+  unchanged();
+  bad.struct_size = keep.struct_size = sizeof bad;
+  const float nan_y[3] = {p0[0], std::numeric_limits<float>::quiet_NaN(), p0[2]};
+  expect_error(modrt_context_locate_probe(c, nan_y, &bad), MODRT_ERROR_NON_FINITE,
+               {"position[1]", "not finite"});
+  const float inf_z[3] = {p0[0], p0[1], std::numeric_limits<float>::infinity()};
+  expect_error(modrt_context_locate_probe(c, inf_z, &bad), MODRT_ERROR_NON_FINITE, {"position[2]"});
+  const float far[3] = {1e4f, 1e4f, 1e4f};
+  expect_error(modrt_context_locate_probe(c, far, &bad), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe: position", "outside every block"});
+  unchanged();
+  // The C++ wrapper.
+  {
+    modrt::rt::Dictionary dw;
+    modrt::rt::Level lw;
+    ASSERT_FALSE(modrt::rt::Dictionary::load_memory(assets().dictionary.data(), assets().dictionary.size(),
+                                                    "dict", dw));
+    ASSERT_FALSE(modrt::rt::Level::load_memory(assets().level.data(), assets().level.size(), "maze11", lw));
+    modrt::rt::Context cw;
+    ASSERT_FALSE(modrt::rt::Context::create(dw, lw, modrt::rt::default_options(backend), cw));
+    modrt_probe_cell wc;
+    ASSERT_FALSE(cw.locate_probe(p0, wc));
+    EXPECT_EQ(wc.block, 0u);
+    EXPECT_TRUE(cw.locate_probe(far, wc));
+  }
+  modrt_context_destroy(c);
+  // Without probes.
+  o.probes = 0;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_locate_probe(c, p0, &bad), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_context_locate_probe", "no probes"});
+  unchanged();
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApi, ProbeCellIsTheSamplersCell) { expect_probe_cells_match_the_sampler(MODRT_BACKEND_CPU); }
+
+TEST(CApiGles, ProbeCellIsTheSamplersCell) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  expect_probe_cells_match_the_sampler(MODRT_BACKEND_GLES);
 }
 
 TEST(CApi, ProbeVolumeIsTheQueriesAtEveryProbe) { expect_probe_volume_matches_queries(MODRT_BACKEND_CPU); }
@@ -1580,6 +1878,12 @@ TEST(CApi, EveryStructChecksItsStructSize) {
   modrt_skip_stats k{};
   expect_error(modrt_context_get_skip_stats(c, &k), MODRT_ERROR_INVALID_ARGUMENT,
                {"sizeof(modrt_skip_stats)"});
+  modrt_probe_cell cell{};
+  cell.block = 4321;
+  const float centre[3] = {0.5f, 0.5f, 0.5f};
+  expect_error(modrt_context_locate_probe(c, centre, &cell), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_locate_probe", "out.struct_size is 0", "sizeof(modrt_probe_cell)"});
+  EXPECT_EQ(cell.block, 4321u);
   s.struct_size = sizeof s;
   ASSERT_EQ(modrt_context_get_sizes(c, &s), MODRT_OK);
   EXPECT_EQ(s.struct_size, sizeof s);

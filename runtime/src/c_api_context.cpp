@@ -656,8 +656,9 @@ modrt_status modrt_context_update(modrt_context* context) {
     FramePipeline& pipeline = *context->pipeline;
     {
       BackendCall call(context);
-      const Status s = context->ld_texture ? pipeline.run_from_texture(context->ld_texture)
-                                           : pipeline.run({context->ld.data(), context->ld.size()});
+      const std::uint32_t bounces = context->options.bounces;  // set_bounces' or options.bounces
+      const Status s = context->ld_texture ? pipeline.run_from_texture(context->ld_texture, bounces)
+                                           : pipeline.run({context->ld.data(), context->ld.size()}, bounces);
       if (!s.ok()) return backend_fail(context, fn, s);
     }
     modrt_timings& t = context->timings;
@@ -677,6 +678,27 @@ modrt_status modrt_context_update(modrt_context* context) {
     t.update_ns = ns_since(t0);
     return MODRT_OK;
   });
+}
+
+modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces) {
+  constexpr const char* fn = "modrt_context_set_bounces";
+  if (!context) return null_arg(fn, "context");
+  if (bounces > kMaxFrameBounces) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s: bounces %u is not in 0..%u", fn, unsigned(bounces),
+                  unsigned(kMaxFrameBounces));
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
+  }
+  context->options.bounces = bounces;
+  return MODRT_OK;
+}
+
+modrt_status modrt_context_get_bounces(const modrt_context* context, uint32_t* bounces) {
+  constexpr const char* fn = "modrt_context_get_bounces";
+  if (!context) return null_arg(fn, "context");
+  if (!bounces) return null_arg(fn, "bounces");
+  *bounces = context->options.bounces;
+  return MODRT_OK;
 }
 
 modrt_status modrt_context_get_atlas_texture(const modrt_context* context, uint32_t* texture, int* format) {
@@ -808,6 +830,46 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
                                            kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
         !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_locate_probe(const modrt_context* context, const float position[3],
+                                        modrt_probe_cell* out) {
+  return guarded("modrt_context_locate_probe", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_locate_probe";
+    if (!context) return null_arg(fn, "context");
+    if (!position) return null_arg(fn, "position");
+    if (!out) return null_arg(fn, "out");
+    if (modrt_status s = check_struct_size(fn, "out", *out, "modrt_probe_cell"); s != MODRT_OK) return s;
+    if (modrt_status s = check_probes_on(context, fn); s != MODRT_OK) return s;
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(position[a]))
+        return fail(MODRT_ERROR_NON_FINITE,
+                    std::string(fn) + ": position[" + std::to_string(a) + "] is not finite");
+    const Result<ProbeCell> located = context->sampler.locate(
+        glm::dvec3(position[0], position[1], position[2]), "modrt_context_locate_probe: position");
+    if (!located.ok()) return fail(from_error_code(located.status().code()), located.status().message());
+    const ProbeCell& cell = located.value();
+    const int g = context->probe_grid;
+    modrt_probe_cell r{};
+    r.struct_size = sizeof r;
+    r.block = std::uint32_t(cell.block);
+    r.quarter_turns = std::uint32_t(context->lv().blocks[cell.block].quarter_turns & 3);
+    r.grid = std::uint32_t(g);
+    for (int a = 0; a < 3; ++a) {
+      r.lower[a] = cell.i0[a];
+      r.weight[a] = float(cell.f[a]);
+    }
+    const std::size_t base = cell.block * std::size_t(g) * std::size_t(g) * std::size_t(g);
+    for (int c = 0; c < 8; ++c) {  // as ProbeSampler::sample mixes them
+      const glm::ivec3 o(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+      const glm::ivec3 q = glm::min(cell.i0 + o, glm::ivec3(g - 1));
+      r.probe[c] = std::uint32_t(base + std::size_t(q.x + g * (q.y + g * q.z)));
+      r.corner_weight[c] = float((o.x ? cell.f.x : 1 - cell.f.x) * (o.y ? cell.f.y : 1 - cell.f.y) *
+                                 (o.z ? cell.f.z : 1 - cell.f.z));
+    }
+    *out = r;
     return MODRT_OK;
   });
 }

@@ -212,7 +212,7 @@ typedef struct modrt_context_options {
    * context's albedo (the level's, or set_albedo's) clamped to max_albedo, which is in [0, 1):
    * the bound max(ld) / (1 - max rho) holds every bounce sum, so no lightmap value grows past
    * it (feedback_policy.h). With skip_unchanged, an update whose ld and albedo are those of the
-   * last update runs nothing (frames_skipped). */
+   * last update runs nothing (frames_skipped). modrt_context_set_bounces changes it later. */
   uint32_t bounces;
   float max_albedo;
   /* Since 0.3. Nonzero: every update also evaluates vector irradiance (MRT §6.4: four OHLSH
@@ -331,10 +331,21 @@ MODRT_API modrt_status modrt_context_set_light_gpu(modrt_context* context, const
  * Fails while the ld comes from a texture (set_ld_texture). */
 MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float* out, size_t count);
 
-/* Evaluates the level for the current ld: b, r, lightmap (plus options.bounces feedback
- * steps), padded atlas (and probes when on). On failure the previous results stay, except
- * after a failed feedback step (a GL error), which leaves the results of the steps before it. */
+/* Evaluates the level for the current ld: b, r, lightmap (plus the feedback steps of
+ * options.bounces or modrt_context_set_bounces), padded atlas (and probes when on). On failure the previous
+ * results stay, except after a failed feedback step (a GL error), which leaves the results of the steps
+ * before it. */
 MODRT_API modrt_status modrt_context_update(modrt_context* context);
+
+/* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64), as
+ * options.bounces gives them at creation, changed without recreating the context (nothing is
+ * allocated): e.g. more bounces while the light stands still, fewer while it moves. The next
+ * update runs the single-bounce evaluation and then `bounces` feedback steps; with
+ * skip_unchanged, an update is skipped only when its ld, albedo and bounce count are the last
+ * update's. A value above 64 is MODRT_ERROR_INVALID_ARGUMENT naming `bounces`, and the count
+ * stays as it was. modrt_context_get_bounces gives the current count. */
+MODRT_API modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces);
+MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, uint32_t* bounces);
 
 /* GLES: the GL texture name of the padded lightmap atlas (GL_TEXTURE_2D, RGB in .rgb;
  * *format receives 0 for RGBA32F, 1 for RGBA16F, 2 for RGBA32UI holding float bits, which
@@ -377,6 +388,38 @@ typedef enum modrt_probe_kind {
  * GLES: the first query after an update reads the probes back from the GPU. */
 MODRT_API modrt_status modrt_context_probe_sh(modrt_context* context, const float position[3],
                                               modrt_probe_kind kind, float out[27]);
+
+/* Since 0.3. Where a world point lies in the probe volume, for a shader that samples the volume
+ * itself (modrt_context_get_probe_texture, or read_probes uploaded): the cell of 2 x 2 x 2 probes
+ * that modrt_context_probe_sh interpolates (core's ProbeSampler::locate). The probes of
+ * read_probes and the probe texture are already in the world frame, so
+ *   sh = sum over c < 8 of corner_weight[c] * probe p = probe[c]   (read_probes' probe order;
+ *        texel 9 p + k of the probe texture for coefficient k)
+ * is modrt_context_probe_sh's value at `position` (MODRT_PROBE_RADIANCE; scale bands as there
+ * for E/pi). Independent of the light: call it once for a static object, or per frame for a
+ * moving one on the CPU, and pass the 8 indices and weights to the shader. Needs probes on
+ * (MODRT_ERROR_UNSUPPORTED otherwise), not an update. */
+typedef struct modrt_probe_cell {
+  uint32_t struct_size;   /* set by the caller: sizeof(modrt_probe_cell) */
+  uint32_t block;         /* the block containing the point (modrt_level_get_block) */
+  uint32_t quarter_turns; /* that block's canonical -> world turn (0..3; modrt_level_block's) */
+  uint32_t grid;          /* g: probes per block axis (modrt_sizes.probe_grid) */
+  /* The lower corner (i, j, k) of the cell on the block's canonical g^3 grid (0 .. g - 2, or 0
+   * when g is 1) and the trilinear weights towards i + 1, j + 1, k + 1 in [0, 1] (the value is
+   * held beyond the outermost probe centres: a weight is then 0 or 1). */
+  int32_t lower[3];
+  float weight[3];
+  /* The 8 probes of the cell, corner c = x + 2y + 4z (x, y, z in {0, 1}: lower + (x, y, z),
+   * clamped to g - 1), as global probe indices p = block g^3 + i + g (j + g k), with their
+   * weights (products of weight[] and 1 - weight[]; they sum to 1). */
+  uint32_t probe[8];
+  float corner_weight[8];
+} modrt_probe_cell;
+/* Fails naming the argument: a null context, position or out, out.struct_size, a position that
+ * is not finite (MODRT_ERROR_NON_FINITE) or lies outside every block by more than 1% of a
+ * block (MODRT_ERROR_INVALID_ARGUMENT); *out is then unchanged. Does not allocate. */
+MODRT_API modrt_status modrt_context_locate_probe(const modrt_context* context, const float position[3],
+                                                  modrt_probe_cell* out);
 
 /* The whole probe volume of the last update in the world frame (sizes.probes floats), for
  * sampling on the GPU: probe p = i + g (j + g k) of block b (g = sizes.probe_grid; (i, j, k) on

@@ -199,6 +199,13 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   Error read_albedo(float* out, size_t count) const {
     return check(modrt_context_read_albedo(h_, out, count));
   }
+  // The feedback steps of the following updates, 0 to 64 (modrt_context_set_bounces).
+  Error set_bounces(uint32_t bounces) { return check(modrt_context_set_bounces(h_, bounces)); }
+  uint32_t bounces() const {
+    uint32_t n = 0;
+    modrt_context_get_bounces(h_, &n);
+    return n;
+  }
   Error update() { return check(modrt_context_update(h_)); }
   // 0 for a CPU context.
   uint32_t atlas_texture(int* format = nullptr) const {
@@ -216,6 +223,12 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   Error probe_sh(const float position[3], float out[27],
                  modrt_probe_kind kind = MODRT_PROBE_IRRADIANCE_OVER_PI) {
     return check(modrt_context_probe_sh(h_, position, kind, out));
+  }
+  // The probe cell of a world point, for sampling the probe volume on the GPU
+  // (modrt_context_locate_probe).
+  Error locate_probe(const float position[3], modrt_probe_cell& out) const {
+    out = sized<modrt_probe_cell>();
+    return check(modrt_context_locate_probe(h_, position, &out));
   }
   modrt_timings timings() const {
     modrt_timings t = sized<modrt_timings>();
