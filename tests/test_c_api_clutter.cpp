@@ -8,6 +8,7 @@
 // nothing changed.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "c_api_test_support.h"
+#include "clutter_meshes.h"
 #include "drt_scenes.h"
 #include "gl_test_context.h"
 #include "modrt/cpu/cpu_backend.h"
@@ -31,6 +33,7 @@
 #include "modrt/modrt.h"
 #include "modrt/modrt.hpp"
 #include "modrt/platform/gl_context.h"
+#include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/drt_build.h"
 #include "modrt/precompute/level_build.h"
 #include "test_support.h"
@@ -255,6 +258,145 @@ TEST(CApiClutter, FileInfoAndTexelGeometry) {
   EXPECT_EQ(info.has_texel_geometry, 0u);
   expect_error(modrt_clutter_get_texels(c, texels.data(), texels.size()), MODRT_ERROR_UNSUPPORTED,
                {"records no texel positions"});
+  modrt_clutter_destroy(c);
+}
+
+// modrt_clutter_get_texel_cells: each texel's lightmap cell is core's clutter_texel_cells of the
+// object the operators were built from, through the file: for boxes (the pillars) the cell's
+// centre on its face is the texel's position; for a mesh (a box as 12 triangles with a UV
+// atlas, next to a box) the cell is the atlas cell whose texel it is (cell_texel), its face the
+// chart. Cells are distinct per object. Bad input and operators without cells are named, with
+// nothing written; a version 2 file (no cells) is refused with "rebuild".
+TEST(CApiClutter, TexelCellsAreTheObjectsLightmapCells) {
+  // Boxes.
+  const Scene& s = pillars();
+  modrt_clutter* c = nullptr;
+  ASSERT_EQ(modrt_clutter_load_memory(s.drt_file.data(), s.drt_file.size(), "pillars", nullptr, &c), MODRT_OK)
+      << modrt_last_error();
+  modrt_clutter_info info = rt::sized<modrt_clutter_info>();
+  ASSERT_EQ(modrt_clutter_get_info(c, &info), MODRT_OK);
+  std::vector<modrt_clutter_cell> cells(info.texel_count);
+  std::vector<modrt_clutter_texel> texels(info.texel_count);
+  ASSERT_EQ(modrt_clutter_get_texel_cells(c, cells.data(), cells.size()), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_clutter_get_texels(c, texels.data(), texels.size()), MODRT_OK) << modrt_last_error();
+  std::size_t t = 0;
+  for (std::size_t k = 0; k < s.scene.clutter.size(); ++k) {
+    const ClutterObject& object = s.scene.clutter[k];
+    ASSERT_EQ(object.kind, ClutterKind::box);
+    const ClutterTexelCells ref = clutter_texel_cells(object);
+    ASSERT_EQ(ref.face.size(), std::size_t(clutter_texel_count(object)));
+    std::set<std::array<std::uint32_t, 3>> seen;
+    for (std::size_t i = 0; i < ref.face.size(); ++i, ++t) {
+      ASSERT_LT(t, cells.size());
+      const modrt_clutter_cell& x = cells[t];
+      EXPECT_EQ(x.object, k);
+      EXPECT_EQ(x.face, std::uint32_t(ref.face[i]));
+      EXPECT_EQ(x.u, std::uint32_t(ref.cell[i].x));
+      EXPECT_EQ(x.v, std::uint32_t(ref.cell[i].y));
+      EXPECT_EQ(x.res, std::uint32_t(object.res));
+      seen.insert({x.face, x.u, x.v});
+      const glm::dvec3 centre =
+          clutter_face_point(object.box, int(x.face), (x.u + 0.5) / x.res, (x.v + 0.5) / x.res);
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(texels[t].position[a], centre[a], 1e-6) << "texel " << t;
+    }
+    EXPECT_EQ(seen.size(), ref.face.size()) << "two texels in one cell";
+  }
+  EXPECT_EQ(t, cells.size());
+  rt::Clutter wrapped;
+  ASSERT_FALSE(rt::Clutter::load_memory(s.drt_file.data(), s.drt_file.size(), "pillars", wrapped));
+  std::vector<modrt_clutter_cell> again(cells.size());
+  ASSERT_FALSE(wrapped.texel_cells(again.data(), again.size()));
+  EXPECT_EQ(std::memcmp(again.data(), cells.data(), cells.size() * sizeof cells[0]), 0);
+
+  // Bad input: named, nothing written.
+  std::vector<modrt_clutter_cell> keep(cells.size());
+  std::memset(keep.data(), 0xab, keep.size() * sizeof keep[0]);
+  std::vector<modrt_clutter_cell> out = keep;
+  const auto unchanged = [&] {
+    EXPECT_EQ(std::memcmp(out.data(), keep.data(), out.size() * sizeof out[0]), 0);
+  };
+  expect_error(modrt_clutter_get_texel_cells(nullptr, out.data(), out.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_clutter_get_texel_cells", "clutter is null"});
+  expect_error(modrt_clutter_get_texel_cells(c, nullptr, out.size()), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_clutter_get_texel_cells", "out is null"});
+  expect_error(modrt_clutter_get_texel_cells(c, out.data(), out.size() - 1), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_clutter_get_texel_cells", "out has " + std::to_string(out.size() - 1) + " records",
+                std::to_string(out.size()) + " texels"});
+  unchanged();
+  modrt_clutter_destroy(c);
+  // Operators assembled without cells (an app's own builder): unsupported, named.
+  DrtOperators bare = s.drt;
+  for (DrtObjectOperators& o : bare.objects) o.texel_cell.clear(), o.cell_res = 0;
+  const std::vector<std::byte> bare_file = serialize_drt(bare).value();
+  ASSERT_EQ(modrt_clutter_load_memory(bare_file.data(), bare_file.size(), "bare", nullptr, &c), MODRT_OK)
+      << modrt_last_error();
+  expect_error(modrt_clutter_get_texel_cells(c, out.data(), out.size()), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_clutter_get_texel_cells", "record no texel cells", "rebuild"});
+  unchanged();
+  modrt_clutter_destroy(c);
+  // A version 2 file (before the cells): refused at load.
+  std::vector<std::byte> v2 = s.drt_file;
+  const std::uint32_t two = 2;
+  std::memcpy(v2.data() + 8, &two, 4);
+  c = nullptr;
+  expect_error(modrt_clutter_load_memory(v2.data(), v2.size(), "v2.modrtdrt", nullptr, &c),
+               MODRT_ERROR_VERSION_MISMATCH,
+               {"v2.modrtdrt", "format version 2", "rebuild the clutter operators"});
+  EXPECT_EQ(c, nullptr);
+  // Damaged cells behind valid checksums are refused when set on a level (check_drt_operators).
+  DrtOperators twice = s.drt;
+  twice.objects[0].texel_cell[4] = twice.objects[0].texel_cell[1];  // texel 1 in texel 0's cell
+  twice.objects[0].texel_cell[5] = twice.objects[0].texel_cell[2];
+  twice.objects[0].texel_cell[3] = twice.objects[0].texel_cell[0];
+  Status shared = check_drt_operators(s.level, twice);
+  EXPECT_FALSE(shared.ok());
+  EXPECT_NE(shared.message().find("DRT object 0: texel_cell: two texels share a cell"), std::string::npos)
+      << shared.message();
+  DrtOperators outside = s.drt;
+  outside.objects[1].texel_cell[1] = outside.objects[1].cell_res;
+  shared = check_drt_operators(s.level, outside);
+  EXPECT_NE(shared.message().find("DRT object 1: texel_cell of texel 0: cell (" +
+                                  std::to_string(outside.objects[1].cell_res)),
+            std::string::npos)
+      << shared.message();
+
+  // A mesh: the cells of its UV atlas.
+  test::ClutterScene room = test::box_room_two_boxes();
+  const int n = 4, res = 3 * (n + 2);
+  Result<ClutterObject> mesh = precompute::make_mesh_clutter(test::box_mesh(room.clutter[1].box, n, res), 0,
+                                                             room.clutter[1].albedo, res, "mesh box");
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  room.clutter[1] = mesh.value();
+  room.clutter[0].res = 4;
+  const Level level = precompute::build_level(room.description, dict()).value();
+  precompute::DrtBuildSettings settings;
+  settings.rays = 32;
+  const DrtOperators drt = precompute::DrtBuilder(level, dict(), settings).build(room.clutter).value();
+  const std::vector<std::byte> file = serialize_drt(drt).value();
+  ASSERT_EQ(modrt_clutter_load_memory(file.data(), file.size(), "room", nullptr, &c), MODRT_OK)
+      << modrt_last_error();
+  info = rt::sized<modrt_clutter_info>();
+  ASSERT_EQ(modrt_clutter_get_info(c, &info), MODRT_OK);
+  cells.assign(info.texel_count, modrt_clutter_cell{});
+  ASSERT_EQ(modrt_clutter_get_texel_cells(c, cells.data(), cells.size()), MODRT_OK) << modrt_last_error();
+  const ClutterMeshAtlas& atlas = room.clutter[1].mesh->atlas;
+  const std::size_t first = std::size_t(clutter_texel_count(room.clutter[0]));
+  ASSERT_EQ(cells.size(), first + atlas.texels.face.size());
+  EXPECT_EQ(cells[0].res, 4u);
+  EXPECT_EQ(cells[first - 1].object, 0u);
+  std::size_t charts_seen = 0;
+  for (std::size_t i = 0; i < atlas.texels.face.size(); ++i) {
+    const modrt_clutter_cell& x = cells[first + i];
+    EXPECT_EQ(x.object, 1u);
+    EXPECT_EQ(x.res, std::uint32_t(res));
+    EXPECT_EQ(x.face, std::uint32_t(atlas.texels.face[i]));
+    ASSERT_LT(x.u, x.res);
+    ASSERT_LT(x.v, x.res);
+    EXPECT_EQ(atlas.cell_texel[std::size_t(x.v) * std::size_t(res) + x.u], std::int32_t(i)) << "texel " << i;
+    charts_seen = std::max(charts_seen, std::size_t(x.face) + 1);
+  }
+  EXPECT_EQ(charts_seen, std::size_t(kFaceCount));                       // one chart per box face
+  EXPECT_GE(atlas.texels.face.size(), std::size_t(kFaceCount * n * n));  // every overlapped cell is a texel
   modrt_clutter_destroy(c);
 }
 

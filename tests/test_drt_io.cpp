@@ -60,6 +60,10 @@ void expect_same_object(const DrtObjectOperators& a, const DrtObjectOperators& b
   EXPECT_EQ(a.Cb_vec_truncation_error, b.Cb_vec_truncation_error);
   EXPECT_EQ(a.Cc_vec_objects, b.Cc_vec_objects);
   expect_same_matrix(a.Cc_vec, b.Cc_vec, "Cc_vec");
+  EXPECT_EQ(a.texel_position, b.texel_position);
+  EXPECT_EQ(a.texel_normal, b.texel_normal);
+  EXPECT_EQ(a.cell_res, b.cell_res);
+  EXPECT_EQ(a.texel_cell, b.texel_cell);
 }
 
 struct Built {
@@ -92,6 +96,9 @@ TEST(DrtFile, OperatorsRoundTripAndGiveTheSameDelta) {
   ASSERT_FALSE(drt.objects[0].Udyn.empty());
   ASSERT_FALSE(drt.objects[0].Uc_vec.empty());
   ASSERT_FALSE(drt.objects[0].Cb_sigma.empty());
+  ASSERT_FALSE(drt.objects[0].texel_position.empty());
+  ASSERT_EQ(drt.objects[0].texel_cell.size(), 3 * std::size_t(drt.objects[0].texel_count));
+  ASSERT_GT(drt.objects[0].cell_res, 0u);
   ASSERT_GT(drt.probes_per_block, 0u);
 
   const std::vector<std::byte> bytes = serialize_drt(drt).value();
@@ -150,6 +157,10 @@ TEST(DrtFile, DamageIsRefusedNamingThePart) {
   reseal(b);
   expect_refused(b, ErrorCode::version_mismatch, "rebuild the clutter operators");
   b = good;
+  put_u32(b, 8, 2);  // before the texel cells
+  reseal(b);
+  expect_refused(b, ErrorCode::version_mismatch, "format version 2, this build reads 3");
+  b = good;
   b[20] ^= std::byte(1);  // object count, header checksum not updated
   expect_refused(b, ErrorCode::checksum_mismatch, "header checksum");
   b = good;
@@ -181,7 +192,7 @@ TEST(DrtFile, DamageIsRefusedNamingThePart) {
   // NaN smuggled into object 0's dUb behind valid checksums; and refused on write.
   const DrtObjectOperators& o = built().drt.objects[0];
   const std::size_t at =
-      kDrtFileHeaderBytes + 8 + (4 + 4 * o.dUb_sample.size()) + (4 + 4 * o.dUb_block.size()) + 8;
+      kDrtFileHeaderBytes + 12 + (4 + 4 * o.dUb_sample.size()) + (4 + 4 * o.dUb_block.size()) + 8;
   b = good;
   ASSERT_LT(at + 4, b.size());
   std::uint32_t stored = 0;

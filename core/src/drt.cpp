@@ -72,6 +72,31 @@ ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object) {
   return g;
 }
 
+ClutterTexelCells clutter_texel_cells(const ClutterObject& object) {
+  ClutterTexelCells c;
+  if (object.kind == ClutterKind::mesh) {
+    if (!object.mesh) return c;
+    const ClutterMeshAtlas& atlas = object.mesh->atlas;
+    c.res = atlas.res;
+    c.face = atlas.texels.face;
+    c.cell.assign(atlas.texels.face.size(), glm::ivec2(0));
+    for (std::size_t i = 0; i < atlas.cell_texel.size(); ++i)
+      if (const std::int32_t t = atlas.cell_texel[i]; t >= 0 && std::size_t(t) < c.cell.size())
+        c.cell[std::size_t(t)] = glm::ivec2(int(i % std::size_t(atlas.res)), int(i / std::size_t(atlas.res)));
+    return c;
+  }
+  c.res = object.res;
+  for (int f = 0; f < kFaceCount; ++f) {  // clutter_texel_geometry's order
+    if (!face_present(object.faces, f)) continue;
+    for (int j = 0; j < object.res; ++j)
+      for (int i = 0; i < object.res; ++i) {
+        c.face.push_back(f);
+        c.cell.emplace_back(i, j);
+      }
+  }
+  return c;
+}
+
 std::vector<double> clutter_texel_area(const ClutterObject& object) {
   if (object.kind == ClutterKind::mesh) return object.mesh ? object.mesh->atlas.area : std::vector<double>{};
   std::vector<double> area;
@@ -84,6 +109,34 @@ std::vector<double> clutter_texel_area(const ClutterObject& object) {
 }
 
 namespace {
+
+// texel_cell against texel_count and cell_res (drt.h): 3 per texel or empty, cells inside the
+// grid, no two texels of one face in one cell.
+Status check_texel_cells(const DrtObjectOperators& o) {
+  auto bad = [](const std::string& what) { return Status::error(ErrorCode::invalid_argument, what); };
+  if (o.texel_cell.empty())
+    return o.cell_res == 0 ? Status::success() : bad("cell_res is set but texel_cell is empty");
+  if (o.texel_cell.size() != 3 * std::size_t(o.texel_count)) return bad("texel_cell is not 3 x m");
+  if (o.cell_res == 0 || o.cell_res > kMaxClutterCellRes)
+    return bad("cell_res " + std::to_string(o.cell_res) + " is not in 1.." +
+               std::to_string(kMaxClutterCellRes));
+  std::vector<std::uint64_t> keys(o.texel_count);
+  for (std::size_t t = 0; t < o.texel_count; ++t) {
+    const std::uint32_t face = o.texel_cell[3 * t], u = o.texel_cell[3 * t + 1], v = o.texel_cell[3 * t + 2];
+    if (u >= o.cell_res || v >= o.cell_res)
+      return bad("texel_cell of texel " + std::to_string(t) + ": cell (" + std::to_string(u) + ", " +
+                 std::to_string(v) + ") is outside the " + std::to_string(o.cell_res) + " x " +
+                 std::to_string(o.cell_res) + " grid");
+    if (face >= kMaxClutterCellFaces)
+      return bad("texel_cell of texel " + std::to_string(t) + ": face " + std::to_string(face) +
+                 " is not below " + std::to_string(kMaxClutterCellFaces));
+    keys[t] = (std::uint64_t(face) * o.cell_res + v) * o.cell_res + u;
+  }
+  std::sort(keys.begin(), keys.end());
+  if (std::adjacent_find(keys.begin(), keys.end()) != keys.end())
+    return bad("texel_cell: two texels share a cell");
+  return Status::success();
+}
 
 // A mesh object's data against itself: what clutter_texel_geometry, the operator build and
 // the backends index without further checks.
@@ -214,6 +267,7 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
     if (o.texel_position.size() != o.texel_normal.size() ||
         (!o.texel_position.empty() && o.texel_position.size() != 3 * std::size_t(o.texel_count)))
       return fail("texel_position and texel_normal are not both empty or both 3 x m");
+    if (Status s = check_texel_cells(o); !s.ok()) return fail(s.message());
     if (o.dUc.rows != o.dUc_sample.size() || (o.dUc.rows > 0 && o.dUc.cols != o.face_count))
       return fail("dUc is not |dUc_sample| x f");
     for (std::size_t r = 0; r < o.dUc_sample.size(); ++r) {

@@ -65,6 +65,7 @@ void visit_fields(Object& o, Visitor&& v) {
   v("Cc_vec", o.Cc_vec);
   v("texel_position", o.texel_position);  // since version 2
   v("texel_normal", o.texel_normal);
+  v("texel_cell", o.texel_cell);  // since version 3
 }
 
 bool finite(float v) { return std::isfinite(v); }
@@ -132,6 +133,7 @@ Result<std::vector<std::byte>> serialize_drt(const DrtOperators& drt) {
   for (const DrtObjectOperators& o : drt.objects) {
     body.u32(o.texel_count);
     body.u32(o.face_count);
+    body.u32(o.cell_res);  // since version 3
     visit_fields(o, FieldWriter{body});
   }
   return binary::seal(drt_file_format(),
@@ -163,13 +165,14 @@ Result<DrtOperators> parse_drt(std::span<const std::byte> bytes, const std::stri
   drt.level_blocks = header[3];
   drt.level_samples = header[4];
   Reader in(body, what);
-  // A lower bound on an object's bytes: two counts and at least 4 bytes per field (29).
-  if (in.fits("objects", objects, 8 + 4 * 29)) drt.objects.resize(objects);
+  // A lower bound on an object's bytes: three counts and at least 4 bytes per field (32).
+  if (in.fits("objects", objects, 12 + 4 * 32)) drt.objects.resize(objects);
   for (std::uint32_t i = 0; i < objects && in.ok(); ++i) {
     DrtObjectOperators& o = drt.objects[i];
     const std::string name = "object " + std::to_string(i);
     o.texel_count = in.u32(name + " texel_count");
     o.face_count = in.u32(name + " face_count");
+    o.cell_res = in.u32(name + " cell_res");
     visit_fields(o, FieldReader{in, name});
   }
   if (!in.ok()) return in.status();

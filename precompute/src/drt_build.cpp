@@ -733,6 +733,16 @@ struct DrtBuilder::Pass {
         op.texel_position[3 * t + std::size_t(a)] = float(geometry.position[t][a]);
         op.texel_normal[3 * t + std::size_t(a)] = float(geometry.normal[t][a]);
       }
+    // And the lightmap cell each stands for, so that an app addresses the clutter lightmap
+    // from its mesh's UVs (drt.h, clutter_texel_cells).
+    const ClutterTexelCells cells = clutter_texel_cells(object);
+    op.cell_res = std::uint32_t(cells.res);
+    op.texel_cell.assign(3 * cells.face.size(), 0u);
+    for (std::size_t t = 0; t < cells.face.size(); ++t) {
+      op.texel_cell[3 * t] = std::uint32_t(cells.face[t]);
+      op.texel_cell[3 * t + 1] = std::uint32_t(cells.cell[t].x);
+      op.texel_cell[3 * t + 2] = std::uint32_t(cells.cell[t].y);
+    }
     // Td_c (DRT §4.2): the per-face constant basis, c_f = mean direct light over face f; over
     // a mesh chart the mean is weighted by texel area (border texels cover less).
     op.Td_c = Matrix(op.face_count, op.texel_count);

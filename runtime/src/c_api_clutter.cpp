@@ -29,6 +29,12 @@ bool has_texel_geometry(const DrtOperators& drt) {
   return true;
 }
 
+bool has_texel_cells(const DrtOperators& drt) {
+  for (const DrtObjectOperators& o : drt.objects)
+    if (o.texel_count > 0 && o.texel_cell.empty()) return false;
+  return true;
+}
+
 }  // namespace
 }  // namespace modrt::capi
 
@@ -107,6 +113,36 @@ modrt_status modrt_clutter_get_texels(const modrt_clutter* clutter, modrt_clutte
           x.normal[a] = o.texel_normal[3 * std::size_t(t) + std::size_t(a)];
         }
         x.object = std::uint32_t(k);
+      }
+    }
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_clutter_get_texel_cells(const modrt_clutter* clutter, modrt_clutter_cell* out,
+                                           size_t count) {
+  constexpr const char* fn = "modrt_clutter_get_texel_cells";
+  return guarded(fn, [&] {
+    if (!clutter) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": clutter is null");
+    if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out is null");
+    const std::size_t texels = clutter->first_texel.back();
+    if (count != texels)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out has " + std::to_string(count) +
+                                                    " records, the clutter has " + std::to_string(texels) +
+                                                    " texels");
+    if (!has_texel_cells(clutter->drt))
+      return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
+                                               ": the clutter operators record no texel cells: rebuild them "
+                                               "(modrt-demo --save-clutter)");
+    for (std::size_t k = 0; k < clutter->drt.objects.size(); ++k) {
+      const DrtObjectOperators& o = clutter->drt.objects[k];
+      for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+        modrt_clutter_cell& x = out[clutter->first_texel[k] + t];
+        x.object = std::uint32_t(k);
+        x.face = o.texel_cell[3 * std::size_t(t)];
+        x.u = o.texel_cell[3 * std::size_t(t) + 1];
+        x.v = o.texel_cell[3 * std::size_t(t) + 2];
+        x.res = o.cell_res;
       }
     }
     return MODRT_OK;

@@ -4,8 +4,9 @@
  * an error path, and, given a dictionary and a level, loads the level from memory (as an app
  * does from its bundle), lights it on the CPU and checks the atlas.
  *
- * Then multi-bounce, vector irradiance, the probe volume and, given a .modrtdrt file, a
- * clutter object (more_capabilities).
+ * Then multi-bounce (and the bounce count changed per update), vector irradiance, the probe
+ * volume (and the probe cell a shader samples it with) and, given a .modrtdrt file, a clutter
+ * object with its texels' lightmap cells (more_capabilities).
  *
  *   modrt_consumer [dictionary.modrt level.modrtlevel [clutter.modrtdrt]]
  */
@@ -140,17 +141,112 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
       fprintf(stderr, "probes: expected light at the middle probe and the point query to match the volume\n");
       return 1;
     }
+    /* The probe cell of a point between probes, as a shader samples the volume: its 8 probes
+     * mixed with their weights are the point query (the tiny dictionary has one probe per
+     * block, so the weights are 0 here; test_c_api checks a 2 x 2 x 2 grid). */
+    const size_t q = p + 1 < sizes->probes / 27 ? p + 1 : p - 1;
+    float between[3];
+    for (int a = 0; a < 3; ++a) between[a] = 0.5f * (where[3 * p + (size_t)a] + where[3 * q + (size_t)a]);
+    modrt_probe_cell cell = {sizeof(modrt_probe_cell)};
+    CHECK(modrt_context_locate_probe(bounced, between, &cell));
+    CHECK(modrt_context_probe_sh(bounced, between, MODRT_PROBE_IRRADIANCE_OVER_PI, at));
+    double mixed_worst = 0.0, weights = 0.0;
+    for (int c = 0; c < 8; ++c) weights += cell.corner_weight[c];
+    for (int k = 0; k < 27; ++k) {
+      double mixed = 0.0;
+      for (int c = 0; c < 8; ++c)
+        mixed += cell.corner_weight[c] * probes[27 * (size_t)cell.probe[c] + (size_t)k];
+      if (fabs(mixed - at[k]) > mixed_worst) mixed_worst = fabs(mixed - at[k]);
+    }
+    printf(
+        "probe cell: block %u, lower (%d, %d, %d), weights (%.3f, %.3f, %.3f); mixed probes differ by %g\n",
+        cell.block, cell.lower[0], cell.lower[1], cell.lower[2], cell.weight[0], cell.weight[1],
+        cell.weight[2], mixed_worst);
+    if (!(fabs(weights - 1.0) < 1e-5) || !(mixed_worst <= 1e-4 * scale) || cell.grid != sizes->probe_grid) {
+      fprintf(stderr, "probe cell: its 8 probes and weights must give the point query\n");
+      return 1;
+    }
+    modrt_probe_cell unsized = {0};
+    if (modrt_context_locate_probe(bounced, between, &unsized) == MODRT_OK ||
+        !strstr(modrt_last_error(), "out.struct_size")) {
+      fprintf(stderr, "probe cell: a struct_size of 0 must be refused naming out.struct_size\n");
+      return 1;
+    }
     free(probes);
     free(where);
   }
 
+  /* The bounce count per update, on the same context: 0 steps give the one-bounce lightmap,
+   * 4 again the multi-bounce one bit for bit; 65 is refused naming `bounces`, nothing changes. */
+  float* check = malloc(n3 * sizeof *check);
+  if (!check) return 1;
+  uint32_t steps = 99;
+  CHECK(modrt_context_get_bounces(bounced, &steps));
+  if (steps != 4) {
+    fprintf(stderr, "bounces: the context was created with 4, get_bounces says %u\n", steps);
+    return 1;
+  }
+  CHECK(modrt_context_set_bounces(bounced, 0));
+  CHECK(modrt_context_update(bounced));
+  CHECK(modrt_context_read_lightmap(bounced, check, n3));
+  double d_one = 0.0, n_one = 0.0;
+  for (size_t i = 0; i < n3; ++i) {
+    d_one += ((double)check[i] - one[i]) * ((double)check[i] - one[i]);
+    n_one += (double)one[i] * one[i];
+  }
+  if (modrt_context_set_bounces(bounced, 65) == MODRT_OK || !strstr(modrt_last_error(), "bounces 65")) {
+    fprintf(stderr, "bounces: 65 must be refused naming bounces\n");
+    return 1;
+  }
+  printf("bounces 65 refused: %s\n", modrt_last_error());
+  CHECK(modrt_context_get_bounces(bounced, &steps));
+  CHECK(modrt_context_set_bounces(bounced, 4));
+  CHECK(modrt_context_update(bounced));
+  CHECK(modrt_context_read_lightmap(bounced, check, n3));
+  const int same_more = memcmp(check, more, n3 * sizeof *check) == 0;
+  printf("set_bounces: 0 steps vs one bounce rel L2 %.3g; 4 steps again %s\n", sqrt(d_one / n_one),
+         same_more ? "identical" : "DIFFERENT");
+  if (steps != 0 || !(sqrt(d_one / n_one) < 1e-5) || !same_more) {
+    fprintf(stderr, "bounces: set_bounces must give 0 and 4 steps on the same context\n");
+    return 1;
+  }
+  free(check);
+
   /* A clutter object: its operators from a file (modrt-demo --save-clutter writes them), its
-   * light set by the app, bad light refused by name, its lightmap never negative. */
+   * light set by the app, bad light refused by name, its lightmap never negative, each texel's
+   * lightmap cell on its object's grid (for the app's clutter mesh UVs). */
   if (clutter_path) {
     modrt_clutter* clutter = NULL;
     CHECK(modrt_clutter_load_file(clutter_path, NULL, &clutter));
     modrt_clutter_info ci = {sizeof(modrt_clutter_info)};
     CHECK(modrt_clutter_get_info(clutter, &ci));
+    modrt_clutter_cell* cells = malloc(((size_t)ci.texel_count + 1) * sizeof *cells);
+    if (!cells) return 1;
+    CHECK(modrt_clutter_get_texel_cells(clutter, cells, ci.texel_count));
+    for (uint32_t t = 0; t < ci.texel_count; ++t) {
+      const modrt_clutter_cell* x = &cells[t];
+      if (x->object >= ci.object_count || x->res == 0 || x->u >= x->res || x->v >= x->res ||
+          (t > 0 && x->object < cells[t - 1].object)) {
+        fprintf(stderr, "clutter: texel %u has cell (%u, %u) of a %u grid on object %u\n", t, x->u, x->v,
+                x->res, x->object);
+        return 1;
+      }
+      for (uint32_t o = 0; o < t; ++o)
+        if (cells[o].object == x->object && cells[o].face == x->face && cells[o].u == x->u &&
+            cells[o].v == x->v) {
+          fprintf(stderr, "clutter: texels %u and %u share a cell\n", o, t);
+          return 1;
+        }
+    }
+    if (ci.texel_count > 0)
+      printf("clutter cells: texel 0 at (%u, %u) of %u x %u on face %u of object %u\n", cells[0].u,
+             cells[0].v, cells[0].res, cells[0].res, cells[0].face, cells[0].object);
+    if (modrt_clutter_get_texel_cells(clutter, cells, (size_t)ci.texel_count + 1) == MODRT_OK ||
+        !strstr(modrt_last_error(), "out has")) {
+      fprintf(stderr, "clutter: a wrong cell count must be refused naming out\n");
+      return 1;
+    }
+    free(cells);
     CHECK(modrt_context_set_clutter(bounced, clutter));
     modrt_clutter_destroy(clutter); /* the context keeps its reference */
     float* cld = malloc(3 * (size_t)ci.texel_count * sizeof *cld);

@@ -34,6 +34,7 @@
 #include <vector>
 
 #include <glm/mat3x3.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "modrt/dictionary.h"
@@ -43,6 +44,10 @@
 namespace modrt {
 
 inline constexpr int kClutterDefaultRes = 16;
+// Bounds on a recorded texel cell (DrtObjectOperators::texel_cell) that check_drt_operators
+// enforces: the grid's edge and the face (box face or mesh chart) index.
+inline constexpr std::uint32_t kMaxClutterCellRes = 4096;
+inline constexpr std::uint32_t kMaxClutterCellFaces = std::uint32_t(1) << 24;
 
 // Kinds of clutter geometry: an oriented box (analytic texels and ray queries) or a closed
 // triangle mesh with lightmap UVs (texels by rasterising the UV atlas, DRT §3; ray queries
@@ -97,6 +102,18 @@ struct ClutterTexelGeometry {
   std::vector<glm::dvec3> tangent;
 };
 ClutterTexelGeometry clutter_texel_geometry(const ClutterObject& object);
+// The lightmap cell each texel stands for, in texel order, so that an app can address the
+// clutter lightmap from its own mesh's UVs: cell (u, v) (column, row) of a res x res grid on
+// face `face`. A box: its lit face (cube.h numbering in the box's local frame), the texel
+// centre at clutter_face_point(box, face, (u + 0.5) / res, (v + 0.5) / res). A mesh: its
+// chart, the cell of its lightmap atlas (ClutterMeshAtlas::cell_texel[v res + u] is the
+// texel), covering UV [u, u + 1] / res x [v, v + 1] / res.
+struct ClutterTexelCells {
+  int res = 0;
+  std::vector<int> face;
+  std::vector<glm::ivec2> cell;  // (u, v)
+};
+ClutterTexelCells clutter_texel_cells(const ClutterObject& object);
 // World area each texel stands for (a box face's area / res^2; a mesh texel's share of its
 // triangle), in texel order.
 std::vector<double> clutter_texel_area(const ClutterObject& object);
@@ -166,6 +183,11 @@ struct DrtObjectOperators {
   // (clutter_ld) at them without the clutter scene; the runtime's operators do not read them.
   // Empty: not recorded (both or neither).
   std::vector<float> texel_position, texel_normal;
+  // The lightmap cell of each texel (clutter_texel_cells): 3 per texel in texel order, face,
+  // u, v, with u, v < cell_res; distinct texels have distinct cells. Empty (and cell_res 0):
+  // not recorded.
+  std::uint32_t cell_res = 0;
+  std::vector<std::uint32_t> texel_cell;
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
 };

@@ -4,7 +4,7 @@
 // DrtBuilder, written by modrt-demo --save-clutter) so that an app loads them without the
 // precompute library, from a path or a memory buffer. This comment is the contract.
 //
-// ## Layout (format version 2)
+// ## Layout (format version 3)
 //
 // Little-endian; floats are IEEE-754 binary32 stored by their bit pattern as a u32.
 //
@@ -23,7 +23,8 @@
 //    56  u32      CRC-32 of the body
 //    60  u32      CRC-32 of header bytes [0, 60)
 //
-// Body: per object, u32 texel_count, u32 face_count, then the operators of
+// Body: per object, u32 texel_count, u32 face_count, u32 cell_res (since version 3; 0: no
+// texel cells), then the operators of
 // DrtObjectOperators in the order of its declaration (drt_io.cpp, visit_fields): an index
 // list is u32 n, u32[n]; a float list u32 n, f32[n]; a matrix u32 rows, u32 cols,
 // f32[rows * cols] (row-major); a scalar one f32.
@@ -48,7 +49,8 @@
 namespace modrt {
 
 // 2: the texels' positions and normals (DrtObjectOperators::texel_position, texel_normal).
-inline constexpr std::uint32_t kDrtFileVersion = 2;
+// 3: the texels' lightmap cells (cell_res, texel_cell).
+inline constexpr std::uint32_t kDrtFileVersion = 3;
 inline constexpr char kDrtFileMagic[8] = {'M', 'O', 'D', 'R', 'T', 'D', 'R', 'T'};
 inline constexpr std::size_t kDrtFileHeaderBytes = 64;
 // load_drt refuses larger files; serialize_drt refuses to produce them.

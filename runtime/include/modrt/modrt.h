@@ -583,6 +583,30 @@ typedef struct modrt_clutter_texel {
 MODRT_API modrt_status modrt_clutter_get_texels(const modrt_clutter* clutter, modrt_clutter_texel* out,
                                                 size_t count);
 
+/* Since 0.3 (.modrtdrt version 3). The lightmap cell a clutter texel stands for, so that an app
+ * builds its clutter mesh's lightmap UVs (or a cell -> texel map) itself: texel t is cell
+ * (u, v) (column, row) of the res x res grid on face `face` of object `object`.
+ *   - A mesh object (DRT §3): `face` is the chart; the grid is the mesh's lightmap atlas at the
+ *     res the operators were built with (its UV set, [0, 1]^2): the texel covers UV
+ *     [u, u + 1] / res x [v, v + 1] / res. Cells no UV triangle covers have no texel (pad them
+ *     from a neighbour).
+ *   - A box object: `face` is its lit face (0..5: -X, +X, -Y, +Y, -Z, +Z in the box's local
+ *     frame), the texel centre at (u + 0.5, v + 0.5) / res along the face's u and v axes.
+ * No two texels of an object share (face, u, v). With a GLES context,
+ * modrt_context_get_clutter_texel_coords gives where each texel lies in the clutter atlas
+ * texture: together they map a mesh's lightmap cell to the atlas texel to sample. */
+typedef struct modrt_clutter_cell {
+  uint32_t object; /* the object it belongs to */
+  uint32_t face;   /* mesh: chart; box: face 0..5 */
+  uint32_t u, v;   /* column and row, < res */
+  uint32_t res;    /* the object's grid edge */
+} modrt_clutter_cell;
+/* Every texel's cell (count = texel_count records). MODRT_ERROR_UNSUPPORTED when the operators
+ * do not record them (operators assembled without cells); a wrong count or a null pointer is
+ * MODRT_ERROR_INVALID_ARGUMENT naming it, with nothing written. */
+MODRT_API modrt_status modrt_clutter_get_texel_cells(const modrt_clutter* clutter, modrt_clutter_cell* out,
+                                                     size_t count);
+
 /* The clutter the context's updates include, checked against the context's level
  * (MODRT_ERROR_MISMATCH names the object and the operator); null removes it. The context keeps
  * a reference. Its light starts at 0 and it has no albedo (no clutter feedback) until set. */

@@ -134,6 +134,10 @@ class Clutter : public Handle<modrt_clutter, modrt_clutter_destroy> {
   Error texels(modrt_clutter_texel* out, size_t count) const {
     return check(modrt_clutter_get_texels(h_, out, count));
   }
+  // Each texel's lightmap cell (object, face, u, v, res; modrt_clutter_get_texel_cells).
+  Error texel_cells(modrt_clutter_cell* out, size_t count) const {
+    return check(modrt_clutter_get_texel_cells(h_, out, count));
+  }
 };
 
 inline modrt_context_options default_options(modrt_backend backend = MODRT_BACKEND_CPU) {
