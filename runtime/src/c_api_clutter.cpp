@@ -35,6 +35,19 @@ bool has_texel_cells(const DrtOperators& drt) {
   return true;
 }
 
+// The checks of a per-texel query: clutter and out given, one record per texel.
+modrt_status check_texel_records(const char* fn, const modrt_clutter* clutter, const void* out,
+                                 size_t count) {
+  if (!clutter) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": clutter is null");
+  if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out is null");
+  const std::size_t texels = clutter->first_texel.back();
+  if (count != texels)
+    return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out has " + std::to_string(count) +
+                                                  " records, the clutter has " + std::to_string(texels) +
+                                                  " texels");
+  return MODRT_OK;
+}
+
 }  // namespace
 }  // namespace modrt::capi
 
@@ -93,13 +106,7 @@ modrt_status modrt_clutter_get_info(const modrt_clutter* clutter, modrt_clutter_
 modrt_status modrt_clutter_get_texels(const modrt_clutter* clutter, modrt_clutter_texel* out, size_t count) {
   constexpr const char* fn = "modrt_clutter_get_texels";
   return guarded(fn, [&] {
-    if (!clutter) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": clutter is null");
-    if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out is null");
-    const std::size_t texels = clutter->first_texel.back();
-    if (count != texels)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out has " + std::to_string(count) +
-                                                    " records, the clutter has " + std::to_string(texels) +
-                                                    " texels");
+    if (modrt_status st = check_texel_records(fn, clutter, out, count); st != MODRT_OK) return st;
     if (!has_texel_geometry(clutter->drt))
       return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
                                                ": the clutter file records no texel positions: rebuild it "
@@ -123,13 +130,7 @@ modrt_status modrt_clutter_get_texel_cells(const modrt_clutter* clutter, modrt_c
                                            size_t count) {
   constexpr const char* fn = "modrt_clutter_get_texel_cells";
   return guarded(fn, [&] {
-    if (!clutter) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": clutter is null");
-    if (!out) return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out is null");
-    const std::size_t texels = clutter->first_texel.back();
-    if (count != texels)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": out has " + std::to_string(count) +
-                                                    " records, the clutter has " + std::to_string(texels) +
-                                                    " texels");
+    if (modrt_status st = check_texel_records(fn, clutter, out, count); st != MODRT_OK) return st;
     if (!has_texel_cells(clutter->drt))
       return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) +
                                                ": the clutter operators record no texel cells: rebuild them "

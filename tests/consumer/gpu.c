@@ -22,14 +22,7 @@
 
 #include <modrt/modrt.h>
 
-#define CHECK(call)                                                                             \
-  do {                                                                                          \
-    modrt_status s_ = (call);                                                                   \
-    if (s_ != MODRT_OK) {                                                                       \
-      fprintf(stderr, "%s failed: %s: %s\n", #call, modrt_status_name(s_), modrt_last_error()); \
-      return 1;                                                                                 \
-    }                                                                                           \
-  } while (0)
+#include "consumer_check.h"
 
 enum { kBounces = 2 };
 static const float kLightPosition[3] = {0.5f, 0.6f, 0.45f};

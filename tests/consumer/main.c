@@ -17,14 +17,7 @@
 
 #include <modrt/modrt.h>
 
-#define CHECK(call)                                                                             \
-  do {                                                                                          \
-    modrt_status s_ = (call);                                                                   \
-    if (s_ != MODRT_OK) {                                                                       \
-      fprintf(stderr, "%s failed: %s: %s\n", #call, modrt_status_name(s_), modrt_last_error()); \
-      return 1;                                                                                 \
-    }                                                                                           \
-  } while (0)
+#include "consumer_check.h"
 
 static unsigned char* read_all(const char* path, size_t* size) {
   FILE* f = fopen(path, "rb");
