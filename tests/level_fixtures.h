@@ -1,11 +1,16 @@
 // SPDX-License-Identifier: MIT
 // Shared by the backend tests (CPU, GLES): a single block, a corridor and the 11- and
 // 41-block mazes built against the small test dictionary, with their direct light and
-// albedo, and core's scalar reference for a given ld. Built once per test program.
+// albedo, and core's scalar reference for a given ld. Each built once per test program, when
+// first used.
 #pragma once
 
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <utility>
@@ -26,38 +31,51 @@ struct TestLevel {
   std::vector<float> ld, albedo;
 };
 
-inline const std::vector<TestLevel>& test_levels() {
-  static const std::vector<TestLevel> levels = [] {
-    std::vector<TestLevel> out;
-    const std::pair<const char*, LevelDescription> descriptions[] = {
-        {"single", precompute::maze_level(1).value()},
-        {"corridor", precompute::corridor_level()},
-        {"maze11", precompute::maze_level(11).value()},
-        {"maze41", precompute::maze_level(41).value()},
-    };
-    for (const auto& [name, description] : descriptions) {
-      TestLevel t{name, description, {}, {}, {}};
-      Result<Level> level = precompute::build_level(t.description, small_test_dictionary());
-      if (!level.ok()) {
-        std::fprintf(stderr, "%s: %s\n", name, level.status().to_string().c_str());
-        std::abort();
-      }
-      t.level = std::move(level).value();
-      const precompute::LevelScene scene(t.level, t.level.res);
-      t.albedo = level_sample_albedo(t.level);
-      t.ld = precompute::level_direct_light(scene, t.description.lights, t.albedo, 4);
-      out.push_back(std::move(t));
-    }
+// The names of the test levels, in test_levels() order.
+inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11", "maze41"};
+
+inline TestLevel build_test_level(const std::string& name) {
+  TestLevel t{name, {}, {}, {}, {}};
+  if (name == "single") t.description = precompute::maze_level(1).value();
+  else if (name == "corridor") t.description = precompute::corridor_level();
+  else if (name == "maze11") t.description = precompute::maze_level(11).value();
+  else if (name == "maze41") t.description = precompute::maze_level(41).value();
+  else {
+    std::fprintf(stderr, "no test level named %s\n", name.c_str());
+    std::abort();
+  }
+  Result<Level> level = precompute::build_level(t.description, small_test_dictionary());
+  if (!level.ok()) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), level.status().to_string().c_str());
+    std::abort();
+  }
+  t.level = std::move(level).value();
+  const precompute::LevelScene scene(t.level, t.level.res);
+  t.albedo = level_sample_albedo(t.level);
+  t.ld = precompute::level_direct_light(scene, t.description.lights, t.albedo, 4);
+  return t;
+}
+
+// One level, built on first use: ctest runs every test in its own process, and a test that
+// needs the corridor should not pay for the 41-block maze's build (most of a short test's time,
+// and under the sanitizers most of the suite's).
+inline const TestLevel& test_level(const std::string& name) {
+  static std::mutex mutex;
+  static std::map<std::string, std::unique_ptr<const TestLevel>> built;
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<const TestLevel>& slot = built[name];
+  if (!slot) slot = std::make_unique<const TestLevel>(build_test_level(name));
+  return *slot;
+}
+
+// Every test level, in kTestLevelNames order.
+inline const std::vector<std::reference_wrapper<const TestLevel>>& test_levels() {
+  static const std::vector<std::reference_wrapper<const TestLevel>> levels = [] {
+    std::vector<std::reference_wrapper<const TestLevel>> out;
+    for (const char* name : kTestLevelNames) out.emplace_back(test_level(name));
     return out;
   }();
   return levels;
-}
-
-inline const TestLevel& test_level(const std::string& name) {
-  for (const TestLevel& t : test_levels())
-    if (t.name == name) return t;
-  std::fprintf(stderr, "no test level named %s\n", name.c_str());
-  std::abort();
 }
 
 struct LevelReference {
