@@ -36,10 +36,14 @@ inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11"
 
 inline TestLevel build_test_level(const std::string& name) {
   TestLevel t{name, {}, {}, {}, {}};
-  if (name == "single") t.description = precompute::maze_level(1).value();
-  else if (name == "corridor") t.description = precompute::corridor_level();
-  else if (name == "maze11") t.description = precompute::maze_level(11).value();
-  else if (name == "maze41") t.description = precompute::maze_level(41).value();
+  if (name == "single")
+    t.description = precompute::maze_level(1).value();
+  else if (name == "corridor")
+    t.description = precompute::corridor_level();
+  else if (name == "maze11")
+    t.description = precompute::maze_level(11).value();
+  else if (name == "maze41")
+    t.description = precompute::maze_level(41).value();
   else {
     std::fprintf(stderr, "no test level named %s\n", name.c_str());
     std::abort();
