@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: MIT
+// modrt — converged multi-bounce in the reduced space (issue 20, docs/accuracy.md "Converged
+// multi-bounce").
+//
+// The n-space feedback (reference_runtime.h, MRT §7.3) evaluates the whole lightmap per bounce:
+// ld = ld_direct + rho L, b = Td_b ld, L = Ub b + Ur r. With the albedo fixed, one bounce is
+// linear in b alone:
+//   b <- b0 + M b,   M b = A_i b_i + sum over the slots s entering block i of B_s r_s,   r = Tb->r b
+// per block i, where b0 = Td_b ld_direct and, per channel c,
+//   A_i = Td_b diag(rho_c) Ub          (kb x kb, block i's own light fed back)
+//   B_s = Td_b diag(rho_c) Ur(turned)  (kb x kr, the light that entered through slot s fed back)
+// built once when the albedo is set. A bounce then costs O(kb^2 + kb kr) per block instead of
+// O(n kb), and the converged answer b* = (I - M)^-1 b0 is reached every frame by iterating
+// from the last frame's b* (ReducedSolver).
+//
+// Convergence: the iteration converges when the spectral radius q of M is below 1. The physical
+// operator has q <= max albedo < 1, but the low-rank operators can exceed it; it is estimated
+// when the albedo is set (power iteration) and above kReducedMaxSpectralRadius M is damped:
+// the solve uses s M with s = kReducedMaxSpectralRadius / q (stated in the report).
+//
+// Clamping: n-space feedback feeds back min(max(L, 0), bound); the reduced solve feeds back the
+// unclamped Ub b + Ur r (it never forms L). The two agree wherever no texel of the fed-back
+// lightmaps was negative or at the bound; the lightmap written from b* is clamped at 0 like every
+// lightmap (reference_runtime.h's policy), so outputs are never negative.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "modrt/dictionary.h"
+#include "modrt/feedback_policy.h"
+#include "modrt/level.h"
+#include "modrt/level_dirty.h"
+#include "modrt/status.h"
+
+namespace modrt {
+
+// Above this estimated spectral radius the reduced feedback is damped to it (header).
+inline constexpr double kReducedMaxSpectralRadius = 0.98;
+
+// A matrix with one coefficient per channel: data[3 (r cols + k) + c] is row r, column k,
+// channel c (out[3 r + c] = sum_k data[3 (r cols + k) + c] in[3 k + c]).
+struct ChannelMatrix {
+  std::uint32_t rows = 0, cols = 0;
+  std::vector<float> data;  // 3 rows cols
+};
+
+// out[3 r + c] (+)= sum_k M(r, k, c) in[3 k + c], accumulated in double (the scalar reference).
+void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out, bool accumulate);
+
+struct ReducedFeedback {
+  std::uint32_t kb = 0, kr = 0;
+  std::vector<ChannelMatrix> A;  // per block, kb x kb
+  std::vector<ChannelMatrix> B;  // per slot, kb x kr (its block's Td_b diag(rho) Ur turned)
+  double spectral_radius = 0.0;  // estimated for M before damping (largest over the channels)
+  float damping = 1.0f;          // s: the solve iterates b <- b0 + s M b
+  // The contraction the solve relies on: s x spectral_radius (<= kReducedMaxSpectralRadius).
+  double contraction() const { return damping * spectral_radius; }
+};
+
+// Builds A and B from the clamped albedo rho (3 x samples, validated: finite, in [0, 1)) in
+// double, stores float, and estimates the spectral radius (and the damping). The level must
+// be checked against dict (check_level_operators). Allocates.
+Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
+                                               const LevelDependencies& deps, std::span<const float> rho);
+
+// out = s M x (3 kb per block), with r = Tb->r x written to r_scratch (3 kr per slot).
+void reference_apply_reduced_feedback(const Level& level, const LevelDependencies& deps,
+                                      const ReducedFeedback& op, std::span<const float> x,
+                                      std::span<float> r_scratch, std::span<float> out);
+
+struct ReducedSolveSettings {
+  // Stop when the remaining error of b, estimated from the last step and the contraction q as
+  // step q / (1 - q), is at most tolerance x max |b|.
+  float tolerance = 1e-3f;
+  int max_iterations = 256;
+};
+
+struct ReducedSolveReport {
+  int iterations = 0;        // applications of M
+  bool converged = false;    // the tolerance was met (else max_iterations ran)
+  float residual = 0.0f;     // max |b0 + s M b - b| / max |b| at the last b before its step
+  float error_bound = 0.0f;  // residual q / (1 - q): the estimated relative error of b
+};
+
+// The fixed-point iteration of the converged solve, stated once for every backend: a backend
+// supplies `apply(x, out)` (out = s M x, its kernels and threads) and the solver does the rest
+// (the update, the residual, the stopping rule). x holds the warm start on entry (the last
+// frame's b*, or b0) and b* on return. create() allocates; solve() does not.
+class ReducedSolver {
+ public:
+  static ReducedSolver create(std::size_t unknowns) {
+    ReducedSolver s;
+    s.next_.assign(unknowns, 0.0f);
+    return s;
+  }
+  std::size_t unknowns() const { return next_.size(); }
+
+  template <class Apply>
+  ReducedSolveReport solve(Apply&& apply, std::span<const float> b0, std::span<float> x, double contraction,
+                           const ReducedSolveSettings& settings) {
+    ReducedSolveReport report;
+    const double q = contraction < 1e-12 ? 1e-12 : contraction;
+    const double tail = q / (1.0 - q);  // remaining error per unit of step (geometric tail)
+    for (int it = 1; it <= settings.max_iterations; ++it) {
+      apply(std::span<const float>(x), std::span<float>(next_));
+      const Step st = step(b0, x);
+      report.iterations = it;
+      report.residual = float(st.largest > 0.0 ? st.change / st.largest : 0.0);
+      report.error_bound = float(report.residual * tail);
+      if (st.change * tail <= double(settings.tolerance) * st.largest) {
+        report.converged = true;
+        break;
+      }
+    }
+    return report;
+  }
+
+ private:
+  struct Step {
+    double change = 0.0, largest = 0.0;  // max |x_new - x|, max |x_new|
+  };
+  // x <- b0 + next (next = s M x), the largest change and value.
+  Step step(std::span<const float> b0, std::span<float> x);
+  std::vector<float> next_;
+};
+
+struct ConvergedBounceSettings {
+  float max_albedo = kDefaultMaxAlbedo;  // the feedback's albedo clamp (feedback_policy.h)
+  ReducedSolveSettings solve;
+};
+
+struct ConvergedBounceReport {
+  ReducedSolveReport solve;
+  double spectral_radius = 0.0;  // ReducedFeedback's estimate
+  float damping = 1.0f;
+  bool albedo_clamped = false;
+};
+
+// The converged multi-bounce of a level from a cold start (x = b0), the scalar oracle of the
+// backends' converged solve: validates ld_direct and albedo, clamps the albedo, builds the
+// reduced feedback, solves, and writes b*, r* = Tb->r b* and the lightmap (clamped at 0) from
+// them. Allocates per call.
+Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const Dictionary& dict,
+                                                     std::span<const float> ld_direct,
+                                                     std::span<const float> albedo,
+                                                     const ConvergedBounceSettings& settings,
+                                                     std::span<float> b, std::span<float> r,
+                                                     std::span<float> lightmap);
+
+}  // namespace modrt
