@@ -302,6 +302,70 @@ TEST_P(BackendConformance, MultiBounceStepsMatchLevelMultiBounce) {
   }
 }
 
+// The converged solve (update_converged) equals core's level_converged_bounce: lightmap, probes
+// and vector irradiance from b*, at the solve's tolerance (1e-5 here, so the comparison is at the
+// backend's usual tolerance); a second frame with 2 % less light starts warm and needs fewer
+// applications of M than the first; the statistics add up. GLES has no reduced solve yet and
+// refuses by name; every backend refuses it before set_albedo and with clutter.
+TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
+  for (const char* name : {"corridor", "maze41"}) {
+    const TestLevel& t = test_level(name);
+    std::unique_ptr<Backend> be = make(t.level);
+    ASSERT_TRUE(be);
+    ReducedSolveSettings solve;
+    solve.tolerance = 1e-5f;
+    EXPECT_EQ(be->update_converged(t.ld, solve).code(), ErrorCode::invalid_argument) << "no albedo yet";
+    ASSERT_TRUE(be->set_albedo(t.albedo).ok());
+    const Status st = be->update_converged(t.ld, solve);
+    if (be->kind() == BackendKind::gles) {
+      EXPECT_EQ(st.code(), ErrorCode::invalid_argument);
+      EXPECT_NE(st.message().find("converged"), std::string::npos) << st.message();
+      continue;
+    }
+    ASSERT_TRUE(st.ok()) << st.to_string();
+    const LevelBufferSizes s = level_buffer_sizes(t.level, dict());
+    std::vector<float> b(s.b), r(s.r), ref(s.lightmap), vec_ref(s.vector_lightmap), probes_ref(s.probes);
+    ConvergedBounceSettings cs;
+    cs.solve = solve;
+    Result<ConvergedBounceReport> rep =
+        level_converged_bounce(t.level, dict(), t.ld, t.albedo, cs, b, r, ref);
+    ASSERT_TRUE(rep.ok());
+    ASSERT_TRUE(level_compute_vector_irradiance(t.level, dict(), b, r, vec_ref).ok());
+    level_compute_probes(t.level, dict(), b, r, probes_ref);
+    const Outputs o = read_outputs(*be);
+    const double e = rel_l2(o.lightmap, ref), ep = rel_l2(o.probes, probes_ref),
+                 ev = rel_l2(o.vector, vec_ref);
+    const ConvergedStats first = be->converged_stats();
+    EXPECT_TRUE(first.last.converged);
+    EXPECT_EQ(first.solves, 1u);
+    EXPECT_NEAR(first.spectral_radius, rep->spectral_radius, 1e-6 * rep->spectral_radius);
+    EXPECT_GT(first.build_ns, 0u);
+    // Two solves at tolerance 1e-5 of max |b| differ by about that much.
+    const double tol = std::max(tolerance().level, 3e-5);
+    EXPECT_LE(e, tol) << name << " " << be->description();
+    EXPECT_LE(ep, tol) << name << " " << be->description() << " probes";
+    EXPECT_LE(ev, tol) << name << " " << be->description() << " vector irradiance";
+    std::vector<float> dimmer = t.ld;
+    for (float& v : dimmer) v *= 0.98f;
+    ASSERT_TRUE(be->update_converged(dimmer, solve).ok());
+    const ConvergedStats second = be->converged_stats();
+    EXPECT_LT(second.last.iterations, first.last.iterations) << "warm start";
+    EXPECT_EQ(second.solves, 2u);
+    EXPECT_EQ(second.iterations, std::uint64_t(first.last.iterations + second.last.iterations));
+    std::printf("  %-8s %-52s converged rel L2 %.2e, probes %.2e, vector %.2e; %d then %d iterations\n", name,
+                be->description(), e, ep, ev, first.last.iterations, second.last.iterations);
+  }
+  const DrtFixture& f = drt_fixture();
+  std::unique_ptr<Backend> be = make(f.level);
+  ASSERT_TRUE(be);
+  ASSERT_TRUE(be->set_clutter(&f.drt).ok());
+  ASSERT_TRUE(be->set_albedo(f.albedo).ok());
+  const Status st = be->update_converged(f.ld);
+  EXPECT_EQ(st.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(st.message().find(be->kind() == BackendKind::gles ? "converged" : "clutter"), std::string::npos)
+      << st.message();
+}
+
 // A spike in ld rings the unclamped lightmap below -1 (test_cpu_backend asserts it); every
 // backend's lightmap and atlas are still never negative (core's lightmap policy) and every
 // output is finite (a float16 target saturates at 65504).

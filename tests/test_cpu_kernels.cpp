@@ -15,6 +15,7 @@
 
 #include "cpu_test_support.h"
 #include "modrt/cpu/kernels.h"
+#include "modrt/reduced_feedback.h"
 #include "modrt/reference_runtime.h"
 
 namespace modrt::cpu {
@@ -69,6 +70,30 @@ TEST(CpuKernels, GemvMatchesReferenceForEveryIsaAndSize) {
                        &worst);
         }
     worst.print("gemv_rgb", isa);
+  }
+}
+
+// The per-channel matrices of the reduced feedback (core's ChannelMatrix) against core's
+// reference_gemv_channels, every ISA, sizes across every step width (24 and 12 floats) and tail.
+TEST(CpuKernels, GemvChannelsMatchesReferenceForEveryIsaAndSize) {
+  for (Isa isa : supported_isas()) {
+    std::mt19937 rng(4321);
+    Worst worst;
+    for (std::uint32_t rows : kRowSizes)
+      for (std::uint32_t cols : kColSizes)
+        for (bool accumulate : {false, true}) {
+          ChannelMatrix M{rows, cols, random_vector(rng, 3 * std::size_t(rows) * cols, -1.0f, 1.0f)};
+          const std::vector<float> in = random_vector(rng, 3 * std::size_t(cols), 0.0f, 1.0f);
+          std::vector<float> ref = random_vector(rng, 3 * std::size_t(rows), 0.0f, 1.0f);
+          std::vector<float> got = ref;
+          reference_gemv_channels(M, in.data(), ref.data(), accumulate);
+          gemv_channels(isa, M.data.data(), rows, cols, in.data(), got.data(), accumulate);
+          expect_close(got, ref,
+                       std::string(isa_name(isa)) + " " + std::to_string(rows) + "x" + std::to_string(cols) +
+                           (accumulate ? " accumulate" : ""),
+                       &worst);
+        }
+    worst.print("gemv_channels", isa);
   }
 }
 

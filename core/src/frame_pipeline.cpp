@@ -25,10 +25,10 @@ BackendEvaluationStats minus(const BackendEvaluationStats& a, const BackendEvalu
 }
 
 Status check_bounces(std::uint32_t bounces, const char* who) {
-  if (bounces <= kMaxFrameBounces) return Status::success();
-  return Status::error(ErrorCode::invalid_argument, std::string(who) + ": bounces " +
-                                                        std::to_string(bounces) + " is not in 0.." +
-                                                        std::to_string(kMaxFrameBounces));
+  if (bounces <= kMaxFrameBounces || bounces == kConvergedBounces) return Status::success();
+  return Status::error(ErrorCode::invalid_argument,
+                       std::string(who) + ": bounces " + std::to_string(bounces) + " is not in 0.." +
+                           std::to_string(kMaxFrameBounces) + " nor kConvergedBounces");
 }
 
 }  // namespace
@@ -107,6 +107,10 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture) {
 
 Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces) {
   if (Status s = check_bounces(bounces, "frame pipeline: run_from_texture"); !s.ok()) return s;
+  if (bounces == kConvergedBounces)
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "frame pipeline: run_from_texture: the converged solve reads ld from CPU memory: use run()");
   last_valid_ = false;  // the pipeline does not see the texture's values: never skipped
   times_ = BackendStageTimes{};
   if (Status s = backend_->update_from_texture(ld_texture); !s.ok()) return s;
@@ -123,6 +127,13 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t b
 Status FramePipeline::evaluate(std::span<const float> ld, std::uint32_t bounces) {
   times_ = BackendStageTimes{};
   const std::uint64_t skipped_before = backend_->evaluation_stats().evaluations_skipped;
+  if (bounces == kConvergedBounces) {
+    if (Status s = backend_->update_converged(ld, options_.solve); !s.ok()) return s;
+    add_times();
+    ++frames_;
+    last_skipped_ = false;
+    return Status::success();
+  }
   if (Status s = backend_->update(ld); !s.ok()) return s;
   add_times();
   const bool update_skipped = backend_->evaluation_stats().evaluations_skipped != skipped_before;

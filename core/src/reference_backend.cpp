@@ -60,6 +60,17 @@ class ReferenceBackend final : public StagedBackend {
       if (work.blocks[i]) level_compute_block_b(level(), dict(), ld_, i, b_);
     return Status::success();
   }
+  Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
+                     const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
+    if (!warm) std::copy(b_.begin(), b_.end(), x.begin());
+    report = solver.solve(
+        [&](std::span<const float> in, std::span<float> out) {
+          reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);
+        },
+        b_, x, op.contraction(), settings);
+    std::copy(x.begin(), x.end(), b_.begin());
+    return Status::success();
+  }
   Status stage_r(const StageWork& work) override {
     for (std::size_t s = 0; s < level().slots.size(); ++s)
       if (work.slots[s]) level_compute_slot_r(level(), deps_, b_, s, r_);

@@ -93,7 +93,8 @@ void StagedBackend::count(const StageWork& w) {
 }
 
 // architecture.md §5 steps 2–9 after the input stage; see the header for the order.
-Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback) {
+Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback,
+                               const ReducedSolveSettings* solve) {
   // With clutter the deltas read every block's b (shadows across openings): every tile's output.
   StageWork out = mrt;
   if (drt_)
@@ -105,6 +106,15 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
       return s;
   }
   if (Status s = timed(TimedStage::b, [&] { return stage_b(mrt); }); !s.ok()) return s;
+  if (solve) {
+    ReducedSolveReport report;
+    const Status s = timed(TimedStage::feedback,
+                           [&] { return stage_solve(*reduced_, solver_, x_, warm_, *solve, report); });
+    warm_ = s.ok();
+    if (!s.ok()) return s;
+    converged_.last = report;
+    ++converged_.solves, converged_.iterations += std::uint64_t(report.iterations);
+  }
   if (Status s = timed(TimedStage::r, [&] { return stage_r(mrt); }); !s.ok()) return s;
   if (Status s = timed(TimedStage::lightmap, [&] { return stage_tiles(mrt); }); !s.ok()) return s;
   if (drt_)
@@ -196,6 +206,57 @@ Status StagedBackend::set_albedo(std::span<const float> albedo, float max_albedo
   if (Status s = stage_albedo(rho_); !s.ok()) return s;
   rho_max_ = rho_max;
   has_albedo_ = true;
+  reduced_.reset();  // rebuilt for this albedo by the next converged update
+  warm_ = false;
+  return Status::success();
+}
+
+Status StagedBackend::stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x,
+                                  bool warm, const ReducedSolveSettings& settings,
+                                  ReducedSolveReport& report) {
+  (void)op, (void)solver, (void)x, (void)warm, (void)settings, (void)report;
+  return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
+}
+
+Status StagedBackend::update_converged(std::span<const float> ld_direct,
+                                       const ReducedSolveSettings& settings) {
+  if (!has_albedo_) return refused("update_converged: call set_albedo first");
+  if (drt_)
+    return refused(
+        "update_converged: the converged solve does not include clutter yet: use multi_bounce_step()");
+  if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
+    return refused("update_converged: tolerance must be in (0, 1) and max_iterations at least 1");
+  if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
+  if (!reduced_) {
+    const Clock::time_point start = Clock::now();
+    Result<ReducedFeedback> op = build_reduced_feedback(level_, dict_, dirty_.dependencies(), rho_);
+    if (!op.ok()) return op.status();
+    reduced_.emplace(std::move(op).value());
+    if (solver_.unknowns() != sizes_.b) solver_ = ReducedSolver::create(sizes_.b);
+    x_.assign(sizes_.b, 0.0f);
+    warm_ = false;
+    converged_.spectral_radius = reduced_->spectral_radius;
+    converged_.damping = reduced_->damping;
+    converged_.build_ns =
+        std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start).count());
+  }
+  const StageWork all{all_blocks_,       all_slots_,         all_blocks_, all_blocks_.size(),
+                      all_slots_.size(), all_blocks_.size(), true};
+  if (Status s = stage_begin(); !s.ok()) return s;
+  Status s = timed(TimedStage::upload, [&] { return stage_ld(ld_direct, all); });
+  if (s.ok()) s = evaluate(all, false, {}, &settings);
+  stage_end(s.ok());
+  if (timing_) {
+    times_ = BackendStageTimes{};
+    timer_collect(times_);
+  }
+  dirty_.invalidate();  // the results on hand are not update(ld_direct)'s
+  if (!s.ok()) {
+    warm_ = false;
+    return s;
+  }
+  count(all);
+  updated_ = true;
   return Status::success();
 }
 

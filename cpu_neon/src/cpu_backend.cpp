@@ -60,6 +60,17 @@ class CpuBackend final : public StagedBackend {
     rt_.compute_b(ld_, work.blocks);
     return Status::success();
   }
+  // The converged solve on this runtime's kernels and threads; b* becomes the runtime's b.
+  Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
+                     const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
+    const std::span<const float> b0 = rt_.b();
+    if (!warm) std::copy(b0.begin(), b0.end(), x.begin());
+    report = solver.solve(
+        [&](std::span<const float> in, std::span<float> out) { rt_.apply_reduced_feedback(op, in, out); }, b0,
+        x, op.contraction(), settings);
+    rt_.set_b(x);
+    return Status::success();
+  }
   Status stage_r(const StageWork&) override { return Status::success(); }  // in stage_tiles
   Status stage_tiles(const StageWork& work) override {
     rt_.compute_r_and_tiles(work.slots, work.tiles,

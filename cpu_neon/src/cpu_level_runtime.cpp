@@ -261,6 +261,8 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.b_planar_.assign(rt.sizes_.b, 0.0f);
   rt.r_.assign(rt.sizes_.r, 0.0f);
   rt.r_planar_.assign(rt.sizes_.r, 0.0f);
+  rt.x_planar_.assign(rt.sizes_.b, 0.0f);
+  rt.r_solve_.assign(rt.sizes_.r, 0.0f);
   rt.ld_planar_.assign(3 * rt.max_block_samples_ * std::size_t(options.threads), 0.0f);
   rt.rho_.assign(rt.sizes_.ld, 0.0f);
   rt.ld_feedback_.assign(rt.sizes_.ld, 0.0f);
@@ -686,6 +688,43 @@ void CpuLevelRuntime::compute_r_and_tiles(std::span<const std::uint8_t> slots,
   const std::span<const std::uint32_t> items = flagged(tiles);
   auto lightmap_phase = [&](std::size_t k, int) { compute_block_lightmap(items[k], lightmap, slots.data()); };
   parallel_for(items.size(), lightmap_phase);
+}
+
+void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x,
+                                             std::span<float> out) {
+  const Level& level = *level_;
+  const std::size_t kb = level.kb, kr = level.kr;
+  auto planar_phase = [&](std::size_t i, int) {
+    deinterleave_rgb(x.data() + 3 * kb * i, kb, x_planar_.data() + 3 * kb * i, kb);
+  };
+  parallel_for(level.blocks.size(), planar_phase);
+  auto r_phase = [&](std::size_t s, int) {
+    float* r = r_solve_.data() + 3 * kr * s;
+    std::fill(r, r + 3 * kr, 0.0f);
+    for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
+      const std::size_t rec = slot_records_[q];
+      gemv(record_ops_[rec], kr, kb, x_planar_.data() + 3 * kb * level.records[rec].source_block, r, true);
+    }
+  };
+  parallel_for(level.slots.size(), r_phase);
+  auto b_phase = [&](std::size_t i, int) {
+    float* dst = out.data() + 3 * kb * i;
+    gemv_channels(isa_, op.A[i].data.data(), kb, kb, x.data() + 3 * kb * i, dst, false);
+    for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+      const std::size_t s = block_slots_[j];
+      gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_solve_.data() + 3 * kr * s, dst, true);
+    }
+    if (op.damping != 1.0f)
+      for (std::size_t k = 0; k < 3 * kb; ++k) dst[k] *= op.damping;
+  };
+  parallel_for(level.blocks.size(), b_phase);
+}
+
+void CpuLevelRuntime::set_b(std::span<const float> b_new) {
+  std::copy(b_new.begin(), b_new.end(), b_.begin());
+  const std::size_t kb = level_->kb;
+  for (std::size_t i = 0; i < level_->blocks.size(); ++i)
+    deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
 }
 
 void CpuLevelRuntime::compute_probes(std::span<const std::uint8_t> blocks, std::span<float> probes) {

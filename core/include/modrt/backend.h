@@ -21,6 +21,7 @@
 #include "modrt/drt.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level_runtime.h"
+#include "modrt/reduced_feedback.h"
 #include "modrt/status.h"
 
 namespace modrt {
@@ -64,6 +65,15 @@ struct BackendEvaluationStats {
   std::uint64_t tiles_written = 0, tiles_kept = 0;     // the block's atlas tiles (and its probes)
 };
 
+// The converged multi-bounce of a backend (update_converged, reduced_feedback.h).
+struct ConvergedStats {
+  ReducedSolveReport last;       // the last converged update's solve
+  double spectral_radius = 0.0;  // of the reduced operators in use (before damping)
+  float damping = 1.0f;
+  std::uint64_t build_ns = 0;                // the last build of the reduced operators
+  std::uint64_t solves = 0, iterations = 0;  // converged updates, and their applications of M
+};
+
 // The size of a texture in texels.
 struct TextureSize {
   int width = 0, height = 0;
@@ -91,6 +101,21 @@ class Backend {
   // update(ld_direct) equal level_multi_bounce after k iterations.
   virtual Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) = 0;
   virtual Status multi_bounce_step(std::span<const float> ld_direct) = 0;
+
+  // Converged multi-bounce in the reduced space (reduced_feedback.h, issue 20): b0 = Td_b
+  // ld_direct, b* = (I - s M)^-1 b0 by ReducedSolver warm-started from the last converged
+  // update's b*, then r, the lightmap, atlas, probes and vector irradiance once from b*. Needs
+  // set_albedo; the reduced operators are built at the first converged update after it
+  // (converged_stats().build_ns: that update allocates). Not converging within
+  // settings.max_iterations is reported in converged_stats(), not an error. Refused
+  // (invalid_argument) by a backend without a reduced solve (GLES today) and with clutter.
+  virtual Status update_converged(std::span<const float> ld_direct,
+                                  const ReducedSolveSettings& settings = {}) {
+    (void)ld_direct, (void)settings;
+    return Status::error(ErrorCode::invalid_argument, std::string(backend_kind_name(kind())) +
+                                                          ": no converged solve: use multi_bounce_step()");
+  }
+  virtual ConvergedStats converged_stats() const { return {}; }
 
   // Copies of the last update's results (sizes().lightmap, .atlas, .probes floats, RGB
   // interleaved). read_probes fails when the level or backend has no probes.

@@ -6,7 +6,8 @@
 // A frame is the backend's update(ld) (its stages: b, r, lightmap, atlas with padding, probes,
 // vector irradiance and, with clutter, c, the DRT deltas and the clutter lightmap), then
 // `bounces` feedback steps multi_bounce_step(ld) (architecture.md §2: each one more bounce,
-// with the albedo clamp and the bound of feedback_policy.h).
+// with the albedo clamp and the bound of feedback_policy.h); with bounces = kConvergedBounces
+// it is the backend's update_converged(ld) instead (the converged multi-bounce, issue 20).
 //   - Refused before anything runs: with bounces, an ld whose fed-back light could pass
 //     kMaxLightValue (feedback_ld_peak), so a frame never fails half way. With ld from a GL
 //     texture the values stay on the GPU: the backend finds the bound there and clamps the
@@ -33,8 +34,14 @@ namespace modrt {
 // 0.95^64 = 4 % of the bounce series, as close to converged as steps get.
 inline constexpr std::uint32_t kMaxFrameBounces = 64;
 
+// The `bounces` value of the converged solve (Backend::update_converged, reduced_feedback.h):
+// every frame shows the converged multi-bounce, warm-started from the last frame's.
+inline constexpr std::uint32_t kConvergedBounces = 0xffffffffu;
+
 struct FrameOptions {
-  std::uint32_t bounces = 0;   // feedback steps after each update (0..kMaxFrameBounces)
+  // Feedback steps after each update (0..kMaxFrameBounces), or kConvergedBounces.
+  std::uint32_t bounces = 0;
+  ReducedSolveSettings solve;  // the converged solve's tolerance and iteration limit
   bool skip_unchanged = true;  // with bounces: skip a frame that repeats the last one exactly
 };
 

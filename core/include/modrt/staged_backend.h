@@ -28,6 +28,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -36,6 +37,7 @@
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
 #include "modrt/level_dirty.h"
+#include "modrt/reduced_feedback.h"
 
 namespace modrt {
 
@@ -111,6 +113,8 @@ class StagedBackend : public Backend {
   Status set_albedo(std::span<const float> albedo, float max_albedo = kDefaultMaxAlbedo) final;
   Status multi_bounce_step(std::span<const float> ld_direct) final;
   Status multi_bounce_step_from_texture(std::uint32_t ld_texture) final;
+  Status update_converged(std::span<const float> ld_direct, const ReducedSolveSettings& settings = {}) final;
+  ConvergedStats converged_stats() const final { return converged_; }
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
@@ -160,6 +164,12 @@ class StagedBackend : public Backend {
   virtual Status stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld);
   // The clamped albedo (3 x samples) the feedback multiplies by.
   virtual Status stage_albedo(std::span<const float> rho) = 0;
+  // The converged solve (update_converged), after the b stage wrote b0 = Td_b ld_direct: with
+  // `warm` x holds the last solve's b* (else the backend starts from x = b0); the backend runs
+  // solver.solve with its application of op (out = s M x), and on return its b and x hold b*.
+  // Default: refused (a backend without a reduced solve).
+  virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
+                             const ReducedSolveSettings& settings, ReducedSolveReport& report);
   virtual Status stage_b(const StageWork& work) = 0;
   virtual Status stage_r(const StageWork& work) = 0;
   virtual Status stage_tiles(const StageWork& work) = 0;
@@ -200,7 +210,9 @@ class StagedBackend : public Backend {
  private:
   using Clock = std::chrono::steady_clock;
   // One evaluation after its input stage: everything from clutter c to the clutter lightmap.
-  Status evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback);
+  // solve: the converged solve's settings (update_converged), run after the b stage.
+  Status evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback,
+                  const ReducedSolveSettings* solve = nullptr);
   Status run_input_and_evaluate(bool texture, std::span<const float> ld, std::uint32_t ld_texture,
                                 bool feedback, float bound, const ClutterFeedback& clutter_feedback);
   void count(const StageWork& work);
@@ -222,6 +234,13 @@ class StagedBackend : public Backend {
   const DrtOperators* drt_ = nullptr;
   DrtBufferSizes drt_sizes_;
   std::vector<float> rho_c_;  // the clamped clutter albedo (empty: none)
+  // The converged solve: the reduced operators of the current albedo (built on first use), the
+  // solver, the last solve's b* (the warm start while warm_) and the statistics.
+  std::optional<ReducedFeedback> reduced_;
+  ReducedSolver solver_;
+  std::vector<float> x_;
+  bool warm_ = false;
+  ConvergedStats converged_;
   float clutter_ld_max_ = 0.0f, rho_c_max_ = 0.0f;
   BackendStageTimes times_;
   BackendEvaluationStats stats_;

@@ -55,6 +55,7 @@
 #include "modrt/feedback_policy.h"
 #include "modrt/level.h"
 #include "modrt/level_runtime.h"
+#include "modrt/reduced_feedback.h"
 #include "modrt/status.h"
 
 namespace modrt::cpu {
@@ -228,6 +229,15 @@ class CpuLevelRuntime {
   const CpuSkipOptions& skip_options() const { return skip_; }
   const CpuSkipStats& skip_stats() const { return stats_; }
 
+  // The converged solve (core's reduced_feedback.h), the twin of reference_apply_reduced_feedback:
+  // out = s (A_i x_i + sum of B_s r_s over the slots entering block i), r = Tb->r x through this
+  // runtime's record operators (float or float16), threaded over slots, then blocks. x and out:
+  // sizes().b floats. Nothing is allocated.
+  void apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
+  // b = b_new (sizes().b floats): the solve's b* becomes the b that compute_r_and_tiles,
+  // compute_probes and compute_vector_irradiance read.
+  void set_b(std::span<const float> b_new);
+
   // b and r of the last evaluate() (interleaved, level_runtime.h layouts).
   std::span<const float> b() const { return b_; }
   std::span<const float> r() const { return r_; }
@@ -281,6 +291,7 @@ class CpuLevelRuntime {
   LevelBufferSizes sizes_;
   std::size_t max_block_samples_ = 0;
   std::vector<float> b_, b_planar_, r_, r_planar_, ld_planar_;
+  std::vector<float> x_planar_, r_solve_;  // apply_reduced_feedback's planar x and its r
   std::vector<float> rho_, ld_feedback_;
   // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.

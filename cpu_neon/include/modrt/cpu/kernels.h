@@ -61,6 +61,13 @@ void gemv_rgb_masked(Isa isa, const float* A, std::size_t rows, std::size_t cols
                      const std::int32_t* row_to_sample, const float* planar, std::size_t stride, float* out);
 void add_scattered(std::size_t rows, const std::int32_t* row_to_sample, const float* values, float* out);
 
+// A matrix with one coefficient per channel (core's ChannelMatrix: M[3 (r cols + k) + c]) times
+// an interleaved input: out[3 r + c] (+)= sum_k M[3 (r cols + k) + c] in[3 k + c]. The reduced
+// feedback's A and B (reduced_feedback.h). SIMD variants accumulate each row in float (lanes
+// keep one channel each); the scalar twin in double, as core's reference_gemv_channels.
+void gemv_channels(Isa isa, const float* M, std::size_t rows, std::size_t cols, const float* in, float* out,
+                   bool accumulate);
+
 // ---- float16 operator storage (CpuRuntimeOptions::operators) ----
 // A matrix may be stored as IEEE binary16 bits (std::uint16_t, same row-major layout, lda in
 // elements). The _f16 kernels convert each element to float on load (exactly) and are
