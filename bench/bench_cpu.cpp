@@ -25,6 +25,17 @@
 //                                              influence on (epsilon 0): shadows by the ray walk
 //   BM_MovingLightFrame/<influence>/<spot>      one whole frame: CpuDirectLight (shadows) then
 //                                              CpuLevelRuntime::evaluate with exact skipping
+//   BM_CpuConverged/<blocks>                    the converged multi-bounce (cpu backend,
+//                                              update_converged, tolerance 1e-3, one thread, best
+//                                              ISA, res 16, kb 32) on a moving light: maze41's
+//                                              light 0 circling, maze1000's ld dimmed and
+//                                              brightened by 10 % over 8 frames. Time: the converged
+//                                              frame. Counters: ratio_one_bounce = converged /
+//                                              one-bounce update() time of the same frames (same
+//                                              backend kind, no skipping, measured alternately);
+//                                              ratio_8_steps = converged / update() + 8
+//                                              multi_bounce_step(); iterations per frame, the
+//                                              last residual and error bound, build_ms
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -49,6 +60,7 @@
 #include <tuple>
 #include <vector>
 
+#include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/level_dirty.h"
@@ -607,6 +619,67 @@ void BM_CpuFloat16(benchmark::State& state) {
   set_counters(state, *pl, t16 * double(state.iterations()) / frames, threads);
 }
 
+// ---- converged multi-bounce (issue 20) ----
+
+void BM_CpuConverged(benchmark::State& state) {
+  const int blocks = int(state.range(0));
+  const PresetLevel* pl = preset_level(blocks, 16, 32);
+  if (!pl) return state.SkipWithError("no dictionary or level");
+  std::vector<std::vector<float>> frames;
+  if (blocks <= 41) {
+    const LightSequence* seq = light_sequence(blocks);
+    if (!seq) return state.SkipWithError("no light sequence");
+    frames = seq->ld;
+  } else {
+    for (int f = 0; f < 8; ++f) {
+      frames.push_back(pl->ld);
+      const float scale = 1.0f + 0.1f * float(std::sin(2.0 * 3.14159265358979 * f / 8.0));
+      for (float& v : frames.back()) v *= scale;
+    }
+  }
+  cpu::CpuBackendOptions o;
+  o.runtime.threads = 1;
+  o.runtime.skip.enabled = false;
+  Result<std::unique_ptr<Backend>> conv = cpu::create_cpu_backend(pl->level, *pl->dict, o);
+  Result<std::unique_ptr<Backend>> steps = cpu::create_cpu_backend(pl->level, *pl->dict, o);
+  if (!conv.ok() || !steps.ok()) return state.SkipWithError("cpu backend");
+  Backend& c = *conv.value();
+  Backend& n = *steps.value();
+  const std::vector<float> albedo = level_sample_albedo(pl->level);
+  if (!c.set_albedo(albedo).ok() || !n.set_albedo(albedo).ok()) return state.SkipWithError("set_albedo");
+  if (!c.update_converged(frames[0]).ok())
+    return state.SkipWithError("update_converged");  // build + cold solve
+  const ConvergedStats built = c.converged_stats();
+  double t_conv = 0.0, t_one = 0.0, t_steps = 0.0;
+  std::size_t f = 1;
+  bool ok = true;
+  for (auto _ : state) {
+    const std::vector<float>& ld = frames[f++ % frames.size()];
+    auto t0 = std::chrono::steady_clock::now();
+    ok &= c.update_converged(ld).ok();
+    const double dc = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    ok &= n.update(ld).ok();
+    t_one += seconds_since(t0);
+    for (int k = 0; k < 8; ++k) ok &= n.multi_bounce_step(ld).ok();
+    t_steps += seconds_since(t0);
+    t_conv += dc;
+    state.SetIterationTime(dc);
+    benchmark::ClobberMemory();
+  }
+  if (!ok) return state.SkipWithError("a frame failed");
+  const ConvergedStats st = c.converged_stats();
+  const double solves = double(st.solves - built.solves);
+  state.counters["ratio_one_bounce"] = t_conv / t_one;
+  state.counters["ratio_8_steps"] = t_conv / t_steps;
+  state.counters["iterations"] = solves > 0 ? double(st.iterations - built.iterations) / solves : 0.0;
+  state.counters["residual"] = st.last.residual;
+  state.counters["error_bound"] = st.last.error_bound;
+  state.counters["contraction"] = st.contraction;
+  state.counters["build_ms"] = double(st.build_ns) * 1e-6;
+  state.SetLabel(c.description());
+}
+
 BENCHMARK(BM_PeakFma)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CoreFrame)
     ->ArgsProduct({{11, 41, 1000}, {6, 16}, {12, 32}})
@@ -623,6 +696,12 @@ BENCHMARK(BM_CpuIsa)
 BENCHMARK(BM_CpuFloat16)
     ->ArgsProduct({{11, 41, 1000}, {1, 2}})
     ->ArgNames({"blocks", "threads"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CpuConverged)
+    ->Arg(41)
+    ->Arg(1000)
+    ->ArgName("blocks")
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuMovingLight)

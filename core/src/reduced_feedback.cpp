@@ -45,13 +45,19 @@ ChannelMatrix to_channel_matrix(std::uint32_t rows, std::uint32_t cols, const st
   return m;
 }
 
-// Power iteration on M (undamped): the growth per application of each channel's norm over the
-// last iterations, largest over the channels. Deterministic start with every entry non-zero.
-double estimate_spectral_radius(const Level& level, const LevelDependencies& deps,
-                                const ReducedFeedback& op) {
-  const std::size_t n = 3 * std::size_t(op.kb) * level.blocks.size();
+ChannelMatrix scaled(const ChannelMatrix& m, float s) {
+  ChannelMatrix out = m;
+  for (float& v : out.data) v *= s;
+  return out;
+}
+
+// Power iteration on `apply` (n unknowns, RGB-interleaved): the growth per application of each
+// channel's norm over the last iterations, largest over the channels. Deterministic start with
+// every entry non-zero.
+template <class Apply>
+double estimate_spectral_radius(std::size_t n, Apply&& apply) {
   if (n == 0) return 0.0;
-  std::vector<float> x(n), y(n), r(3 * std::size_t(op.kr) * level.slots.size());
+  std::vector<float> x(n), y(n);
   std::uint32_t seed = 12345u;
   for (float& v : x) {
     seed = seed * 1664525u + 1013904223u;
@@ -60,7 +66,7 @@ double estimate_spectral_radius(const Level& level, const LevelDependencies& dep
   constexpr int kWarmup = 40, kMeasured = 24;
   double log_growth[3] = {0.0, 0.0, 0.0};
   for (int it = 0; it < kWarmup + kMeasured; ++it) {
-    reference_apply_reduced_feedback(level, deps, op, x, r, y);
+    apply(x, y);
     for (int c = 0; c < 3; ++c) {
       double before = 0.0, after = 0.0;
       for (std::size_t i = std::size_t(c); i < n; i += 3)
@@ -75,6 +81,56 @@ double estimate_spectral_radius(const Level& level, const LevelDependencies& dep
   double q = 0.0;
   for (double g : log_growth) q = std::max(q, std::exp(g / kMeasured));
   return q;
+}
+
+// (I - s A)^-1 per channel by Gauss-Jordan with partial pivoting in double; false when a pivot
+// is below 1e-12 (I - s A singular: block Jacobi is not available).
+bool invert_identity_minus(const ChannelMatrix& A, float s, ChannelMatrix& out) {
+  const std::size_t n = A.rows;
+  out = ChannelMatrix{A.rows, A.cols, std::vector<float>(A.data.size())};
+  std::vector<double> m(n * n), inv(n * n);
+  for (int c = 0; c < 3; ++c) {
+    for (std::size_t r = 0; r < n; ++r)
+      for (std::size_t k = 0; k < n; ++k) {
+        m[r * n + k] = (r == k ? 1.0 : 0.0) - double(s) * A.data[3 * (r * n + k) + std::size_t(c)];
+        inv[r * n + k] = r == k ? 1.0 : 0.0;
+      }
+    for (std::size_t col = 0; col < n; ++col) {
+      std::size_t pivot = col;
+      for (std::size_t r = col + 1; r < n; ++r)
+        if (std::fabs(m[r * n + col]) > std::fabs(m[pivot * n + col])) pivot = r;
+      if (!(std::fabs(m[pivot * n + col]) >= 1e-12)) return false;
+      if (pivot != col)
+        for (std::size_t k = 0; k < n; ++k)
+          std::swap(m[col * n + k], m[pivot * n + k]), std::swap(inv[col * n + k], inv[pivot * n + k]);
+      const double d = 1.0 / m[col * n + col];
+      for (std::size_t k = 0; k < n; ++k) m[col * n + k] *= d, inv[col * n + k] *= d;
+      for (std::size_t r = 0; r < n; ++r) {
+        if (r == col) continue;
+        const double f = m[r * n + col];
+        if (f == 0.0) continue;
+        for (std::size_t k = 0; k < n; ++k)
+          m[r * n + k] -= f * m[col * n + k], inv[r * n + k] -= f * inv[col * n + k];
+      }
+    }
+    for (std::size_t i = 0; i < n * n; ++i) out.data[3 * i + std::size_t(c)] = float(inv[i]);
+  }
+  return true;
+}
+
+// left (n x n per channel) times s right (n x m per channel), in double.
+ChannelMatrix channel_product(const ChannelMatrix& left, const ChannelMatrix& right, float s) {
+  const std::size_t n = left.rows, inner = left.cols, m = right.cols;
+  std::vector<double> acc(3 * n * m, 0.0);
+  for (std::size_t r = 0; r < n; ++r)
+    for (std::size_t k = 0; k < inner; ++k)
+      for (int c = 0; c < 3; ++c) {
+        const double l = double(left.data[3 * (r * inner + k) + std::size_t(c)]) * s;
+        if (l == 0.0) continue;
+        for (std::size_t j = 0; j < m; ++j)
+          acc[3 * (r * m + j) + std::size_t(c)] += l * right.data[3 * (k * m + j) + std::size_t(c)];
+      }
+  return to_channel_matrix(left.rows, right.cols, acc);
 }
 
 }  // namespace
@@ -95,34 +151,79 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     return Status::error(ErrorCode::invalid_argument,
                          "reduced feedback: albedo has " + std::to_string(rho.size()) + " floats, expected " +
                              std::to_string(3 * std::size_t(level.sample_count)));
-  ReducedFeedback op;
-  op.kb = level.kb, op.kr = level.kr;
-  op.A.reserve(level.blocks.size());
+  // M itself: A = Td_b diag(rho) Ub per block, B = Td_b diag(rho) Ur turned per slot.
+  ReducedFeedback plain;
+  plain.kb = level.kb, plain.kr = level.kr, plain.block_jacobi = false;
+  plain.A.reserve(level.blocks.size());
   std::vector<double> acc;
   for (const LevelBlock& blk : level.blocks) {
     const ShapeOperators& shape = dict.shapes[std::size_t(blk.shape)];
-    acc.assign(3 * std::size_t(op.kb) * op.kb, 0.0);
+    acc.assign(3 * std::size_t(plain.kb) * plain.kb, 0.0);
     accumulate_weighted_product(shape.Td_b, rho.subspan(3 * std::size_t(blk.sample_offset)), shape.Ub,
                                 nullptr, acc);
-    op.A.push_back(to_channel_matrix(op.kb, op.kb, acc));
+    plain.A.push_back(to_channel_matrix(plain.kb, plain.kb, acc));
   }
-  op.B.reserve(level.slots.size());
+  plain.B.reserve(level.slots.size());
   const Matrix& Ur = dict.interfaces.Ur;
   for (const ResponseSlot& slot : level.slots) {
     const LevelBlock& blk = level.blocks[slot.block];
-    acc.assign(3 * std::size_t(op.kb) * op.kr, 0.0);
+    acc.assign(3 * std::size_t(plain.kb) * plain.kr, 0.0);
     accumulate_weighted_product(dict.shapes[std::size_t(blk.shape)].Td_b,
                                 rho.subspan(3 * std::size_t(blk.sample_offset)), Ur,
                                 slot.ur_row_to_sample.data(), acc);
-    op.B.push_back(to_channel_matrix(op.kb, op.kr, acc));
+    plain.B.push_back(to_channel_matrix(plain.kb, plain.kr, acc));
   }
-  op.spectral_radius = estimate_spectral_radius(level, deps, op);
-  if (!std::isfinite(op.spectral_radius))
+  const std::size_t n = 3 * std::size_t(plain.kb) * level.blocks.size();
+  std::vector<float> r(3 * std::size_t(plain.kr) * level.slots.size());
+  const auto radius = [&](const ReducedFeedback& op) {
+    return estimate_spectral_radius(n, [&](std::span<const float> x, std::span<float> y) {
+      reference_apply_reduced_feedback(level, deps, op, x, r, y);
+    });
+  };
+  const double q = radius(plain);
+  if (!std::isfinite(q))
     return Status::error(ErrorCode::non_finite,
                          "reduced feedback: the spectral radius estimate is not finite (operators overflow)");
-  if (op.spectral_radius > kReducedMaxSpectralRadius)
-    op.damping = float(kReducedMaxSpectralRadius / op.spectral_radius);
-  return op;
+  const float s = q > kReducedMaxSpectralRadius ? float(kReducedMaxSpectralRadius / q) : 1.0f;
+  // Block Jacobi: P_i = (I - s A_i)^-1, B_s = P_i s B_s.
+  ReducedFeedback bj;
+  bj.kb = plain.kb, bj.kr = plain.kr, bj.block_jacobi = true;
+  bool invertible = true;
+  bj.P.resize(level.blocks.size());
+  for (std::size_t i = 0; i < level.blocks.size() && invertible; ++i)
+    invertible = invert_identity_minus(plain.A[i], s, bj.P[i]);
+  double q_bj = 0.0;
+  if (invertible) {
+    bj.B.reserve(level.slots.size());
+    for (std::size_t sl = 0; sl < level.slots.size(); ++sl)
+      bj.B.push_back(channel_product(bj.P[level.slots[sl].block], plain.B[sl], s));
+    q_bj = radius(bj);
+  }
+  const double q_plain = double(s) * q;
+  ReducedFeedback out;
+  if (invertible && std::isfinite(q_bj) && q_bj < kReducedMaxSpectralRadius && q_bj < q_plain) {
+    out = std::move(bj);
+    out.contraction = q_bj;
+  } else {
+    out = std::move(plain);
+    for (ChannelMatrix& m : out.A) m = scaled(m, s);
+    for (ChannelMatrix& m : out.B) m = scaled(m, s);
+    out.contraction = q_plain;
+  }
+  out.spectral_radius = q;
+  out.damping = s;
+  return out;
+}
+
+void reference_reduced_rhs(const Level& level, const ReducedFeedback& op, std::span<const float> b0,
+                           std::span<float> c) {
+  if (op.P.empty()) {
+    std::copy(b0.begin(), b0.end(), c.begin());
+    return;
+  }
+  const std::size_t bsz = 3 * std::size_t(op.kb);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    reference_gemv_channels(op.P[i], b0.data() + bsz * i, c.data() + bsz * i, false);
 }
 
 void reference_apply_reduced_feedback(const Level& level, const LevelDependencies& deps,
@@ -139,18 +240,19 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     float* dst = out.data() + bsz * i;
-    reference_gemv_channels(op.A[i], x.data() + bsz * i, dst, false);
+    if (op.A.empty())
+      std::fill(dst, dst + bsz, 0.0f);
+    else
+      reference_gemv_channels(op.A[i], x.data() + bsz * i, dst, false);
     for (std::uint32_t s : deps.slots_of_block(i))
       reference_gemv_channels(op.B[s], r_scratch.data() + rsz * s, dst, true);
-    if (op.damping != 1.0f)
-      for (std::size_t k = 0; k < bsz; ++k) dst[k] *= op.damping;
   }
 }
 
-ReducedSolver::Step ReducedSolver::step(std::span<const float> b0, std::span<float> x) {
+ReducedSolver::Step ReducedSolver::step(std::span<float> x) {
   Step st;
   for (std::size_t i = 0; i < x.size(); ++i) {
-    const float v = b0[i] + next_[i];
+    const float v = rhs_[i] + next_[i];
     st.change = std::max(st.change, double(std::fabs(v - x[i])));
     st.largest = std::max(st.largest, double(std::fabs(v)));
     x[i] = v;
@@ -178,15 +280,17 @@ Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const D
   if (!op.ok()) return op.status();
   report.spectral_radius = op->spectral_radius;
   report.damping = op->damping;
+  report.contraction = op->contraction;
+  report.block_jacobi = op->block_jacobi;
   if (Status s = level_compute_b(level, dict, ld_direct, b); !s.ok()) return s;  // validates ld_direct
-  const std::vector<float> b0(b.begin(), b.end());
   ReducedSolver solver = ReducedSolver::create(b.size());
+  reference_reduced_rhs(level, op.value(), b, solver.rhs());
   report.solve = solver.solve(
       [&](std::span<const float> x, std::span<float> out) {
         reference_apply_reduced_feedback(level, deps, op.value(), x, r, out);
       },
-      b0, b, op->contraction(), settings.solve);
-  for (std::size_t s = 0; s < level.slots.size(); ++s) level_compute_slot_r(level, deps, b, s, r);
+      b, op->contraction, settings.solve);
+  // r: the last application's (Tb->r of the iterate before b*), as every backend's.
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
     level_compute_tile(level, dict, deps, b, r, i, lightmap);
   return report;

@@ -63,12 +63,13 @@ class ReferenceBackend final : public StagedBackend {
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     if (!warm) std::copy(b_.begin(), b_.end(), x.begin());
+    reference_reduced_rhs(level(), op, b_, solver.rhs());
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {
           reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);
         },
-        b_, x, op.contraction(), settings);
-    std::copy(x.begin(), x.end(), b_.begin());
+        x, op.contraction, settings);
+    std::copy(x.begin(), x.end(), b_.begin());  // r_: the last application's (staged_backend.h)
     return Status::success();
   }
   Status stage_r(const StageWork& work) override {

@@ -48,6 +48,7 @@ StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const S
       dirty_(LevelDirtyTracker::create(level)),
       all_blocks_(level.blocks.size(), 1),
       all_slots_(level.slots.size(), 1),
+      no_slots_(level.slots.size(), 0),
       rho_(sizes_.ld, 0.0f) {}
 
 Status StagedBackend::refused(const std::string& what) const {
@@ -237,14 +238,16 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
     warm_ = false;
     converged_.spectral_radius = reduced_->spectral_radius;
     converged_.damping = reduced_->damping;
+    converged_.contraction = reduced_->contraction;
+    converged_.block_jacobi = reduced_->block_jacobi;
     converged_.build_ns =
         std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start).count());
   }
-  const StageWork all{all_blocks_,       all_slots_,         all_blocks_, all_blocks_.size(),
-                      all_slots_.size(), all_blocks_.size(), true};
+  // Every block's b and tile; r comes from the solve (stage_solve), no slot is computed after it.
+  const StageWork work{all_blocks_, no_slots_, all_blocks_, all_blocks_.size(), 0, all_blocks_.size(), false};
   if (Status s = stage_begin(); !s.ok()) return s;
-  Status s = timed(TimedStage::upload, [&] { return stage_ld(ld_direct, all); });
-  if (s.ok()) s = evaluate(all, false, {}, &settings);
+  Status s = timed(TimedStage::upload, [&] { return stage_ld(ld_direct, work); });
+  if (s.ok()) s = evaluate(work, false, {}, &settings);
   stage_end(s.ok());
   if (timing_) {
     times_ = BackendStageTimes{};
@@ -255,7 +258,7 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
     warm_ = false;
     return s;
   }
-  count(all);
+  count(work);
   updated_ = true;
   return Status::success();
 }

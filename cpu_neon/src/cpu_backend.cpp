@@ -65,10 +65,11 @@ class CpuBackend final : public StagedBackend {
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     const std::span<const float> b0 = rt_.b();
     if (!warm) std::copy(b0.begin(), b0.end(), x.begin());
+    rt_.reduced_rhs(op, solver.rhs());
     report = solver.solve(
-        [&](std::span<const float> in, std::span<float> out) { rt_.apply_reduced_feedback(op, in, out); }, b0,
-        x, op.contraction(), settings);
-    rt_.set_b(x);
+        [&](std::span<const float> in, std::span<float> out) { rt_.apply_reduced_feedback(op, in, out); }, x,
+        op.contraction, settings);
+    rt_.finish_reduced_solve(x);
     return Status::success();
   }
   Status stage_r(const StageWork&) override { return Status::success(); }  // in stage_tiles

@@ -262,7 +262,6 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.r_.assign(rt.sizes_.r, 0.0f);
   rt.r_planar_.assign(rt.sizes_.r, 0.0f);
   rt.x_planar_.assign(rt.sizes_.b, 0.0f);
-  rt.r_solve_.assign(rt.sizes_.r, 0.0f);
   rt.ld_planar_.assign(3 * rt.max_block_samples_ * std::size_t(options.threads), 0.0f);
   rt.rho_.assign(rt.sizes_.ld, 0.0f);
   rt.ld_feedback_.assign(rt.sizes_.ld, 0.0f);
@@ -699,7 +698,7 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
   };
   parallel_for(level.blocks.size(), planar_phase);
   auto r_phase = [&](std::size_t s, int) {
-    float* r = r_solve_.data() + 3 * kr * s;
+    float* r = r_.data() + 3 * kr * s;
     std::fill(r, r + 3 * kr, 0.0f);
     for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
       const std::size_t rec = slot_records_[q];
@@ -709,22 +708,37 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
   parallel_for(level.slots.size(), r_phase);
   auto b_phase = [&](std::size_t i, int) {
     float* dst = out.data() + 3 * kb * i;
-    gemv_channels(isa_, op.A[i].data.data(), kb, kb, x.data() + 3 * kb * i, dst, false);
+    if (op.A.empty())
+      std::fill(dst, dst + 3 * kb, 0.0f);
+    else
+      gemv_channels(isa_, op.A[i].data.data(), kb, kb, x.data() + 3 * kb * i, dst, false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j];
-      gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_solve_.data() + 3 * kr * s, dst, true);
+      gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_.data() + 3 * kr * s, dst, true);
     }
-    if (op.damping != 1.0f)
-      for (std::size_t k = 0; k < 3 * kb; ++k) dst[k] *= op.damping;
   };
   parallel_for(level.blocks.size(), b_phase);
 }
 
-void CpuLevelRuntime::set_b(std::span<const float> b_new) {
-  std::copy(b_new.begin(), b_new.end(), b_.begin());
+void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<float> c) {
+  if (op.P.empty()) {
+    std::copy(b_.begin(), b_.end(), c.begin());
+    return;
+  }
   const std::size_t kb = level_->kb;
+  auto rhs_phase = [&](std::size_t i, int) {
+    gemv_channels(isa_, op.P[i].data.data(), kb, kb, b_.data() + 3 * kb * i, c.data() + 3 * kb * i, false);
+  };
+  parallel_for(level_->blocks.size(), rhs_phase);
+}
+
+void CpuLevelRuntime::finish_reduced_solve(std::span<const float> b_new) {
+  std::copy(b_new.begin(), b_new.end(), b_.begin());
+  const std::size_t kb = level_->kb, kr = level_->kr;
   for (std::size_t i = 0; i < level_->blocks.size(); ++i)
     deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
+  for (std::size_t s = 0; s < level_->slots.size(); ++s)
+    deinterleave_rgb(r_.data() + 3 * kr * s, kr, r_planar_.data() + 3 * kr * s, kr);
 }
 
 void CpuLevelRuntime::compute_probes(std::span<const std::uint8_t> blocks, std::span<float> probes) {

@@ -68,8 +68,10 @@ struct BackendEvaluationStats {
 // The converged multi-bounce of a backend (update_converged, reduced_feedback.h).
 struct ConvergedStats {
   ReducedSolveReport last;       // the last converged update's solve
-  double spectral_radius = 0.0;  // of the reduced operators in use (before damping)
+  double spectral_radius = 0.0;  // of M (before damping), reduced_feedback.h
   float damping = 1.0f;
+  double contraction = 0.0;  // of the iteration in use
+  bool block_jacobi = true;
   std::uint64_t build_ns = 0;                // the last build of the reduced operators
   std::uint64_t solves = 0, iterations = 0;  // converged updates, and their applications of M
 };

@@ -165,9 +165,12 @@ class StagedBackend : public Backend {
   // The clamped albedo (3 x samples) the feedback multiplies by.
   virtual Status stage_albedo(std::span<const float> rho) = 0;
   // The converged solve (update_converged), after the b stage wrote b0 = Td_b ld_direct: with
-  // `warm` x holds the last solve's b* (else the backend starts from x = b0); the backend runs
-  // solver.solve with its application of op (out = s M x), and on return its b and x hold b*.
-  // Default: refused (a backend without a reduced solve).
+  // `warm` x holds the last solve's b* (else the backend starts from x = b0); the backend writes
+  // c = P b0 into solver.rhs() and runs solver.solve with its application of op (out = G x); on
+  // return its b and x hold b*, and its r is the r of the last application (r = Tb->r of the
+  // iterate before b*, within the solve's tolerance of Tb->r b*): the r stage that follows has no
+  // slot to compute and the tiles, probes and vector irradiance read that r. Default: refused (a
+  // backend without a reduced solve).
   virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                              const ReducedSolveSettings& settings, ReducedSolveReport& report);
   virtual Status stage_b(const StageWork& work) = 0;
@@ -227,8 +230,8 @@ class StagedBackend : public Backend {
   LevelBufferSizes sizes_;
   bool has_probes_ = false;
   LevelDirtyTracker dirty_;
-  std::vector<std::uint8_t> all_blocks_, all_slots_;  // every flag 1
-  std::vector<float> rho_;                            // the clamped albedo, for stage_albedo
+  std::vector<std::uint8_t> all_blocks_, all_slots_, no_slots_;  // every flag 1; every slot flag 0
+  std::vector<float> rho_;                                       // the clamped albedo, for stage_albedo
   float rho_max_ = 0.0f;
   bool has_albedo_ = false, updated_ = false, timing_ = false;
   const DrtOperators* drt_ = nullptr;

@@ -229,14 +229,17 @@ class CpuLevelRuntime {
   const CpuSkipOptions& skip_options() const { return skip_; }
   const CpuSkipStats& skip_stats() const { return stats_; }
 
-  // The converged solve (core's reduced_feedback.h), the twin of reference_apply_reduced_feedback:
-  // out = s (A_i x_i + sum of B_s r_s over the slots entering block i), r = Tb->r x through this
-  // runtime's record operators (float or float16), threaded over slots, then blocks. x and out:
-  // sizes().b floats. Nothing is allocated.
+  // The converged solve (core's reduced_feedback.h), twins of reference_reduced_rhs (c = P b of
+  // the last compute_b, threaded over blocks) and reference_apply_reduced_feedback (out = A_i x_i
+  // + sum of B_s r_s over the slots entering block i, r = Tb->r x through this runtime's record
+  // operators, float or float16; threaded over slots, then blocks). c, x and out: sizes().b
+  // floats; r is this runtime's r. Nothing is allocated.
+  void reduced_rhs(const ReducedFeedback& op, std::span<float> c);
   void apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
-  // b = b_new (sizes().b floats): the solve's b* becomes the b that compute_r_and_tiles,
-  // compute_probes and compute_vector_irradiance read.
-  void set_b(std::span<const float> b_new);
+  // After the solve: b = b_new (sizes().b floats, the solve's b*) and r the last application's,
+  // the b and r that compute_r_and_tiles (with no slot flagged), compute_probes and
+  // compute_vector_irradiance read.
+  void finish_reduced_solve(std::span<const float> b_new);
 
   // b and r of the last evaluate() (interleaved, level_runtime.h layouts).
   std::span<const float> b() const { return b_; }
@@ -291,7 +294,7 @@ class CpuLevelRuntime {
   LevelBufferSizes sizes_;
   std::size_t max_block_samples_ = 0;
   std::vector<float> b_, b_planar_, r_, r_planar_, ld_planar_;
-  std::vector<float> x_planar_, r_solve_;  // apply_reduced_feedback's planar x and its r
+  std::vector<float> x_planar_;  // apply_reduced_feedback's planar x
   std::vector<float> rho_, ld_feedback_;
   // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
