@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   std::string direct_name = "gpu", backend_name = "gles", platform_name = "auto", size = "960x540",
               out_dir = "out/demo", output = "combined";
   std::string scene_file, dictionary_path;
-  int frames = 48, modes = 32, res = 16, bounces = 2, every = 1;
+  int frames = 48, modes = 32, res = 16, bounces = kDemoConverged, every = 1;
   float exposure = 1.0f;
   bool exr = true, drt = true;
   app.add_option("--backend", backend_name, "Indirect light on the GPU (gles) or the SIMD CPU runtime (cpu)")
@@ -74,8 +74,10 @@ int main(int argc, char** argv) {
   app.add_option("--res", res, "Lightmap texels per proxy face edge")
       ->check(CLI::Range(2, 64))
       ->capture_default_str();
-  app.add_option("--bounces", bounces, "Extra indirect bounces (multi-bounce feedback steps) per frame")
-      ->check(CLI::Range(0, 16))
+  app.add_option("--bounces", bounces,
+                 "Multi-bounce: N >= 0 feedback steps per frame (exactly N extra bounces); -1: the converged "
+                 "multi-bounce where the backend has it (cpu without clutter), else 2 steps (6 on frame 0)")
+      ->check(CLI::Range(-1, 16))
       ->capture_default_str();
   app.add_option("--exposure", exposure, "Exposure before tone mapping (multiplies the linear image)")
       ->check(FiniteRange(1e-6, 1e6))
@@ -267,8 +269,12 @@ int main(int argc, char** argv) {
               : gles_backend                    ? "GL pass, stays on the GPU"
                                                 : "GL pass + readback",
               total.direct / n);
-  std::printf("  indirect (%s backend: update + %d feedback steps%s) %8.3f\n", gles_backend ? "gles" : "cpu",
-              bounces, gles_backend ? "" : ", atlas upload", total.indirect / n);
+  const std::string steps =
+      run.value()->converged()
+          ? std::string("converged solve")
+          : "update + " + std::to_string(run.value()->frame_steps(1)) + " feedback steps";
+  std::printf("  indirect (%s backend: %s%s) %8.3f\n", gles_backend ? "gles" : "cpu", steps.c_str(),
+              gles_backend ? "" : ", atlas upload", total.indirect / n);
   if (gles_backend)
     std::printf(
         "    first update's passes: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",

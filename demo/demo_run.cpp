@@ -41,6 +41,12 @@ glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
 
 DemoRun::~DemoRun() = default;
 
+std::uint32_t DemoRun::frame_steps(int frame) const {
+  if (converged_) return kConvergedBounces;
+  if (bounces_option_ >= 0) return std::uint32_t(bounces_option_);
+  return std::uint32_t(frame == 0 ? 3 * kDemoFallbackSteps : kDemoFallbackSteps);
+}
+
 Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const Dictionary& dict,
                                                  platform::GlContext& context,
                                                  const DemoRunOptions& options) {
@@ -85,7 +91,7 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   if (!be.ok()) return be.status();
   run->backend_ = std::move(be).value();
   FrameOptions frame;
-  frame.bounces = std::uint32_t(std::clamp(options.bounces, 0, int(kMaxFrameBounces) / 3));
+  run->bounces_option_ = std::clamp(options.bounces, kDemoConverged, int(kMaxFrameBounces) / 3);
   Result<FramePipeline> pipeline = FramePipeline::create(*run->backend_, frame);
   if (!pipeline.ok()) return pipeline.status();
   run->pipeline_.emplace(std::move(pipeline).value());
@@ -155,6 +161,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
         !s.ok())
       return s;
   }
+  // After the clutter: with clutter the converged solve is not available yet (Backend).
+  run->converged_ = run->bounces_option_ == kDemoConverged && run->backend_->converged_available();
   return run;
 }
 
@@ -255,8 +263,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   times_.direct += ms_since(t);
   // Indirect: one update, then feedback steps (frame 0 converges further).
   t = Clock::now();
-  const std::uint32_t bounces = pipeline_->options().bounces;
-  const std::uint32_t steps = frame == 0 ? 3 * bounces : bounces;
+  const std::uint32_t steps = frame_steps(frame);
   if (s.ok())
     s = ld_on_gpu ? pipeline_->run_from_texture(gpu_direct_->ld_texture(), steps)
                   : pipeline_->run(ld_, steps);

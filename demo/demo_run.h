@@ -30,13 +30,20 @@ enum class DemoBackend { gles, cpu };
 // from the proxy walls only; no GPU needed for the lightmaps).
 enum class DemoDirect { gpu, cpu };
 
+inline constexpr int kDemoConverged = -1;
+inline constexpr int kDemoFallbackSteps = 2;
+
 struct DemoRunOptions {
   DemoBackend backend = DemoBackend::gles;
   DemoDirect direct = DemoDirect::gpu;
   RendererOptions renderer;
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
-  int bounces = 2;  // multi-bounce feedback steps per frame (three times as many on frame 0)
+  // Multi-bounce: kDemoConverged (the default) is the converged multi-bounce every frame where
+  // the backend has it (Backend::converged_available: the CPU backend without clutter), else
+  // kDemoFallbackSteps feedback steps per frame (three times as many on frame 0); N >= 0 is
+  // exactly N feedback steps every frame.
+  int bounces = -1;
   // DRT for the scene's clutter (docs/drt.md): operators built at create(). The clutter
   // meshes need it (they are lit by the clutter lightmap); a caller that turns it off must
   // pass a scene whose clutter is ordinary geometry (demo_main's --no-drt does that).
@@ -78,6 +85,10 @@ class DemoRun {
   Status render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);
 
   const Level& level() const { return level_; }
+  // What each frame's indirect light runs: the converged solve, or this many feedback steps
+  // after frame 0 (frame_steps(0) on frame 0).
+  bool converged() const { return converged_; }
+  std::uint32_t frame_steps(int frame) const;
   const Backend& backend() const { return *backend_; }
   Backend& backend() { return *backend_; }
   const StageTimes& times() const { return times_; }
@@ -119,6 +130,8 @@ class DemoRun {
   DrtStartup drt_startup_;
   std::unique_ptr<Backend> backend_;
   std::optional<FramePipeline> pipeline_;              // the frame sequence over backend_
+  int bounces_option_ = kDemoConverged;                // DemoRunOptions::bounces
+  bool converged_ = false;                             // the converged solve every frame
   std::unique_ptr<cpu::CpuDirectLight> cpu_direct_;    // DemoDirect::cpu
   std::unique_ptr<gles::GlesDirectLight> gpu_direct_;  // DemoDirect::gpu
   std::vector<float> ld_, atlas_, probes_, vector_lightmap_, coefficient_;

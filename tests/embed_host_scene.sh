@@ -9,9 +9,9 @@
 # frame 0 of data/scenes/host_room.gltf (which also writes the DRT operators it built,
 # --save-clutter), then modrt-embed-host's frame 0 of the same scene from those files. The two
 # images must agree as the demo's golden image does (delta E mean <= 1, p99 <= 8), and the
-# host's frame 12 (its light has moved) must not, so that the comparison can fail. modrt-demo's
-# frame 0 runs 3 x --bounces feedback steps (docs/demo.md): the host gets --bounces 3 against
-# the demo's 1. Exit 77 (skipped) where no EGL display exists.
+# host's frame 12 (its light has moved) must not, so that the comparison can fail. Both run
+# --bounces 3: exactly three feedback steps every frame (docs/demo.md). Exit 77 (skipped) where
+# no EGL display exists.
 set -euo pipefail
 work=$1 bake=$2 level=$3 demo=$4 host=$5 compare=$6 scenes=$7 tiny_dict=$8 tiny_level=$9
 size_w=320 size_h=180
@@ -35,7 +35,7 @@ fi
 "$level" --level "$scenes/host_room.level.json" --dictionary dict.modrt --save host_room.modrtlevel \
   --out level_out >level.log
 "$demo" --scene "$scenes/host_room.gltf" --dictionary dict.modrt --size ${size_w}x${size_h} --frames 1 \
-  --bounces 1 --drt-rays 64 --save-clutter host_room.modrtdrt --no-exr --out demo >demo.log 2>&1 ||
+  --bounces 3 --drt-rays 64 --save-clutter host_room.modrtdrt --no-exr --out demo >demo.log 2>&1 ||
   { cat demo.log; exit 1; }
 "$host" --scene "$scenes/host_room.gltf" --dictionary dict.modrt --level host_room.modrtlevel \
   --clutter host_room.modrtdrt --out host --frames 13 --width $size_w --height $size_h --bounces 3 >host.log 2>&1 ||

@@ -48,6 +48,7 @@
 #include "modrt/modrt.hpp"
 #include "modrt/platform/gl_context.h"
 #include "modrt/probe_sampler.h"
+#include "modrt/reduced_feedback.h"
 #include "modrt/reference_runtime.h"
 #include "modrt/sh.h"
 #include "test_support.h"
@@ -858,6 +859,72 @@ void expect_bounces_match(modrt_backend backend, double tolerance) {
 }
 
 TEST(CApi, BouncesAreTheFeedbackSteps) { expect_bounces_match(MODRT_BACKEND_CPU, 1e-5); }
+
+// MODRT_BOUNCES_CONVERGED: a CPU context's update is core's level_converged_bounce at the
+// default tolerance 1e-3 (within 2e-3 rel L2, the lightmap brighter than three feedback steps'),
+// a repeated update is skipped bit for bit, and set_bounces switches to and from it without
+// recreating the context. A GLES context refuses it by name, at creation and in set_bounces.
+TEST(CApi, ConvergedBouncesAreCoresConvergedSolve) {
+  static_assert(MODRT_BOUNCES_CONVERGED == kConvergedBounces);
+  const test::TestLevel& t = test_level("maze11");
+  const std::vector<float> albedo = level_sample_albedo(t.level);
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.bounces = MODRT_BOUNCES_CONVERGED;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  const std::vector<float> lightmap = read_lightmap(c);
+  const LevelBufferSizes sz = level_buffer_sizes(t.level, small_test_dictionary());
+  std::vector<float> b(sz.b), r(sz.r), ref(sz.lightmap);
+  ASSERT_TRUE(level_converged_bounce(t.level, small_test_dictionary(), t.ld, albedo, {}, b, r, ref).ok());
+  EXPECT_LT(rel_l2(lightmap, ref), 2e-3);
+  uint32_t got = 0;
+  ASSERT_EQ(modrt_context_get_bounces(c, &got), MODRT_OK);
+  EXPECT_EQ(got, MODRT_BOUNCES_CONVERGED);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  EXPECT_EQ(read_lightmap(c), lightmap);  // skipped: the same ld and albedo
+  ASSERT_EQ(modrt_context_set_bounces(c, 3), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  const std::vector<float> three = read_lightmap(c);
+  double sum = 0.0, sum3 = 0.0;
+  for (std::size_t i = 0; i < three.size(); ++i) sum += lightmap[i], sum3 += three[i];
+  EXPECT_GT(sum, sum3);
+  ASSERT_EQ(modrt_context_set_bounces(c, MODRT_BOUNCES_CONVERGED), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK);
+  EXPECT_LT(rel_l2(read_lightmap(c), ref), 2e-3);
+  expect_error(modrt_context_set_bounces(c, 65), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_bounces", "65"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApiGles, ConvergedBouncesAreRefusedByName) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  o.bounces = MODRT_BOUNCES_CONVERGED;
+  modrt_context* c = nullptr;
+  expect_error(modrt_context_create(d, l, &o, nullptr, &c), MODRT_ERROR_UNSUPPORTED,
+               {"options.bounces", "converged"});
+  o.bounces = 2;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  expect_error(modrt_context_set_bounces(c, MODRT_BOUNCES_CONVERGED), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_context_set_bounces", "converged"});
+  uint32_t got = 0;
+  ASSERT_EQ(modrt_context_get_bounces(c, &got), MODRT_OK);
+  EXPECT_EQ(got, 2u);
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
 
 TEST(CApiGles, BouncesAreTheFeedbackSteps) {
   MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);

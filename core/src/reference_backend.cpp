@@ -60,6 +60,7 @@ class ReferenceBackend final : public StagedBackend {
       if (work.blocks[i]) level_compute_block_b(level(), dict(), ld_, i, b_);
     return Status::success();
   }
+  bool stage_solve_available() const override { return true; }
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     if (!warm) std::copy(b_.begin(), b_.end(), x.begin());

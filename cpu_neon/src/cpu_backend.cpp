@@ -61,6 +61,7 @@ class CpuBackend final : public StagedBackend {
     return Status::success();
   }
   // The converged solve on this runtime's kernels and threads; b* becomes the runtime's b.
+  bool stage_solve_available() const override { return true; }
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     const std::span<const float> b0 = rt_.b();

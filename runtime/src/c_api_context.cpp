@@ -214,6 +214,10 @@ modrt_status create_backend(modrt_context* c) {
   if (!backend.ok()) return backend_fail(c, fn, backend.status());
   c->backend = std::move(backend).value();
   c->description = c->backend->description();
+  if (o.bounces == MODRT_BOUNCES_CONVERGED && !c->backend->converged_available())
+    return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": options.bounces MODRT_BOUNCES_CONVERGED: the " +
+                                             c->description +
+                                             " backend has no converged solve (CPU contexts have it)");
   FrameOptions frame;
   frame.bounces = o.bounces;
   frame.skip_unchanged = o.skip_unchanged != 0;
@@ -347,10 +351,10 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     if (o.max_lights < 1 || o.max_lights > 4096)
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_lights " +
                                                     std::to_string(o.max_lights) + " is not in 1..4096");
-    if (o.bounces > kMaxFrameBounces)
-      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.bounces " +
-                                                    std::to_string(o.bounces) + " is not in 0.." +
-                                                    std::to_string(kMaxFrameBounces));
+    if (o.bounces > kMaxFrameBounces && o.bounces != MODRT_BOUNCES_CONVERGED)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                  std::string(fn) + ": options.bounces " + std::to_string(o.bounces) + " is not in 0.." +
+                      std::to_string(kMaxFrameBounces) + " nor MODRT_BOUNCES_CONVERGED");
     if (!check_max_albedo(o.max_albedo, fn).ok())
       return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": options.max_albedo " +
                                                     std::to_string(o.max_albedo) + " is not in [0, 1)");
@@ -683,12 +687,16 @@ modrt_status modrt_context_update(modrt_context* context) {
 modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces) {
   constexpr const char* fn = "modrt_context_set_bounces";
   if (!context) return null_arg(fn, "context");
-  if (bounces > kMaxFrameBounces) {
+  if (bounces > kMaxFrameBounces && bounces != MODRT_BOUNCES_CONVERGED) {
     char text[160];
-    std::snprintf(text, sizeof text, "%s: bounces %u is not in 0..%u", fn, unsigned(bounces),
-                  unsigned(kMaxFrameBounces));
+    std::snprintf(text, sizeof text, "%s: bounces %u is not in 0..%u nor MODRT_BOUNCES_CONVERGED", fn,
+                  unsigned(bounces), unsigned(kMaxFrameBounces));
     return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
   }
+  if (bounces == MODRT_BOUNCES_CONVERGED && !context->backend->converged_available())
+    return fail(MODRT_ERROR_UNSUPPORTED,
+                std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " + context->description +
+                    " backend has no converged solve now (CPU contexts without clutter have it)");
   context->options.bounces = bounces;
   return MODRT_OK;
 }

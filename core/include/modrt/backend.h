@@ -118,6 +118,8 @@ class Backend {
                                                           ": no converged solve: use multi_bounce_step()");
   }
   virtual ConvergedStats converged_stats() const { return {}; }
+  // Whether update_converged can run now (a backend with a reduced solve and no clutter set).
+  virtual bool converged_available() const { return false; }
 
   // Copies of the last update's results (sizes().lightmap, .atlas, .probes floats, RGB
   // interleaved). read_probes fails when the level or backend has no probes.

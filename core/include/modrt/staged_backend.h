@@ -115,6 +115,7 @@ class StagedBackend : public Backend {
   Status multi_bounce_step_from_texture(std::uint32_t ld_texture) final;
   Status update_converged(std::span<const float> ld_direct, const ReducedSolveSettings& settings = {}) final;
   ConvergedStats converged_stats() const final { return converged_; }
+  bool converged_available() const final { return stage_solve_available() && !drt_; }
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
@@ -173,6 +174,7 @@ class StagedBackend : public Backend {
   // backend without a reduced solve).
   virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                              const ReducedSolveSettings& settings, ReducedSolveReport& report);
+  virtual bool stage_solve_available() const { return false; }  // true where stage_solve is implemented
   virtual Status stage_b(const StageWork& work) = 0;
   virtual Status stage_r(const StageWork& work) = 0;
   virtual Status stage_tiles(const StageWork& work) = 0;

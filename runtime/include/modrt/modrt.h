@@ -212,7 +212,8 @@ typedef struct modrt_context_options {
    * context's albedo (the level's, or set_albedo's) clamped to max_albedo, which is in [0, 1):
    * the bound max(ld) / (1 - max rho) holds every bounce sum, so no lightmap value grows past
    * it (feedback_policy.h). With skip_unchanged, an update whose ld and albedo are those of the
-   * last update runs nothing (frames_skipped). modrt_context_set_bounces changes it later. */
+   * last update runs nothing (frames_skipped). modrt_context_set_bounces changes it later.
+   * MODRT_BOUNCES_CONVERGED: the converged multi-bounce every update instead. */
   uint32_t bounces;
   float max_albedo;
   /* Since 0.3. Nonzero: every update also evaluates vector irradiance (MRT §6.4: four OHLSH
@@ -337,7 +338,15 @@ MODRT_API modrt_status modrt_context_read_ld(const modrt_context* context, float
  * before it. */
 MODRT_API modrt_status modrt_context_update(modrt_context* context);
 
-/* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64), as
+/* Since 0.4. The `bounces` value of the converged multi-bounce (docs/cpu.md "Converged
+ * multi-bounce"): every update solves the bounce series to a relative tolerance of 1e-3 in the
+ * reduced space (b, r), warm-started from the last update's solution, then writes the lightmap,
+ * atlas, probes and vector irradiance once. CPU contexts without clutter; a GLES context, or
+ * one with clutter set, refuses it (MODRT_ERROR_UNSUPPORTED naming the reason). */
+#define MODRT_BOUNCES_CONVERGED 0xffffffffu
+
+/* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64, or
+ * MODRT_BOUNCES_CONVERGED), as
  * options.bounces gives them at creation, changed without recreating the context (nothing is
  * allocated): e.g. more bounces while the light stands still, fewer while it moves. The next
  * update runs the single-bounce evaluation and then `bounces` feedback steps; with
