@@ -249,6 +249,13 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
 }
 
+void ReducedSolver::extrapolate(std::span<float> x, bool warm) {
+  if (warm && has_last_)
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] += rhs_[i] - rhs_last_[i];
+  std::copy(rhs_.begin(), rhs_.end(), rhs_last_.begin());
+  has_last_ = true;
+}
+
 ReducedSolver::Step ReducedSolver::step(std::span<float> x) {
   Step st;
   for (std::size_t i = 0; i < x.size(); ++i) {

@@ -69,7 +69,7 @@ class ReferenceBackend final : public StagedBackend {
         [&](std::span<const float> in, std::span<float> out) {
           reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);
         },
-        x, op.contraction, settings);
+        x, op.contraction, settings, warm);
     std::copy(x.begin(), x.end(), b_.begin());  // r_: the last application's (staged_backend.h)
     return Status::success();
   }

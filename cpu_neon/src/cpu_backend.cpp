@@ -69,7 +69,7 @@ class CpuBackend final : public StagedBackend {
     rt_.reduced_rhs(op, solver.rhs());
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) { rt_.apply_reduced_feedback(op, in, out); }, x,
-        op.contraction, settings);
+        op.contraction, settings, warm);
     rt_.finish_reduced_solve(x);
     return Status::success();
   }

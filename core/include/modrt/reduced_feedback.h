@@ -111,16 +111,20 @@ class ReducedSolver {
     ReducedSolver s;
     s.next_.assign(unknowns, 0.0f);
     s.rhs_.assign(unknowns, 0.0f);
+    s.rhs_last_.assign(unknowns, 0.0f);
     return s;
   }
   std::size_t unknowns() const { return next_.size(); }
   std::span<float> rhs() { return rhs_; }
 
-  // Iterates x <- rhs() + G x.
+  // Iterates x <- rhs() + G x. With `warm` (x is the last solve's solution for the last rhs),
+  // x first moves by the change of rhs since that solve: the new solution is x + (I - G)^-1
+  // (rhs - rhs_last), and its first term costs no application of G.
   template <class Apply>
   ReducedSolveReport solve(Apply&& apply, std::span<float> x, double contraction,
-                           const ReducedSolveSettings& settings) {
+                           const ReducedSolveSettings& settings, bool warm = false) {
     ReducedSolveReport report;
+    extrapolate(x, warm);
     const double q = contraction < 1e-12 ? 1e-12 : contraction;
     const double tail = q / (1.0 - q);  // remaining error per unit of step (geometric tail)
     for (int it = 1; it <= settings.max_iterations; ++it) {
@@ -143,7 +147,10 @@ class ReducedSolver {
   };
   // x <- rhs + next (next = G x), the largest change and value.
   Step step(std::span<float> x);
-  std::vector<float> next_, rhs_;
+  // With warm and a last rhs: x += rhs - rhs_last. Then rhs_last = rhs.
+  void extrapolate(std::span<float> x, bool warm);
+  std::vector<float> next_, rhs_, rhs_last_;
+  bool has_last_ = false;
 };
 
 struct ConvergedBounceSettings {
