@@ -2,9 +2,11 @@
 #include "modrt/reduced_feedback.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
+#include "modrt/cube.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level_runtime.h"
 #include "modrt/reference_runtime.h"
@@ -39,6 +41,49 @@ void accumulate_weighted_product(const Matrix& left, std::span<const float> rho_
   }
 }
 
+// The albedo of the samples [first, first + count) of a block when all of them have the same
+// one (per channel): the usual case, a level's albedo is per face (level_sample_albedo).
+bool constant_albedo(std::span<const float> rho_block, std::size_t first, std::size_t count, float out[3]) {
+  for (int c = 0; c < 3; ++c) out[c] = rho_block[3 * first + std::size_t(c)];
+  for (std::size_t s = first; s < first + count; ++s)
+    for (int c = 0; c < 3; ++c)
+      if (rho_block[3 * s + std::size_t(c)] != out[c]) return false;
+  return true;
+}
+
+// The products a block's A and B are sums of when its albedo is constant per face, computed
+// once per shape (and per shape and entry face), single-channel, in double:
+//   face[f] = Td_b[:, samples of f] Ub[samples of f, :]   (kb x kb)
+//   entry   = Td_b[:, mapped samples] Ur                  (kb x kr, one slot's row map; kept
+//                                                         with 3 equal channels, read as one)
+// so that A = sum_f rho_f face[f] and B = rho_entry entry cost O(kb^2) per block and slot.
+struct ShapeFaceProducts {
+  bool ready = false;
+  std::array<std::vector<double>, kFaceCount> face;
+};
+struct EntryProduct {
+  int shape = -1, entry_face = -1;
+  const std::vector<std::int32_t>* map = nullptr;  // the row map it was computed for
+  std::vector<double> product;
+};
+
+void face_products(const ShapeOperators& shape, const SampleLayout& layout, ShapeFaceProducts& out) {
+  const std::uint32_t kb = shape.Td_b.rows, per_face = std::uint32_t(layout.texels_per_face());
+  for (int f = 0; f < kFaceCount; ++f) {
+    if (layout.slot[std::size_t(f)] < 0) continue;
+    std::vector<double>& g = out.face[std::size_t(f)];
+    g.assign(std::size_t(kb) * kb, 0.0);
+    const std::uint32_t first = std::uint32_t(layout.slot[std::size_t(f)]) * per_face;
+    for (std::uint32_t k = 0; k < kb; ++k)
+      for (std::uint32_t m = first; m < first + per_face; ++m) {
+        const double t = shape.Td_b(k, m);
+        const float* row = shape.Ub.data.data() + std::size_t(m) * kb;
+        for (std::uint32_t j = 0; j < kb; ++j) g[std::size_t(k) * kb + j] += t * row[j];
+      }
+  }
+  out.ready = true;
+}
+
 ChannelMatrix to_channel_matrix(std::uint32_t rows, std::uint32_t cols, const std::vector<double>& acc) {
   ChannelMatrix m{rows, cols, std::vector<float>(acc.size())};
   for (std::size_t i = 0; i < acc.size(); ++i) m.data[i] = float(acc[i]);
@@ -63,7 +108,7 @@ double estimate_spectral_radius(std::size_t n, Apply&& apply) {
     seed = seed * 1664525u + 1013904223u;
     v = 0.5f + float(seed >> 8) / float(1u << 24);
   }
-  constexpr int kWarmup = 40, kMeasured = 24;
+  constexpr int kWarmup = 16, kMeasured = 8;
   double log_growth[3] = {0.0, 0.0, 0.0};
   for (int it = 0; it < kWarmup + kMeasured; ++it) {
     apply(x, y);
@@ -146,7 +191,8 @@ void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out
 }
 
 Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
-                                               const LevelDependencies& deps, std::span<const float> rho) {
+                                               const LevelDependencies& deps, std::span<const float> rho,
+                                               const ReducedApply& apply) {
   if (rho.size() != 3 * std::size_t(level.sample_count))
     return Status::error(ErrorCode::invalid_argument,
                          "reduced feedback: albedo has " + std::to_string(rho.size()) + " floats, expected " +
@@ -156,28 +202,85 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
   plain.kb = level.kb, plain.kr = level.kr, plain.block_jacobi = false;
   plain.A.reserve(level.blocks.size());
   std::vector<double> acc;
+  std::vector<ShapeFaceProducts> shape_products(dict.shapes.size());
+  const std::size_t kb2 = std::size_t(plain.kb) * plain.kb;
   for (const LevelBlock& blk : level.blocks) {
     const ShapeOperators& shape = dict.shapes[std::size_t(blk.shape)];
-    acc.assign(3 * std::size_t(plain.kb) * plain.kb, 0.0);
-    accumulate_weighted_product(shape.Td_b, rho.subspan(3 * std::size_t(blk.sample_offset)), shape.Ub,
-                                nullptr, acc);
+    const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(blk.shape), level.res);
+    const std::size_t per_face = std::size_t(layout.texels_per_face());
+    float face_rho[kFaceCount][3] = {};
+    bool per_face_constant = true;
+    for (int f = 0; f < kFaceCount && per_face_constant; ++f)
+      if (layout.slot[std::size_t(f)] >= 0)
+        per_face_constant = constant_albedo(rho_block, std::size_t(layout.slot[std::size_t(f)]) * per_face,
+                                            per_face, face_rho[f]);
+    acc.assign(3 * kb2, 0.0);
+    if (per_face_constant) {  // A = sum_f rho_f face[f]
+      ShapeFaceProducts& fp = shape_products[std::size_t(blk.shape)];
+      if (!fp.ready) face_products(shape, layout, fp);
+      for (int f = 0; f < kFaceCount; ++f) {
+        if (layout.slot[std::size_t(f)] < 0) continue;
+        const std::vector<double>& g = fp.face[std::size_t(f)];
+        for (std::size_t e = 0; e < kb2; ++e)
+          for (int c = 0; c < 3; ++c) acc[3 * e + std::size_t(c)] += double(face_rho[f][c]) * g[e];
+      }
+    } else {
+      accumulate_weighted_product(shape.Td_b, rho_block, shape.Ub, nullptr, acc);
+    }
     plain.A.push_back(to_channel_matrix(plain.kb, plain.kb, acc));
   }
   plain.B.reserve(level.slots.size());
   const Matrix& Ur = dict.interfaces.Ur;
+  std::vector<EntryProduct> entry_products;
+  const std::size_t kbr = std::size_t(plain.kb) * plain.kr;
+  std::vector<float> ones;
   for (const ResponseSlot& slot : level.slots) {
     const LevelBlock& blk = level.blocks[slot.block];
-    acc.assign(3 * std::size_t(plain.kb) * plain.kr, 0.0);
-    accumulate_weighted_product(dict.shapes[std::size_t(blk.shape)].Td_b,
-                                rho.subspan(3 * std::size_t(blk.sample_offset)), Ur,
-                                slot.ur_row_to_sample.data(), acc);
+    const Matrix& Td = dict.shapes[std::size_t(blk.shape)].Td_b;
+    const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
+    // The mapped samples all lie on the entry face: one albedo when that face's is constant.
+    float entry_rho[3] = {0.0f, 0.0f, 0.0f};
+    bool constant = true, first = true;
+    for (std::int32_t sample : slot.ur_row_to_sample) {
+      if (sample < 0) continue;
+      float v[3];
+      constant_albedo(rho_block, std::size_t(sample), 1, v);
+      if (first) {
+        std::copy(v, v + 3, entry_rho), first = false;
+      } else if (v[0] != entry_rho[0] || v[1] != entry_rho[1] || v[2] != entry_rho[2]) {
+        constant = false;
+        break;
+      }
+    }
+    acc.assign(3 * kbr, 0.0);
+    if (constant) {  // B = rho_entry entry
+      EntryProduct* ep = nullptr;
+      for (EntryProduct& e : entry_products)
+        if (e.shape == blk.shape && e.entry_face == slot.entry_face && *e.map == slot.ur_row_to_sample)
+          ep = &e;
+      if (!ep) {
+        EntryProduct e{blk.shape, slot.entry_face, &slot.ur_row_to_sample, std::vector<double>(3 * kbr, 0.0)};
+        ones.assign(3 * std::size_t(blk.sample_count), 1.0f);
+        accumulate_weighted_product(Td, ones, Ur, slot.ur_row_to_sample.data(), e.product);
+        entry_products.push_back(std::move(e));
+        ep = &entry_products.back();
+      }
+      for (std::size_t e = 0; e < kbr; ++e)
+        for (int c = 0; c < 3; ++c) acc[3 * e + std::size_t(c)] = double(entry_rho[c]) * ep->product[3 * e];
+    } else {
+      accumulate_weighted_product(Td, rho_block, Ur, slot.ur_row_to_sample.data(), acc);
+    }
     plain.B.push_back(to_channel_matrix(plain.kb, plain.kr, acc));
   }
   const std::size_t n = 3 * std::size_t(plain.kb) * level.blocks.size();
   std::vector<float> r(3 * std::size_t(plain.kr) * level.slots.size());
   const auto radius = [&](const ReducedFeedback& op) {
     return estimate_spectral_radius(n, [&](std::span<const float> x, std::span<float> y) {
-      reference_apply_reduced_feedback(level, deps, op, x, r, y);
+      if (apply)
+        apply(op, x, y);
+      else
+        reference_apply_reduced_feedback(level, deps, op, x, r, y);
     });
   };
   const double q = radius(plain);

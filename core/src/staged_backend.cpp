@@ -219,6 +219,12 @@ Status StagedBackend::stage_solve(const ReducedFeedback& op, ReducedSolver& solv
   return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
 }
 
+void StagedBackend::stage_reduced_apply(const ReducedFeedback& op, std::span<const float> x,
+                                        std::span<float> out) {
+  r_scratch_.resize(sizes_.r);
+  reference_apply_reduced_feedback(level_, dirty_.dependencies(), op, x, r_scratch_, out);
+}
+
 Status StagedBackend::update_converged(std::span<const float> ld_direct,
                                        const ReducedSolveSettings& settings) {
   if (!has_albedo_) return refused("update_converged: call set_albedo first");
@@ -230,7 +236,10 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
   if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
   if (!reduced_) {
     const Clock::time_point start = Clock::now();
-    Result<ReducedFeedback> op = build_reduced_feedback(level_, dict_, dirty_.dependencies(), rho_);
+    Result<ReducedFeedback> op =
+        build_reduced_feedback(level_, dict_, dirty_.dependencies(), rho_,
+                               [this](const ReducedFeedback& o, std::span<const float> x,
+                                      std::span<float> y) { stage_reduced_apply(o, x, y); });
     if (!op.ok()) return op.status();
     reduced_.emplace(std::move(op).value());
     if (solver_.unknowns() != sizes_.b) solver_ = ReducedSolver::create(sizes_.b);

@@ -62,6 +62,10 @@ class CpuBackend final : public StagedBackend {
   }
   // The converged solve on this runtime's kernels and threads; b* becomes the runtime's b.
   bool stage_solve_available() const override { return true; }
+  void stage_reduced_apply(const ReducedFeedback& op, std::span<const float> x,
+                           std::span<float> out) override {
+    rt_.apply_reduced_feedback(op, x, out);
+  }
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     const std::span<const float> b0 = rt_.b();

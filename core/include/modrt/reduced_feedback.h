@@ -36,6 +36,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -74,10 +75,16 @@ struct ReducedFeedback {
 };
 
 // Builds the operators from the clamped albedo rho (3 x samples, validated: finite, in [0, 1))
-// in double, stores float, and estimates the radii (header). The level must be checked against
-// dict (check_level_operators). Allocates. Fails (non_finite) when an estimate is not finite.
+// in double (per-face products where rho is constant per face), stores float, and estimates
+// the radii (header) by 24 power iterations each through `apply`
+// (out = G x of the operator given; empty: reference_apply_reduced_feedback), so that a backend
+// estimates with its own kernels and threads. The level must be checked against dict
+// (check_level_operators). Allocates. Fails (non_finite) when an estimate is not finite.
+using ReducedApply =
+    std::function<void(const ReducedFeedback& op, std::span<const float> x, std::span<float> out)>;
 Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
-                                               const LevelDependencies& deps, std::span<const float> rho);
+                                               const LevelDependencies& deps, std::span<const float> rho,
+                                               const ReducedApply& apply = {});
 
 // c = P b0 (c = b0 for the plain iteration), 3 kb per block.
 void reference_reduced_rhs(const Level& level, const ReducedFeedback& op, std::span<const float> b0,

@@ -175,6 +175,9 @@ class StagedBackend : public Backend {
   virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                              const ReducedSolveSettings& settings, ReducedSolveReport& report);
   virtual bool stage_solve_available() const { return false; }  // true where stage_solve is implemented
+  // out = G x of `op` with the backend's kernels, for the radius estimates of the build
+  // (build_reduced_feedback); default: core's reference_apply_reduced_feedback.
+  virtual void stage_reduced_apply(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
   virtual Status stage_b(const StageWork& work) = 0;
   virtual Status stage_r(const StageWork& work) = 0;
   virtual Status stage_tiles(const StageWork& work) = 0;
@@ -243,7 +246,7 @@ class StagedBackend : public Backend {
   // solver, the last solve's b* (the warm start while warm_) and the statistics.
   std::optional<ReducedFeedback> reduced_;
   ReducedSolver solver_;
-  std::vector<float> x_;
+  std::vector<float> x_, r_scratch_;  // r_scratch_: the default stage_reduced_apply's r
   bool warm_ = false;
   ConvergedStats converged_;
   float clutter_ld_max_ = 0.0f, rho_c_max_ = 0.0f;
