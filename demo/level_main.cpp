@@ -25,6 +25,7 @@
 #include "modrt/precompute/level_json.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
+#include "modrt/reduced_feedback.h"
 
 namespace {
 
@@ -110,14 +111,17 @@ int main(int argc, char** argv) {
   std::string level_name = "maze11", out_dir = "out", dictionary_path,
               cache_dir = precompute::default_cache_dir();
   std::string save_path;
-  int bounces = 8, dmax = 8;
+  int bounces = -1, dmax = 8;
   app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
   app.add_option("--out", out_dir, "output directory");
   app.add_option("--dictionary", dictionary_path,
                  "dictionary file (default: bake on first use into the cache)");
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
-  app.add_option("--bounces", bounces, "multi-bounce feedback iterations (0 = one bounce)")
-      ->check(CLI::Range(0, 10000));
+  app.add_option("--bounces", bounces,
+                 "multi-bounce: N >= 0 feedback iterations (0 = one bounce); -1: the converged multi-bounce "
+                 "(reduced_feedback.h, tolerance 1e-3)")
+      ->check(CLI::Range(-1, 10000))
+      ->capture_default_str();
   app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")
       ->check(CLI::Range(0, precompute::kMaxLevelDmax));
   app.add_option(
@@ -203,6 +207,17 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "modrt-level: %s\n", s.to_string().c_str());
       return 1;
     }
+  } else if (bounces < 0) {
+    Result<ConvergedBounceReport> rep =
+        level_converged_bounce(level.value(), dict.value(), ld, albedo, {}, b, r, lightmap);
+    if (!rep.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", rep.status().to_string().c_str());
+      return 1;
+    }
+    std::printf(
+        "converged multi-bounce: %d iterations (%s, contraction %.3f), estimated error %.1e of max |b|\n",
+        rep->solve.iterations, rep->block_jacobi ? "block Jacobi" : "plain", rep->contraction,
+        double(rep->solve.error_bound));
   } else {
     MultiBounceSettings mb;
     mb.max_iterations = bounces;
@@ -248,9 +263,10 @@ int main(int argc, char** argv) {
     std::printf("ld in [%.6g, %.6g], indirect lightmap in [%.6g, %.6g]\n", double(*ld_range.first),
                 double(*ld_range.second), double(*lm_range.first), double(*lm_range.second));
   std::printf(
-      "%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%d bounce "
-      "iterations) %.1f ms\n",
-      level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms, bounces,
+      "%s: %zu blocks, %u samples, %zu Tb->r records; build %.1f ms; reference runtime (%s) %.1f ms\n",
+      level_name.c_str(), level->blocks.size(), level->sample_count, level->records.size(), build_ms,
+      bounces < 0 ? "converged bounces, their operators built included"
+                  : (std::to_string(bounces) + " bounce iterations").c_str(),
       frame_ms);
   return 0;
 }
