@@ -31,6 +31,7 @@ void gemv_channels_scalar(const float* M, std::size_t rows, std::size_t cols, co
   }
 }
 
+#if MODRT_CPU_X86 || MODRT_CPU_NEON
 // The lanes of `lanes` (step floats, lane i is channel i % 3) and the scalar tail summed per channel.
 inline void finish_row(const float* lanes, std::size_t step, const float* row, const float* in,
                        std::size_t done, std::size_t length, float* out, bool accumulate) {
@@ -39,6 +40,7 @@ inline void finish_row(const float* lanes, std::size_t step, const float* row, c
   for (std::size_t i = done; i < length; ++i) sum[i % 3] += row[i] * in[i];
   for (int c = 0; c < 3; ++c) out[c] = (accumulate ? out[c] : 0.0f) + sum[c];
 }
+#endif
 
 #if MODRT_CPU_X86
 MODRT_TARGET_AVX2 void gemv_channels_avx2(const float* M, std::size_t rows, std::size_t cols, const float* in,
