@@ -1,0 +1,50 @@
+// SPDX-License-Identifier: MIT
+// modrt — the blocks a camera can see (issue 20, "skip what the camera cannot see"): a
+// conservative portal walk from the camera's block through the level's open faces, each portal
+// clipped to the screen rectangle of the portals before it.
+//
+// A block is potentially visible when a chain of open faces leads to it from the camera's block
+// and every portal of the chain overlaps, on screen, the rectangle the chain has narrowed to.
+// Conservative by construction: a portal partly behind the camera keeps the rectangle it was
+// reached with; a camera outside every block sees every block. The screen is normalised device
+// coordinates of `view_projection` (OpenGL clip space, x and y in [-1, 1]).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "modrt/level.h"
+
+namespace modrt {
+
+struct VisibilityStats {
+  std::size_t visible = 0;      // blocks marked 1
+  bool camera_outside = false;  // the camera lies in no block: every block was marked
+};
+
+// The world corners of canonical face f of `block`: world face w = rotate_face(f, quarter_turns),
+// the corners (indexed x + 2y + 4z in the world) whose bit w / 2 is w % 2.
+std::array<glm::dvec3, 4> block_face_corners(const LevelBlock& block, int face);
+
+// Marks visible[i] = 1 for every potentially visible block, 0 for the others (visible has one
+// flag per block). `camera_block`: the block containing the camera (ProbeSampler::locate), or
+// -1 when it is outside every block. `scratch` is reused between calls (no allocation once it
+// has grown to the level's size).
+struct VisibilityScratch {
+  struct Item {
+    int block;
+    double x0, y0, x1, y1;
+  };
+  std::vector<Item> stack;
+  std::vector<double> rect;  // per block: the union of the rectangles it was reached with (4 each)
+};
+VisibilityStats level_visible_blocks(const Level& level, const glm::dmat4& view_projection, int camera_block,
+                                     std::span<std::uint8_t> visible, VisibilityScratch& scratch);
+
+}  // namespace modrt
