@@ -216,6 +216,8 @@ Status StagedBackend::stage_solve(const ReducedFeedback& op, ReducedSolver& solv
                                   bool warm, const ReducedSolveSettings& settings,
                                   ReducedSolveReport& report) {
   (void)op, (void)solver, (void)x, (void)warm, (void)settings, (void)report;
+  // update_converged refuses before any stage unless stage_solve_available(); kept for a backend
+  // that claims the solve without implementing it.
   return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
 }
 
@@ -227,6 +229,9 @@ void StagedBackend::stage_reduced_apply(const ReducedFeedback& op, std::span<con
 
 Status StagedBackend::update_converged(std::span<const float> ld_direct,
                                        const ReducedSolveSettings& settings) {
+  // Refused before any stage runs (a refused call changes nothing).
+  if (!stage_solve_available())
+    return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
   if (!has_albedo_) return refused("update_converged: call set_albedo first");
   if (drt_)
     return refused(
