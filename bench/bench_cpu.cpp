@@ -36,6 +36,16 @@
 //                                              ratio_8_steps = converged / update() + 8
 //                                              multi_bounce_step(); iterations per frame, the
 //                                              last residual and error bound, build_ms
+//   BM_CpuCameraSkip/<blocks>/<converged>        the camera skip (set_visible_blocks from
+//                                              CameraVisibility) against the same backend without
+//                                              it, measured alternately, cpu backend, one thread,
+//                                              res 16, kb 32, exact skipping: a camera flying
+//                                              through the maze (block centre to block centre,
+//                                              turning) while maze41's light 0 circles; converged
+//                                              0: one bounce (update), 1: update_converged. Time:
+//                                              the frame with the skip (the walk included).
+//                                              Counters: ratio = with / without, visible blocks and
+//                                              tiles written per frame with and without
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -60,11 +70,14 @@
 #include <tuple>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/cpu/direct_light.h"
 #include "modrt/level_dirty.h"
 #include "modrt/level_runtime.h"
+#include "modrt/level_visibility.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
@@ -680,6 +693,70 @@ void BM_CpuConverged(benchmark::State& state) {
   state.SetLabel(c.description());
 }
 
+// ---- the camera skip (issue 20) ----
+
+void BM_CpuCameraSkip(benchmark::State& state) {
+  const int blocks = int(state.range(0));
+  const bool converged = state.range(1) != 0;
+  const PresetLevel* pl = preset_level(blocks, 16, 32);
+  const LightSequence* seq = pl ? light_sequence(blocks) : nullptr;
+  if (!pl || !seq) return state.SkipWithError("no dictionary, level or light sequence");
+  const Level& level = pl->level;
+  // The flight: from block centre to block centre, the camera turning a quarter every 8 frames.
+  std::vector<glm::dmat4> view_projection;
+  std::vector<glm::dvec3> eyes;
+  for (std::size_t f = 0; f < 64; ++f) {
+    glm::dvec3 eye(0.0);
+    for (const glm::dvec3& c : level.blocks[(f / 4) % level.blocks.size()].corners) eye += c / 8.0;
+    const double a = 1.5707963267948966 * double(f / 8) + 0.3 * double(f % 8);
+    eyes.push_back(eye);
+    view_projection.push_back(
+        glm::perspective(1.2, 16.0 / 9.0, 0.01, 100.0) *
+        glm::lookAt(eye, eye + glm::dvec3(std::cos(a), 0.0, std::sin(a)), glm::dvec3(0, 1, 0)));
+  }
+  cpu::CpuBackendOptions o;
+  o.runtime.threads = 1;
+  Result<std::unique_ptr<Backend>> with = cpu::create_cpu_backend(level, *pl->dict, o);
+  Result<std::unique_ptr<Backend>> without = cpu::create_cpu_backend(level, *pl->dict, o);
+  if (!with.ok() || !without.ok()) return state.SkipWithError("cpu backend");
+  Backend& a = *with.value();
+  Backend& b = *without.value();
+  const std::vector<float> albedo = level_sample_albedo(level);
+  if (!a.set_albedo(albedo).ok() || !b.set_albedo(albedo).ok()) return state.SkipWithError("set_albedo");
+  CameraVisibility camera(level);
+  const auto frame = [&](Backend& be, const std::vector<float>& ld) {
+    return converged ? be.update_converged(ld).ok() : be.update(ld).ok();
+  };
+  bool ok = frame(a, seq->ld[0]) && frame(b, seq->ld[0]);
+  const BackendEvaluationStats a0 = a.evaluation_stats(), b0 = b.evaluation_stats();
+  double t_with = 0.0, t_without = 0.0, visible = 0.0;
+  std::size_t f = 1;
+  for (auto _ : state) {
+    const std::vector<float>& ld = seq->ld[f % seq->ld.size()];
+    const std::size_t cam = f++ % eyes.size();
+    auto t0 = std::chrono::steady_clock::now();
+    const Result<VisibilityStats> seen = camera.update(view_projection[cam], eyes[cam]);
+    ok &= seen.ok() && a.set_visible_blocks(camera.visible()).ok() && frame(a, ld);
+    const double dt = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    ok &= frame(b, ld);
+    t_without += seconds_since(t0);
+    t_with += dt;
+    visible += seen.ok() ? double(seen->visible) : 0.0;
+    state.SetIterationTime(dt);
+    benchmark::ClobberMemory();
+  }
+  if (!ok) return state.SkipWithError("a frame failed");
+  const BackendEvaluationStats as = a.evaluation_stats(), bs = b.evaluation_stats();
+  const double n = double(state.iterations());
+  state.counters["ratio"] = t_with / t_without;
+  state.counters["visible"] = visible / n;
+  state.counters["tiles_with"] =
+      double(as.tiles_written + as.tiles_caught_up - a0.tiles_written - a0.tiles_caught_up) / n;
+  state.counters["tiles_without"] = double(bs.tiles_written - b0.tiles_written) / n;
+  state.SetLabel(a.description());
+}
+
 BENCHMARK(BM_PeakFma)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CoreFrame)
     ->ArgsProduct({{11, 41, 1000}, {6, 16}, {12, 32}})
@@ -702,6 +779,11 @@ BENCHMARK(BM_CpuConverged)
     ->Arg(41)
     ->Arg(1000)
     ->ArgName("blocks")
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CpuCameraSkip)
+    ->ArgsProduct({{41}, {0, 1}})
+    ->ArgNames({"blocks", "converged"})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuMovingLight)

@@ -507,6 +507,222 @@ TEST_P(BackendConformance, SkippingUnchangedWorkIsExact) {
   EXPECT_EQ(read_outputs(*incremental).atlas, read_outputs(*full).atlas);
 }
 
+// ---- The camera skip: only the visible blocks' tiles and rectangles ----
+
+// The first block whose lightmap samples, atlas rectangles (padding included) or vector
+// irradiance differ between a and b, among the blocks flagged in `blocks`; empty when none does.
+std::string visible_block_mismatch(const Level& level, const Outputs& a, const Outputs& b,
+                                   const std::vector<std::uint8_t>& blocks) {
+  const LightmapAtlas& atlas = level.atlas;
+  const std::size_t width = std::size_t(atlas.width), tile = std::size_t(atlas.tile);
+  const std::size_t per_sample = level.sample_count ? a.vector.size() / level.sample_count : 0;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    if (!blocks[i]) continue;
+    const LevelBlock& blk = level.blocks[i];
+    const std::size_t first = std::size_t(blk.sample_offset), count = std::size_t(blk.sample_count);
+    if (!std::equal(a.lightmap.begin() + 3 * first, a.lightmap.begin() + 3 * (first + count),
+                    b.lightmap.begin() + 3 * first))
+      return "block " + std::to_string(i) + " lightmap";
+    if (!std::equal(a.vector.begin() + per_sample * first, a.vector.begin() + per_sample * (first + count),
+                    b.vector.begin() + per_sample * first))
+      return "block " + std::to_string(i) + " vector irradiance";
+    for (int f = 0; f < kFaceCount; ++f) {
+      const std::int32_t ox = atlas.tile_origin_x[i][std::size_t(f)],
+                         oy = atlas.tile_origin_y[i][std::size_t(f)];
+      if (ox < 0 || oy < 0) continue;
+      for (std::size_t y = std::size_t(oy); y < std::size_t(oy) + tile; ++y) {
+        const std::size_t row = 3 * (y * width + std::size_t(ox));
+        if (!std::equal(a.atlas.begin() + row, a.atlas.begin() + row + 3 * tile, b.atlas.begin() + row))
+          return "block " + std::to_string(i) + " face " + std::to_string(f) + " atlas row " +
+                 std::to_string(y);
+      }
+    }
+  }
+  return {};
+}
+
+// About a third of the blocks, at least one.
+std::vector<std::uint8_t> random_visible_set(std::size_t blocks, std::mt19937& rng) {
+  std::vector<std::uint8_t> visible(blocks, 0);
+  std::bernoulli_distribution coin(0.3);
+  for (std::uint8_t& v : visible) v = coin(rng);
+  visible[rng() % blocks] = 1;
+  return visible;
+}
+
+// Over an animated sequence on the 41-block maze (one or three blocks' ld change per frame,
+// every fifth frame repeats) with a new set of visible blocks every fourth frame, every visible
+// block's lightmap, atlas rectangles and vector irradiance equal the full path's bit for bit,
+// the probes everywhere; a block that becomes visible on a repeated frame (a skipped
+// evaluation) shows the current light at once; the counters add up (written + kept + hidden =
+// evaluations x blocks) and show tiles left unwritten; every block visible again equals the
+// full path everywhere. GLES has no camera skip yet and refuses by name.
+TEST_P(BackendConformance, CameraSkipKeepsEveryVisibleBlockExact) {
+  const TestLevel& t = test_level("maze41");
+  std::unique_ptr<Backend> be = make(t.level), full = make(t.level);
+  ASSERT_TRUE(be && full);
+  const std::size_t blocks = t.level.blocks.size();
+  std::mt19937 rng(20);
+  std::vector<std::uint8_t> visible = random_visible_set(blocks, rng);
+  const Status refused = be->set_visible_blocks(visible);
+  if (be->kind() == BackendKind::gles) {
+    EXPECT_EQ(refused.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(refused.message().find("camera skip"), std::string::npos) << refused.message();
+    return;
+  }
+  ASSERT_TRUE(refused.ok()) << refused.to_string();
+  std::vector<float> ld = t.ld;
+  constexpr int kFrames = 30;
+  std::uint64_t caught_up_on_repeats = 0;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    if (frame % 5 != 4) {
+      const int moved = frame % 3 == 0 ? 3 : 1;
+      for (int m = 0; m < moved; ++m) {
+        const LevelBlock& blk = t.level.blocks[std::size_t(frame * 7 + m * 13) % blocks];
+        for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+          ld[3 * std::size_t(blk.sample_offset) + i] =
+              t.ld[3 * std::size_t(blk.sample_offset) + i] * (1.0f + 0.05f * float((frame + m) % 9));
+      }
+    }
+    if (frame % 4 == 0 && frame > 0) {
+      visible = random_visible_set(blocks, rng);
+      const std::uint64_t before = be->evaluation_stats().tiles_caught_up;
+      ASSERT_TRUE(be->set_visible_blocks(visible).ok());
+      if (frame % 5 == 4) caught_up_on_repeats += be->evaluation_stats().tiles_caught_up - before;
+    }
+    ASSERT_TRUE(be->update(ld).ok());
+    ASSERT_TRUE(full->update(ld).ok());
+    const Outputs a = read_outputs(*be), b = read_outputs(*full);
+    const std::string mismatch = visible_block_mismatch(t.level, a, b, visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " frame " << frame << ": " << mismatch;
+    ASSERT_EQ(a.probes, b.probes) << "frame " << frame;
+  }
+  const BackendEvaluationStats st = be->evaluation_stats(), fs = full->evaluation_stats();
+  EXPECT_EQ(st.evaluations, std::uint64_t(kFrames));
+  EXPECT_EQ(st.evaluations_skipped, fs.evaluations_skipped) << "a repeated ld is still a skipped evaluation";
+  EXPECT_EQ(st.tiles_written + st.tiles_kept + st.tiles_hidden, kFrames * blocks);
+  EXPECT_EQ(st.tiles_written + st.tiles_hidden, fs.tiles_written) << "the same tiles changed";
+  EXPECT_GT(st.tiles_hidden, 0u);
+  EXPECT_GT(st.tiles_caught_up, 0u);
+  EXPECT_GT(caught_up_on_repeats, 0u) << "frames 4 and 24 repeat the ld and change the visible set";
+  EXPECT_LT(st.tiles_written + st.tiles_caught_up, fs.tiles_written);
+  std::printf("  %s: tiles written %llu + caught up %llu of the full path's %llu (hidden %llu)\n",
+              be->description(), (unsigned long long)st.tiles_written, (unsigned long long)st.tiles_caught_up,
+              (unsigned long long)fs.tiles_written, (unsigned long long)st.tiles_hidden);
+  ASSERT_TRUE(be->set_visible_blocks({}).ok());
+  const Outputs a = read_outputs(*be), b = read_outputs(*full);
+  EXPECT_EQ(a.lightmap, b.lightmap) << "every block visible again";
+  EXPECT_EQ(a.atlas, b.atlas);
+  EXPECT_EQ(a.vector, b.vector);
+}
+
+// A feedback step reads the whole lightmap: the hidden blocks' light reaches the visible ones
+// through r, so their tiles are produced first and the visible blocks equal the full path's
+// after every step; the converged solve (where available) likewise, with a new visible set
+// between two solves. Every block visible again equals the full path everywhere.
+TEST_P(BackendConformance, CameraSkipUnderFeedbackAndConvergedSolveIsExact) {
+  const TestLevel& t = test_level("maze41");
+  std::unique_ptr<Backend> be = make(t.level), full = make(t.level);
+  ASSERT_TRUE(be && full);
+  if (be->kind() == BackendKind::gles) GTEST_SKIP() << "no camera skip on GLES yet";
+  const std::size_t blocks = t.level.blocks.size();
+  std::mt19937 rng(21);
+  std::vector<std::uint8_t> visible = random_visible_set(blocks, rng);
+  ASSERT_TRUE(be->set_albedo(t.albedo).ok());
+  ASSERT_TRUE(full->set_albedo(t.albedo).ok());
+  ASSERT_TRUE(be->set_visible_blocks(visible).ok());
+  std::vector<float> ld = t.ld;
+  ASSERT_TRUE(be->update(t.ld).ok());
+  ASSERT_TRUE(full->update(t.ld).ok());
+  for (std::size_t i = 0; i < ld.size(); i += 5) ld[i] *= 1.5f;  // every block changes
+  ASSERT_TRUE(be->update(ld).ok());
+  ASSERT_TRUE(full->update(ld).ok());
+  EXPECT_GT(be->evaluation_stats().tiles_hidden, 0u);
+  for (int step = 0; step < 3; ++step) {
+    ASSERT_TRUE(be->multi_bounce_step(ld).ok());
+    ASSERT_TRUE(full->multi_bounce_step(ld).ok());
+    const std::string mismatch =
+        visible_block_mismatch(t.level, read_outputs(*be), read_outputs(*full), visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " feedback step " << step << ": " << mismatch;
+  }
+  if (be->converged_available()) {
+    ASSERT_TRUE(be->update_converged(t.ld).ok());
+    ASSERT_TRUE(full->update_converged(t.ld).ok());
+    std::string mismatch = visible_block_mismatch(t.level, read_outputs(*be), read_outputs(*full), visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " converged: " << mismatch;
+    visible = random_visible_set(blocks, rng);
+    ASSERT_TRUE(be->set_visible_blocks(visible).ok());
+    ASSERT_TRUE(be->update_converged(ld).ok());
+    ASSERT_TRUE(full->update_converged(ld).ok());
+    mismatch = visible_block_mismatch(t.level, read_outputs(*be), read_outputs(*full), visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " second converged solve: " << mismatch;
+    EXPECT_EQ(be->converged_stats().iterations, full->converged_stats().iterations);
+  }
+  ASSERT_TRUE(be->set_visible_blocks({}).ok());
+  const Outputs a = read_outputs(*be), b = read_outputs(*full);
+  EXPECT_EQ(a.lightmap, b.lightmap) << "every block visible again";
+  EXPECT_EQ(a.atlas, b.atlas);
+}
+
+// With clutter the DRT deltas and the clutter lightmap are computed for every block as before
+// (they are sums over the whole level); the visible blocks' outputs equal the full path's.
+TEST_P(BackendConformance, CameraSkipWithClutterKeepsVisibleBlocksExact) {
+  const DrtFixture& f = drt_fixture();
+  std::unique_ptr<Backend> be = make(f.level), full = make(f.level);
+  ASSERT_TRUE(be && full);
+  if (be->kind() == BackendKind::gles) GTEST_SKIP() << "no camera skip on GLES yet";
+  ASSERT_TRUE(be->set_clutter(&f.drt).ok());
+  ASSERT_TRUE(full->set_clutter(&f.drt).ok());
+  std::vector<std::uint8_t> visible(f.level.blocks.size(), 0);
+  visible[0] = 1;
+  ASSERT_TRUE(be->set_visible_blocks(visible).ok());
+  std::vector<float> ld = f.ld;
+  for (int frame = 0; frame < 3; ++frame) {
+    for (std::size_t i = std::size_t(frame); i < ld.size(); i += 3) ld[i] *= 1.2f;
+    ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(full->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(be->update(ld).ok());
+    ASSERT_TRUE(full->update(ld).ok());
+    const std::string mismatch =
+        visible_block_mismatch(f.level, read_outputs(*be), read_outputs(*full), visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " frame " << frame << ": " << mismatch;
+    const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+    std::vector<float> ca(d.clutter_lightmap), cb(d.clutter_lightmap);
+    ASSERT_TRUE(be->read_clutter_lightmap(ca).ok());
+    ASSERT_TRUE(full->read_clutter_lightmap(cb).ok());
+    EXPECT_EQ(ca, cb) << "frame " << frame;
+  }
+  EXPECT_GT(be->evaluation_stats().tiles_hidden, 0u);
+  ASSERT_TRUE(be->set_visible_blocks({}).ok());
+  EXPECT_EQ(read_outputs(*be).atlas, read_outputs(*full).atlas) << "every block visible again";
+}
+
+// A visible set of the wrong size is refused naming both sizes, and nothing changes: the next
+// frames still show every block as the full path does.
+TEST_P(BackendConformance, BadVisibleSetIsRefusedAndChangesNothing) {
+  const TestLevel& t = test_level("maze11");
+  std::unique_ptr<Backend> be = make(t.level), full = make(t.level);
+  ASSERT_TRUE(be && full);
+  if (be->kind() == BackendKind::gles) GTEST_SKIP() << "no camera skip on GLES yet";
+  ASSERT_TRUE(be->update(t.ld).ok());
+  const std::vector<std::uint8_t> short_set(t.level.blocks.size() - 1, 0),
+      long_set(t.level.blocks.size() + 1, 0);
+  for (const std::vector<std::uint8_t>* bad : {&short_set, &long_set}) {
+    const Status s = be->set_visible_blocks(*bad);
+    EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(s.message().find("visible has " + std::to_string(bad->size()) + " flags, expected " +
+                               std::to_string(t.level.blocks.size())),
+              std::string::npos)
+        << s.message();
+  }
+  std::vector<float> ld = t.ld;
+  for (float& v : ld) v *= 0.5f;
+  ASSERT_TRUE(be->update(ld).ok());
+  ASSERT_TRUE(full->update(ld).ok());
+  EXPECT_EQ(read_outputs(*be).atlas, read_outputs(*full).atlas);
+  EXPECT_EQ(be->evaluation_stats().tiles_hidden, 0u);
+}
+
 // ---- DRT: clutter inside the blocks ----
 
 // With clutter every stage gets its delta (architecture.md §6): lightmap += dUb b + dUc c

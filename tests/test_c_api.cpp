@@ -28,6 +28,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "c_api_test_support.h"
 #include "counting_allocator.h"
@@ -44,6 +45,7 @@
 #include "modrt/level_geometry.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
+#include "modrt/level_visibility.h"
 #include "modrt/modrt.h"
 #include "modrt/modrt.hpp"
 #include "modrt/platform/gl_context.h"
@@ -546,6 +548,136 @@ TEST(CApi, SkipCountersAndTimings) {
   modrt_level_destroy(l);
 }
 
+// The camera skip through the C API (modrt_context_set_camera): the blocks the walk marks from
+// an eye inside the 41-block maze (core's CameraVisibility, computed here too) have the atlas
+// rectangles of a context without the camera, bit for bit, over frames in which the light
+// moves; the hidden blocks' changed tiles are counted, and every block is current again after
+// set_visible_blocks(NULL, 0). Bad input is named and changes nothing; an 0.3 skip-stats
+// struct is still filled.
+TEST(CApi, CameraSkipKeepsTheVisibleBlocksAtlas) {
+  const test::TestLevel& t = test_level("maze41");
+  const Level& level = t.level;
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle("maze41");
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.bounces = MODRT_BOUNCES_CONVERGED;
+  modrt_context *c = nullptr, *full = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &full), MODRT_OK) << modrt_last_error();
+  // A camera in block 0 looking along each axis in turn: the first that does not see every block.
+  glm::dvec3 eye(0.0);
+  for (const glm::dvec3& corner : level.blocks[0].corners) eye += corner / 8.0;
+  CameraVisibility walk(level);
+  glm::dmat4 vp(1.0);
+  std::size_t seen = level.blocks.size();
+  for (const glm::dvec3& dir :
+       {glm::dvec3(1, 0, 0), glm::dvec3(-1, 0, 0), glm::dvec3(0, 0, 1), glm::dvec3(0, 0, -1)}) {
+    vp = glm::perspective(1.2, 1.0, 0.01, 100.0) * glm::lookAt(eye, eye + dir, glm::dvec3(0, 1, 0));
+    Result<VisibilityStats> st = walk.update(vp, eye);
+    ASSERT_TRUE(st.ok());
+    if (st->visible < level.blocks.size()) {
+      seen = st->visible;
+      break;
+    }
+  }
+  ASSERT_LT(seen, level.blocks.size()) << "some direction hides a block";
+  const std::vector<std::uint8_t> visible(walk.visible().begin(), walk.visible().end());
+  float vpf[16], eyef[3] = {float(eye.x), float(eye.y), float(eye.z)};
+  for (int k = 0; k < 16; ++k) vpf[k] = float(vp[k / 4][k % 4]);
+  ASSERT_EQ(modrt_context_set_camera(c, vpf, eyef), MODRT_OK) << modrt_last_error();
+  const LightmapAtlas& atlas = level.atlas;
+  const auto rects_equal = [&](const std::vector<float>& a, const std::vector<float>& b, std::size_t i) {
+    for (int f = 0; f < kFaceCount; ++f) {
+      const std::int32_t ox = atlas.tile_origin_x[i][std::size_t(f)],
+                         oy = atlas.tile_origin_y[i][std::size_t(f)];
+      if (ox < 0) continue;
+      for (int y = oy; y < oy + atlas.tile; ++y) {
+        const std::size_t row = 3 * (std::size_t(y) * std::size_t(atlas.width) + std::size_t(ox));
+        if (!std::equal(a.begin() + row, a.begin() + row + 3 * std::size_t(atlas.tile), b.begin() + row))
+          return false;
+      }
+    }
+    return true;
+  };
+  std::vector<float> ld = t.ld;
+  for (int frame = 0; frame < 4; ++frame) {
+    for (std::size_t i = std::size_t(frame); i < ld.size(); i += 4) ld[i] *= 1.3f;  // every block's light
+    for (modrt_context* ctx : {c, full}) {
+      ASSERT_EQ(modrt_context_set_ld(ctx, ld.data(), ld.size()), MODRT_OK);
+      ASSERT_EQ(modrt_context_update(ctx), MODRT_OK) << modrt_last_error();
+    }
+    const std::vector<float> a = read_atlas(c), b = read_atlas(full);
+    for (std::size_t i = 0; i < level.blocks.size(); ++i)
+      if (visible[i]) {
+        ASSERT_TRUE(rects_equal(a, b, i)) << "frame " << frame << " visible block " << i;
+      }
+  }
+  modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_EQ(k.tiles_written + k.tiles_kept + k.tiles_hidden, 4 * level.blocks.size());
+  EXPECT_GT(k.tiles_hidden, 0u) << seen << " of " << level.blocks.size() << " blocks seen";
+  modrt_skip_stats old{};
+  old.struct_size = std::uint32_t(offsetof(modrt_skip_stats, tiles_hidden));  // an 0.3 caller
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &old), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(old.tiles_written, k.tiles_written);
+  EXPECT_EQ(old.tiles_hidden, 0u) << "not written past the caller's struct";
+
+  // Bad input: named, and the set stays as it was.
+  float bad_vp[16];
+  std::copy(vpf, vpf + 16, bad_vp);
+  bad_vp[6] = std::numeric_limits<float>::quiet_NaN();
+  expect_error(modrt_context_set_camera(c, bad_vp, eyef), MODRT_ERROR_NON_FINITE,
+               {"modrt_context_set_camera", "view_projection[1][2]"});
+  const float bad_eye[3] = {eyef[0], std::numeric_limits<float>::infinity(), eyef[2]};
+  expect_error(modrt_context_set_camera(c, vpf, bad_eye), MODRT_ERROR_NON_FINITE, {"eye[1]"});
+  expect_error(modrt_context_set_camera(c, nullptr, eyef), MODRT_ERROR_INVALID_ARGUMENT, {"view_projection"});
+  expect_error(modrt_context_set_visible_blocks(c, visible.data(), visible.size() - 1),
+               MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_visible_blocks", "count is 40", "expected 41"});
+  expect_error(modrt_context_set_visible_blocks(c, nullptr, 3), MODRT_ERROR_INVALID_ARGUMENT, {"flags"});
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  const std::uint64_t hidden = k.tiles_hidden;
+  ld[0] *= 2.0f;
+  for (modrt_context* ctx : {c, full}) {
+    ASSERT_EQ(modrt_context_set_ld(ctx, ld.data(), ld.size()), MODRT_OK);
+    ASSERT_EQ(modrt_context_update(ctx), MODRT_OK);
+  }
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_GT(k.tiles_hidden, hidden) << "the camera set stands after the refused calls";
+
+  // Every block again: the whole atlas is the full context's.
+  ASSERT_EQ(modrt_context_set_visible_blocks(c, nullptr, 0), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(read_atlas(c), read_atlas(full));
+  EXPECT_EQ(read_lightmap(c), read_lightmap(full));
+  ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);
+  EXPECT_GT(k.tiles_caught_up, 0u);
+  modrt_context_destroy(full);
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
+TEST(CApiGles, CameraSkipIsRefusedByName) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  modrt_dictionary* d = load_dictionary_handle();
+  modrt_level* l = load_level_handle();
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = MODRT_BACKEND_GLES;
+  modrt_context* c = nullptr;
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
+  const float vp[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, eye[3] = {0.5f, 0.5f, 0.5f};
+  expect_error(modrt_context_set_camera(c, vp, eye), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_context_set_camera", "camera skip"});
+  const std::vector<std::uint8_t> all(test_level("maze11").level.blocks.size(), 1);
+  expect_error(modrt_context_set_visible_blocks(c, all.data(), all.size()), MODRT_ERROR_UNSUPPORTED,
+               {"modrt_context_set_visible_blocks", "camera skip"});
+  modrt_context_destroy(c);
+  modrt_level_destroy(l);
+  modrt_dictionary_destroy(d);
+}
+
 TEST(CApi, NoAllocationPerFrame) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
@@ -567,10 +699,21 @@ TEST(CApi, NoAllocationPerFrame) {
   const glm::dvec3 x = block_to_world(t.level.blocks[1], glm::dvec3(0.5));
   const float pos[3] = {float(x.x), float(x.y), float(x.z)};
   float sh[27];
+  // The camera turns each frame (the skip's walk grows its stack on the first turn: warmed here).
+  float cameras[4][16];
+  for (int f = 0; f < 4; ++f) {
+    const double a = 1.5707963 * f;
+    const glm::dmat4 vp = glm::perspective(1.2, 1.0, 0.01, 100.0) *
+                          glm::lookAt(x, x + glm::dvec3(std::cos(a), 0.0, std::sin(a)), glm::dvec3(0, 1, 0));
+    for (int k = 0; k < 16; ++k) cameras[f][k] = float(vp[k / 4][k % 4]);
+    ASSERT_EQ(modrt_context_set_camera(c, cameras[f], pos), MODRT_OK) << modrt_last_error();
+  }
   bool ok = true;
   g_allocations = 0;
   g_count_allocations = true;
+  int frame = 0;
   for (const auto& lights : frames) {
+    ok &= modrt_context_set_camera(c, cameras[frame++], pos) == MODRT_OK;
     ok &= modrt_context_set_lights(c, lights.data(), lights.size()) == MODRT_OK;
     ok &= modrt_context_update(c) == MODRT_OK;
     ok &= modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()) == MODRT_OK;

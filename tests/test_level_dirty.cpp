@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Core's exact dirty tracking (level_dirty.h) against brute force over the level's records and
 // slots: the graph in both directions, and which blocks, slots and tiles a changed ld reaches,
-// on random changes of the corridor and the 41-block maze.
+// on random changes of the corridor and the 41-block maze; and the padded atlas per block
+// (atlas_block_padding, the camera skip's atlas work) from the tile rectangles directly.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -110,6 +111,58 @@ TEST(LevelDirty, MarkReachesWhatTheRecordsCarry) {
     EXPECT_EQ(tracker.mark(ld), blocks) << "after invalidate()";
     std::printf("  %s: %llu of 40 random changes reach tiles beyond their blocks but not all\n", name,
                 (unsigned long long)partly_reached);
+  }
+}
+
+// Each padding record belongs to the block whose tile rectangle holds its destination, and its
+// source's block (the sample texel it copies) is a padding neighbour of that block unless it
+// is the block itself: from the tile origins and the sample ranges, record by record.
+TEST(LevelDirty, AtlasPaddingPerBlockIsTheTileRectanglesRecords) {
+  for (const char* name : {"single", "corridor", "maze11", "maze41"}) {
+    const Level& level = test_level(name).level;
+    const LightmapAtlas& atlas = level.atlas;
+    const std::size_t blocks = level.blocks.size();
+    const AtlasBlockPadding p = atlas_block_padding(level);
+    ASSERT_EQ(p.record_begin.size(), blocks + 1) << name;
+    ASSERT_EQ(p.source_begin.size(), blocks + 1) << name;
+    const auto in_tiles_of = [&](std::size_t i, std::uint32_t texel) {
+      const std::int64_t x = texel % std::uint32_t(atlas.width), y = texel / std::uint32_t(atlas.width);
+      for (int f = 0; f < kFaceCount; ++f) {
+        const std::int64_t ox = atlas.tile_origin_x[i][std::size_t(f)],
+                           oy = atlas.tile_origin_y[i][std::size_t(f)];
+        if (ox >= 0 && x >= ox && x < ox + atlas.tile && y >= oy && y < oy + atlas.tile) return true;
+      }
+      return false;
+    };
+    const auto sample_block = [&](std::uint32_t texel) {
+      for (std::size_t i = 0; i < blocks; ++i)
+        for (std::uint32_t k = 0; k < level.blocks[i].sample_count; ++k)
+          if (atlas.sample_texel[level.blocks[i].sample_offset + k] == texel) return i;
+      return blocks;
+    };
+    std::size_t records = 0, with_neighbours = 0;
+    for (std::size_t i = 0; i < blocks; ++i) {
+      std::vector<std::uint32_t> want_records, want_sources;
+      for (std::size_t m = 0; m < atlas.padding.size(); ++m)
+        if (in_tiles_of(i, atlas.padding[m].dst)) {
+          want_records.push_back(std::uint32_t(m));
+          const std::size_t j = sample_block(atlas.padding[m].src);
+          ASSERT_LT(j, blocks) << name << " record " << m << " copies no sample texel";
+          if (j != i) want_sources.push_back(std::uint32_t(j));
+        }
+      std::sort(want_sources.begin(), want_sources.end());
+      want_sources.erase(std::unique(want_sources.begin(), want_sources.end()), want_sources.end());
+      const std::span<const std::uint32_t> got = p.records_of(i);
+      EXPECT_EQ(std::vector<std::uint32_t>(got.begin(), got.end()), want_records) << name << " block " << i;
+      EXPECT_EQ(sorted(p.sources_of(i)), want_sources) << name << " block " << i;
+      records += got.size(), with_neighbours += !want_sources.empty();
+    }
+    EXPECT_EQ(records, atlas.padding.size()) << name << ": every record has a block";
+    if (blocks > 1) {
+      EXPECT_GT(with_neighbours, 0u) << name << ": padding reads across open faces";
+    }
+    std::printf("  %s: %zu padding records, %zu of %zu blocks read a neighbour's interior\n", name, records,
+                with_neighbours, blocks);
   }
 }
 

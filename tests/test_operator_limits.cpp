@@ -204,5 +204,26 @@ TEST(OperatorLimits, LevelGainAboveTheBoundIsRefusedAtCreation) {
   std::printf("%s\n", s.message().c_str());
 }
 
+// Padding copies a sample texel into a padding texel (MRT §6.2); a hand-made atlas whose
+// padding reads padding, or writes over a sample, is refused at creation naming the record
+// (the camera skip runs each block's records apart, level_dirty.h's atlas_block_padding).
+TEST(OperatorLimits, PaddingThatCopiesPaddingIsRefusedAtCreation) {
+  const Level& good = test::test_level("maze11").level;
+  ASSERT_GE(good.atlas.padding.size(), 2u);
+  Level level = good;
+  level.atlas.padding[1].src = level.atlas.padding[0].dst;  // reads another record's destination
+  Status s = check_level_operators(level, test::small_test_dictionary());
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("atlas padding record 1 does not copy a sample texel into a padding texel"),
+            std::string::npos)
+      << s.message();
+  level = good;
+  level.atlas.padding[3].dst = level.atlas.sample_texel[5];  // writes over a sample
+  s = check_level_operators(level, test::small_test_dictionary());
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("atlas padding record 3"), std::string::npos) << s.message();
+  EXPECT_TRUE(check_level_operators(good, test::small_test_dictionary()).ok());
+}
+
 }  // namespace
 }  // namespace modrt

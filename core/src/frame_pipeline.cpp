@@ -21,6 +21,8 @@ BackendEvaluationStats minus(const BackendEvaluationStats& a, const BackendEvalu
   d.slots_kept = a.slots_kept - b.slots_kept;
   d.tiles_written = a.tiles_written - b.tiles_written;
   d.tiles_kept = a.tiles_kept - b.tiles_kept;
+  d.tiles_hidden = a.tiles_hidden - b.tiles_hidden;
+  d.tiles_caught_up = a.tiles_caught_up - b.tiles_caught_up;
   return d;
 }
 

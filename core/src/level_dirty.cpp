@@ -40,6 +40,58 @@ LevelDependencies level_dependencies(const Level& level) {
   return d;
 }
 
+AtlasBlockPadding atlas_block_padding(const Level& level) {
+  const LightmapAtlas& atlas = level.atlas;
+  const std::size_t blocks = level.blocks.size();
+  const std::size_t width = std::size_t(std::max(atlas.width, 0)),
+                    height = std::size_t(std::max(atlas.height, 0));
+  // The block owning each atlas texel: tile rectangles (padding included) and sample texels.
+  std::vector<std::int32_t> owner(width * height, -1);
+  for (std::size_t i = 0; i < blocks && i < atlas.tile_origin_x.size() && i < atlas.tile_origin_y.size(); ++i)
+    for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f) {
+      const std::int32_t ox = atlas.tile_origin_x[i][f], oy = atlas.tile_origin_y[i][f];
+      if (ox < 0 || oy < 0) continue;
+      for (std::size_t y = std::size_t(oy); y < std::min(height, std::size_t(oy) + std::size_t(atlas.tile));
+           ++y)
+        for (std::size_t x = std::size_t(ox); x < std::min(width, std::size_t(ox) + std::size_t(atlas.tile));
+             ++x)
+          owner[y * width + x] = std::int32_t(i);
+    }
+  if (atlas.sample_texel.size() == level.sample_count)
+    for (std::size_t i = 0; i < blocks; ++i) {
+      const LevelBlock& b = level.blocks[i];
+      for (std::uint32_t k = 0; k < b.sample_count; ++k)
+        if (const std::size_t t = std::size_t(b.sample_offset) + k;
+            t < atlas.sample_texel.size() && atlas.sample_texel[t] < owner.size())
+          owner[atlas.sample_texel[t]] = std::int32_t(i);
+    }
+  const auto owner_of = [&](std::uint32_t texel) {
+    return texel < owner.size() && owner[texel] >= 0 ? std::size_t(owner[texel]) : blocks;
+  };
+  AtlasBlockPadding p;
+  // Records of a texel no block owns (a hand-made atlas) go to no block.
+  std::vector<std::uint32_t> kept;
+  for (std::size_t m = 0; m < atlas.padding.size(); ++m)
+    if (owner_of(atlas.padding[m].dst) < blocks) kept.push_back(std::uint32_t(m));
+  build_rows(
+      blocks, kept.size(), [&](std::size_t m) { return owner_of(atlas.padding[kept[m]].dst); },
+      [&](std::size_t m) { return kept[m]; }, p.record_begin, p.records);
+  std::vector<std::vector<std::uint32_t>> sources(blocks);
+  for (std::size_t i = 0; i < blocks; ++i) {
+    for (std::uint32_t m : p.records_of(i)) {
+      const std::size_t j = owner_of(atlas.padding[m].src);
+      if (j < blocks && j != i) sources[i].push_back(std::uint32_t(j));
+    }
+    std::sort(sources[i].begin(), sources[i].end());
+    sources[i].erase(std::unique(sources[i].begin(), sources[i].end()), sources[i].end());
+  }
+  p.source_begin.assign(blocks + 1, 0);
+  for (std::size_t i = 0; i < blocks; ++i)
+    p.source_begin[i + 1] = p.source_begin[i] + std::uint32_t(sources[i].size());
+  for (const std::vector<std::uint32_t>& s : sources) p.sources.insert(p.sources.end(), s.begin(), s.end());
+  return p;
+}
+
 LevelDirtyTracker LevelDirtyTracker::create(const Level& level) {
   LevelDirtyTracker t;
   t.level_ = &level;

@@ -278,6 +278,18 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
     if (t >= texels) return mismatch("atlas sample texel out of range");
   for (const PaddingRecord& p : level.atlas.padding)
     if (p.dst >= texels || p.src >= texels) return mismatch("atlas padding record out of range");
+  // Padding copies tile interiors into padding texels, never padding into padding: then the
+  // records of one block can run apart from the others' (atlas_block_padding, the camera skip).
+  if (!level.atlas.padding.empty()) {
+    std::vector<std::uint8_t> interior(texels, 0);
+    for (std::uint32_t t : level.atlas.sample_texel) interior[t] = 1;
+    for (std::size_t m = 0; m < level.atlas.padding.size(); ++m) {
+      const PaddingRecord& p = level.atlas.padding[m];
+      if (!interior[p.src] || interior[p.dst])
+        return mismatch("atlas padding record " + std::to_string(m) +
+                        " does not copy a sample texel into a padding texel");
+    }
+  }
   // Sizes are valid: bound the amplification ld -> outputs so that no update overflows.
   return check_level_gain(level, dict);
 }

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <string>
 
 #include <glm/vec4.hpp>
 
@@ -106,6 +108,28 @@ VisibilityStats level_visible_blocks(const Level& level, const glm::dmat4& view_
   }
   for (std::uint8_t v : visible) stats.visible += v;
   return stats;
+}
+
+CameraVisibility::CameraVisibility(const Level& level)
+    : level_(&level), sampler_(level, 1), visible_(level.blocks.size(), 1) {
+  scratch_.rect.reserve(4 * level.blocks.size());
+  scratch_.stack.reserve(level.blocks.size() + 1);
+}
+
+Result<VisibilityStats> CameraVisibility::update(const glm::dmat4& view_projection, const glm::dvec3& eye) {
+  if (!level_) return Status::error(ErrorCode::invalid_argument, "camera visibility: no level");
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(view_projection[c][r]))
+        return Status::error(ErrorCode::non_finite, "camera visibility: view_projection[" +
+                                                        std::to_string(c) + "][" + std::to_string(r) +
+                                                        "] is not finite");
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(eye[k]))
+      return Status::error(ErrorCode::non_finite,
+                           "camera visibility: eye[" + std::to_string(k) + "] is not finite");
+  camera_block_ = sampler_.containing_block(eye);
+  return level_visible_blocks(*level_, view_projection, camera_block_, visible_, scratch_);
 }
 
 }  // namespace modrt

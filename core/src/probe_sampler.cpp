@@ -52,7 +52,7 @@ void to_world(const std::array<double, 81>& m, const double sh[27], bool irradia
 }
 }  // namespace
 
-Result<ProbeCell> ProbeSampler::locate(const glm::dvec3& x, const char* what) const {
+int ProbeSampler::containing_block(const glm::dvec3& x, glm::dvec3* canonical) const {
   std::size_t block = 0;
   double best = 1e30;
   glm::dvec3 p(0.5);
@@ -62,12 +62,21 @@ Result<ProbeCell> ProbeSampler::locate(const glm::dvec3& x, const char* what) co
     const double o = outside(q);
     if (o < best) best = o, block = i, p = q;
   }
-  if (best > 0.01) {
+  if (best > 0.01) return -1;
+  if (canonical) *canonical = p;
+  return int(block);
+}
+
+Result<ProbeCell> ProbeSampler::locate(const glm::dvec3& x, const char* what) const {
+  glm::dvec3 p(0.5);
+  const int found = containing_block(x, &p);
+  if (found < 0) {
     char text[200];
     std::snprintf(text, sizeof text, "%s (%g, %g, %g) lies outside every block of the level", what, x.x, x.y,
                   x.z);
     return Status::error(ErrorCode::invalid_argument, text);
   }
+  const std::size_t block = std::size_t(found);
   const int g = grid_;
   // Probe centres sit at (i + 0.5) / g; outside the outermost centres the value is held.
   const glm::dvec3 gc = glm::clamp(p * double(g) - 0.5, glm::dvec3(0.0), glm::dvec3(std::max(g - 1, 0)));

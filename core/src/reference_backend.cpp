@@ -91,6 +91,9 @@ class ReferenceBackend final : public StagedBackend {
     clamp_lightmap(lightmap_);
     return Status::success();
   }
+  // The whole atlas from the lightmap: exact for the visible blocks under the camera skip too
+  // (their tiles and their padding neighbours' are current).
+  bool stage_camera_skip_available() const override { return true; }
   Status stage_atlas(const StageWork&) override {
     level_fill_atlas(level(), lightmap_, atlas_);
     return Status::success();

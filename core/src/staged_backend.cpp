@@ -49,7 +49,16 @@ StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const S
       all_blocks_(level.blocks.size(), 1),
       all_slots_(level.slots.size(), 1),
       no_slots_(level.slots.size(), 0),
-      rho_(sizes_.ld, 0.0f) {}
+      rho_(sizes_.ld, 0.0f),
+      padding_(atlas_block_padding(level)),
+      visible_(level.blocks.size(), 1),
+      ext_(level.blocks.size(), 1),
+      stale_(level.blocks.size(), 0),
+      atlas_stale_(level.blocks.size(), 0),
+      tiles_work_(level.blocks.size(), 0),
+      out_work_(level.blocks.size(), 0),
+      atlas_work_(level.blocks.size(), 0),
+      no_blocks_(level.blocks.size(), 0) {}
 
 Status StagedBackend::refused(const std::string& what) const {
   return Status::error(ErrorCode::invalid_argument, name_ + ": " + what);
@@ -90,7 +99,118 @@ void StagedBackend::count(const StageWork& w) {
   ++stats_.evaluations;
   stats_.blocks_computed += w.block_count, stats_.blocks_kept += blocks - w.block_count;
   stats_.slots_computed += w.slot_count, stats_.slots_kept += slots - w.slot_count;
-  stats_.tiles_written += w.tile_count, stats_.tiles_kept += blocks - w.tile_count;
+  stats_.tiles_written += w.tile_count - hidden_, stats_.tiles_kept += blocks - w.tile_count;
+  stats_.tiles_hidden += hidden_, stats_.tiles_caught_up += caught_up_;
+}
+
+// Whether a padding neighbour of block i (a block whose interior i's padding copies) is flagged.
+static bool padding_source_flagged(const AtlasBlockPadding& padding, std::size_t i,
+                                   const std::vector<std::uint8_t>& flags) {
+  for (std::uint32_t j : padding.sources_of(i))
+    if (flags[j]) return true;
+  return false;
+}
+
+void StagedBackend::plan_camera(const StageWork& mrt, const StageWork& out, StageWork& tiles,
+                                StageWork& output) {
+  const std::size_t n = level_.blocks.size();
+  std::size_t tile_count = 0, out_count = 0, atlas_count = 0;
+  hidden_ = caught_up_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    // A tile is written when it changed now or earlier while hidden, and its block is visible or
+    // a visible block's padding reads it.
+    const bool t = (mrt.tiles[i] || stale_[i]) && ext_[i];
+    tiles_work_[i] = t, tile_count += t;
+    hidden_ += mrt.tiles[i] && !ext_[i];
+    caught_up_ += t && !mrt.tiles[i];
+    const bool o = (out.tiles[i] || stale_[i]) && ext_[i];
+    out_work_[i] = o, out_count += o;
+  }
+  // Unwritten from here: the tiles that changed outside ext_, and the rectangles of every block
+  // outside visible_ whose tile or padding neighbours changed (out_work_ doubles as "changed").
+  for (std::size_t i = 0; i < n; ++i) out_work_[i] = out.tiles[i] || stale_[i];
+  atlas_stale_count_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool changed = out_work_[i] || padding_source_flagged(padding_, i, out_work_);
+    atlas_work_[i] = visible_[i] && (changed || atlas_stale_[i]);
+    atlas_count += atlas_work_[i];
+    atlas_stale_[i] = !visible_[i] && (changed || atlas_stale_[i]);
+    atlas_stale_count_ += atlas_stale_[i];
+  }
+  stale_count_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    stale_[i] = out_work_[i] && !ext_[i];
+    stale_count_ += stale_[i];
+    out_work_[i] = out_work_[i] && ext_[i];
+  }
+  (void)out_count;
+  tiles = StageWork{
+      mrt.blocks, mrt.slots, tiles_work_, mrt.block_count, mrt.slot_count, tile_count, tile_count == n,
+      {},         0};
+  output = StageWork{out.blocks, out.slots,      out_work_,   out.block_count, out.slot_count,
+                     out_count,  out_count == n, atlas_work_, atlas_count};
+}
+
+Status StagedBackend::catch_up(bool all) {
+  if (!updated_ || !camera_active() || !stage_camera_skip_available()) return Status::success();
+  const std::size_t n = level_.blocks.size();
+  const std::vector<std::uint8_t>& visible = all ? all_blocks_ : visible_;
+  const std::vector<std::uint8_t>& ext = all ? all_blocks_ : ext_;
+  std::size_t tile_count = 0, atlas_count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    tiles_work_[i] = stale_[i] && ext[i];
+    tile_count += tiles_work_[i];
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    atlas_work_[i] =
+        visible[i] && (atlas_stale_[i] || tiles_work_[i] || padding_source_flagged(padding_, i, tiles_work_));
+    atlas_count += atlas_work_[i];
+  }
+  if (tile_count == 0 && atlas_count == 0) return Status::success();
+  // The tiles from the b and r on hand (no block or slot is computed), then what the evaluation
+  // that left them unwritten would have done after them.
+  const StageWork tiles{no_blocks_, no_slots_, tiles_work_, 0, 0, tile_count, tile_count == n, {}, 0};
+  const StageWork output{no_blocks_, no_slots_,       tiles_work_, 0,          0,
+                         tile_count, tile_count == n, atlas_work_, atlas_count};
+  if (Status s = stage_begin(); !s.ok()) return s;
+  Status s = tile_count ? stage_tiles(tiles) : Status::success();
+  if (s.ok() && drt_ && tile_count) s = stage_deltas(output);
+  if (s.ok()) s = stage_atlas(output);
+  if (s.ok()) s = stage_vector(output);
+  stage_end(s.ok());
+  if (!s.ok()) return s;  // the flags stand: the next evaluation or catch-up writes them
+  stale_count_ = atlas_stale_count_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    stale_[i] = stale_[i] && !ext[i];
+    atlas_stale_[i] = atlas_stale_[i] && !visible[i];
+    stale_count_ += stale_[i], atlas_stale_count_ += atlas_stale_[i];
+  }
+  stats_.tiles_caught_up += tile_count;
+  return Status::success();
+}
+
+void StagedBackend::mark_all_stale() {
+  // After a failed evaluation no tile is known to be current (the next one computes every
+  // block's b, r and the visible tiles). A backend without the camera skip recomputes all.
+  if (!stage_camera_skip_available()) return;
+  std::fill(stale_.begin(), stale_.end(), std::uint8_t(1));
+  std::fill(atlas_stale_.begin(), atlas_stale_.end(), std::uint8_t(1));
+  stale_count_ = atlas_stale_count_ = stale_.size();
+}
+
+Status StagedBackend::set_visible_blocks(std::span<const std::uint8_t> visible) {
+  if (!stage_camera_skip_available()) return refused("set_visible_blocks: no camera skip in this backend");
+  const std::size_t n = level_.blocks.size();
+  if (!visible.empty() && visible.size() != n)
+    return refused("set_visible_blocks: visible has " + std::to_string(visible.size()) + " flags, expected " +
+                   std::to_string(n) + " (one per block; none: every block)");
+  for (std::size_t i = 0; i < n; ++i) visible_[i] = ext_[i] = visible.empty() || visible[i] != 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (visible_[i])
+      for (std::uint32_t j : padding_.sources_of(i)) ext_[j] = 1;
+  camera_skip_ = !visible.empty();
+  // A block that became visible shows this frame's light now (its tiles were left unwritten).
+  return catch_up(false);
 }
 
 // architecture.md §5 steps 2–9 after the input stage; see the header for the order.
@@ -99,8 +219,14 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
   // With clutter the deltas read every block's b (shadows across openings): every tile's output.
   StageWork out = mrt;
   if (drt_)
-    out = StageWork{all_blocks_,    all_slots_,         all_blocks_, mrt.block_count,
-                    mrt.slot_count, all_blocks_.size(), true};
+    out = StageWork{
+        all_blocks_, all_slots_, all_blocks_, mrt.block_count, mrt.slot_count, all_blocks_.size(), true,
+        {},          0};
+  // The camera skip: the tiles and rectangles of the visible blocks (and the stale ones); the
+  // probes are every block's (the volume is sampled anywhere; DRT adds to all of it).
+  StageWork tiles = mrt, output = out;
+  hidden_ = caught_up_ = 0;
+  if (camera_active()) plan_camera(mrt, out, tiles, output);
   if (drt_ && (clutter_feedback || !rho_c_.empty())) {
     const ClutterCSource source = clutter_feedback ? ClutterCSource::feedback : ClutterCSource::direct;
     if (Status s = timed(TimedStage::drt, [&] { return stage_clutter_c(source, feedback); }); !s.ok())
@@ -117,11 +243,11 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
     ++converged_.solves, converged_.iterations += std::uint64_t(report.iterations);
   }
   if (Status s = timed(TimedStage::r, [&] { return stage_r(mrt); }); !s.ok()) return s;
-  if (Status s = timed(TimedStage::lightmap, [&] { return stage_tiles(mrt); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::lightmap, [&] { return stage_tiles(tiles); }); !s.ok()) return s;
   if (drt_)
-    if (Status s = timed(TimedStage::drt, [&] { return stage_deltas(out); }); !s.ok()) return s;
-  if (Status s = timed(TimedStage::atlas, [&] { return stage_atlas(out); }); !s.ok()) return s;
-  if (Status s = timed(TimedStage::vector, [&] { return stage_vector(out); }); !s.ok()) return s;
+    if (Status s = timed(TimedStage::drt, [&] { return stage_deltas(output); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::atlas, [&] { return stage_atlas(output); }); !s.ok()) return s;
+  if (Status s = timed(TimedStage::vector, [&] { return stage_vector(output); }); !s.ok()) return s;
   if (has_probes_)
     if (Status s = timed(TimedStage::probes, [&] { return stage_probes(out); }); !s.ok()) return s;
   if (drt_)
@@ -134,17 +260,23 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
 Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float> ld,
                                              std::uint32_t ld_texture, bool feedback, float bound,
                                              const ClutterFeedback& clutter_feedback) {
-  const StageWork all{all_blocks_,       all_slots_,         all_blocks_, all_blocks_.size(),
-                      all_slots_.size(), all_blocks_.size(), true};
+  const StageWork all{
+      all_blocks_, all_slots_, all_blocks_, all_blocks_.size(), all_slots_.size(), all_blocks_.size(), true,
+      {},          0};
   const StageWork dirty{dirty_.blocks(),
                         dirty_.slots(),
                         dirty_.tiles(),
                         dirty_.dirty_blocks(),
                         dirty_.dirty_slots(),
                         dirty_.dirty_tiles(),
-                        dirty_.dirty_blocks() == all_blocks_.size()};
+                        dirty_.dirty_blocks() == all_blocks_.size(),
+                        {},
+                        0};
   // Without skipping the dirty sets are not kept (update() marks nothing): every item runs.
   const StageWork& mrt = (texture || feedback || !options_.skip_unchanged) ? all : dirty;
+  // A feedback step reads the whole lightmap: the hidden tiles first.
+  if (feedback)
+    if (Status s = catch_up(true); !s.ok()) return s;
   if (Status s = stage_begin(); !s.ok()) return s;
   Status s;
   if (feedback && texture)
@@ -164,6 +296,7 @@ Status StagedBackend::run_input_and_evaluate(bool texture, std::span<const float
   }
   if (!s.ok()) {
     dirty_.invalidate();
+    mark_all_stale();
     return s;
   }
   // After a feedback step or ld from a texture, the next update compares with no ld of its own.
@@ -258,7 +391,8 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
         std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start).count());
   }
   // Every block's b and tile; r comes from the solve (stage_solve), no slot is computed after it.
-  const StageWork work{all_blocks_, no_slots_, all_blocks_, all_blocks_.size(), 0, all_blocks_.size(), false};
+  const StageWork work{all_blocks_, no_slots_, all_blocks_, all_blocks_.size(), 0, all_blocks_.size(), false,
+                       {},          0};
   if (Status s = stage_begin(); !s.ok()) return s;
   Status s = timed(TimedStage::upload, [&] { return stage_ld(ld_direct, work); });
   if (s.ok()) s = evaluate(work, false, {}, &settings);
@@ -270,6 +404,7 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
   dirty_.invalidate();  // the results on hand are not update(ld_direct)'s
   if (!s.ok()) {
     warm_ = false;
+    mark_all_stale();
     return s;
   }
   count(work);

@@ -90,7 +90,14 @@ class CpuBackend final : public StagedBackend {
     clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());
     return Status::success();
   }
-  Status stage_atlas(const StageWork&) override { return rt_.fill_atlas(lightmap_, atlas_); }
+  // The whole atlas, or with the camera skip the interiors and rectangles it names.
+  Status stage_atlas(const StageWork& work) override {
+    if (work.atlas.empty() || (work.atlas_count == work.atlas.size() && work.everything))
+      return rt_.fill_atlas(lightmap_, atlas_);
+    rt_.fill_atlas_blocks(lightmap_, atlas_, work.tiles, work.atlas, atlas_padding());
+    return Status::success();
+  }
+  bool stage_camera_skip_available() const override { return true; }
   Status stage_probes(const StageWork& work) override {
     rt_.compute_probes(work.tiles, probes_);
     return clutter() ? drt_->apply_probes(rt_.b(), cl_.c, probes_) : Status::success();  // DRT §5 (U_dyn)

@@ -589,7 +589,7 @@ void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, 
 // order; only the flagged slots when `slots` is given), then lightmap_i = Ub b_i, += Ur r_s
 // scattered onto each slot's entry face.
 void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lightmap,
-                                             const std::uint8_t* slots) {
+                                             const std::uint8_t* slots, bool write_tile) {
   const Level& level = *level_;
   const std::size_t kb = level.kb, kr = level.kr;
   float* tile = lightmap.data() + 3 * std::size_t(level.blocks[i].sample_offset);
@@ -604,6 +604,7 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
     }
     deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
   }
+  if (!write_tile) return;
   const std::size_t shape = std::size_t(level.blocks[i].shape);
   gemv(shape_ops_[shape].ub, dict_->shapes[shape].Ub.rows, kb, b_planar_.data() + 3 * kb * i, tile, false);
   const std::size_t ur_rows = dict_->interfaces.Ur.rows;
@@ -684,9 +685,43 @@ void CpuLevelRuntime::compute_b(std::span<const float> ld, std::span<const std::
 
 void CpuLevelRuntime::compute_r_and_tiles(std::span<const std::uint8_t> slots,
                                           std::span<const std::uint8_t> tiles, std::span<float> lightmap) {
-  const std::span<const std::uint32_t> items = flagged(tiles);
-  auto lightmap_phase = [&](std::size_t k, int) { compute_block_lightmap(items[k], lightmap, slots.data()); };
-  parallel_for(items.size(), lightmap_phase);
+  // The items: blocks with a flagged tile, and (high bit set) blocks whose tile is not flagged
+  // but a flagged slot enters them.
+  constexpr std::uint32_t kSlotsOnly = 0x80000000u;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < tiles.size(); ++i) {
+    if (tiles[i]) {
+      work_items_[n++] = std::uint32_t(i);
+      continue;
+    }
+    for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j)
+      if (slots[block_slots_[j]]) {
+        work_items_[n++] = std::uint32_t(i) | kSlotsOnly;
+        break;
+      }
+  }
+  auto lightmap_phase = [&](std::size_t k, int) {
+    const std::uint32_t item = work_items_[k];
+    compute_block_lightmap(item & ~kSlotsOnly, lightmap, slots.data(), (item & kSlotsOnly) == 0);
+  };
+  parallel_for(n, lightmap_phase);
+}
+
+void CpuLevelRuntime::fill_atlas_blocks(std::span<const float> lightmap, std::span<float> atlas,
+                                        std::span<const std::uint8_t> tiles,
+                                        std::span<const std::uint8_t> rects,
+                                        const AtlasBlockPadding& padding) const {
+  const Level& level = *level_;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    if (tiles[i]) {
+      const LevelBlock& b = level.blocks[i];
+      scatter_texels(
+          std::span<const std::uint32_t>(level.atlas.sample_texel).subspan(b.sample_offset, b.sample_count),
+          lightmap.data() + 3 * std::size_t(b.sample_offset), atlas.data());
+    }
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    if (rects[i])
+      for (std::uint32_t m : padding.records_of(i)) copy_padding({&level.atlas.padding[m], 1}, atlas.data());
 }
 
 void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x,

@@ -17,6 +17,7 @@
 #include "modrt/frame_pipeline.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
+#include "modrt/level_visibility.h"
 #include "modrt/operator_limits.h"
 #include "modrt/probe_sampler.h"
 #if MODRT_RUNTIME_GLES
@@ -56,6 +57,7 @@ struct modrt_context {
 #endif
   std::optional<cpu::CpuDirectLight> direct;
   ProbeSampler sampler;
+  CameraVisibility camera;  // set_camera's walk (its flags go to the backend)
 
   // Frame buffers, from the hook. albedo: what the lights are reflected with (the level's, or
   // set_albedo's). probes, vector: the backend's of the last update, read once per update
@@ -395,6 +397,7 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     if (c->probes_on) {
       c->probes.assign(c->sizes.probes, 0.0f);
       c->sampler = ProbeSampler(c->lv(), c->probe_grid);
+      c->camera = CameraVisibility(c->lv());
     }
     *out = c;
     undo.c = nullptr;
@@ -973,8 +976,55 @@ modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_sk
   k.tiles_kept = f.evaluations.tiles_kept;
   k.light_blocks_recomputed = context->light_blocks_recomputed;
   k.light_blocks_kept = context->light_blocks_kept;
-  *out = k;
+  k.tiles_hidden = f.evaluations.tiles_hidden;
+  k.tiles_caught_up = f.evaluations.tiles_caught_up;
+  write_sized(out, k);
   return MODRT_OK;
+}
+
+// The camera skip (modrt.h): the CPU backends have it; GLES refuses before anything changes.
+static modrt_status camera_skip_unsupported(const modrt_context* c, const char* fn) {
+  return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": the " + c->description +
+                                           " backend has no camera skip yet (CPU contexts have it)");
+}
+
+modrt_status modrt_context_set_visible_blocks(modrt_context* context, const uint8_t* flags, size_t count) {
+  return guarded("modrt_context_set_visible_blocks", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_visible_blocks";
+    if (!context) return null_arg(fn, "context");
+    if (context->is_gles()) return camera_skip_unsupported(context, fn);
+    if (!flags && count != 0) return null_arg(fn, "flags");
+    const std::size_t blocks = context->lv().blocks.size();
+    if (count != 0 && count != blocks)
+      return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": count is " + std::to_string(count) +
+                                                    ", expected " + std::to_string(blocks) +
+                                                    " (one flag per block) or 0 (every block)");
+    BackendCall call(context);
+    if (Status s = context->backend->set_visible_blocks({flags, count}); !s.ok())
+      return backend_fail(context, fn, s);
+    return MODRT_OK;
+  });
+}
+
+modrt_status modrt_context_set_camera(modrt_context* context, const float view_projection[16],
+                                      const float eye[3]) {
+  return guarded("modrt_context_set_camera", [&]() -> modrt_status {
+    constexpr const char* fn = "modrt_context_set_camera";
+    if (!context) return null_arg(fn, "context");
+    if (!view_projection) return null_arg(fn, "view_projection");
+    if (!eye) return null_arg(fn, "eye");
+    if (context->is_gles()) return camera_skip_unsupported(context, fn);
+    glm::dmat4 vp(1.0);
+    for (int k = 0; k < 16; ++k) vp[k / 4][k % 4] = double(view_projection[k]);  // column-major
+    const glm::dvec3 e(eye[0], eye[1], eye[2]);
+    // NaN or Inf is refused by the walk, naming view_projection[column][row] or eye[k].
+    const Result<VisibilityStats> seen = context->camera.update(vp, e);
+    if (!seen.ok()) return backend_fail(context, fn, seen.status());
+    BackendCall call(context);
+    if (Status s = context->backend->set_visible_blocks(context->camera.visible()); !s.ok())
+      return backend_fail(context, fn, s);
+    return MODRT_OK;
+  });
 }
 
 modrt_status modrt_context_set_clutter(modrt_context* context, modrt_clutter* clutter) {

@@ -107,6 +107,8 @@ inline constexpr std::size_t kEarlierStructSize = 0;
 template <>  // 0.2: up to gl_loader_user
 inline constexpr std::size_t kEarlierStructSize<modrt_context_options> = offsetof(modrt_context_options,
                                                                                   bounces);
+template <>  // 0.3: up to light_blocks_kept
+inline constexpr std::size_t kEarlierStructSize<modrt_skip_stats> = offsetof(modrt_skip_stats, tiles_hidden);
 template <>  // 0.2: up to update_ns
 inline constexpr std::size_t kEarlierStructSize<modrt_timings> = offsetof(modrt_timings, feedback_ns);
 

@@ -63,6 +63,11 @@ struct BackendEvaluationStats {
   std::uint64_t blocks_computed = 0, blocks_kept = 0;  // b_i = Td_b ld_i (a block whose ld is 0: computed)
   std::uint64_t slots_computed = 0, slots_kept = 0;    // r_s = Tb->r b
   std::uint64_t tiles_written = 0, tiles_kept = 0;     // the block's atlas tiles (and its probes)
+  // The camera skip (set_visible_blocks): computed + kept + hidden = evaluations x blocks, where
+  // tiles_hidden counts the changed tiles of blocks outside the visible set (not written then).
+  // tiles_caught_up: tiles written late, when their block became visible (or before a
+  // feedback step read them), not counted in the sum.
+  std::uint64_t tiles_hidden = 0, tiles_caught_up = 0;
 };
 
 // The converged multi-bounce of a backend (update_converged, reduced_feedback.h).
@@ -120,6 +125,23 @@ class Backend {
   virtual ConvergedStats converged_stats() const { return {}; }
   // Whether update_converged can run now (a backend with a reduced solve and no clutter set).
   virtual bool converged_available() const { return false; }
+
+  // Skip what the camera cannot see (issue 20): visible[i] != 0 marks block i potentially
+  // visible (level_visible_blocks, or the renderer's own visibility set); empty: every block
+  // (the default). b and r are still computed for every block (they carry light), the probes
+  // too, but a block's lightmap tile and its atlas rectangles (and vector atlases on a GPU) are
+  // written only while it is visible, and those of its open-face neighbours that its padding
+  // reads. A block that becomes visible has its tiles produced by this call, from the b and r
+  // on hand, so that the outputs of every visible block equal the full path's bit for bit; a
+  // feedback step first produces every hidden tile (it reads the whole lightmap). The hidden
+  // blocks' texels in read_lightmap / read_atlas are not current (an earlier frame's, and
+  // with clutter this frame's deltas over them). Refused (nothing changes) for a wrong size,
+  // and by a backend without it.
+  virtual Status set_visible_blocks(std::span<const std::uint8_t> visible) {
+    (void)visible;
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string(backend_kind_name(kind())) + ": no camera skip in this backend");
+  }
 
   // Copies of the last update's results (sizes().lightmap, .atlas, .probes floats, RGB
   // interleaved). read_probes fails when the level or backend has no probes.

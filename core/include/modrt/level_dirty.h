@@ -43,6 +43,26 @@ struct LevelDependencies {
 // The graph of a checked level (records and slots index valid blocks and slots).
 LevelDependencies level_dependencies(const Level& level);
 
+// The padded atlas per block (MRT §6.2): the padding records whose destination lies in one of
+// the block's tiles, and the other blocks whose tile interiors those records copy (its
+// open-face neighbours). A block's atlas rectangles are current when its own tile and these
+// blocks' tiles are (the camera skip, StagedBackend::set_visible_blocks). Padding sources are
+// tile interiors (check_level_runtime refuses a level whose padding copies padding).
+struct AtlasBlockPadding {
+  std::vector<std::uint32_t> record_begin, records;  // indices into level.atlas.padding, in order
+  std::vector<std::uint32_t> source_begin, sources;  // other blocks, increasing
+
+  std::span<const std::uint32_t> records_of(std::size_t i) const {
+    return {records.data() + record_begin[i], record_begin[i + 1] - record_begin[i]};
+  }
+  std::span<const std::uint32_t> sources_of(std::size_t i) const {
+    return {sources.data() + source_begin[i], source_begin[i + 1] - source_begin[i]};
+  }
+};
+
+// The padding of a checked level (its records and sample texels within the atlas).
+AtlasBlockPadding atlas_block_padding(const Level& level);
+
 // Exact dirty tracking over one level's frames. create() allocates (the last ld and the
 // flags); mark() does not.
 class LevelDirtyTracker {

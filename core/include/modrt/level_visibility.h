@@ -20,6 +20,8 @@
 #include <glm/vec3.hpp>
 
 #include "modrt/level.h"
+#include "modrt/probe_sampler.h"
+#include "modrt/status.h"
 
 namespace modrt {
 
@@ -46,5 +48,27 @@ struct VisibilityScratch {
 };
 VisibilityStats level_visible_blocks(const Level& level, const glm::dmat4& view_projection, int camera_block,
                                      std::span<std::uint8_t> visible, VisibilityScratch& scratch);
+
+// The camera's visible blocks frame after frame (Backend::set_visible_blocks): the block holding
+// the eye (ProbeSampler::containing_block; none: every block), then level_visible_blocks.
+// Borrows `level` (it must outlive this). Construction allocates; update() does not once the
+// walk's stack has grown to the level's depth.
+class CameraVisibility {
+ public:
+  CameraVisibility() = default;
+  explicit CameraVisibility(const Level& level);
+
+  // Refused (invalid_argument, nothing changes) for a non-finite matrix or eye.
+  Result<VisibilityStats> update(const glm::dmat4& view_projection, const glm::dvec3& eye);
+  std::span<const std::uint8_t> visible() const { return visible_; }
+  int camera_block() const { return camera_block_; }
+
+ private:
+  const Level* level_ = nullptr;
+  ProbeSampler sampler_;
+  VisibilityScratch scratch_;
+  std::vector<std::uint8_t> visible_;
+  int camera_block_ = -1;
+};
 
 }  // namespace modrt

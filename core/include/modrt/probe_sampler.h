@@ -36,6 +36,10 @@ class ProbeSampler {
   // The cell of world point x. Fails (invalid_argument, naming `what` and x) for a point outside
   // every block by more than 1% of a block.
   Result<ProbeCell> locate(const glm::dvec3& x, const char* what = "probe position") const;
+  // The block containing world point x (within 1% of a block), or -1: locate's search, with no
+  // message (it allocates nothing; a camera outside the level is no error, level_visibility.h).
+  // `canonical`, when given, receives x in that block's canonical coordinates.
+  int containing_block(const glm::dvec3& x, glm::dvec3* canonical = nullptr) const;
   // out[3 k + c], world frame; `irradiance`: E/pi (bands scaled by A_l / pi = 1, 2/3, 1/4).
   // Fails (invalid_argument) for a point outside every block by more than 1% of a block.
   Status sample(std::span<const float> probes, const glm::dvec3& x, bool irradiance, float out[27]) const;

@@ -46,6 +46,12 @@ struct StageWork {
   std::span<const std::uint8_t> blocks, slots, tiles;
   std::size_t block_count = 0, slot_count = 0, tile_count = 0;  // how many flags are 1
   bool everything = false;                                      // every flag is 1
+  // The output stages (atlas, vector) only, while the camera skip is on (else empty): the
+  // blocks whose atlas rectangles (padding included) to write, from the interiors of the
+  // `tiles` blocks, which include the visible blocks' padding neighbours (their interiors are
+  // read by that padding) whose own rectangles are not written (Backend::set_visible_blocks).
+  std::span<const std::uint8_t> atlas;
+  std::size_t atlas_count = 0;
 };
 
 // Where this evaluation's clutter c (3 per clutter face) comes from.
@@ -130,6 +136,7 @@ class StagedBackend : public Backend {
   const DrtBufferSizes& clutter_sizes() const final { return drt_sizes_; }
   Status read_clutter_vector_lightmap(std::span<float> clutter_vector_lightmap) final;
   Status read_clutter_lightmap(std::span<float> clutter_lightmap) final;
+  Status set_visible_blocks(std::span<const std::uint8_t> visible) final;
 
  protected:
   // `name` prefixes every message ("cpu", "gles", "reference"). `probes`: whether the backend
@@ -149,6 +156,8 @@ class StagedBackend : public Backend {
   }  // an evaluation has succeeded since the last set_clutter
   // invalid_argument, "<name>: <what>".
   Status refused(const std::string& what) const;
+  // The padding records and padding neighbours of each block (the camera skip's atlas work).
+  const AtlasBlockPadding& atlas_padding() const { return padding_; }
 
   // ---- The stages. Each may fail only for a reason of its own (a GL error); the inputs
   // are valid and the sizes right. ----
@@ -181,7 +190,11 @@ class StagedBackend : public Backend {
   virtual Status stage_b(const StageWork& work) = 0;
   virtual Status stage_r(const StageWork& work) = 0;
   virtual Status stage_tiles(const StageWork& work) = 0;
+  // The atlas rectangles of work.atlas from the lightmap; with the camera skip on, the
+  // interiors of work.tiles first (a backend whose stage_atlas does not take it that way
+  // keeps stage_camera_skip_available() false).
   virtual Status stage_atlas(const StageWork& work) = 0;
+  virtual bool stage_camera_skip_available() const { return false; }
   // Vector irradiance for a backend that renders it every evaluation (GLES); a backend that
   // computes it on request (read_output) keeps the default.
   virtual Status stage_vector(const StageWork& work) {
@@ -224,6 +237,14 @@ class StagedBackend : public Backend {
   Status run_input_and_evaluate(bool texture, std::span<const float> ld, std::uint32_t ld_texture,
                                 bool feedback, float bound, const ClutterFeedback& clutter_feedback);
   void count(const StageWork& work);
+  // The camera skip: the tiles and atlas work of an evaluation whose MRT work is `mrt` and
+  // whose outputs change on out.tiles, within visible_ / ext_ (the stale blocks' too); then
+  // the stale flags of what stays unwritten. catch_up produces the stale tiles inside
+  // (visible, ext) with the b and r on hand; with all, every one (before a feedback step).
+  void plan_camera(const StageWork& mrt, const StageWork& out, StageWork& tiles, StageWork& atlas);
+  Status catch_up(bool all);
+  void mark_all_stale();
+  bool camera_active() const { return camera_skip_ || stale_count_ > 0 || atlas_stale_count_ > 0; }
   Status check_read(const char* what, std::size_t expected, std::size_t got) const;
   template <class F>
   Status timed(TimedStage stage, F&& f);
@@ -250,6 +271,15 @@ class StagedBackend : public Backend {
   bool warm_ = false;
   ConvergedStats converged_;
   float clutter_ld_max_ = 0.0f, rho_c_max_ = 0.0f;
+  // The camera skip (set_visible_blocks): the visible blocks and those with their padding
+  // neighbours (ext_), every flag 1 while it is off; per block whether its lightmap tile (and
+  // atlas interior) or its atlas rectangles are not current; the work flags of one evaluation.
+  AtlasBlockPadding padding_;
+  bool camera_skip_ = false;
+  std::vector<std::uint8_t> visible_, ext_, stale_, atlas_stale_, tiles_work_, out_work_, atlas_work_,
+      no_blocks_;
+  std::size_t stale_count_ = 0, atlas_stale_count_ = 0;
+  std::uint64_t hidden_ = 0, caught_up_ = 0;  // of the evaluation being counted
   BackendStageTimes times_;
   BackendEvaluationStats stats_;
   Clock::time_point stage_start_[std::size_t(TimedStage::count)];

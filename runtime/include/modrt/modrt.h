@@ -356,6 +356,26 @@ MODRT_API modrt_status modrt_context_update(modrt_context* context);
 MODRT_API modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces);
 MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, uint32_t* bounces);
 
+/* Since 0.4. Skip what the camera cannot see (docs/cpu.md "The camera skip"): the following
+ * updates write the lightmap tiles and atlas rectangles of the potentially visible blocks only
+ * (and of the neighbours their padding reads); b, r and the probes stay every block's, since
+ * they carry light to the visible ones and the probe volume is sampled anywhere. A block that
+ * comes into view gets this frame's light in this call; the others' texels are not current.
+ *   - modrt_context_set_camera: the blocks seen from `eye` (world position) through
+ *     `view_projection` (16 floats, column-major, OpenGL clip space), by a conservative walk
+ *     through the level's open faces; an eye outside every block sees every block.
+ *   - modrt_context_set_visible_blocks: the app's own set, one flag per block (nonzero:
+ *     visible; count = modrt_level_info.block_count); flags NULL with count 0: every block (off).
+ * With n-space bounces (1..64) every feedback step reads the whole lightmap, so the skip saves
+ * work only with bounces 0 or MODRT_BOUNCES_CONVERGED. Non-finite input and a wrong count are
+ * MODRT_ERROR_INVALID_ARGUMENT / MODRT_ERROR_NON_FINITE naming the argument, and nothing
+ * changes; a GLES context refuses with MODRT_ERROR_UNSUPPORTED (no camera skip there yet).
+ * Allocates nothing. */
+MODRT_API modrt_status modrt_context_set_camera(modrt_context* context, const float view_projection[16],
+                                                const float eye[3]);
+MODRT_API modrt_status modrt_context_set_visible_blocks(modrt_context* context, const uint8_t* flags,
+                                                        size_t count);
+
 /* GLES: the GL texture name of the padded lightmap atlas (GL_TEXTURE_2D, RGB in .rgb;
  * *format receives 0 for RGBA32F, 1 for RGBA16F, 2 for RGBA32UI holding float bits, which
  * must be fetched with texelFetch). CPU contexts: MODRT_ERROR_UNSUPPORTED. format may be null. */
@@ -480,6 +500,13 @@ typedef struct modrt_skip_stats {
   uint64_t tiles_kept;     /* blocks whose tiles were left as they were */
   uint64_t light_blocks_recomputed;
   uint64_t light_blocks_kept;
+  /* Since 0.4 (an 0.3 struct_size, up to light_blocks_kept, is still accepted): the camera
+   * skip (modrt_context_set_camera). tiles_hidden: changed tiles of blocks the camera could not
+   * see, left unwritten (tiles_written + tiles_kept + tiles_hidden = evaluations x blocks);
+   * tiles_caught_up: such tiles written later, when their block came into view or a feedback
+   * step needed the whole lightmap. */
+  uint64_t tiles_hidden;
+  uint64_t tiles_caught_up;
 } modrt_skip_stats;
 MODRT_API modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out);
 

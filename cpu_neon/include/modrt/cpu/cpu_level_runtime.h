@@ -54,6 +54,7 @@
 #include "modrt/cpu/isa.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level.h"
+#include "modrt/level_dirty.h"
 #include "modrt/level_runtime.h"
 #include "modrt/reduced_feedback.h"
 #include "modrt/status.h"
@@ -187,12 +188,20 @@ class CpuLevelRuntime {
   // (StagedBackend, core's staged_backend.h: flags per block or slot, 1 = compute). ld must
   // hold valid values (evaluate()'s checks are the caller's) and the lightmap must be the one
   // these calls wrote before, so that the tiles not computed stay right. compute_b: b_i of
-  // the flagged blocks. compute_r_and_tiles: in one task per flagged tile i, r of the flagged
-  // slots entering i (a flagged slot's tile must be flagged), then tile i = Ub b_i + Ur r. The
-  // results are bit-identical to evaluate()'s; nothing is allocated.
+  // the flagged blocks. compute_r_and_tiles: in one task per block i with a flagged tile or a
+  // flagged slot entering it, r of the flagged slots entering i, then, for a flagged tile,
+  // tile i = Ub b_i + Ur r (a flagged slot may enter a block whose tile is not flagged: the
+  // camera skip leaves hidden tiles unwritten but every r current). The results are
+  // bit-identical to evaluate()'s; nothing is allocated.
   void compute_b(std::span<const float> ld, std::span<const std::uint8_t> blocks);
   void compute_r_and_tiles(std::span<const std::uint8_t> slots, std::span<const std::uint8_t> tiles,
                            std::span<float> lightmap);
+  // fill_atlas for chosen blocks (the camera skip, staged_backend.h): the sample texels of the
+  // blocks `tiles` flags, then the padding records of the blocks `rects` flags (`padding`:
+  // core's atlas_block_padding of this level). The other texels keep their values.
+  void fill_atlas_blocks(std::span<const float> lightmap, std::span<float> atlas,
+                         std::span<const std::uint8_t> tiles, std::span<const std::uint8_t> rects,
+                         const AtlasBlockPadding& padding) const;
   // compute_probes for the flagged blocks only (the others keep their probes).
   void compute_probes(std::span<const std::uint8_t> blocks, std::span<float> probes);
 
@@ -251,8 +260,9 @@ class CpuLevelRuntime {
   template <class F>
   void parallel_for(std::size_t count, F& f) const;
   void compute_block_b(std::size_t i, std::span<const float> ld, int thread);
-  void compute_block_lightmap(std::size_t i, std::span<float> lightmap,
-                              const std::uint8_t* slots = nullptr);  // slots: flags (null: all)
+  // slots: flags (null: all); write_tile false: the slots' r only.
+  void compute_block_lightmap(std::size_t i, std::span<float> lightmap, const std::uint8_t* slots = nullptr,
+                              bool write_tile = true);
   void compute_block_probes(std::size_t i, std::span<float> probes) const;
   std::span<const std::uint32_t> flagged(std::span<const std::uint8_t> flags);
   void skip_block_b(std::size_t i, std::span<const float> ld, int thread);
