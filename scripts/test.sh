@@ -3,7 +3,8 @@
 # Build modrt with warnings as errors and run the test suite.
 #
 #   scripts/test.sh                 # build-tests/: -O2 -g1, -DMODRT_WERROR=ON
-#   scripts/test.sh --asan          # build-asan/:  AddressSanitizer + UBSan, -O1 -g1, WERROR, no benches
+#   scripts/test.sh --asan          # build-asan/:  clang, AddressSanitizer + UBSan, -O1 -g1, WERROR,
+#                                   #   no benches; also the libFuzzer harnesses (scripts/fuzz.sh --reuse)
 #   scripts/test.sh --scalar-clang  # build-scalar-clang/: clang, -DMODRT_NO_SIMD=ON, WERROR, no programs
 #
 # Exits non-zero if the configure, the build or any test fails. Same settings as the
@@ -34,10 +35,16 @@ scripts/install-deps.sh
 # report, at a fraction of full -g's compile and link time (CI's budget, .ci/run).
 if ((asan)); then
   build_dir=build-asan
+  # clang, with the libFuzzer harnesses and their coverage instrumentation in the same tree:
+  # CI's fuzz step runs them from here (scripts/fuzz.sh --reuse build-asan) instead of
+  # compiling the libraries a second time with the same sanitizers (budget: .ci/run).
   cmake_args=(
     -DCMAKE_BUILD_TYPE=RelWithDebInfo
     "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1"
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1"
+    -DCMAKE_C_COMPILER=clang
+    -DCMAKE_CXX_COMPILER=clang++
+    -DMODRT_FUZZ=ON
     -DMODRT_ASAN=ON
     -DMODRT_WERROR=ON
     -DMODRT_BUILD_TESTS=ON
