@@ -1023,13 +1023,36 @@ TEST(CApi, ConvergedBouncesAreCoresConvergedSolve) {
   const std::vector<float> lightmap = read_lightmap(c);
   const LevelBufferSizes sz = level_buffer_sizes(t.level, small_test_dictionary());
   std::vector<float> b(sz.b), r(sz.r), ref(sz.lightmap);
-  ASSERT_TRUE(level_converged_bounce(t.level, small_test_dictionary(), t.ld, albedo, {}, b, r, ref).ok());
+  modrt_solve_stats none = modrt::rt::sized<modrt_solve_stats>();
+  const Result<ConvergedBounceReport> rep =
+      level_converged_bounce(t.level, small_test_dictionary(), t.ld, albedo, {}, b, r, ref);
+  ASSERT_TRUE(rep.ok());
   EXPECT_LT(rel_l2(lightmap, ref), 2e-3);
+  // The solve's statistics: core's spectral radius, the default tolerance met.
+  modrt_solve_stats st = modrt::rt::sized<modrt_solve_stats>();
+  ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(st.solves, 1u);
+  EXPECT_EQ(st.converged, 1u);
+  EXPECT_GT(st.last_iterations, 0u);
+  EXPECT_EQ(st.iterations, st.last_iterations);
+  EXPECT_LE(st.last_error_bound, 1e-3f);
+  EXPECT_TRUE(std::isfinite(st.last_residual) && st.last_residual >= 0.0f);
+  EXPECT_NEAR(st.spectral_radius, rep->spectral_radius, 1e-6 * rep->spectral_radius);
+  EXPECT_GT(st.contraction, 0.0);
+  EXPECT_LT(st.contraction, 1.0);
+  EXPECT_EQ(st.damping, 1.0f) << "albedo below 0.98: no damping";
+  EXPECT_GT(st.build_ns, 0u);
+  none.struct_size = 4;
+  expect_error(modrt_context_get_solve_stats(c, &none), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_get_solve_stats", "out.struct_size is 4"});
+  expect_error(modrt_context_get_solve_stats(c, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"out"});
   uint32_t got = 0;
   ASSERT_EQ(modrt_context_get_bounces(c, &got), MODRT_OK);
   EXPECT_EQ(got, MODRT_BOUNCES_CONVERGED);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   EXPECT_EQ(read_lightmap(c), lightmap);  // skipped: the same ld and albedo
+  ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK);
+  EXPECT_EQ(st.solves, 1u) << "a skipped update solves nothing";
   ASSERT_EQ(modrt_context_set_bounces(c, 3), MODRT_OK);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   const std::vector<float> three = read_lightmap(c);
@@ -2147,6 +2170,18 @@ TEST(CApi, CppWrapper) {
   ASSERT_FALSE(ctx.read_lightmap(lightmap.data(), lightmap.size()));
   EXPECT_LT(rel_l2(lightmap, level_reference(t.level, t.ld).lightmap), 1e-5);
   EXPECT_EQ(ctx.atlas_texture(), 0u);
+  // The camera skip and the solve statistics through the wrapper: a wrong count is named; every
+  // block visible is the full path (the lightmap above).
+  const std::vector<std::uint8_t> flags(t.level.blocks.size() + 1, 1);
+  e = ctx.set_visible_blocks(flags.data(), flags.size());
+  EXPECT_EQ(e.code, MODRT_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(e.message.find("count is " + std::to_string(flags.size())), std::string::npos) << e.message;
+  ASSERT_FALSE(ctx.set_visible_blocks(flags.data(), flags.size() - 1));
+  ASSERT_FALSE(ctx.update());
+  std::vector<float> again(lightmap.size());
+  ASSERT_FALSE(ctx.read_lightmap(again.data(), again.size()));
+  EXPECT_EQ(again, lightmap);
+  EXPECT_EQ(ctx.solve_stats().solves, 0u) << "one bounce: no converged solve";
   modrt_light light;
   modrt_light_init(&light);
   e = ctx.set_light_gpu(light);  // the GPU light pass needs a GLES context

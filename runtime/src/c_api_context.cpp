@@ -982,6 +982,28 @@ modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_sk
   return MODRT_OK;
 }
 
+modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_solve_stats* out) {
+  constexpr const char* fn = "modrt_context_get_solve_stats";
+  if (!context) return null_arg(fn, "context");
+  if (!out) return null_arg(fn, "out");
+  if (modrt_status s = check_struct_size(fn, "out", *out, "modrt_solve_stats"); s != MODRT_OK) return s;
+  const ConvergedStats st = context->backend->converged_stats();
+  modrt_solve_stats k{};
+  k.struct_size = sizeof k;
+  k.converged = st.solves > 0 && st.last.converged ? 1u : 0u;
+  k.solves = st.solves;
+  k.iterations = st.iterations;
+  k.last_iterations = std::uint32_t(std::max(st.last.iterations, 0));
+  k.last_residual = st.last.residual;
+  k.last_error_bound = st.last.error_bound;
+  k.damping = st.solves > 0 ? st.damping : 0.0f;
+  k.spectral_radius = st.spectral_radius;
+  k.contraction = st.contraction;
+  k.build_ns = st.build_ns;
+  *out = k;
+  return MODRT_OK;
+}
+
 // The camera skip (modrt.h): the CPU backends have it; GLES refuses before anything changes.
 static modrt_status camera_skip_unsupported(const modrt_context* c, const char* fn) {
   return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": the " + c->description +

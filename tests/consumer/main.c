@@ -205,6 +205,38 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
   }
   free(check);
 
+  /* The converged multi-bounce and its statistics; then the camera skip from an eye outside the
+   * level (which sees every block: nothing is hidden). */
+  CHECK(modrt_context_set_bounces(bounced, MODRT_BOUNCES_CONVERGED));
+  CHECK(modrt_context_update(bounced));
+  modrt_solve_stats solve;
+  memset(&solve, 0, sizeof solve);
+  solve.struct_size = sizeof solve;
+  CHECK(modrt_context_get_solve_stats(bounced, &solve));
+  printf("converged: %u iterations, error bound %.3g, spectral radius %.3g\n", solve.last_iterations,
+         (double)solve.last_error_bound, solve.spectral_radius);
+  if (solve.solves != 1 || !solve.converged || !(solve.last_error_bound <= 1e-3f) ||
+      !(solve.spectral_radius > 0.0 && solve.spectral_radius < 1.0)) {
+    fprintf(stderr, "converged: expected one converged solve within 1e-3 and a radius below 1\n");
+    return 1;
+  }
+  const float view_projection[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  const float far_eye[3] = {-1e6f, -1e6f, -1e6f};
+  CHECK(modrt_context_set_camera(bounced, view_projection, far_eye));
+  for (size_t i = 0; i < n3; ++i) ld[i] *= 0.5f;
+  CHECK(modrt_context_set_ld(bounced, ld, n3));
+  CHECK(modrt_context_update(bounced));
+  modrt_skip_stats skipped;
+  memset(&skipped, 0, sizeof skipped);
+  skipped.struct_size = sizeof skipped;
+  CHECK(modrt_context_get_skip_stats(bounced, &skipped));
+  if (skipped.tiles_hidden != 0) {
+    fprintf(stderr, "camera skip: an eye outside the level must see every block\n");
+    return 1;
+  }
+  CHECK(modrt_context_set_visible_blocks(bounced, NULL, 0)); /* off again */
+  CHECK(modrt_context_set_bounces(bounced, 4));               /* clutter takes feedback steps */
+
   /* A clutter object: its operators from a file (modrt-demo --save-clutter writes them), its
    * light set by the app, bad light refused by name, its lightmap never negative, each texel's
    * lightmap cell on its object's grid (for the app's clutter mesh UVs). */

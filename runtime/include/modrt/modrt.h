@@ -510,6 +510,28 @@ typedef struct modrt_skip_stats {
 } modrt_skip_stats;
 MODRT_API modrt_status modrt_context_get_skip_stats(const modrt_context* context, modrt_skip_stats* out);
 
+/* Since 0.4. The converged multi-bounce (MODRT_BOUNCES_CONVERGED), summed since creation and for
+ * the last converged update. The solve stops when its estimated remaining error (error_bound)
+ * is at most 1e-3 of max |b|; converged is 0 when it ran out of iterations instead (256; the
+ * update still succeeds with that b). spectral_radius: of the reduced feedback operator M,
+ * estimated at the first converged update after the albedo is set (below 1 for a physical
+ * albedo; above 0.98 M is damped by damping = 0.98 / spectral_radius); contraction: the rate
+ * of the iteration in use. All zero before the first converged update. */
+typedef struct modrt_solve_stats {
+  uint32_t struct_size; /* set by the caller: sizeof(modrt_solve_stats) */
+  uint32_t converged;   /* the last solve met the tolerance (1) or ran out of iterations (0) */
+  uint64_t solves;      /* converged updates */
+  uint64_t iterations;  /* applications of M, over every solve */
+  uint32_t last_iterations;
+  float last_residual;    /* max |b0 + M b - b| / max |b| at the last iterate */
+  float last_error_bound; /* the estimated relative error of the last b */
+  float damping;
+  double spectral_radius;
+  double contraction;
+  uint64_t build_ns; /* the last build of the reduced operators (at the first solve after set_albedo) */
+} modrt_solve_stats;
+MODRT_API modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_solve_stats* out);
+
 /* ------------------------------------------------------------------------------------------
  * Lightmap coordinates for the app's own static meshes (MRT §7.2's proxy mapping; core's
  * modrt/mesh_lightmap_uv.h has the details). Every triangle of a mesh given in world space is

@@ -244,6 +244,19 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
     modrt_context_get_skip_stats(h_, &s);
     return s;
   }
+  // The converged solve's statistics (modrt_context_get_solve_stats).
+  modrt_solve_stats solve_stats() const {
+    modrt_solve_stats s = sized<modrt_solve_stats>();
+    modrt_context_get_solve_stats(h_, &s);
+    return s;
+  }
+  // The camera skip (modrt_context_set_camera / modrt_context_set_visible_blocks; CPU contexts).
+  Error set_camera(const float view_projection[16], const float eye[3]) {
+    return check(modrt_context_set_camera(h_, view_projection, eye));
+  }
+  Error set_visible_blocks(const uint8_t* flags, size_t count) {
+    return check(modrt_context_set_visible_blocks(h_, flags, count));
+  }
 };
 
 }  // namespace modrt::rt
