@@ -235,7 +235,7 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
     return 1;
   }
   CHECK(modrt_context_set_visible_blocks(bounced, NULL, 0)); /* off again */
-  CHECK(modrt_context_set_bounces(bounced, 4));               /* clutter takes feedback steps */
+  CHECK(modrt_context_set_bounces(bounced, 4));              /* clutter takes feedback steps */
 
   /* A clutter object: its operators from a file (modrt-demo --save-clutter writes them), its
    * light set by the app, bad light refused by name, its lightmap never negative, each texel's
