@@ -44,8 +44,10 @@
 //                                              turning) while maze41's light 0 circles; converged
 //                                              0: one bounce (update), 1: update_converged. Time:
 //                                              the frame with the skip (the walk included).
-//                                              Counters: ratio = with / without, visible blocks and
-//                                              tiles written per frame with and without
+//                                              Counters: ratio = with / without, ratio_full = with /
+//                                              a one-bounce full update (no skipping, no camera: the
+//                                              issue's baseline), visible blocks and tiles written
+//                                              per frame with and without
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -718,7 +720,10 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   o.runtime.threads = 1;
   Result<std::unique_ptr<Backend>> with = cpu::create_cpu_backend(level, *pl->dict, o);
   Result<std::unique_ptr<Backend>> without = cpu::create_cpu_backend(level, *pl->dict, o);
-  if (!with.ok() || !without.ok()) return state.SkipWithError("cpu backend");
+  cpu::CpuBackendOptions full_options = o;
+  full_options.runtime.skip.enabled = false;
+  Result<std::unique_ptr<Backend>> full = cpu::create_cpu_backend(level, *pl->dict, full_options);
+  if (!with.ok() || !without.ok() || !full.ok()) return state.SkipWithError("cpu backend");
   Backend& a = *with.value();
   Backend& b = *without.value();
   const std::vector<float> albedo = level_sample_albedo(level);
@@ -729,7 +734,7 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   };
   bool ok = frame(a, seq->ld[0]) && frame(b, seq->ld[0]);
   const BackendEvaluationStats a0 = a.evaluation_stats(), b0 = b.evaluation_stats();
-  double t_with = 0.0, t_without = 0.0, visible = 0.0;
+  double t_with = 0.0, t_without = 0.0, t_full = 0.0, visible = 0.0;
   std::size_t f = 1;
   for (auto _ : state) {
     const std::vector<float>& ld = seq->ld[f % seq->ld.size()];
@@ -741,6 +746,9 @@ void BM_CpuCameraSkip(benchmark::State& state) {
     t0 = std::chrono::steady_clock::now();
     ok &= frame(b, ld);
     t_without += seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    ok &= full.value()->update(ld).ok();
+    t_full += seconds_since(t0);
     t_with += dt;
     visible += seen.ok() ? double(seen->visible) : 0.0;
     state.SetIterationTime(dt);
@@ -750,6 +758,7 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   const BackendEvaluationStats as = a.evaluation_stats(), bs = b.evaluation_stats();
   const double n = double(state.iterations());
   state.counters["ratio"] = t_with / t_without;
+  state.counters["ratio_full"] = t_with / t_full;
   state.counters["visible"] = visible / n;
   state.counters["tiles_with"] =
       double(as.tiles_written + as.tiles_caught_up - a0.tiles_written - a0.tiles_caught_up) / n;

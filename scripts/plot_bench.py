@@ -23,6 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 STYLE = {
     "mrt": ("o", "tab:blue"),
+    "mrt_converged": ("v", "tab:brown"),
     "mrt_cpu": ("P", "tab:green"),
     "mrt_gles": ("*", "tab:cyan"),
     "svd_F": ("s", "tab:orange"),
@@ -54,7 +55,7 @@ def main():
     rows = load(sys.argv[1])
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     multi = max(int(r["bounces"]) for r in rows)
-    cases = [("in prior, 1 bounce", True, 1), (f"in prior, {multi} bounces", True, multi),
+    cases = [("in prior, 1 bounce", True, 1), (f"in prior, multi-bounce ({multi} bounces, converged)", True, multi),
              ("OUT of prior, 1 bounce", False, 1)]
     cases = [c for c in cases if any((r["in_prior"] == "1") == c[1] and int(r["bounces"]) == c[2] for r in rows)]
     fig, axes = plt.subplots(len(cases), len(scenes), figsize=(4.2 * len(scenes), 3.6 * len(cases)), squeeze=False)
