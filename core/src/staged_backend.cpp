@@ -172,12 +172,14 @@ Status StagedBackend::catch_up(bool all) {
   const StageWork tiles{no_blocks_, no_slots_, tiles_work_, 0, 0, tile_count, tile_count == n, {}, 0};
   const StageWork output{no_blocks_, no_slots_,       tiles_work_, 0,          0,
                          tile_count, tile_count == n, atlas_work_, atlas_count};
-  if (Status s = stage_begin(); !s.ok()) return s;
-  Status s = tile_count ? stage_tiles(tiles) : Status::success();
-  if (s.ok() && drt_ && tile_count) s = stage_deltas(output);
+  catching_up_ = true;
+  Status s = stage_begin();
+  if (s.ok() && tile_count) s = stage_tiles(tiles);
+  if (s.ok() && drt_ && tile_count) s = stage_catch_up_deltas(output);
   if (s.ok()) s = stage_atlas(output);
   if (s.ok()) s = stage_vector(output);
   stage_end(s.ok());
+  catching_up_ = false;
   if (!s.ok()) return s;  // the flags stand: the next evaluation or catch-up writes them
   stale_count_ = atlas_stale_count_ = 0;
   for (std::size_t i = 0; i < n; ++i) {

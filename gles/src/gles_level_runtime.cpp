@@ -673,7 +673,7 @@ void GlesLevelRuntime::stage_end(bool ok) {
   feedback_source_ = ld_direct_;
   if (!ok) return;
   probes_world_current_ = false;
-  if (eval_.feedback) return;  // skip_stats counts the updates
+  if (eval_.feedback || catching_up()) return;  // skip_stats counts the updates
   ++stats_.frames;
   stats_.frames_partial += eval_.pass.b;
   stats_.blocks_b += eval_.blocks_b, stats_.slots_r += eval_.slots_r,
@@ -810,30 +810,37 @@ Status GlesLevelRuntime::stage_deltas(const StageWork&) {
 
 Status GlesLevelRuntime::stage_atlas(const StageWork& work) {
   rects_.clear();
-  if (eval_.pass.atlas)
-    for (std::size_t i = 0; i < work.tiles.size(); ++i)
-      if (work.tiles[i])
+  // With the camera skip (work.atlas) the visible blocks' rectangles, however many; else the
+  // changed tiles' while they are few (eval_.pass).
+  const bool camera = !work.atlas.empty();
+  const std::span<const std::uint8_t> flags = camera ? work.atlas : work.tiles;
+  atlas_partial_ = camera ? work.atlas_count < work.atlas.size() : eval_.pass.atlas;
+  if (camera) eval_.blocks_redrawn = work.atlas_count;
+  if (atlas_partial_)
+    for (std::size_t i = 0; i < flags.size(); ++i)
+      if (flags[i])
         rects_.insert(rects_.end(), tile_rects_.begin() + block_tile_begin_[i],
                       tile_rects_.begin() + block_tile_begin_[i + 1]);
+  if (atlas_partial_ && rects_.empty()) return Status::success();  // nothing visible changed
   if (drt_)
     draw(prog_atlas_drt_, atlas_.framebuffer, atlas_.width, atlas_.height,
          {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
           b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2],
           drt_->delta_texture()},
-         eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+         atlas_partial_ ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   else
     draw(prog_atlas_, atlas_.framebuffer, atlas_.width, atlas_.height,
          {ub_, ur_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_, b_.textures[0],
           b_.textures[1], b_.textures[2], r_.textures[0], r_.textures[1], r_.textures[2]},
-         eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{});
+         atlas_partial_ ? std::span<const Rect>(rects_) : std::span<const Rect>{});
   return check("atlas pass (Ub b + Ur r, padding)");
 }
 
 // The same tiles as the atlas (rects_ still holds them).
 Status GlesLevelRuntime::stage_vector(const StageWork&) {
-  if (!has_vector_) return Status::success();
+  if (!has_vector_ || (atlas_partial_ && rects_.empty())) return Status::success();
   const std::span<const Rect> rects =
-      eval_.pass.atlas ? std::span<const Rect>(rects_) : std::span<const Rect>{};
+      atlas_partial_ ? std::span<const Rect>(rects_) : std::span<const Rect>{};
   if (drt_ && drt_->vector_delta_texture())
     draw(prog_vector_drt_, vector_.framebuffer, vector_.width, vector_.height,
          {ub_vec_, vector_response_, texel_sample_, sample_info_, sample_slots_, sample_rows_, block_info_,

@@ -1004,17 +1004,10 @@ modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_s
   return MODRT_OK;
 }
 
-// The camera skip (modrt.h): the CPU backends have it; GLES refuses before anything changes.
-static modrt_status camera_skip_unsupported(const modrt_context* c, const char* fn) {
-  return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": the " + c->description +
-                                           " backend has no camera skip yet (CPU contexts have it)");
-}
-
 modrt_status modrt_context_set_visible_blocks(modrt_context* context, const uint8_t* flags, size_t count) {
   return guarded("modrt_context_set_visible_blocks", [&]() -> modrt_status {
     constexpr const char* fn = "modrt_context_set_visible_blocks";
     if (!context) return null_arg(fn, "context");
-    if (context->is_gles()) return camera_skip_unsupported(context, fn);
     if (!flags && count != 0) return null_arg(fn, "flags");
     const std::size_t blocks = context->lv().blocks.size();
     if (count != 0 && count != blocks)
@@ -1035,7 +1028,6 @@ modrt_status modrt_context_set_camera(modrt_context* context, const float view_p
     if (!context) return null_arg(fn, "context");
     if (!view_projection) return null_arg(fn, "view_projection");
     if (!eye) return null_arg(fn, "eye");
-    if (context->is_gles()) return camera_skip_unsupported(context, fn);
     glm::dmat4 vp(1.0);
     for (int k = 0; k < 16; ++k) vp[k / 4][k % 4] = double(view_projection[k]);  // column-major
     const glm::dvec3 e(eye[0], eye[1], eye[2]);

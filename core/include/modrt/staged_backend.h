@@ -158,6 +158,9 @@ class StagedBackend : public Backend {
   Status refused(const std::string& what) const;
   // The padding records and padding neighbours of each block (the camera skip's atlas work).
   const AtlasBlockPadding& atlas_padding() const { return padding_; }
+  // Between stage_begin and stage_end: the camera skip's catch-up, not an evaluation (a
+  // backend's own per-evaluation statistics leave it out).
+  bool catching_up() const { return catching_up_; }
 
   // ---- The stages. Each may fail only for a reason of its own (a GL error); the inputs
   // are valid and the sizes right. ----
@@ -195,6 +198,11 @@ class StagedBackend : public Backend {
   // keeps stage_camera_skip_available() false).
   virtual Status stage_atlas(const StageWork& work) = 0;
   virtual bool stage_camera_skip_available() const { return false; }
+  // The camera skip's catch-up (tiles written late from the b and r on hand): the DRT deltas
+  // over them as the evaluation that left them unwritten would have added them. The default
+  // reruns stage_deltas (CPU and reference: lightmap = base + deltas, idempotent); a backend
+  // whose delta pass also advances the clutter's feedback (GLES) keeps the deltas it has.
+  virtual Status stage_catch_up_deltas(const StageWork& work) { return stage_deltas(work); }
   // Vector irradiance for a backend that renders it every evaluation (GLES); a backend that
   // computes it on request (read_output) keeps the default.
   virtual Status stage_vector(const StageWork& work) {
@@ -279,6 +287,7 @@ class StagedBackend : public Backend {
   std::vector<std::uint8_t> visible_, ext_, stale_, atlas_stale_, tiles_work_, out_work_, atlas_work_,
       no_blocks_;
   std::size_t stale_count_ = 0, atlas_stale_count_ = 0;
+  bool catching_up_ = false;
   std::uint64_t hidden_ = 0, caught_up_ = 0;  // of the evaluation being counted
   BackendStageTimes times_;
   BackendEvaluationStats stats_;

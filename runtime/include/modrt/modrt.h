@@ -358,7 +358,8 @@ MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, u
 
 /* Since 0.4. Skip what the camera cannot see (docs/cpu.md "The camera skip"): the following
  * updates write the lightmap tiles and atlas rectangles of the potentially visible blocks only
- * (and of the neighbours their padding reads); b, r and the probes stay every block's, since
+ * (CPU: and the tiles of the neighbours their padding copies; GLES: the atlas pass and the
+ * vector atlases over those rectangles); b, r and the probes stay every block's, since
  * they carry light to the visible ones and the probe volume is sampled anywhere. A block that
  * comes into view gets this frame's light in this call; the others' texels are not current.
  *   - modrt_context_set_camera: the blocks seen from `eye` (world position) through
@@ -369,8 +370,7 @@ MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, u
  * With n-space bounces (1..64) every feedback step reads the whole lightmap, so the skip saves
  * work only with bounces 0 or MODRT_BOUNCES_CONVERGED. Non-finite input and a wrong count are
  * MODRT_ERROR_INVALID_ARGUMENT / MODRT_ERROR_NON_FINITE naming the argument, and nothing
- * changes; a GLES context refuses with MODRT_ERROR_UNSUPPORTED (no camera skip there yet).
- * Allocates nothing. */
+ * changes. Allocates nothing. */
 MODRT_API modrt_status modrt_context_set_camera(modrt_context* context, const float view_projection[16],
                                                 const float eye[3]);
 MODRT_API modrt_status modrt_context_set_visible_blocks(modrt_context* context, const uint8_t* flags,

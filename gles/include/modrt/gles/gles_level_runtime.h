@@ -170,6 +170,11 @@ class GlesLevelRuntime final : public StagedBackend {
   Status stage_r(const StageWork& work) override;
   Status stage_tiles(const StageWork&) override { return Status::success(); }  // in stage_atlas
   Status stage_atlas(const StageWork& work) override;
+  // The camera skip: the atlas pass draws the rectangles of work.atlas only. A padding texel
+  // evaluates its source sample from b and r (texel_sample_), so no neighbour's tile is read.
+  bool stage_camera_skip_available() const override { return true; }
+  // The delta texture of the evaluation is every texel's (the DRT pass does not run per tile).
+  Status stage_catch_up_deltas(const StageWork&) override { return Status::success(); }
   Status stage_vector(const StageWork& work) override;
   Status stage_probes(const StageWork& work) override;
   Status stage_begin() override;
@@ -263,6 +268,7 @@ class GlesLevelRuntime final : public StagedBackend {
   std::vector<GLuint> framebuffers_;
   std::vector<GLuint> programs_;
   Signal3 b_partial_, b_, r_partial_, r_;
+  bool atlas_partial_ = false;  // the last atlas pass drew rects_ only (the vector pass follows it)
   Target atlas_, probes_, ld_feedback_;
   Target ld_max_rows_, ld_max_;
   Target probes_world_;                // world_probe_texture()
