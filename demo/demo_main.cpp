@@ -100,6 +100,10 @@ int main(int argc, char** argv) {
   app.add_option(
       "--save-clutter", save_clutter,
       "Write the scene's DRT clutter operators to FILE.modrtdrt (core's drt_io.h) after they are built");
+  bool camera_skip = DemoRunOptions{}.camera_skip;
+  app.add_flag(
+      "!--no-camera-skip", camera_skip,
+      "Write every block's lightmap tiles, not only those the camera can see (the image is the same)");
   app.add_flag("!--no-drt", drt,
                "Without Delta Radiance Transfer: the scene's clutter meshes are drawn as ordinary "
                "geometry mapped onto the proxies (MRT alone), for comparison");
@@ -203,6 +207,7 @@ int main(int argc, char** argv) {
   options.exposure = exposure;
   options.bounces = bounces;
   options.drt_rays = drt_rays;
+  options.camera_skip = camera_skip;
   options.save_clutter = save_clutter;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
@@ -275,6 +280,14 @@ int main(int argc, char** argv) {
           : "update + " + std::to_string(run.value()->frame_steps(1)) + " feedback steps";
   std::printf("  indirect (%s backend: %s%s) %8.3f\n", gles_backend ? "gles" : "cpu", steps.c_str(),
               gles_backend ? "" : ", atlas upload", total.indirect / n);
+  if (camera_skip) {
+    const BackendEvaluationStats es = run.value()->backend().evaluation_stats();
+    std::printf(
+        "    camera skip: %zu of %zu blocks visible in the last frame; tiles written %llu, hidden %llu, "
+        "caught up %llu\n",
+        run.value()->visible_blocks(), level.blocks.size(), (unsigned long long)es.tiles_written,
+        (unsigned long long)es.tiles_hidden, (unsigned long long)es.tiles_caught_up);
+  }
   if (gles_backend)
     std::printf(
         "    first update's passes: b %.3f, r %.3f, lightmaps + padding %.3f, probes %.3f, vector %.3f\n",

@@ -64,6 +64,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   if (!level.ok()) return level.status();
   run->level_ = std::move(level).value();
   const Level& lv = run->level_;
+  run->camera_visibility_ = CameraVisibility(lv);
+  run->visible_blocks_ = lv.blocks.size();
   const std::vector<float> albedo = level_sample_albedo(lv);
   Result<std::vector<MappedMesh>> mapped = map_to_proxies(scene, lv);
   if (!mapped.ok()) return mapped.status();
@@ -261,8 +263,15 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   }
   if (s.ok() && drt_) s = clutter_light(state);
   times_.direct += ms_since(t);
-  // Indirect: one update, then feedback steps (frame 0 converges further).
+  // Indirect: one update, then feedback steps (frame 0 converges further); with the camera
+  // skip, only the tiles of the blocks this camera can see are written.
   t = Clock::now();
+  if (s.ok() && options_.camera_skip) {
+    const Result<VisibilityStats> seen = camera_visibility_.update(
+        glm::dmat4(renderer_->view_projection(state.camera)), glm::dvec3(state.camera.position));
+    s = seen.ok() ? backend_->set_visible_blocks(camera_visibility_.visible()) : seen.status();
+    if (s.ok()) visible_blocks_ = seen->visible;
+  }
   const std::uint32_t steps = frame_steps(frame);
   if (s.ok())
     s = ld_on_gpu ? pipeline_->run_from_texture(gpu_direct_->ld_texture(), steps)

@@ -16,6 +16,7 @@
 #include "modrt/drt.h"
 #include "modrt/frame_pipeline.h"
 #include "modrt/level.h"
+#include "modrt/level_visibility.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/probe_sampler.h"
@@ -50,6 +51,10 @@ struct DemoRunOptions {
   // DrtBuildSettings::rays. 256 rather than the build's 1024: a quarter of the start-up
   // time, and docs/drt.md measured the errors against the path tracer within 0.006 of 1024's.
   int drt_rays = 256;
+  // The camera skip (docs/cpu.md): the backend writes the lightmap tiles and atlas rectangles of
+  // the blocks the camera can see only (CameraVisibility -> Backend::set_visible_blocks, each
+  // frame); the image is the same, bit for bit (DemoRender.CameraSkipRendersTheSameImage).
+  bool camera_skip = true;
   // When set: the DRT operators built at create() are written there (.modrtdrt, core's
   // drt_io.h), for an app that loads them without the precompute library.
   std::string save_clutter;
@@ -92,6 +97,8 @@ class DemoRun {
   const Backend& backend() const { return *backend_; }
   Backend& backend() { return *backend_; }
   const StageTimes& times() const { return times_; }
+  // The camera skip: blocks the camera could see in the last frame (every block when it is off).
+  std::size_t visible_blocks() const { return visible_blocks_; }
   std::size_t mapped_triangles() const { return mapped_triangles_; }
   // Static triangles given to the proxy mapping, those it cut at block boundaries, and those
   // with a part in no block (map_to_proxies).
@@ -139,6 +146,8 @@ class DemoRun {
   // world frame (probes_ is empty with a GLES backend: its world_probe_texture is sampled).
   ProbeSampler probe_sampler_;
   std::vector<float> world_probes_;
+  CameraVisibility camera_visibility_;  // DemoRunOptions::camera_skip
+  std::size_t visible_blocks_ = 0;
   std::size_t mapped_triangles_ = 0, static_triangles_ = 0, split_triangles_ = 0, outside_triangles_ = 0;
   bool vector_ = false;
   StageTimes times_;

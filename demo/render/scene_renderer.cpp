@@ -632,6 +632,11 @@ Status SceneRenderer::upload_clutter_lightmap(std::span<const float> clutter_lig
   return gl_error_status(gl, "uploading the clutter lightmaps");
 }
 
+glm::mat4 SceneRenderer::view_projection(const DemoCamera& cam) const {
+  return glm::perspective(cam.yfov, float(options_.width) / float(options_.height), cam.znear, cam.zfar) *
+         glm::lookAt(cam.position, cam.target, cam.up);
+}
+
 Status SceneRenderer::render_image(const FrameState& frame, std::span<float> linear_rgb,
                                    std::span<std::uint8_t> srgb8) {
   Impl& m = *impl_;
@@ -643,10 +648,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   if (m.clutter_floats > 0 && !m.clutter_uploaded)
     return Status::error(ErrorCode::invalid_argument,
                          "renderer: the scene has clutter but no clutter lightmap was uploaded");
-  const DemoCamera& cam = frame.camera;
-  const glm::mat4 view_proj =
-      glm::perspective(cam.yfov, float(options_.width) / float(options_.height), cam.znear, cam.zfar) *
-      glm::lookAt(cam.position, cam.target, cam.up);
+  const glm::mat4 view_proj = view_projection(frame.camera);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, m.scene_fbo);
   gl.glViewport(0, 0, options_.width, options_.height);
   gl.glEnable(GL_DEPTH_TEST);

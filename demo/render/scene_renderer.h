@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
 #include "../scene/demo_scene.h"
@@ -113,6 +114,8 @@ class SceneRenderer {
 
   int width() const { return options_.width; }
   int height() const { return options_.height; }
+  // The camera's clip transform as render_image draws with it (OpenGL clip space).
+  glm::mat4 view_projection(const DemoCamera& camera) const;
 
  private:
   struct Impl;
