@@ -704,18 +704,9 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   const LightSequence* seq = pl ? light_sequence(blocks) : nullptr;
   if (!pl || !seq) return state.SkipWithError("no dictionary, level or light sequence");
   const Level& level = pl->level;
-  // The flight: from block centre to block centre, the camera turning a quarter every 8 frames.
-  std::vector<glm::dmat4> view_projection;
-  std::vector<glm::dvec3> eyes;
-  for (std::size_t f = 0; f < 64; ++f) {
-    glm::dvec3 eye(0.0);
-    for (const glm::dvec3& c : level.blocks[(f / 4) % level.blocks.size()].corners) eye += c / 8.0;
-    const double a = 1.5707963267948966 * double(f / 8) + 0.3 * double(f % 8);
-    eyes.push_back(eye);
-    view_projection.push_back(
-        glm::perspective(1.2, 16.0 / 9.0, 0.01, 100.0) *
-        glm::lookAt(eye, eye + glm::dvec3(std::cos(a), 0.0, std::sin(a)), glm::dvec3(0, 1, 0)));
-  }
+  const bench::CameraFlight flight = bench::camera_flight(level);
+  const std::vector<glm::dmat4>& view_projection = flight.view_projection;
+  const std::vector<glm::dvec3>& eyes = flight.eye;
   cpu::CpuBackendOptions o;
   o.runtime.threads = 1;
   Result<std::unique_ptr<Backend>> with = cpu::create_cpu_backend(level, *pl->dict, o);

@@ -14,6 +14,14 @@
 //                                          records, upload r (compare with r_us above)
 //   BM_GlesLdSource/<blocks>/<context>/<gpu>  ld from an app's GPU pass: read back and uploaded
 //                                          (gpu 0) or read on the GPU (gpu 1, update_from_texture)
+//   BM_GlesCameraSkip/<blocks>/<context>   the camera skip (set_visible_blocks from
+//                                          CameraVisibility, bench_levels.h's camera flight)
+//                                          against the full path (skipping off, no camera),
+//                                          measured alternately, ld scaled every frame (every
+//                                          block's b and r change), vector irradiance on; time:
+//                                          the frame with the skip, walk included, glFinish.
+//                                          Counters: ratio_full = with / full, visible blocks,
+//                                          redrawn blocks per frame with the skip
 //   BM_CpuBackendFrame/<blocks>/<vector>   the CPU backend's update (best ISA), for the ratio;
 //                                          vector 1: + read_vector_lightmap (computed on read)
 //
@@ -22,6 +30,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -32,6 +41,7 @@
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/kernels.h"
 #include "modrt/gles/gles_level_runtime.h"
+#include "modrt/level_visibility.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/platform/gl_program.h"
 #include "modrt/reference_runtime.h"
@@ -268,6 +278,59 @@ BENCHMARK(BM_GlesLdSource)
     ->ArgsProduct({{11, 41}, {0, 1, 2}, {0, 1}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
+
+void BM_GlesCameraSkip(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  platform::GlContext* ctx = context(int(state.range(1)));
+  if (!bl || !ctx) return state.SkipWithError("no dictionary/level or no such GL context here");
+  gles::GlesRuntimeOptions options;
+  options.vector_irradiance = true;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> with =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
+  options.skip_unchanged = false;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> full =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
+  if (!with.ok() || !full.ok()) return state.SkipWithError("gles runtime");
+  gles::GlesLevelRuntime& a = *with.value();
+  gles::GlesLevelRuntime& f = *full.value();
+  const bench::CameraFlight flight = bench::camera_flight(bl->level);
+  CameraVisibility camera(bl->level);
+  std::vector<float> ld = bl->ld;
+  std::size_t frame = 0;
+  double t_with = 0.0, t_full = 0.0, visible = 0.0;
+  bool ok = a.update(ld).ok() && f.update(ld).ok();
+  ctx->gl().glFinish();
+  const gles::GlesSkipStats before = a.skip_stats();
+  for (auto _ : state) {
+    const float scale = 1.0f + 0.01f * float(frame % 17);
+    for (std::size_t i = 0; i < ld.size(); ++i) ld[i] = bl->ld[i] * scale;
+    const std::size_t cam = frame++ % flight.eye.size();
+    auto t0 = std::chrono::steady_clock::now();
+    const Result<VisibilityStats> seen = camera.update(flight.view_projection[cam], flight.eye[cam]);
+    ok &= seen.ok() && a.set_visible_blocks(camera.visible()).ok() && a.update(ld).ok();
+    ctx->gl().glFinish();
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t0 = std::chrono::steady_clock::now();
+    ok &= f.update(ld).ok();
+    ctx->gl().glFinish();
+    t_full += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t_with += dt;
+    visible += seen.ok() ? double(seen->visible) : 0.0;
+    state.SetIterationTime(dt);
+  }
+  if (!ok) return state.SkipWithError("a frame failed");
+  const double n = double(state.iterations());
+  state.counters["ratio_full"] = t_with / t_full;
+  state.counters["visible"] = visible / n;
+  state.counters["redrawn_blocks"] = double(a.skip_stats().blocks_redrawn - before.blocks_redrawn) / n;
+  state.counters["blocks"] = double(bl->level.blocks.size());
+  state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " " + a.description());
+}
+BENCHMARK(BM_GlesCameraSkip)
+    ->ArgsProduct({{41}, {0, 3}})
+    ->ArgNames({"blocks", "context"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_CpuBackendFrame(benchmark::State& state) {
   const BenchLevel* bl = bench_level(int(state.range(0)));

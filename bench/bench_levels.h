@@ -6,11 +6,14 @@
 // frame does not depend on it). Both are built once per program and kept.
 #pragma once
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <memory>
 #include <vector>
+
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "modrt/dictionary_io.h"
 #include "modrt/precompute/dictionary_cache.h"
@@ -59,6 +62,27 @@ inline const BenchLevel* bench_level(int blocks) {
     }
   }
   return cache.emplace(blocks, std::move(out)).first->second.get();
+}
+
+// The camera skip's flight (BM_CpuCameraSkip, BM_GlesCameraSkip): 64 cameras from block centre to
+// block centre (4 frames each), 16:9 with a 69 degree vertical field, turning a quarter every 8
+// frames and 0.3 rad per frame in between.
+struct CameraFlight {
+  std::vector<glm::dmat4> view_projection;
+  std::vector<glm::dvec3> eye;
+};
+inline CameraFlight camera_flight(const Level& level) {
+  CameraFlight flight;
+  for (std::size_t f = 0; f < 64; ++f) {
+    glm::dvec3 eye(0.0);
+    for (const glm::dvec3& c : level.blocks[(f / 4) % level.blocks.size()].corners) eye += c / 8.0;
+    const double a = 1.5707963267948966 * double(f / 8) + 0.3 * double(f % 8);
+    flight.eye.push_back(eye);
+    flight.view_projection.push_back(
+        glm::perspective(1.2, 16.0 / 9.0, 0.01, 100.0) *
+        glm::lookAt(eye, eye + glm::dvec3(std::cos(a), 0.0, std::sin(a)), glm::dvec3(0, 1, 0)));
+  }
+  return flight;
 }
 
 }  // namespace modrt::bench
