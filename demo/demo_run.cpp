@@ -163,7 +163,7 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
         !s.ok())
       return s;
   }
-  // After the clutter: with clutter the converged solve is not available yet (Backend).
+  // The converged solve includes the clutter (its c) where the backend has it (CPU).
   run->converged_ = run->bounces_option_ == kDemoConverged && run->backend_->converged_available();
   return run;
 }

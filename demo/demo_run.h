@@ -41,7 +41,7 @@ struct DemoRunOptions {
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
   // Multi-bounce: kDemoConverged (the default) is the converged multi-bounce every frame where
-  // the backend has it (Backend::converged_available: the CPU backend without clutter), else
+  // the backend has it (Backend::converged_available: the CPU backend, clutter included), else
   // kDemoFallbackSteps feedback steps per frame (three times as many on frame 0); N >= 0 is
   // exactly N feedback steps every frame.
   int bounces = -1;

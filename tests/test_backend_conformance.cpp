@@ -305,8 +305,9 @@ TEST_P(BackendConformance, MultiBounceStepsMatchLevelMultiBounce) {
 // The converged solve (update_converged) equals core's level_converged_bounce: lightmap, probes
 // and vector irradiance from b*, at the solve's tolerance (1e-5 here, so the comparison is at the
 // backend's usual tolerance); a second frame with 2 % less light starts warm and needs fewer
-// applications of M than the first; the statistics add up. GLES has no reduced solve yet and
-// refuses by name; every backend refuses it before set_albedo and with clutter.
+// applications of M than the first; the statistics add up; with clutter the lightmap and the
+// clutter lightmap equal drt_converged_bounce's. GLES has no reduced solve yet and refuses by
+// name; every backend refuses it before set_albedo.
 TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
   for (const char* name : {"corridor", "maze41"}) {
     const TestLevel& t = test_level(name);
@@ -355,15 +356,44 @@ TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
     std::printf("  %-8s %-52s converged rel L2 %.2e, probes %.2e, vector %.2e; %d then %d iterations\n", name,
                 be->description(), e, ep, ev, first.last.iterations, second.last.iterations);
   }
+  // With clutter: b and the clutter's c solved together (drt_converged_bounce), the clutter's
+  // light fed back with its albedo; the lightmap and the clutter lightmap equal core's.
   const DrtFixture& f = drt_fixture();
   std::unique_ptr<Backend> be = make(f.level);
   ASSERT_TRUE(be);
   ASSERT_TRUE(be->set_clutter(&f.drt).ok());
   ASSERT_TRUE(be->set_albedo(f.albedo).ok());
-  const Status st = be->update_converged(f.ld);
-  EXPECT_EQ(st.code(), ErrorCode::invalid_argument);
-  EXPECT_NE(st.message().find(be->kind() == BackendKind::gles ? "converged" : "clutter"), std::string::npos)
-      << st.message();
+  const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+  const std::vector<float> clutter_albedo(d.clutter_ld, 0.7f);
+  ASSERT_TRUE(be->set_clutter_albedo(clutter_albedo).ok());
+  ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+  ReducedSolveSettings solve;
+  solve.tolerance = 1e-5f;
+  const Status st = be->update_converged(f.ld, solve);
+  if (be->kind() == BackendKind::gles) {
+    EXPECT_EQ(st.code(), ErrorCode::invalid_argument);
+    EXPECT_NE(st.message().find("converged"), std::string::npos) << st.message();
+    return;
+  }
+  ASSERT_TRUE(st.ok()) << st.to_string();
+  const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
+  std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
+  ConvergedBounceSettings cs;
+  cs.solve = solve;
+  ASSERT_TRUE(drt_converged_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, cs,
+                                   b, r, ref, c)
+                  .ok());
+  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
+  std::vector<float> lightmap(s.lightmap), clutter(d.clutter_lightmap);
+  ASSERT_TRUE(be->read_lightmap(lightmap).ok());
+  ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
+  const double e = rel_l2(lightmap, ref), ec = rel_l2(clutter, clutter_ref);
+  const double tol = std::max(tolerance().drt, 3e-5);
+  EXPECT_LE(e, tol) << be->description();
+  EXPECT_LE(ec, tol) << be->description() << " clutter lightmap";
+  EXPECT_TRUE(be->converged_stats().last.converged);
+  std::printf("  clutter  %-52s converged rel L2 %.2e, clutter lightmap %.2e, %d iterations\n",
+              be->description(), e, ec, be->converged_stats().last.iterations);
 }
 
 // A spike in ld rings the unclamped lightmap below -1 (test_cpu_backend asserts it); every
@@ -922,6 +952,9 @@ TEST_P(BackendConformance, FramesAllocateNothing) {
       ok = ok && be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok() &&
            be->set_clutter_albedo(clutter_albedo).ok() && be->update(f.ld).ok() &&
            be->multi_bounce_step(f.ld).ok() && be->read_clutter_lightmap(clutter).ok();
+    // The converged solve (with and without clutter) once its operators are built (warm-up).
+    if (be->converged_available())
+      ok = ok && be->update_converged(ld2).ok() && be->update_converged(f.ld).ok();
     return ok;
   };
   const auto allocations = [&](bool with_clutter) {

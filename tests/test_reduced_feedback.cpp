@@ -2,8 +2,8 @@
 // The reduced-space converged multi-bounce (core's reduced_feedback.h, issue 20) against
 // brute-force references: one application of M against the n-space bounce it replaces, the
 // spectral radius estimate against the eigenvalues of the dense operator, the converged solve
-// against the n-space feedback iterated to convergence, and the convergence guarantee at
-// albedos near 1.
+// against the n-space feedback iterated to convergence (with DRT clutter too), and the
+// convergence guarantee at albedos near 1.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "compare_support.h"
+#include "drt_backend_fixture.h"
 #include "level_fixtures.h"
 #include "modrt/reduced_feedback.h"
 
@@ -206,6 +207,53 @@ TEST(ReducedFeedback, ConvergedSolveMatchesNSpaceFeedback) {
     // Zero where no clamp acts (the solve's tolerance); else of the order of the clamped light.
     EXPECT_LE(diff, 1e-4 + 4.0 * negative_mass / mass) << name;
     for (float v : s.lightmap) ASSERT_GE(v, 0.0f);
+  }
+}
+
+// With clutter the converged solve (b and c, drt_converged_bounce) is drt_multi_bounce's fixed
+// point: the lightmap and c of n-space feedback iterated to convergence, the clutter's light fed
+// back (clutter albedo 0.5, and 0.95: the issue's near-white clutter) or not; every lightmap
+// texel non-negative. Leaving out the clutter terms of the application fails it (the shadow
+// and the clutter's own light would bounce only once).
+TEST(ReducedFeedback, ConvergedSolveWithClutterMatchesDrtMultiBounce) {
+  const test::DrtFixture& f = test::drt_fixture();
+  const LevelBufferSizes sz = level_buffer_sizes(f.level, dict());
+  const DrtBufferSizes d = drt_buffer_sizes(f.drt);
+  for (float clutter_rho : {0.0f, 0.5f, 0.95f}) {
+    const std::vector<float> clutter_albedo =
+        clutter_rho > 0.0f ? std::vector<float>(d.clutter_ld, clutter_rho) : std::vector<float>{};
+    std::vector<float> b(sz.b), r(sz.r), nspace(sz.lightmap), c_nspace(d.c);
+    MultiBounceSettings ms;
+    ms.tolerance = 1e-7f;
+    ms.max_iterations = 2000;
+    Result<MultiBounceReport> mb = drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld,
+                                                    clutter_albedo, ms, b, r, nspace, c_nspace);
+    ASSERT_TRUE(mb.ok()) << mb.status().to_string();
+    ASSERT_TRUE(mb->converged);
+    std::vector<float> b1(sz.b), r1(sz.r), one(sz.lightmap), c1(d.c);
+    ms.max_iterations = 1;  // two bounces, for the size of what the later bounces carry
+    ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, ms, b1,
+                                 r1, one, c1)
+                    .ok());
+    ConvergedBounceSettings cs;
+    cs.solve.tolerance = 1e-6f;
+    std::vector<float> bc(sz.b), rc(sz.r), lightmap(sz.lightmap), c(d.c);
+    Result<ConvergedBounceReport> rep = drt_converged_bounce(
+        f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, cs, bc, rc, lightmap, c);
+    ASSERT_TRUE(rep.ok()) << rep.status().to_string();
+    ASSERT_TRUE(rep->solve.converged);
+    const double e = test::rel_l2(lightmap, nspace), ec = test::rel_l2(c, c_nspace),
+                 bounces = test::rel_l2(one, nspace);
+    std::printf(
+        "clutter albedo %.2f: q %.3f (%s), %d iterations (n-space %d, clamped %s): lightmap rel L2 %.2e, "
+        "c %.2e; two bounces differ by %.2e\n",
+        double(clutter_rho), rep->spectral_radius, rep->block_jacobi ? "block Jacobi" : "plain",
+        rep->solve.iterations, mb->iterations, mb->value_clamped ? "yes" : "no", e, ec, bounces);
+    EXPECT_LT(rep->spectral_radius, 1.0);
+    EXPECT_LE(e, 1e-4) << clutter_rho;
+    EXPECT_LE(ec, 1e-4) << clutter_rho;
+    EXPECT_GT(bounces, 100 * e) << "the bounces after the second are large enough to test";
+    for (float v : lightmap) ASSERT_GE(v, 0.0f);
   }
 }
 

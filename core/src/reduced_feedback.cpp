@@ -7,6 +7,7 @@
 #include <string>
 
 #include "modrt/cube.h"
+#include "modrt/drt.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level_runtime.h"
 #include "modrt/reference_runtime.h"
@@ -178,7 +179,115 @@ ChannelMatrix channel_product(const ChannelMatrix& left, const ChannelMatrix& ri
   return to_channel_matrix(left.rows, right.cols, acc);
 }
 
+// The clutter's part of the reduced feedback (ReducedClutter): the samples its deltas reach,
+// their blocks, and Td_b's column of each times its albedo.
+ReducedClutter build_reduced_clutter(const Level& level, const Dictionary& dict, std::span<const float> rho,
+                                     const DrtOperators& drt, std::span<const float> rho_c) {
+  ReducedClutter cl;
+  cl.drt = &drt;
+  cl.c_unknowns = drt_buffer_sizes(drt).c;
+  cl.rho_c.assign(rho_c.begin(), rho_c.end());
+  std::vector<std::uint8_t> reached(level.sample_count, 0);
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::uint32_t s : o.dUb_sample) reached[s] = 1;
+    for (std::uint32_t s : o.dUc_sample) reached[s] = 1;
+  }
+  cl.position.assign(level.sample_count, -1);
+  const std::size_t kb = level.kb;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const LevelBlock& blk = level.blocks[i];
+    const Matrix& Td = dict.shapes[std::size_t(blk.shape)].Td_b;
+    for (std::uint32_t local = 0; local < blk.sample_count; ++local) {
+      const std::uint32_t s = blk.sample_offset + local;
+      if (!reached[s]) continue;
+      cl.position[s] = std::int32_t(cl.samples.size());
+      cl.samples.push_back(s);
+      cl.sample_block.push_back(std::uint32_t(i));
+      for (std::size_t k = 0; k < kb; ++k)
+        for (std::size_t ch = 0; ch < 3; ++ch)
+          cl.w.push_back(Td(std::uint32_t(k), local) * rho[3 * std::size_t(s) + ch]);
+    }
+  }
+  return cl;
+}
+
 }  // namespace
+
+void ReducedClutterScratch::allocate(const Level& level, std::uint32_t kb, const DrtOperators& drt) {
+  const DrtBufferSizes d = drt_buffer_sizes(drt);
+  delta.assign(3 * std::size_t(level.sample_count), 0.0f);
+  indirect.assign(d.clutter_lightmap, 0.0f);
+  t.assign(3 * std::size_t(kb) * (level.blocks.size() + 1), 0.0f);
+}
+
+void reduced_clutter_clear(const ReducedFeedback& op, ReducedClutterScratch& scratch) {
+  for (std::uint32_t s : op.clutter.samples)
+    for (std::size_t ch = 0; ch < 3; ++ch) scratch.delta[3 * std::size_t(s) + ch] = 0.0f;
+}
+
+void reduced_clutter_feedback(const Level& level, const ReducedFeedback& op, ReducedClutterScratch& scratch,
+                              std::span<float> out) {
+  const ReducedClutter& cl = op.clutter;
+  const DrtOperators& drt = *cl.drt;
+  const std::size_t bsz = 3 * std::size_t(op.kb), nb = bsz * level.blocks.size();
+  const float s = cl.scale;
+  // b: per block, t = s sum over its reached samples of w delta, then out += P t (or t).
+  float* t = scratch.t.data();
+  float* pt = scratch.t.data() + nb;  // P t
+  for (std::size_t first = 0; first < cl.samples.size();) {
+    const std::uint32_t blk = cl.sample_block[first];
+    std::fill(t, t + bsz, 0.0f);
+    std::size_t p = first;
+    for (; p < cl.samples.size() && cl.sample_block[p] == blk; ++p) {
+      const float* w = cl.w.data() + bsz * p;
+      const float* d = scratch.delta.data() + 3 * std::size_t(cl.samples[p]);
+      for (std::size_t k = 0; k < op.kb; ++k)
+        for (std::size_t ch = 0; ch < 3; ++ch) t[3 * k + ch] += w[3 * k + ch] * d[ch];
+    }
+    for (std::size_t e = 0; e < bsz; ++e) t[e] *= s;
+    float* dst = out.data() + bsz * blk;
+    if (op.P.empty()) {
+      for (std::size_t e = 0; e < bsz; ++e) dst[e] += t[e];
+    } else {
+      reference_gemv_channels(op.P[blk], t, pt, false);
+      for (std::size_t e = 0; e < bsz; ++e) dst[e] += pt[e];
+    }
+    first = p;
+  }
+  // c = s Td_c diag(rho_c) (Cb b + Cc c) per object (zero when the clutter's light is not fed back).
+  float* oc = out.data() + nb;
+  std::fill(oc, oc + cl.c_unknowns, 0.0f);
+  if (cl.rho_c.empty()) return;
+  std::size_t texel0 = 0, face0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::uint32_t j = 0; j < o.face_count; ++j) {
+      double acc[3] = {0.0, 0.0, 0.0};
+      for (std::uint32_t m = 0; m < o.texel_count; ++m) {
+        const double tdc = o.Td_c(j, m);
+        if (tdc == 0.0) continue;
+        const std::size_t e = 3 * (texel0 + m);
+        for (std::size_t ch = 0; ch < 3; ++ch)
+          acc[ch] += tdc * double(cl.rho_c[e + ch]) * double(scratch.indirect[e + ch]);
+      }
+      for (std::size_t ch = 0; ch < 3; ++ch) oc[3 * (face0 + j) + ch] = float(double(s) * acc[ch]);
+    }
+    texel0 += o.texel_count, face0 += o.face_count;
+  }
+}
+
+void reference_apply_reduced_clutter(const Level& level, const ReducedFeedback& op, std::span<const float> x,
+                                     std::span<float> out, ReducedClutterScratch& scratch) {
+  const DrtOperators& drt = *op.clutter.drt;
+  const std::size_t nb = 3 * std::size_t(op.kb) * level.blocks.size();
+  const std::span<const float> b = x.first(nb), c = x.subspan(nb, op.clutter.c_unknowns);
+  reduced_clutter_clear(op, scratch);
+  drt_apply(level, drt, b, c, scratch.delta);
+  if (!op.clutter.rho_c.empty()) {
+    drt_clutter_lightmap(drt, b, {}, scratch.indirect);
+    drt_clutter_add_cc(drt, c, scratch.indirect);
+  }
+  reduced_clutter_feedback(level, op, scratch, out);
+}
 
 void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out, bool accumulate) {
   for (std::uint32_t r = 0; r < M.rows; ++r) {
@@ -192,7 +301,8 @@ void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out
 
 Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
                                                const LevelDependencies& deps, std::span<const float> rho,
-                                               const ReducedApply& apply) {
+                                               const ReducedApply& apply, const DrtOperators* drt,
+                                               std::span<const float> rho_c) {
   if (rho.size() != 3 * std::size_t(level.sample_count))
     return Status::error(ErrorCode::invalid_argument,
                          "reduced feedback: albedo has " + std::to_string(rho.size()) + " floats, expected " +
@@ -273,14 +383,18 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     }
     plain.B.push_back(to_channel_matrix(plain.kb, plain.kr, acc));
   }
-  const std::size_t n = 3 * std::size_t(plain.kb) * level.blocks.size();
+  if (drt && !drt->empty()) plain.clutter = build_reduced_clutter(level, dict, rho, *drt, rho_c);
+  const std::size_t n = plain.unknowns(level);
   std::vector<float> r(3 * std::size_t(plain.kr) * level.slots.size());
+  ReducedClutterScratch clutter_scratch;
+  if (plain.clutter.drt) clutter_scratch.allocate(level, plain.kb, *plain.clutter.drt);
   const auto radius = [&](const ReducedFeedback& op) {
     return estimate_spectral_radius(n, [&](std::span<const float> x, std::span<float> y) {
       if (apply)
         apply(op, x, y);
       else
         reference_apply_reduced_feedback(level, deps, op, x, r, y);
+      if (op.clutter.drt) reference_apply_reduced_clutter(level, op, x, y, clutter_scratch);
     });
   };
   const double q = radius(plain);
@@ -291,6 +405,8 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
   // Block Jacobi: P_i = (I - s A_i)^-1, B_s = P_i s B_s.
   ReducedFeedback bj;
   bj.kb = plain.kb, bj.kr = plain.kr, bj.block_jacobi = true;
+  bj.clutter = plain.clutter;
+  bj.clutter.scale = s;
   bool invertible = true;
   bj.P.resize(level.blocks.size());
   for (std::size_t i = 0; i < level.blocks.size() && invertible; ++i)
@@ -311,6 +427,7 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     out = std::move(plain);
     for (ChannelMatrix& m : out.A) m = scaled(m, s);
     for (ChannelMatrix& m : out.B) m = scaled(m, s);
+    out.clutter.scale = s;
     out.contraction = q_plain;
   }
   out.spectral_radius = q;
@@ -403,6 +520,61 @@ Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const D
   // r: the last application's (Tb->r of the iterate before b*), as every backend's.
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
     level_compute_tile(level, dict, deps, b, r, i, lightmap);
+  return report;
+}
+
+Result<ConvergedBounceReport> drt_converged_bounce(
+    const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
+    std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
+    const ConvergedBounceSettings& settings, std::span<float> b, std::span<float> r,
+    std::span<float> lightmap, std::span<float> c) {
+  if (Status s = check_max_albedo(settings.max_albedo, "drt_converged_bounce"); !s.ok()) return s;
+  if (Status s = validate_light_signal(albedo, level.sample_count, "albedo"); !s.ok()) return s;
+  const DrtBufferSizes dsz = drt_buffer_sizes(drt);
+  if (c.size() != dsz.c)
+    return Status::error(ErrorCode::invalid_argument, "drt_converged_bounce: c: wrong size");
+  if (!clutter_albedo.empty())
+    if (Status s = validate_light_signal(clutter_albedo, dsz.clutter_texels, "clutter_albedo"); !s.ok())
+      return s;
+  const LevelBufferSizes sizes = level_buffer_sizes(level, dict);
+  if (b.size() != sizes.b || r.size() != sizes.r || lightmap.size() != sizes.lightmap)
+    return Status::error(ErrorCode::invalid_argument,
+                         "drt_converged_bounce: b, r or lightmap has the wrong size");
+  std::vector<float> rho(albedo.size()), rho_c(clutter_albedo.size());
+  ConvergedBounceReport report;
+  report.albedo_clamped = clamp_albedo(albedo, settings.max_albedo, rho).clamped;
+  if (!rho_c.empty())
+    report.albedo_clamped |= clamp_albedo(clutter_albedo, settings.max_albedo, rho_c).clamped;
+  const LevelDependencies deps = level_dependencies(level);
+  Result<ReducedFeedback> op = build_reduced_feedback(level, dict, deps, rho, {}, &drt, rho_c);
+  if (!op.ok()) return op.status();
+  report.spectral_radius = op->spectral_radius;
+  report.damping = op->damping;
+  report.contraction = op->contraction;
+  report.block_jacobi = op->block_jacobi;
+  if (Status s = level_compute_b(level, dict, ld_direct, b); !s.ok()) return s;  // validates ld_direct
+  if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;           // c0, validates clutter_ld
+  const std::size_t nb = b.size();
+  ReducedSolver solver = ReducedSolver::create(op->unknowns(level));
+  reference_reduced_rhs(level, op.value(), b, solver.rhs().first(nb));
+  std::copy(c.begin(), c.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
+  std::vector<float> x(solver.unknowns());
+  std::copy(b.begin(), b.end(), x.begin());
+  std::copy(c.begin(), c.end(), x.begin() + std::ptrdiff_t(nb));
+  ReducedClutterScratch scratch;
+  scratch.allocate(level, op->kb, drt);
+  report.solve = solver.solve(
+      [&](std::span<const float> in, std::span<float> out) {
+        reference_apply_reduced_feedback(level, deps, op.value(), in, r, out);
+        reference_apply_reduced_clutter(level, op.value(), in, out, scratch);
+      },
+      x, op->contraction, settings.solve);
+  std::copy(x.begin(), x.begin() + std::ptrdiff_t(nb), b.begin());
+  std::copy(x.begin() + std::ptrdiff_t(nb), x.end(), c.begin());
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    level_compute_tile(level, dict, deps, b, r, i, lightmap);
+  drt_apply(level, drt, b, c, lightmap);
+  clamp_lightmap(lightmap);
   return report;
 }
 

@@ -63,14 +63,24 @@ class ReferenceBackend final : public StagedBackend {
   bool stage_solve_available() const override { return true; }
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
-    if (!warm) std::copy(b_.begin(), b_.end(), x.begin());
-    reference_reduced_rhs(level(), op, b_, solver.rhs());
+    // With clutter the unknowns are b then c (reduced_feedback.h), c0 = Td_c clutter_ld.
+    const std::size_t nb = b_.size();
+    const bool with_clutter = op.clutter.drt != nullptr;
+    if (!warm) {
+      std::copy(b_.begin(), b_.end(), x.begin());
+      if (with_clutter) std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), x.begin() + std::ptrdiff_t(nb));
+    }
+    reference_reduced_rhs(level(), op, b_, solver.rhs().first(nb));
+    if (with_clutter)
+      std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {
           reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);
+          if (with_clutter) reference_apply_reduced_clutter(level(), op, in, out, reduced_clutter_scratch());
         },
         x, op.contraction, settings, warm);
-    std::copy(x.begin(), x.end(), b_.begin());  // r_: the last application's (staged_backend.h)
+    std::copy(x.begin(), x.begin() + std::ptrdiff_t(nb), b_.begin());  // r_: the last application's
+    if (with_clutter) std::copy(x.begin() + std::ptrdiff_t(nb), x.end(), cl_.c.begin());
     return Status::success();
   }
   Status stage_r(const StageWork& work) override {

@@ -368,22 +368,23 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
   if (!stage_solve_available())
     return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
   if (!has_albedo_) return refused("update_converged: call set_albedo first");
-  if (drt_)
-    return refused(
-        "update_converged: the converged solve does not include clutter yet: use multi_bounce_step()");
   if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
     return refused("update_converged: tolerance must be in (0, 1) and max_iterations at least 1");
   if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
   if (!reduced_) {
     const Clock::time_point start = Clock::now();
-    Result<ReducedFeedback> op =
-        build_reduced_feedback(level_, dict_, dirty_.dependencies(), rho_,
-                               [this](const ReducedFeedback& o, std::span<const float> x,
-                                      std::span<float> y) { stage_reduced_apply(o, x, y); });
+    Result<ReducedFeedback> op = build_reduced_feedback(
+        level_, dict_, dirty_.dependencies(), rho_,
+        [this](const ReducedFeedback& o, std::span<const float> x, std::span<float> y) {
+          stage_reduced_apply(o, x, y);
+        },
+        drt_, rho_c_);
     if (!op.ok()) return op.status();
     reduced_.emplace(std::move(op).value());
-    if (solver_.unknowns() != sizes_.b) solver_ = ReducedSolver::create(sizes_.b);
-    x_.assign(sizes_.b, 0.0f);
+    const std::size_t unknowns = reduced_->unknowns(level_);
+    if (solver_.unknowns() != unknowns) solver_ = ReducedSolver::create(unknowns);
+    x_.assign(unknowns, 0.0f);
+    if (drt_) clutter_scratch_.allocate(level_, level_.kb, *drt_);
     warm_ = false;
     converged_.spectral_radius = reduced_->spectral_radius;
     converged_.damping = reduced_->damping;
@@ -483,7 +484,10 @@ Status StagedBackend::set_clutter(const DrtOperators* drt) {
   drt_sizes_ = drt ? drt_buffer_sizes(*drt) : DrtBufferSizes{};
   rho_c_.clear();
   rho_c_.reserve(drt_sizes_.clutter_ld);  // set_clutter_albedo allocates nothing
+  rho_c_next_.reserve(drt_sizes_.clutter_ld);
   clutter_ld_max_ = rho_c_max_ = 0.0f;
+  reduced_.reset();  // the converged solve's operators include the clutter's (rebuilt)
+  warm_ = false;
   dirty_.invalidate();
   updated_ = false;  // the results on hand are not of this clutter
   return Status::success();
@@ -518,10 +522,14 @@ Status StagedBackend::set_clutter_albedo(std::span<const float> clutter_albedo, 
         !s.ok())
       return s;
   }
-  rho_c_.resize(clutter_albedo.size());  // within the capacity set_clutter reserved
-  const float rho_c_max = clamp_albedo(clutter_albedo, max_albedo, rho_c_).rho_max;
+  rho_c_next_.resize(clutter_albedo.size());  // within the capacity set_clutter reserved
+  const float rho_c_max = clamp_albedo(clutter_albedo, max_albedo, rho_c_next_).rho_max;
+  // rho_c is in the converged solve's operators: the next one rebuilds them when it changed.
+  if (rho_c_next_ != rho_c_) reduced_.reset(), warm_ = false;
+  rho_c_.swap(rho_c_next_);
   if (Status s = stage_clutter_albedo(rho_c_); !s.ok()) {
     rho_c_.clear();
+    reduced_.reset(), warm_ = false;
     return s;
   }
   rho_c_max_ = rho_c_max;

@@ -68,13 +68,42 @@ class CpuBackend final : public StagedBackend {
   }
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
+    // With clutter the unknowns are b then c (reduced_feedback.h), c0 = Td_c clutter_ld; the
+    // DRT terms through this backend's DRT kernels, the rest of them in core.
     const std::span<const float> b0 = rt_.b();
-    if (!warm) std::copy(b0.begin(), b0.end(), x.begin());
-    rt_.reduced_rhs(op, solver.rhs());
+    const std::size_t nb = b0.size();
+    const bool with_clutter = op.clutter.drt != nullptr;
+    if (!warm) {
+      std::copy(b0.begin(), b0.end(), x.begin());
+      if (with_clutter) std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), x.begin() + std::ptrdiff_t(nb));
+    }
+    rt_.reduced_rhs(op, solver.rhs().first(nb));
+    if (with_clutter)
+      std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
+    Status drt_status;
     report = solver.solve(
-        [&](std::span<const float> in, std::span<float> out) { rt_.apply_reduced_feedback(op, in, out); }, x,
-        op.contraction, settings, warm);
-    rt_.finish_reduced_solve(x);
+        [&](std::span<const float> in, std::span<float> out) {
+          rt_.apply_reduced_feedback(op, in, out);
+          if (with_clutter && drt_status.ok()) drt_status = apply_reduced_clutter(op, in, out);
+        },
+        x, op.contraction, settings, warm);
+    if (!drt_status.ok()) return drt_status;
+    rt_.finish_reduced_solve(x.first(nb));
+    if (with_clutter) std::copy(x.begin() + std::ptrdiff_t(nb), x.end(), cl_.c.begin());
+    return Status::success();
+  }
+  // The clutter's terms of G (reference_apply_reduced_clutter) with the CPU DRT kernels.
+  Status apply_reduced_clutter(const ReducedFeedback& op, std::span<const float> x, std::span<float> out) {
+    ReducedClutterScratch& scratch = reduced_clutter_scratch();
+    const std::size_t nb = rt_.b().size();
+    const std::span<const float> b = x.first(nb), c = x.subspan(nb, op.clutter.c_unknowns);
+    reduced_clutter_clear(op, scratch);
+    if (Status s = drt_->apply(b, c, scratch.delta); !s.ok()) return s;
+    if (!op.clutter.rho_c.empty()) {
+      if (Status s = drt_->clutter_lightmap(b, {}, scratch.indirect); !s.ok()) return s;
+      if (Status s = drt_->clutter_add_cc(c, scratch.indirect); !s.ok()) return s;
+    }
+    reduced_clutter_feedback(level(), op, scratch, out);
     return Status::success();
   }
   Status stage_r(const StageWork&) override { return Status::success(); }  // in stage_tiles

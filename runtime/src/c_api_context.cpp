@@ -697,9 +697,9 @@ modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces)
     return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
   }
   if (bounces == MODRT_BOUNCES_CONVERGED && !context->backend->converged_available())
-    return fail(MODRT_ERROR_UNSUPPORTED,
-                std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " + context->description +
-                    " backend has no converged solve now (CPU contexts without clutter have it)");
+    return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " +
+                                             context->description +
+                                             " backend has no converged solve (CPU contexts have it)");
   context->options.bounces = bounces;
   return MODRT_OK;
 }

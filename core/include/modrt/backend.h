@@ -115,7 +115,9 @@ class Backend {
   // set_albedo; the reduced operators are built at the first converged update after it
   // (converged_stats().build_ns: that update allocates). Not converging within
   // settings.max_iterations is reported in converged_stats(), not an error. Refused
-  // (invalid_argument) by a backend without a reduced solve (GLES today) and with clutter.
+  // (invalid_argument) by a backend without a reduced solve (GLES today). With clutter the
+  // solve includes the clutter's c (its light fed back with set_clutter_albedo's albedo, DRT
+  // deltas in the feedback: drt_converged_bounce); set_clutter / set_clutter_albedo rebuild it.
   virtual Status update_converged(std::span<const float> ld_direct,
                                   const ReducedSolveSettings& settings = {}) {
     (void)ld_direct, (void)settings;
@@ -123,7 +125,7 @@ class Backend {
                                                           ": no converged solve: use multi_bounce_step()");
   }
   virtual ConvergedStats converged_stats() const { return {}; }
-  // Whether update_converged can run now (a backend with a reduced solve and no clutter set).
+  // Whether update_converged can run (a backend with a reduced solve).
   virtual bool converged_available() const { return false; }
 
   // Skip what the camera cannot see (issue 20): visible[i] != 0 marks block i potentially

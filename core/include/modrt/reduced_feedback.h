@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "modrt/dictionary.h"
+#include "modrt/drt.h"
 #include "modrt/feedback_policy.h"
 #include "modrt/level.h"
 #include "modrt/level_dirty.h"
@@ -61,6 +62,33 @@ struct ChannelMatrix {
 // out[3 r + c] (+)= sum_k M(r, k, c) in[3 k + c], accumulated in double (the scalar reference).
 void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out, bool accumulate);
 
+// The clutter's part of the converged solve (DRT, docs/drt.md "Multi-bounce"): the unknowns
+// grow by c (3 per clutter face, after b's) and one bounce is
+//   b <- b0 + M b + Td_b diag(rho) (dUb b + dUc c)   (the DRT deltas fed back with the lightmap)
+//   c <- c0 + Td_c diag(rho_c) (Cb b + Cc c)          (the clutter's indirect light fed back)
+// with c0 = Td_c clutter_ld (drt_multi_bounce's fixed point without its clamps). Applied
+// matrix-free from the DRT operators, which reach few samples, with Td_b's column at each of
+// them times its albedo (w); in the block Jacobi iteration the b part goes through P as well.
+struct ReducedClutter {
+  const DrtOperators* drt = nullptr;  // null: no clutter (every member empty)
+  std::size_t c_unknowns = 0;         // 3 per clutter face
+  std::vector<float> rho_c;           // clamped, 3 per clutter texel; empty: not fed back
+  // The level samples dUb / dUc rows reach (ascending), their blocks, and per level sample its
+  // index among them (-1: none); w: 3 kb per such sample, w[3 k + ch] = Td_b(k, local) rho(ch).
+  std::vector<std::uint32_t> samples, sample_block;
+  std::vector<std::int32_t> position;
+  std::vector<float> w;
+  float scale = 1.0f;  // the damping s (1 while M's radius is estimated)
+};
+
+// The clutter application's scratch: delta (a lightmap, 3 per level sample, of which the
+// reached samples are used), indirect (3 per clutter texel), t (3 kb per block, 3 kb more).
+// allocate() sizes it; the applications allocate nothing of their own.
+struct ReducedClutterScratch {
+  std::vector<float> delta, indirect, t;
+  void allocate(const Level& level, std::uint32_t kb, const DrtOperators& drt);
+};
+
 struct ReducedFeedback {
   std::uint32_t kb = 0, kr = 0;
   bool block_jacobi = true;  // false: the plain iteration (header)
@@ -72,6 +100,10 @@ struct ReducedFeedback {
   double spectral_radius = 0.0;  // estimated for M (before damping), largest over the channels
   float damping = 1.0f;          // s
   double contraction = 0.0;      // estimated spectral radius of G (<= kReducedMaxSpectralRadius)
+  ReducedClutter clutter;        // DRT (empty without clutter): unknowns() = b's + clutter.c_unknowns
+  std::size_t unknowns(const Level& level) const {
+    return 3 * std::size_t(kb) * level.blocks.size() + clutter.c_unknowns;
+  }
 };
 
 // Builds the operators from the clamped albedo rho (3 x samples, validated: finite, in [0, 1))
@@ -82,17 +114,34 @@ struct ReducedFeedback {
 // (check_level_operators). Allocates. Fails (non_finite) when an estimate is not finite.
 using ReducedApply =
     std::function<void(const ReducedFeedback& op, std::span<const float> x, std::span<float> out)>;
+// With `drt` (checked against the level, check_drt_operators) the clutter's part too (rho_c:
+// the clamped clutter albedo, 3 per clutter texel, or empty), in the radii as well.
 Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
                                                const LevelDependencies& deps, std::span<const float> rho,
-                                               const ReducedApply& apply = {});
+                                               const ReducedApply& apply = {},
+                                               const DrtOperators* drt = nullptr,
+                                               std::span<const float> rho_c = {});
 
 // c = P b0 (c = b0 for the plain iteration), 3 kb per block.
 void reference_reduced_rhs(const Level& level, const ReducedFeedback& op, std::span<const float> b0,
                            std::span<float> c);
-// out = G x (3 kb per block), with r = Tb->r x written to r_scratch (3 kr per slot).
+// out = G x (3 kb per block), with r = Tb->r x written to r_scratch (3 kr per slot). Of the
+// b part only: x and out may be longer (the clutter's c after b), the rest is not touched.
 void reference_apply_reduced_feedback(const Level& level, const LevelDependencies& deps,
                                       const ReducedFeedback& op, std::span<const float> x,
                                       std::span<float> r_scratch, std::span<float> out);
+// The clutter's terms of G (op.clutter not empty), x and out of op.unknowns(level) floats, b
+// then c: out's b part (holding the b part of G x) gains P s Td_b diag(rho) (dUb b + dUc c)
+// (s Td_b ... for the plain iteration), its c part becomes s Td_c diag(rho_c) (Cb b + Cc c).
+// The reference computes the DRT terms with drt.h's functions (which allocate per call);
+void reference_apply_reduced_clutter(const Level& level, const ReducedFeedback& op, std::span<const float> x,
+                                     std::span<float> out, ReducedClutterScratch& scratch);
+// a backend with its own DRT kernels zeroes the reached samples of scratch.delta
+// (reduced_clutter_clear), adds dUb b + dUc c into it and writes Cb b + Cc c into
+// scratch.indirect, then calls reduced_clutter_feedback for the rest (allocates nothing).
+void reduced_clutter_clear(const ReducedFeedback& op, ReducedClutterScratch& scratch);
+void reduced_clutter_feedback(const Level& level, const ReducedFeedback& op, ReducedClutterScratch& scratch,
+                              std::span<float> out);
 
 struct ReducedSolveSettings {
   // Stop when the remaining error of b, estimated from the last step and the contraction q as
@@ -185,5 +234,16 @@ Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const D
                                                      const ConvergedBounceSettings& settings,
                                                      std::span<float> b, std::span<float> r,
                                                      std::span<float> lightmap);
+
+// The converged multi-bounce with clutter from a cold start, the oracle of the backends'
+// update_converged with clutter: drt_multi_bounce's fixed point (without its clamps) in the
+// reduced space, b* and c* (3 per clutter face), r of the last application, and the lightmap
+// Ub b* + Ur r + dUb b* + dUc c* clamped at 0. clutter_albedo may be empty (c* = Td_c clutter_ld).
+// Allocates per call.
+Result<ConvergedBounceReport> drt_converged_bounce(
+    const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
+    std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
+    const ConvergedBounceSettings& settings, std::span<float> b, std::span<float> r,
+    std::span<float> lightmap, std::span<float> c);
 
 }  // namespace modrt

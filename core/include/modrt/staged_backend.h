@@ -121,7 +121,7 @@ class StagedBackend : public Backend {
   Status multi_bounce_step_from_texture(std::uint32_t ld_texture) final;
   Status update_converged(std::span<const float> ld_direct, const ReducedSolveSettings& settings = {}) final;
   ConvergedStats converged_stats() const final { return converged_; }
-  bool converged_available() const final { return stage_solve_available() && !drt_; }
+  bool converged_available() const final { return stage_solve_available(); }
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
@@ -156,6 +156,8 @@ class StagedBackend : public Backend {
   }  // an evaluation has succeeded since the last set_clutter
   // invalid_argument, "<name>: <what>".
   Status refused(const std::string& what) const;
+  // The converged solve's clutter scratch (sized when the reduced operators are built with clutter).
+  ReducedClutterScratch& reduced_clutter_scratch() { return clutter_scratch_; }
   // The padding records and padding neighbours of each block (the camera skip's atlas work).
   const AtlasBlockPadding& atlas_padding() const { return padding_; }
   // Between stage_begin and stage_end: the camera skip's catch-up, not an evaluation (a
@@ -182,8 +184,12 @@ class StagedBackend : public Backend {
   // c = P b0 into solver.rhs() and runs solver.solve with its application of op (out = G x); on
   // return its b and x hold b*, and its r is the r of the last application (r = Tb->r of the
   // iterate before b*, within the solve's tolerance of Tb->r b*): the r stage that follows has no
-  // slot to compute and the tiles, probes and vector irradiance read that r. Default: refused (a
-  // backend without a reduced solve).
+  // slot to compute and the tiles, probes and vector irradiance read that r. With clutter
+  // (op.clutter.drt) the unknowns are b then c: x's c part starts at c0 = Td_c clutter_ld (the
+  // direct light's c) when cold, the rhs's c part is c0, the application adds the clutter's
+  // terms (reference_apply_reduced_clutter, or reduced_clutter_feedback after the backend's DRT
+  // kernels; scratch: reduced_clutter_scratch()), and on return its c holds c* for the deltas
+  // and the clutter lightmap that follow. Default: refused (a backend without a reduced solve).
   virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                              const ReducedSolveSettings& settings, ReducedSolveReport& report);
   virtual bool stage_solve_available() const { return false; }  // true where stage_solve is implemented
@@ -270,12 +276,13 @@ class StagedBackend : public Backend {
   bool has_albedo_ = false, updated_ = false, timing_ = false;
   const DrtOperators* drt_ = nullptr;
   DrtBufferSizes drt_sizes_;
-  std::vector<float> rho_c_;  // the clamped clutter albedo (empty: none)
+  std::vector<float> rho_c_, rho_c_next_;  // the clamped clutter albedo (empty: none); the next one
   // The converged solve: the reduced operators of the current albedo (built on first use), the
   // solver, the last solve's b* (the warm start while warm_) and the statistics.
   std::optional<ReducedFeedback> reduced_;
   ReducedSolver solver_;
-  std::vector<float> x_, r_scratch_;  // r_scratch_: the default stage_reduced_apply's r
+  std::vector<float> x_, r_scratch_;
+  ReducedClutterScratch clutter_scratch_;  // r_scratch_: the default stage_reduced_apply's r
   bool warm_ = false;
   ConvergedStats converged_;
   float clutter_ld_max_ = 0.0f, rho_c_max_ = 0.0f;

@@ -340,9 +340,10 @@ MODRT_API modrt_status modrt_context_update(modrt_context* context);
 
 /* Since 0.4. The `bounces` value of the converged multi-bounce (docs/cpu.md "Converged
  * multi-bounce"): every update solves the bounce series to a relative tolerance of 1e-3 in the
- * reduced space (b, r), warm-started from the last update's solution, then writes the lightmap,
- * atlas, probes and vector irradiance once. CPU contexts without clutter; a GLES context, or
- * one with clutter set, refuses it (MODRT_ERROR_UNSUPPORTED naming the reason). */
+ * reduced space (b, r, and with clutter its c), warm-started from the last update's solution,
+ * then writes the lightmap, atlas, probes, vector irradiance and clutter lightmap once. CPU
+ * contexts (with or without clutter: the clutter's light bounces with its albedo, as in
+ * modrt_context_set_clutter_albedo); a GLES context refuses it (MODRT_ERROR_UNSUPPORTED). */
 #define MODRT_BOUNCES_CONVERGED 0xffffffffu
 
 /* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64, or
