@@ -296,6 +296,50 @@ TEST(ReducedFeedback, WarmStartReachesTheSameAnswerFaster) {
   EXPECT_LE(test::rel_l2(x, x_cold), 3e-5);
 }
 
+// Over a moving light (each frame a different block brightens, the rest dims a little) the
+// history's prediction (ReducedSolveSettings::history 4) needs no more applications in all than
+// the last solution moved by the change of rhs (history 0), and both reach the cold solve's
+// answer within the tolerance every frame.
+TEST(ReducedFeedback, HistoryPredictionHelpsAMovingLight) {
+  const TestLevel& t = test_level("maze41");
+  const LevelDependencies deps = level_dependencies(t.level);
+  Result<ReducedFeedback> op = build_reduced_feedback(t.level, dict(), deps, t.albedo);
+  ASSERT_TRUE(op.ok());
+  const LevelBufferSizes sz = level_buffer_sizes(t.level, dict());
+  std::vector<float> r(sz.r), b0(sz.b);
+  const auto apply = [&](std::span<const float> in, std::span<float> out) {
+    reference_apply_reduced_feedback(t.level, deps, op.value(), in, r, out);
+  };
+  ReducedSolveSettings settings;
+  settings.tolerance = 1e-5f;
+  int total[2] = {0, 0};
+  for (int h = 0; h < 2; ++h) {
+    settings.history = h == 0 ? 0 : 4;
+    ReducedSolver solver = ReducedSolver::create(sz.b, 4), cold_solver = ReducedSolver::create(sz.b);
+    std::vector<float> x(sz.b), x_cold(sz.b);
+    for (int frame = 0; frame < 12; ++frame) {
+      std::vector<float> ld = t.ld;
+      const LevelBlock& blk = t.level.blocks[std::size_t(frame * 5) % t.level.blocks.size()];
+      for (float& v : ld) v *= 1.0f - 0.01f * float(frame % 4);
+      for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+        ld[3 * blk.sample_offset + i] *= 3.0f;
+      ASSERT_TRUE(level_compute_b(t.level, dict(), ld, b0).ok());
+      reference_reduced_rhs(t.level, op.value(), b0, solver.rhs());
+      if (frame == 0) x = b0;
+      const ReducedSolveReport rep = solver.solve(apply, x, op->contraction, settings, frame > 0);
+      if (frame > 0) total[h] += rep.iterations;
+      reference_reduced_rhs(t.level, op.value(), b0, cold_solver.rhs());
+      x_cold = b0;
+      ASSERT_TRUE(cold_solver.solve(apply, x_cold, op->contraction, settings).converged);
+      ASSERT_TRUE(rep.converged);
+      EXPECT_LE(test::rel_l2(x, x_cold), 3e-5) << "history " << settings.history << " frame " << frame;
+    }
+  }
+  std::printf("moving light, 11 warm frames: %d applications from the last solution, %d with the history\n",
+              total[0], total[1]);
+  EXPECT_LE(total[1], total[0]);
+}
+
 // Albedo near 1 (max_albedo 0.999): everywhere, and one white block among dark ones. The
 // estimate is damped to kReducedMaxSpectralRadius where it passes it; the solve converges and
 // every lightmap is finite, non-negative and within the energy bound ld_max / (1 - s q), q the

@@ -469,11 +469,83 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
 }
 
-void ReducedSolver::extrapolate(std::span<float> x, bool warm) {
-  if (warm && has_last_)
-    for (std::size_t i = 0; i < x.size(); ++i) x[i] += rhs_[i] - rhs_last_[i];
-  std::copy(rhs_.begin(), rhs_.end(), rhs_last_.begin());
-  has_last_ = true;
+void ReducedSolver::predict(std::span<float> x, bool warm, int history) {
+  const std::size_t n = rhs_.size();
+  if (!warm) {
+    count_ = 0;  // another operator: its solutions do not apply
+    return;
+  }
+  if (count_ == 0) return;
+  const int k_max = std::min(count_, std::max(history, 1));
+  const auto slot = [&](int age) {  // age 0: the newest pair
+    return std::size_t((head_ - 1 - age + 2 * capacity_) % capacity_) * n;
+  };
+  if (history <= 0) {  // the last solution moved by the change of rhs
+    const float* r_last = history_rhs_.data() + slot(0);
+    for (std::size_t i = 0; i < n; ++i) x[i] += rhs_[i] - r_last[i];
+    return;
+  }
+  // Per channel: the least-squares a of rhs ~ sum_k a_k rhs_k (normal equations, a small ridge
+  // for near-dependent pairs), then x = sum_k a_k x_k + (rhs - sum_k a_k rhs_k).
+  for (std::size_t c = 0; c < 3; ++c) {
+    double g[kMaxHistory][kMaxHistory] = {}, h[kMaxHistory] = {}, a[kMaxHistory] = {};
+    for (int p = 0; p < k_max; ++p) {
+      const float* rp = history_rhs_.data() + slot(p);
+      for (std::size_t i = c; i < n; i += 3) h[p] += double(rp[i]) * rhs_[i];
+      for (int q = 0; q <= p; ++q) {
+        const float* rq = history_rhs_.data() + slot(q);
+        double d = 0.0;
+        for (std::size_t i = c; i < n; i += 3) d += double(rp[i]) * rq[i];
+        g[p][q] = g[q][p] = d;
+      }
+    }
+    double trace = 0.0;
+    for (int p = 0; p < k_max; ++p) trace += g[p][p];
+    if (!(trace > 0.0)) continue;  // this channel has no light: nothing to predict
+    for (int p = 0; p < k_max; ++p) g[p][p] += 1e-9 * trace;
+    // Gaussian elimination with partial pivoting on [g | h].
+    int k = k_max;
+    bool ok = true;
+    for (int col = 0; col < k && ok; ++col) {
+      int pivot = col;
+      for (int r = col + 1; r < k; ++r)
+        if (std::fabs(g[r][col]) > std::fabs(g[pivot][col])) pivot = r;
+      if (!(std::fabs(g[pivot][col]) > 1e-300)) ok = false;
+      if (!ok) break;
+      if (pivot != col) {
+        for (int j = 0; j < k; ++j) std::swap(g[col][j], g[pivot][j]);
+        std::swap(h[col], h[pivot]);
+      }
+      for (int r = col + 1; r < k; ++r) {
+        const double f = g[r][col] / g[col][col];
+        for (int j = col; j < k; ++j) g[r][j] -= f * g[col][j];
+        h[r] -= f * h[col];
+      }
+    }
+    for (int r = k - 1; r >= 0 && ok; --r) {
+      double v = h[r];
+      for (int j = r + 1; j < k; ++j) v -= g[r][j] * a[j];
+      a[r] = v / g[r][r];
+      ok = std::isfinite(a[r]);
+    }
+    if (!ok) continue;  // x stays the last solution for this channel
+    for (std::size_t i = c; i < n; i += 3) {
+      double v = rhs_[i];
+      for (int p = 0; p < k; ++p) {
+        const std::size_t o = slot(p) + i;
+        v += a[p] * (double(history_x_[o]) - double(history_rhs_[o]));
+      }
+      x[i] = float(v);
+    }
+  }
+}
+
+void ReducedSolver::remember(std::span<const float> x) {
+  const std::size_t n = rhs_.size(), o = std::size_t(head_) * n;
+  std::copy(rhs_.begin(), rhs_.end(), history_rhs_.begin() + std::ptrdiff_t(o));
+  std::copy(x.begin(), x.begin() + std::ptrdiff_t(n), history_x_.begin() + std::ptrdiff_t(o));
+  head_ = (head_ + 1) % capacity_;
+  count_ = std::min(count_ + 1, capacity_);
 }
 
 ReducedSolver::Step ReducedSolver::step(std::span<float> x) {

@@ -148,6 +148,9 @@ struct ReducedSolveSettings {
   // step q / (1 - q), is at most tolerance x max |b|.
   float tolerance = 1e-3f;
   int max_iterations = 256;
+  // The warm start's memory (ReducedSolver): the last `history` solves' (rhs, solution) pairs;
+  // 0: the last solution moved by the change of rhs only.
+  int history = 4;
 };
 
 struct ReducedSolveReport {
@@ -161,26 +164,35 @@ struct ReducedSolveReport {
 // writes c = P b0 into rhs() and supplies `apply(x, out)` (out = G x, its kernels and threads);
 // the solver does the rest (the update, the residual, the stopping rule). x holds the warm start
 // on entry (the last frame's b*, or b0) and b* on return. create() allocates; solve() does not.
+//
+// The warm start: the system is linear and separate per channel, so a right-hand side in the
+// span of earlier ones, rhs = sum_k a_k rhs_k, has the solution sum_k a_k x_k. Each warm solve
+// starts from the least-squares combination of the last `history` pairs (per channel) plus the
+// part of rhs they do not explain (the first term of (I - G)^-1 of it, at no cost): a light
+// that dims or brightens is solved at once, one that moves along a path nearly so.
 class ReducedSolver {
  public:
-  static ReducedSolver create(std::size_t unknowns) {
+  static constexpr int kMaxHistory = 8;
+  static ReducedSolver create(std::size_t unknowns, int history = ReducedSolveSettings{}.history) {
     ReducedSolver s;
     s.next_.assign(unknowns, 0.0f);
     s.rhs_.assign(unknowns, 0.0f);
-    s.rhs_last_.assign(unknowns, 0.0f);
+    s.capacity_ = history < 1 ? 1 : (history > kMaxHistory ? kMaxHistory : history);
+    s.history_rhs_.assign(unknowns * std::size_t(s.capacity_), 0.0f);
+    s.history_x_.assign(unknowns * std::size_t(s.capacity_), 0.0f);
     return s;
   }
   std::size_t unknowns() const { return next_.size(); }
   std::span<float> rhs() { return rhs_; }
 
   // Iterates x <- rhs() + G x. With `warm` (x is the last solve's solution for the last rhs),
-  // x first moves by the change of rhs since that solve: the new solution is x + (I - G)^-1
-  // (rhs - rhs_last), and its first term costs no application of G.
+  // x first becomes the prediction from the history (class comment); without, the history is
+  // forgotten (the operator changed) and x is used as it is.
   template <class Apply>
   ReducedSolveReport solve(Apply&& apply, std::span<float> x, double contraction,
                            const ReducedSolveSettings& settings, bool warm = false) {
     ReducedSolveReport report;
-    extrapolate(x, warm);
+    predict(x, warm, settings.history);
     const double q = contraction < 1e-12 ? 1e-12 : contraction;
     const double tail = q / (1.0 - q);  // remaining error per unit of step (geometric tail)
     for (int it = 1; it <= settings.max_iterations; ++it) {
@@ -194,6 +206,7 @@ class ReducedSolver {
         break;
       }
     }
+    remember(x);
     return report;
   }
 
@@ -203,10 +216,13 @@ class ReducedSolver {
   };
   // x <- rhs + next (next = G x), the largest change and value.
   Step step(std::span<float> x);
-  // With warm and a last rhs: x += rhs - rhs_last. Then rhs_last = rhs.
-  void extrapolate(std::span<float> x, bool warm);
-  std::vector<float> next_, rhs_, rhs_last_;
-  bool has_last_ = false;
+  // The warm start (class comment); history 0: x += rhs - rhs_last.
+  void predict(std::span<float> x, bool warm, int history);
+  // Keeps (rhs, x) as the newest pair.
+  void remember(std::span<const float> x);
+  std::vector<float> next_, rhs_;
+  std::vector<float> history_rhs_, history_x_;  // capacity_ pairs, a ring; newest at head_ - 1
+  int capacity_ = 1, count_ = 0, head_ = 0;
 };
 
 struct ConvergedBounceSettings {
