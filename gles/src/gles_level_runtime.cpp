@@ -558,10 +558,20 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     block_tile_begin_.assign(blocks + 1, 0);
     tile_rects_.clear();
     for (std::size_t i = 0; i < blocks; ++i) {
-      for (const Rect& r : tiles[i])
-        if (std::none_of(tile_rects_.begin() + block_tile_begin_[i], tile_rects_.end(),
-                         [&](const Rect& q) { return q.x == r.x && q.y == r.y; }))
+      std::vector<Rect>& list = tiles[i];
+      // Row by row, tiles side by side merged into one rect: one draw (a viewport) each.
+      std::sort(list.begin(), list.end(),
+                [](const Rect& a, const Rect& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+      list.erase(std::unique(list.begin(), list.end(),
+                             [](const Rect& a, const Rect& b) { return a.x == b.x && a.y == b.y; }),
+                 list.end());
+      for (const Rect& r : list) {
+        Rect* last = tile_rects_.size() > block_tile_begin_[i] ? &tile_rects_.back() : nullptr;
+        if (last && last->y == r.y && last->h == r.h && last->x + last->w == r.x)
+          last->w += r.w;
+        else
           tile_rects_.push_back(r);
+      }
       block_tile_begin_[i + 1] = std::uint32_t(tile_rects_.size());
     }
   }
