@@ -107,4 +107,20 @@ inline LevelReference level_reference(const Level& level, std::span<const float>
   return ref;
 }
 
+// The skipping tests' animation: frame `frame` of a light moving through the level. Every
+// fifth frame repeats the last ld (the light stands still); the others rescale the ld of one
+// block (three on every third frame) from `base`, the rest of ld staying as it was.
+inline void animate_moving_light(const Level& level, std::span<const float> base, int frame,
+                                 std::vector<float>& ld) {
+  if (frame % 5 == 4) return;
+  const std::size_t blocks = level.blocks.size();
+  const int moved = frame % 3 == 0 ? 3 : 1;
+  for (int m = 0; m < moved; ++m) {
+    const LevelBlock& blk = level.blocks[std::size_t(frame * 7 + m * 13) % blocks];
+    for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+      ld[3 * std::size_t(blk.sample_offset) + i] =
+          base[3 * std::size_t(blk.sample_offset) + i] * (1.0f + 0.05f * float((frame + m) % 9));
+  }
+}
+
 }  // namespace modrt::test

@@ -209,15 +209,7 @@ void GlesBackend::check_skipping(float fraction) {
   std::uint64_t unchanged_frames = 0, changed_blocks = blocks;  // the first frame is full
   std::vector<float> previous;
   for (int frame = 0; frame < kFrames; ++frame) {
-    if (frame % 5 != 4) {  // every fifth frame the light does not move: same ld
-      const int moved = frame % 3 == 0 ? 3 : 1;
-      for (int m = 0; m < moved; ++m) {
-        const LevelBlock& blk = t.level.blocks[std::size_t(frame * 7 + m * 13) % blocks];
-        for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
-          ld[3 * std::size_t(blk.sample_offset) + i] =
-              t.ld[3 * std::size_t(blk.sample_offset) + i] * (1.0f + 0.05f * float((frame + m) % 9));
-      }
-    }
+    test::animate_moving_light(t.level, t.ld, frame, ld);  // every fifth frame repeats
     if (frame > 0) {
       std::uint64_t changed = 0;
       for (const LevelBlock& blk : t.level.blocks)

@@ -225,6 +225,13 @@ void reduced_clutter_clear(const ReducedFeedback& op, ReducedClutterScratch& scr
     for (std::size_t ch = 0; ch < 3; ++ch) scratch.delta[3 * std::size_t(s) + ch] = 0.0f;
 }
 
+void reduced_clutter_start(const ReducedFeedback& op, std::size_t nb, std::span<const float> c0,
+                           std::span<float> x, std::span<float> rhs, bool warm) {
+  if (!op.clutter.drt) return;
+  std::copy(c0.begin(), c0.end(), rhs.begin() + std::ptrdiff_t(nb));
+  if (!warm) std::copy(c0.begin(), c0.end(), x.begin() + std::ptrdiff_t(nb));
+}
+
 void reduced_clutter_feedback(const Level& level, const ReducedFeedback& op, ReducedClutterScratch& scratch,
                               std::span<float> out) {
   const ReducedClutter& cl = op.clutter;
@@ -559,40 +566,81 @@ ReducedSolver::Step ReducedSolver::step(std::span<float> x) {
   return st;
 }
 
-Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const Dictionary& dict,
-                                                     std::span<const float> ld_direct,
-                                                     std::span<const float> albedo,
-                                                     const ConvergedBounceSettings& settings,
-                                                     std::span<float> b, std::span<float> r,
-                                                     std::span<float> lightmap) {
-  if (Status s = check_max_albedo(settings.max_albedo, "level_converged_bounce"); !s.ok()) return s;
+namespace {
+
+// level_converged_bounce and, with drt, drt_converged_bounce: validate, clamp the albedos, build
+// the reduced feedback, solve from x = (b0, c0) and write b*, c*, r and the lightmap from them.
+Result<ConvergedBounceReport> converged_bounce(
+    const char* who, const Level& level, const Dictionary& dict, const DrtOperators* drt,
+    std::span<const float> ld_direct, std::span<const float> albedo, std::span<const float> clutter_ld,
+    std::span<const float> clutter_albedo, const ConvergedBounceSettings& settings, std::span<float> b,
+    std::span<float> r, std::span<float> lightmap, std::span<float> c) {
+  if (Status s = check_max_albedo(settings.max_albedo, who); !s.ok()) return s;
   if (Status s = validate_light_signal(albedo, level.sample_count, "albedo"); !s.ok()) return s;
+  if (drt) {
+    const DrtBufferSizes dsz = drt_buffer_sizes(*drt);
+    if (c.size() != dsz.c)
+      return Status::error(ErrorCode::invalid_argument, std::string(who) + ": c: wrong size");
+    if (!clutter_albedo.empty())
+      if (Status s = validate_light_signal(clutter_albedo, dsz.clutter_texels, "clutter_albedo"); !s.ok())
+        return s;
+  }
   const LevelBufferSizes sizes = level_buffer_sizes(level, dict);
   if (b.size() != sizes.b || r.size() != sizes.r || lightmap.size() != sizes.lightmap)
     return Status::error(ErrorCode::invalid_argument,
-                         "level_converged_bounce: b, r or lightmap has the wrong size");
-  std::vector<float> rho(albedo.size());
+                         std::string(who) + ": b, r or lightmap has the wrong size");
+  std::vector<float> rho(albedo.size()), rho_c(clutter_albedo.size());
   ConvergedBounceReport report;
   report.albedo_clamped = clamp_albedo(albedo, settings.max_albedo, rho).clamped;
+  if (!rho_c.empty())
+    report.albedo_clamped |= clamp_albedo(clutter_albedo, settings.max_albedo, rho_c).clamped;
   const LevelDependencies deps = level_dependencies(level);
-  Result<ReducedFeedback> op = build_reduced_feedback(level, dict, deps, rho);
+  Result<ReducedFeedback> op = build_reduced_feedback(level, dict, deps, rho, {}, drt, rho_c);
   if (!op.ok()) return op.status();
   report.spectral_radius = op->spectral_radius;
   report.damping = op->damping;
   report.contraction = op->contraction;
   report.block_jacobi = op->block_jacobi;
   if (Status s = level_compute_b(level, dict, ld_direct, b); !s.ok()) return s;  // validates ld_direct
-  ReducedSolver solver = ReducedSolver::create(b.size());
-  reference_reduced_rhs(level, op.value(), b, solver.rhs());
+  if (drt)
+    if (Status s = drt_compute_c(*drt, clutter_ld, c); !s.ok()) return s;  // c0, validates clutter_ld
+  const bool with_clutter = op->clutter.drt != nullptr;
+  const std::size_t nb = b.size();
+  ReducedSolver solver = ReducedSolver::create(op->unknowns(level));
+  std::vector<float> x(solver.unknowns());
+  reference_reduced_rhs(level, op.value(), b, solver.rhs().first(nb));
+  std::copy(b.begin(), b.end(), x.begin());
+  reduced_clutter_start(op.value(), nb, c, x, solver.rhs(), false);
+  ReducedClutterScratch scratch;
+  if (with_clutter) scratch.allocate(level, op->kb, *drt);
   report.solve = solver.solve(
-      [&](std::span<const float> x, std::span<float> out) {
-        reference_apply_reduced_feedback(level, deps, op.value(), x, r, out);
+      [&](std::span<const float> in, std::span<float> out) {
+        reference_apply_reduced_feedback(level, deps, op.value(), in, r, out);
+        if (with_clutter) reference_apply_reduced_clutter(level, op.value(), in, out, scratch);
       },
-      b, op->contraction, settings.solve);
+      x, op->contraction, settings.solve);
+  std::copy(x.begin(), x.begin() + std::ptrdiff_t(nb), b.begin());
+  if (with_clutter) std::copy(x.begin() + std::ptrdiff_t(nb), x.end(), c.begin());
   // r: the last application's (Tb->r of the iterate before b*), as every backend's.
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
     level_compute_tile(level, dict, deps, b, r, i, lightmap);
+  if (drt) {
+    drt_apply(level, *drt, b, c, lightmap);
+    clamp_lightmap(lightmap);
+  }
   return report;
+}
+
+}  // namespace
+
+Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const Dictionary& dict,
+                                                     std::span<const float> ld_direct,
+                                                     std::span<const float> albedo,
+                                                     const ConvergedBounceSettings& settings,
+                                                     std::span<float> b, std::span<float> r,
+                                                     std::span<float> lightmap) {
+  return converged_bounce("level_converged_bounce", level, dict, nullptr, ld_direct, albedo, {}, {}, settings,
+                          b, r, lightmap, {});
 }
 
 Result<ConvergedBounceReport> drt_converged_bounce(
@@ -600,54 +648,8 @@ Result<ConvergedBounceReport> drt_converged_bounce(
     std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
     const ConvergedBounceSettings& settings, std::span<float> b, std::span<float> r,
     std::span<float> lightmap, std::span<float> c) {
-  if (Status s = check_max_albedo(settings.max_albedo, "drt_converged_bounce"); !s.ok()) return s;
-  if (Status s = validate_light_signal(albedo, level.sample_count, "albedo"); !s.ok()) return s;
-  const DrtBufferSizes dsz = drt_buffer_sizes(drt);
-  if (c.size() != dsz.c)
-    return Status::error(ErrorCode::invalid_argument, "drt_converged_bounce: c: wrong size");
-  if (!clutter_albedo.empty())
-    if (Status s = validate_light_signal(clutter_albedo, dsz.clutter_texels, "clutter_albedo"); !s.ok())
-      return s;
-  const LevelBufferSizes sizes = level_buffer_sizes(level, dict);
-  if (b.size() != sizes.b || r.size() != sizes.r || lightmap.size() != sizes.lightmap)
-    return Status::error(ErrorCode::invalid_argument,
-                         "drt_converged_bounce: b, r or lightmap has the wrong size");
-  std::vector<float> rho(albedo.size()), rho_c(clutter_albedo.size());
-  ConvergedBounceReport report;
-  report.albedo_clamped = clamp_albedo(albedo, settings.max_albedo, rho).clamped;
-  if (!rho_c.empty())
-    report.albedo_clamped |= clamp_albedo(clutter_albedo, settings.max_albedo, rho_c).clamped;
-  const LevelDependencies deps = level_dependencies(level);
-  Result<ReducedFeedback> op = build_reduced_feedback(level, dict, deps, rho, {}, &drt, rho_c);
-  if (!op.ok()) return op.status();
-  report.spectral_radius = op->spectral_radius;
-  report.damping = op->damping;
-  report.contraction = op->contraction;
-  report.block_jacobi = op->block_jacobi;
-  if (Status s = level_compute_b(level, dict, ld_direct, b); !s.ok()) return s;  // validates ld_direct
-  if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;           // c0, validates clutter_ld
-  const std::size_t nb = b.size();
-  ReducedSolver solver = ReducedSolver::create(op->unknowns(level));
-  reference_reduced_rhs(level, op.value(), b, solver.rhs().first(nb));
-  std::copy(c.begin(), c.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
-  std::vector<float> x(solver.unknowns());
-  std::copy(b.begin(), b.end(), x.begin());
-  std::copy(c.begin(), c.end(), x.begin() + std::ptrdiff_t(nb));
-  ReducedClutterScratch scratch;
-  scratch.allocate(level, op->kb, drt);
-  report.solve = solver.solve(
-      [&](std::span<const float> in, std::span<float> out) {
-        reference_apply_reduced_feedback(level, deps, op.value(), in, r, out);
-        reference_apply_reduced_clutter(level, op.value(), in, out, scratch);
-      },
-      x, op->contraction, settings.solve);
-  std::copy(x.begin(), x.begin() + std::ptrdiff_t(nb), b.begin());
-  std::copy(x.begin() + std::ptrdiff_t(nb), x.end(), c.begin());
-  for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    level_compute_tile(level, dict, deps, b, r, i, lightmap);
-  drt_apply(level, drt, b, c, lightmap);
-  clamp_lightmap(lightmap);
-  return report;
+  return converged_bounce("drt_converged_bounce", level, dict, &drt, ld_direct, albedo, clutter_ld,
+                          clutter_albedo, settings, b, r, lightmap, c);
 }
 
 }  // namespace modrt

@@ -66,13 +66,9 @@ class ReferenceBackend final : public StagedBackend {
     // With clutter the unknowns are b then c (reduced_feedback.h), c0 = Td_c clutter_ld.
     const std::size_t nb = b_.size();
     const bool with_clutter = op.clutter.drt != nullptr;
-    if (!warm) {
-      std::copy(b_.begin(), b_.end(), x.begin());
-      if (with_clutter) std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), x.begin() + std::ptrdiff_t(nb));
-    }
+    if (!warm) std::copy(b_.begin(), b_.end(), x.begin());
     reference_reduced_rhs(level(), op, b_, solver.rhs().first(nb));
-    if (with_clutter)
-      std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
+    reduced_clutter_start(op, nb, cl_.c_direct, x, solver.rhs(), warm);
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {
           reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);

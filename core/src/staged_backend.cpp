@@ -123,12 +123,10 @@ void StagedBackend::plan_camera(const StageWork& mrt, const StageWork& out, Stag
     tiles_work_[i] = t, tile_count += t;
     hidden_ += mrt.tiles[i] && !ext_[i];
     caught_up_ += t && !mrt.tiles[i];
-    const bool o = (out.tiles[i] || stale_[i]) && ext_[i];
-    out_work_[i] = o, out_count += o;
+    out_work_[i] = out.tiles[i] || stale_[i];  // changed: now, or earlier while hidden
   }
   // Unwritten from here: the tiles that changed outside ext_, and the rectangles of every block
-  // outside visible_ whose tile or padding neighbours changed (out_work_ doubles as "changed").
-  for (std::size_t i = 0; i < n; ++i) out_work_[i] = out.tiles[i] || stale_[i];
+  // outside visible_ whose tile or padding neighbours changed.
   atlas_stale_count_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const bool changed = out_work_[i] || padding_source_flagged(padding_, i, out_work_);
@@ -142,8 +140,8 @@ void StagedBackend::plan_camera(const StageWork& mrt, const StageWork& out, Stag
     stale_[i] = out_work_[i] && !ext_[i];
     stale_count_ += stale_[i];
     out_work_[i] = out_work_[i] && ext_[i];
+    out_count += out_work_[i];
   }
-  (void)out_count;
   tiles = StageWork{
       mrt.blocks, mrt.slots, tiles_work_, mrt.block_count, mrt.slot_count, tile_count, tile_count == n,
       {},         0};

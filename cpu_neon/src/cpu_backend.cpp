@@ -73,13 +73,9 @@ class CpuBackend final : public StagedBackend {
     const std::span<const float> b0 = rt_.b();
     const std::size_t nb = b0.size();
     const bool with_clutter = op.clutter.drt != nullptr;
-    if (!warm) {
-      std::copy(b0.begin(), b0.end(), x.begin());
-      if (with_clutter) std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), x.begin() + std::ptrdiff_t(nb));
-    }
+    if (!warm) std::copy(b0.begin(), b0.end(), x.begin());
     rt_.reduced_rhs(op, solver.rhs().first(nb));
-    if (with_clutter)
-      std::copy(cl_.c_direct.begin(), cl_.c_direct.end(), solver.rhs().begin() + std::ptrdiff_t(nb));
+    reduced_clutter_start(op, nb, cl_.c_direct, x, solver.rhs(), warm);
     Status drt_status;
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {

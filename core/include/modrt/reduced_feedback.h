@@ -140,6 +140,10 @@ void reference_apply_reduced_clutter(const Level& level, const ReducedFeedback& 
 // (reduced_clutter_clear), adds dUb b + dUc c into it and writes Cb b + Cc c into
 // scratch.indirect, then calls reduced_clutter_feedback for the rest (allocates nothing).
 void reduced_clutter_clear(const ReducedFeedback& op, ReducedClutterScratch& scratch);
+// Before a solve with clutter (op.clutter not empty; else nothing): the c part of rhs (after the
+// nb of b) is c0 = Td_c clutter_ld, and of x too when not warm.
+void reduced_clutter_start(const ReducedFeedback& op, std::size_t nb, std::span<const float> c0,
+                           std::span<float> x, std::span<float> rhs, bool warm);
 void reduced_clutter_feedback(const Level& level, const ReducedFeedback& op, ReducedClutterScratch& scratch,
                               std::span<float> out);
 
