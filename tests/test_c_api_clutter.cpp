@@ -166,14 +166,21 @@ Results cpp_frame(std::uint32_t bounces, bool with_albedo) {
   return r;
 }
 
+// One bounce, two feedback steps and the converged solve (b and the clutter's c together).
 TEST(CApiClutter, CpuContextIsTheCppBackendBitForBit) {
   Handles h;
-  for (std::uint32_t bounces : {0u, 2u}) {
+  for (std::uint32_t bounces : {0u, 2u, std::uint32_t(MODRT_BOUNCES_CONVERGED)}) {
     modrt_context* c = h.context(MODRT_BACKEND_CPU, bounces);
     const Results got = c_api_frame(c, h, bounces > 0);
     const Results ref = cpp_frame(bounces, bounces > 0);
     EXPECT_EQ(got.lightmap, ref.lightmap) << bounces << " bounces";
     EXPECT_EQ(got.clutter_lightmap, ref.clutter_lightmap) << bounces << " bounces";
+    if (bounces == MODRT_BOUNCES_CONVERGED) {
+      modrt_solve_stats st = modrt::rt::sized<modrt_solve_stats>();
+      ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK);
+      EXPECT_EQ(st.solves, 1u);
+      EXPECT_EQ(st.converged, 1u) << "the converged solve ran with the clutter";
+    }
     // The clutter changes the walls: without it the lightmap differs.
     ASSERT_EQ(modrt_context_set_clutter(c, nullptr), MODRT_OK);
     ASSERT_EQ(modrt_context_update(c), MODRT_OK);
