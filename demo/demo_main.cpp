@@ -74,9 +74,10 @@ int main(int argc, char** argv) {
   app.add_option("--res", res, "Lightmap texels per proxy face edge")
       ->check(CLI::Range(2, 64))
       ->capture_default_str();
-  app.add_option("--bounces", bounces,
-                 "Multi-bounce: N >= 0 feedback steps per frame (exactly N extra bounces); -1: the converged "
-                 "multi-bounce where the backend has it (cpu without clutter), else 2 steps (6 on frame 0)")
+  app.add_option(
+         "--bounces", bounces,
+         "Multi-bounce: N >= 0 feedback steps per frame (exactly N extra bounces); -1: the converged "
+         "multi-bounce where the backend has it (cpu; gles without clutter), else 4 steps every frame")
       ->check(CLI::Range(-1, 16))
       ->capture_default_str();
   app.add_option("--exposure", exposure, "Exposure before tone mapping (multiplies the linear image)")
@@ -275,9 +276,8 @@ int main(int argc, char** argv) {
                                                 : "GL pass + readback",
               total.direct / n);
   const std::string steps =
-      run.value()->converged()
-          ? std::string("converged solve")
-          : "update + " + std::to_string(run.value()->frame_steps(1)) + " feedback steps";
+      run.value()->converged() ? std::string("converged solve")
+                               : "update + " + std::to_string(run.value()->frame_steps()) + " feedback steps";
   std::printf("  indirect (%s backend: %s%s) %8.3f\n", gles_backend ? "gles" : "cpu", steps.c_str(),
               gles_backend ? "" : ", atlas upload", total.indirect / n);
   if (camera_skip) {

@@ -41,10 +41,9 @@ glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
 
 DemoRun::~DemoRun() = default;
 
-std::uint32_t DemoRun::frame_steps(int frame) const {
+std::uint32_t DemoRun::frame_steps() const {
   if (converged_) return kConvergedBounces;
-  if (bounces_option_ >= 0) return std::uint32_t(bounces_option_);
-  return std::uint32_t(frame == 0 ? 3 * kDemoFallbackSteps : kDemoFallbackSteps);
+  return std::uint32_t(bounces_option_ >= 0 ? bounces_option_ : kDemoFallbackSteps);
 }
 
 Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const Dictionary& dict,
@@ -163,7 +162,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
         !s.ok())
       return s;
   }
-  // The converged solve includes the clutter (its c) where the backend has it (CPU).
+  // The converged solve includes the clutter (its c) where the backend has it (CPU); GLES solves
+  // without clutter only.
   run->converged_ = run->bounces_option_ == kDemoConverged && run->backend_->converged_available();
   return run;
 }
@@ -263,7 +263,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   }
   if (s.ok() && drt_) s = clutter_light(state);
   times_.direct += ms_since(t);
-  // Indirect: one update, then feedback steps (frame 0 converges further); with the camera
+  // Indirect: the converged solve, or one update and feedback steps; with the camera
   // skip, only the tiles of the blocks this camera can see are written.
   t = Clock::now();
   if (s.ok() && options_.camera_skip) {
@@ -272,7 +272,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     s = seen.ok() ? backend_->set_visible_blocks(camera_visibility_.visible()) : seen.status();
     if (s.ok()) visible_blocks_ = seen->visible;
   }
-  const std::uint32_t steps = frame_steps(frame);
+  const std::uint32_t steps = frame_steps();
   if (s.ok())
     s = ld_on_gpu ? pipeline_->run_from_texture(gpu_direct_->ld_texture(), steps)
                   : pipeline_->run(ld_, steps);

@@ -32,7 +32,9 @@ enum class DemoBackend { gles, cpu };
 enum class DemoDirect { gpu, cpu };
 
 inline constexpr int kDemoConverged = -1;
-inline constexpr int kDemoFallbackSteps = 2;
+// Feedback steps per frame where the backend has no converged solve (GLES with clutter): the
+// same on every frame, so that no frame shows fewer bounces than another (issue 20).
+inline constexpr int kDemoFallbackSteps = 4;
 
 struct DemoRunOptions {
   DemoBackend backend = DemoBackend::gles;
@@ -41,9 +43,9 @@ struct DemoRunOptions {
   OutputMode output = OutputMode::combined;
   float exposure = 1.0f;
   // Multi-bounce: kDemoConverged (the default) is the converged multi-bounce every frame where
-  // the backend has it (Backend::converged_available: the CPU backend, clutter included), else
-  // kDemoFallbackSteps feedback steps per frame (three times as many on frame 0); N >= 0 is
-  // exactly N feedback steps every frame.
+  // the backend has it (Backend::converged_available: the CPU backend, clutter included; GLES
+  // without clutter), else kDemoFallbackSteps feedback steps every frame; N >= 0 is exactly N
+  // feedback steps every frame.
   int bounces = -1;
   // DRT for the scene's clutter (docs/drt.md): operators built at create(). The clutter
   // meshes need it (they are lit by the clutter lightmap); a caller that turns it off must
@@ -90,10 +92,10 @@ class DemoRun {
   Status render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);
 
   const Level& level() const { return level_; }
-  // What each frame's indirect light runs: the converged solve, or this many feedback steps
-  // after frame 0 (frame_steps(0) on frame 0).
+  // What every frame's indirect light runs: the converged solve (frame_steps() is then
+  // kConvergedBounces), or one update and frame_steps() feedback steps.
   bool converged() const { return converged_; }
-  std::uint32_t frame_steps(int frame) const;
+  std::uint32_t frame_steps() const;
   const Backend& backend() const { return *backend_; }
   Backend& backend() { return *backend_; }
   const StageTimes& times() const { return times_; }

@@ -95,6 +95,13 @@ TEST_P(GlesDirectLightTest, TheLevelRuntimeReadsItsTextureAsTheSameLdFromMemory)
   ASSERT_TRUE(a->read_lightmap(la).ok());
   ASSERT_TRUE(b->read_lightmap(lb).ok());
   EXPECT_LT(rel_l2(la, lb), 1e-6);
+  // The converged solve from the texture is the one from the values read back.
+  ASSERT_TRUE(a->update_converged_from_texture(d->ld_texture()).ok());
+  ASSERT_TRUE(b->update_converged(ld).ok());
+  ASSERT_TRUE(a->read_lightmap(la).ok());
+  ASSERT_TRUE(b->read_lightmap(lb).ok());
+  EXPECT_LT(rel_l2(la, lb), 1e-6);
+  EXPECT_EQ(a->update_converged_from_texture(0).code(), ErrorCode::invalid_argument) << "not a texture";
 }
 
 TEST_P(GlesDirectLightTest, ABadLightIsRefused) {

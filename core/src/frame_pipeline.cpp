@@ -109,12 +109,15 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture) {
 
 Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces) {
   if (Status s = check_bounces(bounces, "frame pipeline: run_from_texture"); !s.ok()) return s;
-  if (bounces == kConvergedBounces)
-    return Status::error(
-        ErrorCode::invalid_argument,
-        "frame pipeline: run_from_texture: the converged solve reads ld from CPU memory: use run()");
   last_valid_ = false;  // the pipeline does not see the texture's values: never skipped
   times_ = BackendStageTimes{};
+  if (bounces == kConvergedBounces) {
+    if (Status s = backend_->update_converged_from_texture(ld_texture, options_.solve); !s.ok()) return s;
+    add_times();
+    ++frames_;
+    last_skipped_ = false;
+    return Status::success();
+  }
   if (Status s = backend_->update_from_texture(ld_texture); !s.ok()) return s;
   add_times();
   for (std::uint32_t i = 0; i < bounces; ++i) {

@@ -476,6 +476,14 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
 }
 
+int reduced_solve_iterations(double contraction, float tolerance, int max_iterations) {
+  const int cap = std::max(max_iterations, 1);
+  if (!(contraction > 1e-12)) return 1;
+  if (!(contraction < 1.0) || !(tolerance > 0.0f)) return cap;
+  const double k = std::ceil(std::log(double(tolerance)) / std::log(contraction));
+  return k < 1.0 ? 1 : (k > double(cap) ? cap : int(k));
+}
+
 void ReducedSolver::predict(std::span<float> x, bool warm, int history) {
   const std::size_t n = rhs_.size();
   if (!warm) {

@@ -362,13 +362,26 @@ void StagedBackend::stage_reduced_apply(const ReducedFeedback& op, std::span<con
 
 Status StagedBackend::update_converged(std::span<const float> ld_direct,
                                        const ReducedSolveSettings& settings) {
+  return run_converged(false, ld_direct, 0, settings);
+}
+
+Status StagedBackend::update_converged_from_texture(std::uint32_t ld_texture,
+                                                    const ReducedSolveSettings& settings) {
+  return run_converged(true, {}, ld_texture, settings);
+}
+
+Status StagedBackend::run_converged(bool texture, std::span<const float> ld_direct, std::uint32_t ld_texture,
+                                    const ReducedSolveSettings& settings) {
+  const char* fn = texture ? "update_converged_from_texture" : "update_converged";
   // Refused before any stage runs (a refused call changes nothing).
   if (!stage_solve_available())
-    return refused("update_converged: no converged solve in this backend: use multi_bounce_step()");
-  if (!has_albedo_) return refused("update_converged: call set_albedo first");
+    return refused(std::string(fn) + ": no converged solve" + (drt_ ? " with clutter" : "") +
+                   " in this backend: use multi_bounce_step()");
+  if (!has_albedo_) return refused(std::string(fn) + ": call set_albedo first");
   if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
-    return refused("update_converged: tolerance must be in (0, 1) and max_iterations at least 1");
-  if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
+    return refused(std::string(fn) + ": tolerance must be in (0, 1) and max_iterations at least 1");
+  if (!texture)
+    if (Status s = validate_light_signal(ld_direct, level_.sample_count, "ld_direct"); !s.ok()) return s;
   if (!reduced_) {
     const Clock::time_point start = Clock::now();
     Result<ReducedFeedback> op = build_reduced_feedback(
@@ -395,7 +408,8 @@ Status StagedBackend::update_converged(std::span<const float> ld_direct,
   const StageWork work{all_blocks_, no_slots_, all_blocks_, all_blocks_.size(), 0, all_blocks_.size(), false,
                        {},          0};
   if (Status s = stage_begin(); !s.ok()) return s;
-  Status s = timed(TimedStage::upload, [&] { return stage_ld(ld_direct, work); });
+  Status s = timed(TimedStage::upload,
+                   [&] { return texture ? stage_ld_texture(ld_texture) : stage_ld(ld_direct, work); });
   if (s.ok()) s = evaluate(work, false, {}, &settings);
   stage_end(s.ok());
   if (timing_) {

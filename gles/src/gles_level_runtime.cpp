@@ -406,6 +406,11 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
       !s.ok())
     return s;
   if (Status s = signal3("r", slots * std::size_t(r_groups_), r_); !s.ok()) return s;
+  // The converged solve's signals (b-sized, small); its operators come with the first solve.
+  if (Status s = signal3("reduced solve c", blocks * std::size_t(groups_), solve_.rhs); !s.ok()) return s;
+  for (Signal3& x : solve_.x)
+    if (Status s = signal3("reduced solve x", blocks * std::size_t(groups_), x); !s.ok()) return s;
+  if (Status s = target("reduced solve residual", 1, 1, GL_RGBA32UI, solve_.residual); !s.ok()) return s;
   if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
   if (Status s = target("feedback ld", kLinearWidth, feedback_rows, GL_RGBA32UI, ld_feedback_); !s.ok())
     return s;
@@ -793,6 +798,7 @@ Status GlesLevelRuntime::stage_b(const StageWork& work) {
 }
 
 Status GlesLevelRuntime::stage_r(const StageWork& work) {
+  if (eval_.solved) return Status::success();  // r_ holds the solve's last application's r
   if (level_->slots.empty() || (eval_.pass.r && linear_rects(work.slots, 1).empty()))
     return Status::success();
   draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,

@@ -217,9 +217,9 @@ modrt_status create_backend(modrt_context* c) {
   c->backend = std::move(backend).value();
   c->description = c->backend->description();
   if (o.bounces == MODRT_BOUNCES_CONVERGED && !c->backend->converged_available())
-    return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": options.bounces MODRT_BOUNCES_CONVERGED: the " +
-                                             c->description +
-                                             " backend has no converged solve (CPU contexts have it)");
+    return fail(MODRT_ERROR_UNSUPPORTED,
+                std::string(fn) + ": options.bounces MODRT_BOUNCES_CONVERGED: the " + c->description +
+                    " backend has no converged solve (CPU contexts have it; GLES ones without clutter)");
   FrameOptions frame;
   frame.bounces = o.bounces;
   frame.skip_unchanged = o.skip_unchanged != 0;
@@ -697,9 +697,9 @@ modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces)
     return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
   }
   if (bounces == MODRT_BOUNCES_CONVERGED && !context->backend->converged_available())
-    return fail(MODRT_ERROR_UNSUPPORTED, std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " +
-                                             context->description +
-                                             " backend has no converged solve (CPU contexts have it)");
+    return fail(MODRT_ERROR_UNSUPPORTED,
+                std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " + context->description +
+                    " backend has no converged solve (CPU contexts have it; GLES ones without clutter)");
   context->options.bounces = bounces;
   return MODRT_OK;
 }

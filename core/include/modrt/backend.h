@@ -115,14 +115,23 @@ class Backend {
   // set_albedo; the reduced operators are built at the first converged update after it
   // (converged_stats().build_ns: that update allocates). Not converging within
   // settings.max_iterations is reported in converged_stats(), not an error. Refused
-  // (invalid_argument) by a backend without a reduced solve (GLES today). With clutter the
-  // solve includes the clutter's c (its light fed back with set_clutter_albedo's albedo, DRT
+  // (invalid_argument) by a backend without a reduced solve (GLES with clutter). With clutter
+  // the solve includes the clutter's c (its light fed back with set_clutter_albedo's albedo, DRT
   // deltas in the feedback: drt_converged_bounce); set_clutter / set_clutter_albedo rebuild it.
+  // GLES solves on the GPU from b0 with an a-priori iteration count (staged_backend.h).
   virtual Status update_converged(std::span<const float> ld_direct,
                                   const ReducedSolveSettings& settings = {}) {
     (void)ld_direct, (void)settings;
     return Status::error(ErrorCode::invalid_argument, std::string(backend_kind_name(kind())) +
                                                           ": no converged solve: use multi_bounce_step()");
+  }
+  // The same with ld_direct from a GL texture (as update_from_texture reads it; nothing is read
+  // back). Refused where update_from_texture or update_converged is.
+  virtual Status update_converged_from_texture(std::uint32_t ld_texture,
+                                               const ReducedSolveSettings& settings = {}) {
+    (void)ld_texture, (void)settings;
+    return Status::error(ErrorCode::invalid_argument,
+                         std::string(backend_kind_name(kind())) + ": no converged solve from a texture");
   }
   virtual ConvergedStats converged_stats() const { return {}; }
   // Whether update_converged can run (a backend with a reduced solve).

@@ -73,7 +73,8 @@ class FramePipeline {
   Status run(std::span<const float> ld);
   Status run(std::span<const float> ld, std::uint32_t bounces);
   // One frame with ld from a GL texture (Backend::update_from_texture, then
-  // multi_bounce_step_from_texture per bounce): nothing is read back.
+  // multi_bounce_step_from_texture per bounce; kConvergedBounces:
+  // Backend::update_converged_from_texture): nothing is read back.
   Status run_from_texture(std::uint32_t ld_texture);
   Status run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces);
 

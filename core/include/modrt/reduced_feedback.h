@@ -162,7 +162,18 @@ struct ReducedSolveReport {
   bool converged = false;    // the tolerance was met (else max_iterations ran)
   float residual = 0.0f;     // max |b0 + s M b - b| / max |b| at the last b before its step
   float error_bound = 0.0f;  // residual q / (1 - q): the estimated relative error of b
+  // false: a GPU solve that ran its a-priori iteration count (reduced_solve_iterations) without
+  // reading the residual back; residual and error_bound then hold that count's bound q^k, and
+  // converged says whether the count was within max_iterations.
+  bool measured = true;
 };
+
+// The iterations after which a solve started from b0 is within `tolerance` of b*, a priori:
+// the error after k steps is about q^k |b* - b0| <= q^k |b*| (0 <= b0 <= b* where the operators
+// are non-negative, as the physical ones are), so k = ceil(log tolerance / log q), at least 1. For a
+// solve that cannot check its residual every step (the GLES passes read nothing back);
+// max_iterations caps it (then the bound is not met).
+int reduced_solve_iterations(double contraction, float tolerance, int max_iterations);
 
 // The fixed-point iteration of the converged solve, stated once for every backend: a backend
 // writes c = P b0 into rhs() and supplies `apply(x, out)` (out = G x, its kernels and threads);

@@ -120,6 +120,8 @@ class StagedBackend : public Backend {
   Status multi_bounce_step(std::span<const float> ld_direct) final;
   Status multi_bounce_step_from_texture(std::uint32_t ld_texture) final;
   Status update_converged(std::span<const float> ld_direct, const ReducedSolveSettings& settings = {}) final;
+  Status update_converged_from_texture(std::uint32_t ld_texture,
+                                       const ReducedSolveSettings& settings = {}) final;
   ConvergedStats converged_stats() const final { return converged_; }
   bool converged_available() const final { return stage_solve_available(); }
   Status read_lightmap(std::span<float> lightmap) final;
@@ -248,6 +250,9 @@ class StagedBackend : public Backend {
   // solve: the converged solve's settings (update_converged), run after the b stage.
   Status evaluate(const StageWork& mrt, bool clutter_feedback, const ClutterFeedback& feedback,
                   const ReducedSolveSettings* solve = nullptr);
+  // update_converged and its texture twin.
+  Status run_converged(bool texture, std::span<const float> ld_direct, std::uint32_t ld_texture,
+                       const ReducedSolveSettings& settings);
   Status run_input_and_evaluate(bool texture, std::span<const float> ld, std::uint32_t ld_texture,
                                 bool feedback, float bound, const ClutterFeedback& clutter_feedback);
   void count(const StageWork& work);

@@ -343,7 +343,10 @@ MODRT_API modrt_status modrt_context_update(modrt_context* context);
  * reduced space (b, r, and with clutter its c), warm-started from the last update's solution,
  * then writes the lightmap, atlas, probes, vector irradiance and clutter lightmap once. CPU
  * contexts (with or without clutter: the clutter's light bounces with its albedo, as in
- * modrt_context_set_clutter_albedo); a GLES context refuses it (MODRT_ERROR_UNSUPPORTED). */
+ * modrt_context_set_clutter_albedo) and GLES contexts without clutter, whose solve runs on the
+ * GPU from b0 every update with an a-priori iteration count (nothing read back, no warm
+ * start; docs/gles.md); a GLES context with clutter refuses it (MODRT_ERROR_UNSUPPORTED at
+ * creation and in set_bounces, and the update fails once clutter is attached). */
 #define MODRT_BOUNCES_CONVERGED 0xffffffffu
 
 /* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64, or
@@ -517,7 +520,10 @@ MODRT_API modrt_status modrt_context_get_skip_stats(const modrt_context* context
  * update still succeeds with that b). spectral_radius: of the reduced feedback operator M,
  * estimated at the first converged update after the albedo is set (below 1 for a physical
  * albedo; above 0.98 M is damped by damping = 0.98 / spectral_radius); contraction: the rate
- * of the iteration in use. All zero before the first converged update. */
+ * of the iteration in use. All zero before the first converged update. A GLES context runs
+ * ceil(log 1e-3 / log contraction) iterations (at most 256) and does not read its residual
+ * back: last_residual and last_error_bound are then that count's a-priori bound
+ * contraction^iterations, and converged says it is within 1e-3. */
 typedef struct modrt_solve_stats {
   uint32_t struct_size; /* set by the caller: sizeof(modrt_solve_stats) */
   uint32_t converged;   /* the last solve met the tolerance (1) or ran out of iterations (0) */

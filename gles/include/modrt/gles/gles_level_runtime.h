@@ -167,6 +167,14 @@ class GlesLevelRuntime final : public StagedBackend {
   Status stage_feedback_texture(std::uint32_t ld_texture, float bound_per_ld) override;
   Status stage_albedo(std::span<const float> rho) override;
   Status stage_b(const StageWork& work) override;
+  // The converged solve on the GPU (gles_reduced_solve.cpp, reduced_solve.frag): x <- c + G x
+  // as fragment passes over b-shaped signals, r = Tb->r x by the r pass. Without clutter only.
+  // Nothing is read back: it starts from b0 every frame and runs reduced_solve_iterations's
+  // a-priori count (no warm start: a start it cannot check could be far from b*); with timing
+  // on it also reads the last step's residual back (ReducedSolveReport::measured).
+  Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
+                     const ReducedSolveSettings& settings, ReducedSolveReport& report) override;
+  bool stage_solve_available() const override { return !drt_; }
   Status stage_r(const StageWork& work) override;
   Status stage_tiles(const StageWork&) override { return Status::success(); }  // in stage_atlas
   Status stage_atlas(const StageWork& work) override;
@@ -226,10 +234,15 @@ class GlesLevelRuntime final : public StagedBackend {
   struct Evaluation {
     Partial pass;
     bool feedback = false, ld_max_on_gpu = false, clutter_feedback = false;
+    bool solved = false;  // stage_solve left r of its last application in r_
     ClutterFeedback clutter;
     std::size_t blocks_b = 0, slots_r = 0, blocks_redrawn = 0;
   };
   Status draw_feedback(float bound, float bound_scale);
+  // The converged solve's operators packed and uploaded (at a cold solve: a new albedo), and
+  // its programs compiled on first use.
+  Status upload_reduced_operators(const ReducedFeedback& op);
+  Status build_reduced_programs();
   Status check_texture_name(std::uint32_t texture, const char* who) const;
   // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
   // items, consecutive items merged; appended to rects_ (cleared first).
@@ -277,6 +290,17 @@ class GlesLevelRuntime final : public StagedBackend {
   GLuint feedback_source_ =
       0;  // what the feedback pass reads as ld_direct: ld_direct_, or the caller's texture
   VectorTarget vector_;
+  // The converged solve (stage_solve): c = P b0, the two iterates, the last step's residual,
+  // the packed P (or the plain iteration's A) and B_s (RGBA32F, created at the first solve).
+  struct ReducedSolveGpu {
+    Signal3 rhs;
+    std::array<Signal3, 2> x;
+    Target residual;
+    GLuint block_matrices = 0, slot_matrices = 0;
+    bool plain = false;  // the plain iteration (op.block_jacobi false): A, and c = b0
+    Program rhs_program, apply_program, apply_plain_program, residual_program, copy_program;
+  } solve_;
+  std::vector<float> solve_pack_;  // packing scratch of upload_reduced_operators
   GLuint vao_ = 0;
   Program prog_b_, prog_b_feedback_, prog_b_reduce_, prog_r_reduce_, prog_r_, prog_atlas_, prog_feedback_,
       prog_probes_, prog_vector_, prog_atlas_drt_, prog_vector_drt_, prog_probes_drt_, prog_ld_max_rows_,
