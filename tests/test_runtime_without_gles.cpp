@@ -36,7 +36,8 @@ TEST(RuntimeWithoutGles, CreatorTableRefusesGlesByName) {
   EXPECT_NE(gles.status().message().find("create_backend(gles): this build has no GLES backend"),
             std::string::npos)
       << gles.status().message();
-  EXPECT_NE(gles.status().message().find("MODRT_BUILD_GLES=OFF"), std::string::npos) << gles.status().message();
+  EXPECT_NE(gles.status().message().find("MODRT_BUILD_GLES=OFF"), std::string::npos)
+      << gles.status().message();
 
   // The other entries of the same table work and agree with core's reference.
   const test::LevelReference ref = level_reference(t.level, t.ld);
@@ -58,7 +59,8 @@ TEST(RuntimeWithoutGles, CApiRefusesGlesContextByName) {
   const std::vector<std::byte> level_bytes = serialize_level(t.level).value();
   modrt_dictionary* d = nullptr;
   modrt_level* l = nullptr;
-  ASSERT_EQ(modrt_dictionary_load_memory(dict_bytes.data(), dict_bytes.size(), "small", nullptr, &d), MODRT_OK)
+  ASSERT_EQ(modrt_dictionary_load_memory(dict_bytes.data(), dict_bytes.size(), "small", nullptr, &d),
+            MODRT_OK)
       << modrt_last_error();
   ASSERT_EQ(modrt_level_load_memory(level_bytes.data(), level_bytes.size(), "maze11", nullptr, &l), MODRT_OK)
       << modrt_last_error();

@@ -36,7 +36,8 @@ void pack_channel_blocks(const ChannelMatrix& m, std::size_t item, int row_group
     for (std::uint32_t k = 0; k < m.cols; ++k)
       for (std::size_t ch = 0; ch < 3; ++ch) {
         const std::size_t texel =
-            (((item * std::size_t(row_groups) + r / 4) * std::size_t(col_groups) + k / 4) * 3 + ch) * 4 + k % 4;
+            (((item * std::size_t(row_groups) + r / 4) * std::size_t(col_groups) + k / 4) * 3 + ch) * 4 +
+            k % 4;
         out[4 * texel + r % 4] = m.data[3 * (std::size_t(r) * m.cols + k) + ch];
       }
 }
@@ -64,10 +65,10 @@ Status GlesLevelRuntime::build_reduced_programs() {
                          solve_.rhs_program, {"u_p", "u_b0_red", "u_b0_green", "u_b0_blue"});
       !s.ok())
     return s;
-  if (Status s = program("reduced_solve.frag (apply)", d + "#define STAGE 2\n#define PLAIN 0\n",
-                         kReducedSolveFrag, solve_.apply_program,
-                         {"u_b", "u_block_slots", "u_c_red", "u_c_green", "u_c_blue", "u_r_red", "u_r_green",
-                          "u_r_blue"});
+  if (Status s = program(
+          "reduced_solve.frag (apply)", d + "#define STAGE 2\n#define PLAIN 0\n", kReducedSolveFrag,
+          solve_.apply_program,
+          {"u_b", "u_block_slots", "u_c_red", "u_c_green", "u_c_blue", "u_r_red", "u_r_green", "u_r_blue"});
       !s.ok())
     return s;
   if (Status s = program("reduced_solve.frag (apply, plain)", d + "#define STAGE 2\n#define PLAIN 1\n",
@@ -76,9 +77,10 @@ Status GlesLevelRuntime::build_reduced_programs() {
                           "u_r_blue", "u_a", "u_x_red", "u_x_green", "u_x_blue"});
       !s.ok())
     return s;
-  if (Status s = program("reduced_solve.frag (residual)", d + "#define STAGE 3\n", kReducedSolveFrag,
-                         solve_.residual_program,
-                         {"u_new_red", "u_new_green", "u_new_blue", "u_old_red", "u_old_green", "u_old_blue"});
+  if (Status s =
+          program("reduced_solve.frag (residual)", d + "#define STAGE 3\n", kReducedSolveFrag,
+                  solve_.residual_program,
+                  {"u_new_red", "u_new_green", "u_new_blue", "u_old_red", "u_old_green", "u_old_blue"});
       !s.ok())
     return s;
   // b* into b_: reduce.frag with one part is a copy of the three planes.
@@ -113,11 +115,15 @@ Status GlesLevelRuntime::upload_reduced_operators(const ReducedFeedback& op) {
   solve_.plain = !op.block_jacobi;
   const std::vector<ChannelMatrix>& per_block = solve_.plain ? op.A : op.P;
   solve_pack_.assign(4 * block_texels, 0.0f);
-  for (std::size_t i = 0; i < per_block.size(); ++i) pack_channel_blocks(per_block[i], i, groups_, groups_, solve_pack_);
-  upload_linear(gl_, solve_.block_matrices, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), block_texels, sizeof(float));
+  for (std::size_t i = 0; i < per_block.size(); ++i)
+    pack_channel_blocks(per_block[i], i, groups_, groups_, solve_pack_);
+  upload_linear(gl_, solve_.block_matrices, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), block_texels,
+                sizeof(float));
   solve_pack_.assign(4 * slot_texels, 0.0f);
-  for (std::size_t s = 0; s < op.B.size(); ++s) pack_channel_blocks(op.B[s], s, groups_, r_groups_, solve_pack_);
-  upload_linear(gl_, solve_.slot_matrices, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), slot_texels, sizeof(float));
+  for (std::size_t s = 0; s < op.B.size(); ++s)
+    pack_channel_blocks(op.B[s], s, groups_, r_groups_, solve_pack_);
+  upload_linear(gl_, solve_.slot_matrices, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), slot_texels,
+                sizeof(float));
   solve_pack_ = {};  // only needed again for another albedo
   return check("uploading the reduced solve's operators");
 }
@@ -145,16 +151,17 @@ Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, 
     Signal3& out = solve_.x[std::size_t(it % 2)];
     if (solve_.plain)
       draw(solve_.apply_plain_program, out.framebuffer, out.width, out.height,
-           {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2], r_.textures[0],
-            r_.textures[1], r_.textures[2], solve_.block_matrices, in->textures[0], in->textures[1],
-            in->textures[2]});
+           {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2],
+            r_.textures[0], r_.textures[1], r_.textures[2], solve_.block_matrices, in->textures[0],
+            in->textures[1], in->textures[2]});
     else
       draw(solve_.apply_program, out.framebuffer, out.width, out.height,
-           {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2], r_.textures[0],
-            r_.textures[1], r_.textures[2]});
+           {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2],
+            r_.textures[0], r_.textures[1], r_.textures[2]});
     if (it + 1 == k && timing())
       draw(solve_.residual_program, solve_.residual.framebuffer, 1, 1,
-           {out.textures[0], out.textures[1], out.textures[2], in->textures[0], in->textures[1], in->textures[2]});
+           {out.textures[0], out.textures[1], out.textures[2], in->textures[0], in->textures[1],
+            in->textures[2]});
     in = &out;
   }
   draw(solve_.copy_program, b_.framebuffer, b_.width, b_.height,
