@@ -32,6 +32,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "compare_support.h"
 #include "counting_allocator.h"
 #include "drt_backend_fixture.h"
@@ -40,6 +42,7 @@
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/isa.h"
 #include "modrt/level_runtime.h"
+#include "modrt/level_visibility.h"
 #include "modrt/reference_backend.h"
 #if MODRT_TEST_GLES
 #include "gl_test_context.h"
@@ -685,6 +688,87 @@ TEST_P(BackendConformance, CameraSkipUnderFeedbackAndConvergedSolveIsExact) {
   const Outputs a = read_outputs(*be), b = read_outputs(*full);
   EXPECT_EQ(a.lightmap, b.lightmap) << "every block visible again";
   EXPECT_EQ(a.atlas, b.atlas);
+}
+
+// A camera flight through maze41: the eye walks from block to block through open faces, looking
+// at the next block, and each frame's visible set is the portal walk's (CameraVisibility), as an
+// app would pass it. The light moves every frame; the converged solve (where available, else one
+// bounce and two feedback steps) gives every visible block the full path's values bit for bit,
+// and the walk hides tiles on most frames.
+TEST_P(BackendConformance, CameraFlightThroughMaze41KeepsVisibleTilesExact) {
+  const TestLevel& t = test_level("maze41");
+  std::unique_ptr<Backend> be = make(t.level), full = make(t.level);
+  ASSERT_TRUE(be && full);
+  ASSERT_TRUE(be->set_albedo(t.albedo).ok());
+  ASSERT_TRUE(full->set_albedo(t.albedo).ok());
+  const bool converged = be->converged_available();
+  auto centre = [&](std::size_t b) {
+    glm::dvec3 c(0.0);
+    for (int f = 0; f < 2; ++f)
+      for (const glm::dvec3& corner : block_face_corners(t.level.blocks[b], f)) c += corner;
+    return c / 8.0;
+  };
+  // The flight: from block 0, always on to the lowest-numbered open neighbour not yet visited
+  // (back along the path at a dead end), 24 legs.
+  std::vector<std::size_t> path{0};
+  std::vector<std::uint8_t> visited(t.level.blocks.size(), 0);
+  visited[0] = 1;
+  std::vector<std::size_t> trail{0};
+  while (path.size() < 25 && !trail.empty()) {
+    int next = -1;
+    for (int n : t.level.blocks[trail.back()].neighbour)
+      if (n >= 0 && !visited[std::size_t(n)] && (next < 0 || n < next)) next = n;
+    if (next < 0) {
+      trail.pop_back();
+      if (!trail.empty()) path.push_back(trail.back());
+      continue;
+    }
+    visited[std::size_t(next)] = 1;
+    trail.push_back(std::size_t(next));
+    path.push_back(std::size_t(next));
+  }
+  ASSERT_GE(path.size(), 25u);
+  CameraVisibility camera(t.level);
+  std::vector<float> ld = t.ld;
+  std::size_t hidden_frames = 0, visible_total = 0;
+  for (std::size_t leg = 0; leg + 1 < path.size(); ++leg) {
+    const glm::dvec3 from = centre(path[leg]), to = centre(path[leg + 1]);
+    const glm::dvec3 eye = from + 0.3 * (to - from);  // inside the leg's first block
+    glm::dvec3 up(0, 1, 0);
+    if (std::abs(glm::normalize(to - from).y) > 0.9) up = glm::dvec3(1, 0, 0);
+    const glm::dmat4 vp = glm::perspective(1.2, 16.0 / 9.0, 0.05, 100.0) * glm::lookAt(eye, to, up);
+    const Result<VisibilityStats> st = camera.update(vp, eye);
+    ASSERT_TRUE(st.ok()) << st.status().to_string();
+    ASSERT_EQ(camera.camera_block(), int(path[leg])) << "leg " << leg;
+    const std::vector<std::uint8_t> visible(camera.visible().begin(), camera.visible().end());
+    ASSERT_TRUE(be->set_visible_blocks(visible).ok());
+    hidden_frames += st.value().visible < visible.size();
+    visible_total += st.value().visible;
+    animate_moving_light(t.level, t.ld, int(leg), ld);
+    if (converged) {
+      ASSERT_TRUE(be->update_converged(ld).ok());
+      ASSERT_TRUE(full->update_converged(ld).ok());
+    } else {
+      ASSERT_TRUE(be->update(ld).ok());
+      ASSERT_TRUE(full->update(ld).ok());
+      for (int step = 0; step < 2; ++step) {
+        ASSERT_TRUE(be->multi_bounce_step(ld).ok());
+        ASSERT_TRUE(full->multi_bounce_step(ld).ok());
+      }
+    }
+    const std::string mismatch =
+        visible_block_mismatch(t.level, read_outputs(*be), read_outputs(*full), visible);
+    ASSERT_TRUE(mismatch.empty()) << be->description() << " leg " << leg << " (block " << path[leg]
+                                  << "): " << mismatch;
+  }
+  const std::size_t legs = path.size() - 1;
+  EXPECT_GT(2 * hidden_frames, legs) << "the walk hid tiles on " << hidden_frames << " of " << legs
+                                     << " legs";
+  EXPECT_GT(be->evaluation_stats().tiles_hidden, 0u);
+  std::printf("  %s (%s): %zu legs, %.1f of %zu blocks visible on average, tiles hidden %llu\n",
+              be->description(), converged ? "converged" : "3 bounces", legs,
+              double(visible_total) / double(legs), t.level.blocks.size(),
+              (unsigned long long)be->evaluation_stats().tiles_hidden);
 }
 
 // With clutter the DRT deltas and the clutter lightmap are computed for every block as before

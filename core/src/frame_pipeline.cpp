@@ -107,23 +107,32 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture) {
   return run_from_texture(ld_texture, options_.bounces);
 }
 
+template <class Converged, class First, class Step>
+Status FramePipeline::run_bounces(std::uint32_t bounces, Converged converged, First first, Step step) {
+  if (bounces == kConvergedBounces) {
+    if (Status s = converged(); !s.ok()) return s;
+    add_times();
+    return Status::success();
+  }
+  if (Status s = first(); !s.ok()) return s;
+  add_times();
+  for (std::uint32_t i = 0; i < bounces; ++i) {
+    if (Status s = step(); !s.ok()) return s;
+    add_times();
+  }
+  return Status::success();
+}
+
 Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t bounces) {
   if (Status s = check_bounces(bounces, "frame pipeline: run_from_texture"); !s.ok()) return s;
   last_valid_ = false;  // the pipeline does not see the texture's values: never skipped
   times_ = BackendStageTimes{};
-  if (bounces == kConvergedBounces) {
-    if (Status s = backend_->update_converged_from_texture(ld_texture, options_.solve); !s.ok()) return s;
-    add_times();
-    ++frames_;
-    last_skipped_ = false;
-    return Status::success();
-  }
-  if (Status s = backend_->update_from_texture(ld_texture); !s.ok()) return s;
-  add_times();
-  for (std::uint32_t i = 0; i < bounces; ++i) {
-    if (Status s = backend_->multi_bounce_step_from_texture(ld_texture); !s.ok()) return s;
-    add_times();
-  }
+  if (Status s = run_bounces(
+          bounces, [&] { return backend_->update_converged_from_texture(ld_texture, options_.solve); },
+          [&] { return backend_->update_from_texture(ld_texture); },
+          [&] { return backend_->multi_bounce_step_from_texture(ld_texture); });
+      !s.ok())
+    return s;
   ++frames_;
   last_skipped_ = false;
   return Status::success();
@@ -132,22 +141,14 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture, std::uint32_t b
 Status FramePipeline::evaluate(std::span<const float> ld, std::uint32_t bounces) {
   times_ = BackendStageTimes{};
   const std::uint64_t skipped_before = backend_->evaluation_stats().evaluations_skipped;
-  if (bounces == kConvergedBounces) {
-    if (Status s = backend_->update_converged(ld, options_.solve); !s.ok()) return s;
-    add_times();
-    ++frames_;
-    last_skipped_ = false;
-    return Status::success();
-  }
-  if (Status s = backend_->update(ld); !s.ok()) return s;
-  add_times();
-  const bool update_skipped = backend_->evaluation_stats().evaluations_skipped != skipped_before;
-  for (std::uint32_t i = 0; i < bounces; ++i) {
-    if (Status s = backend_->multi_bounce_step(ld); !s.ok()) return s;
-    add_times();
-  }
+  if (Status s = run_bounces(
+          bounces, [&] { return backend_->update_converged(ld, options_.solve); },
+          [&] { return backend_->update(ld); }, [&] { return backend_->multi_bounce_step(ld); });
+      !s.ok())
+    return s;
   ++frames_;
-  last_skipped_ = update_skipped && bounces == 0;
+  // Only a one-bounce frame can be skipped whole (a feedback step always reads the new ld).
+  last_skipped_ = bounces == 0 && backend_->evaluation_stats().evaluations_skipped != skipped_before;
   frames_skipped_ += last_skipped_;
   return Status::success();
 }

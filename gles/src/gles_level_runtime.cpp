@@ -473,75 +473,66 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   defines_ = defines;
   const std::string ld_upload = defines + "#define LD_IS_SIGNAL 0\n",
                     ld_signal = defines + "#define LD_IS_SIGNAL 1\n";
-  auto program = [&](const char* name, const std::string& head, const char* fragment,
-                     Program& out) -> Status {
-    Result<GLuint> p =
-        build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
-    if (!p.ok()) return p.status();
-    out.id = p.value();
-    programs_.push_back(p.value());
-    gl_.glUseProgram(out.id);
-    return Status::success();
-  };
   for (auto [prog, head, name] : {std::tuple{&prog_b_, &ld_upload, "b.frag"},
-                                  std::tuple{&prog_b_feedback_, &ld_signal, "b.frag (feedback)"}}) {
-    if (Status s = program(name, *head, kBFrag, *prog); !s.ok()) return s;
-    assign_sampler_units(gl_, prog->id, {"u_td_b", "u_block_info", "u_ld"});
-    set_int(gl_, prog->id, "u_count", int(blocks) * groups_ * b_chunks_);
-  }
+                                  std::tuple{&prog_b_feedback_, &ld_signal, "b.frag (feedback)"}})
+    if (Status s = make_program(name, *head, kBFrag, *prog, {"u_td_b", "u_block_info", "u_ld"},
+                                int(blocks) * groups_ * b_chunks_);
+        !s.ok())
+      return s;
   for (auto [prog, parts, count, name] :
        {std::tuple{&prog_b_reduce_, b_chunks_, blocks * std::size_t(groups_), "reduce.frag (b)"},
         std::tuple{&prog_r_reduce_, groups_, slots * std::size_t(r_groups_), "reduce.frag (r)"}}) {
     const std::string head = defines + "#define PARTS " + std::to_string(parts) + "\n";
-    if (Status s = program(name, head, kReduceFrag, *prog); !s.ok()) return s;
-    assign_sampler_units(gl_, prog->id, {"u_partial_red", "u_partial_green", "u_partial_blue"});
-    set_int(gl_, prog->id, "u_count", int(count));
+    if (Status s = make_program(name, head, kReduceFrag, *prog,
+                                {"u_partial_red", "u_partial_green", "u_partial_blue"}, int(count));
+        !s.ok())
+      return s;
   }
-  if (Status s = program("r.frag", defines, kRFrag, prog_r_); !s.ok()) return s;
-  assign_sampler_units(gl_, prog_r_.id,
-                       {"u_t", "u_slot_info", "u_record_block", "u_b_red", "u_b_green", "u_b_blue"});
-  set_int(gl_, prog_r_.id, "u_count", int(slots) * r_groups_ * groups_);
-  if (Status s = program("atlas.frag", defines + "#define DRT 0\n", kAtlasFrag, prog_atlas_); !s.ok())
-    return s;
-  assign_sampler_units(
-      gl_, prog_atlas_.id,
-      {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows", "u_block_info",
-       "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
-  if (Status s = program("feedback.frag", defines, kFeedbackFrag, prog_feedback_); !s.ok()) return s;
-  assign_sampler_units(gl_, prog_feedback_.id,
-                       {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas", "u_ld_max"});
-  set_int(gl_, prog_feedback_.id, "u_count", int(samples));
-  prog_feedback_.u_bound = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound");
-  u_bound_scale_ = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound_scale");
-  if (Status s = program("ld_max.frag (rows)", defines + "#define STAGE 1\n", kLdMaxFrag, prog_ld_max_rows_);
+  if (Status s = make_program("r.frag", defines, kRFrag, prog_r_,
+                              {"u_t", "u_slot_info", "u_record_block", "u_b_red", "u_b_green", "u_b_blue"},
+                              int(slots) * r_groups_ * groups_);
       !s.ok())
     return s;
-  assign_sampler_units(gl_, prog_ld_max_rows_.id, {"u_ld"});
-  set_int(gl_, prog_ld_max_rows_.id, "u_count", int(samples));
-  if (Status s = program("ld_max.frag", defines + "#define STAGE 2\n", kLdMaxFrag, prog_ld_max_); !s.ok())
+  if (Status s = make_program(
+          "atlas.frag", defines + "#define DRT 0\n", kAtlasFrag, prog_atlas_,
+          {"u_ub", "u_ur", "u_texel_sample", "u_sample_info", "u_sample_slots", "u_sample_rows",
+           "u_block_info", "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
+      !s.ok())
     return s;
-  assign_sampler_units(gl_, prog_ld_max_.id, {"u_rows"});
-  set_int(gl_, prog_ld_max_.id, "u_count", feedback_rows);
+  if (Status s = make_program("feedback.frag", defines, kFeedbackFrag, prog_feedback_,
+                              {"u_ld_direct", "u_rho", "u_sample_info", "u_atlas", "u_ld_max"}, int(samples));
+      !s.ok())
+    return s;
+  prog_feedback_.u_bound = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound");
+  u_bound_scale_ = gl_.glGetUniformLocation(prog_feedback_.id, "u_bound_scale");
+  if (Status s = make_program("ld_max.frag (rows)", defines + "#define STAGE 1\n", kLdMaxFrag,
+                              prog_ld_max_rows_, {"u_ld"}, int(samples));
+      !s.ok())
+    return s;
+  if (Status s = make_program("ld_max.frag", defines + "#define STAGE 2\n", kLdMaxFrag, prog_ld_max_,
+                              {"u_rows"}, feedback_rows);
+      !s.ok())
+    return s;
   if (has_probes_) {
-    if (Status s = program("probes.frag", defines + "#define DRT 0\n", kProbesFrag, prog_probes_); !s.ok())
-      return s;
-    assign_sampler_units(gl_, prog_probes_.id,
+    if (Status s =
+            make_program("probes.frag", defines + "#define DRT 0\n", kProbesFrag, prog_probes_,
                          {"u_ubvol", "u_probe_response", "u_block_info", "u_block_slots", "u_slot_info",
-                          "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
-    set_int(gl_, prog_probes_.id, "u_count", int(blocks) * probe_rows_);
-    if (Status s = program("probes_world.frag", defines, kProbesWorldFrag, prog_probes_world_); !s.ok())
+                          "u_b_red", "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"},
+                         int(blocks) * probe_rows_);
+        !s.ok())
       return s;
-    assign_sampler_units(gl_, prog_probes_world_.id, {"u_probes", "u_rotation", "u_block_info"});
-    set_int(gl_, prog_probes_world_.id, "u_count", int(blocks) * probe_rows_);
-  }
-  if (has_vector_) {
-    if (Status s = program("vector.frag", defines + "#define DRT 0\n", kVectorFrag, prog_vector_); !s.ok())
+    if (Status s = make_program("probes_world.frag", defines, kProbesWorldFrag, prog_probes_world_,
+                                {"u_probes", "u_rotation", "u_block_info"}, int(blocks) * probe_rows_);
+        !s.ok())
       return s;
-    assign_sampler_units(gl_, prog_vector_.id,
-                         {"u_ub_vec", "u_vector_response", "u_texel_sample", "u_sample_info",
-                          "u_sample_slots", "u_sample_rows", "u_block_info", "u_slot_info", "u_b_red",
-                          "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
   }
+  if (has_vector_)
+    if (Status s = make_program("vector.frag", defines + "#define DRT 0\n", kVectorFrag, prog_vector_,
+                                {"u_ub_vec", "u_vector_response", "u_texel_sample", "u_sample_info",
+                                 "u_sample_slots", "u_sample_rows", "u_block_info", "u_slot_info", "u_b_red",
+                                 "u_b_green", "u_b_blue", "u_r_red", "u_r_green", "u_r_blue"});
+        !s.ok())
+      return s;
   gl_.glUseProgram(0);
   // The tiles each block's samples appear in: its own, plus neighbours' tiles whose padding
   // copies its edge texels (architecture.md §4), so that a changed block redraws all of them.
@@ -1025,6 +1016,19 @@ Status GlesLevelRuntime::read_output(StageOutput output, std::span<float> out) {
   return Status::success();
 }
 
+Status GlesLevelRuntime::make_program(const char* name, const std::string& head, const char* fragment,
+                                      Program& out, std::initializer_list<const char*> samplers, int count) {
+  Result<GLuint> p =
+      build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
+  if (!p.ok()) return p.status();
+  out.id = p.value();
+  programs_.push_back(p.value());
+  gl_.glUseProgram(out.id);
+  assign_sampler_units(gl_, out.id, samplers);
+  if (count >= 0) set_int(gl_, out.id, "u_count", count);
+  return Status::success();
+}
+
 // The level passes that add a delta, built with DRT 1 on first use, and the DRT passes.
 Status GlesLevelRuntime::stage_clutter_set(const DrtOperators* drt) {
   if (!drt) {
@@ -1034,17 +1038,7 @@ Status GlesLevelRuntime::stage_clutter_set(const DrtOperators* drt) {
   auto drt_program = [&](const char* name, const char* fragment, Program& out,
                          std::initializer_list<const char*> samplers, int count) -> Status {
     if (out.id) return Status::success();
-    const std::string head = defines_ + "#define DRT 1\n";
-    Result<GLuint> p =
-        build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
-    if (!p.ok()) return p.status();
-    out.id = p.value();
-    programs_.push_back(p.value());
-    gl_.glUseProgram(p.value());
-    assign_sampler_units(gl_, p.value(), samplers);
-    if (count >= 0) set_int(gl_, p.value(), "u_count", count);
-    gl_.glUseProgram(0);
-    return Status::success();
+    return make_program(name, defines_ + "#define DRT 1\n", fragment, out, samplers, count);
   };
   if (Status s = drt_program(
           "atlas.frag (DRT)", kAtlasFrag, prog_atlas_drt_,
@@ -1070,6 +1064,7 @@ Status GlesLevelRuntime::stage_clutter_set(const DrtOperators* drt) {
             int(level_->blocks.size()) * probe_rows_);
         !s.ok())
       return s;
+  gl_.glUseProgram(0);
   GlesDrtSetup setup;
   setup.defines = &defines_;
   setup.operator_format = operator_format_;

@@ -49,16 +49,8 @@ Status GlesLevelRuntime::build_reduced_programs() {
   const std::size_t blocks = level_->blocks.size();
   const int count = int(blocks) * groups_;
   auto program = [&](const char* name, const std::string& head, const char* fragment, Program& out,
-                     std::initializer_list<const char*> samplers) -> Status {
-    Result<GLuint> p =
-        build_program(gl_, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
-    if (!p.ok()) return p.status();
-    out.id = p.value();
-    programs_.push_back(p.value());
-    gl_.glUseProgram(out.id);
-    assign_sampler_units(gl_, out.id, samplers);
-    set_int(gl_, out.id, "u_count", count);
-    return Status::success();
+                     std::initializer_list<const char*> samplers) {
+    return make_program(name, head, fragment, out, samplers, count);
   };
   const std::string& d = defines_;
   if (Status s = program("reduced_solve.frag (c = P b0)", d + "#define STAGE 1\n", kReducedSolveFrag,

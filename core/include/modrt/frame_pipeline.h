@@ -86,6 +86,10 @@ class FramePipeline {
  private:
   FramePipeline(Backend& backend, const FrameOptions& options);
   Status evaluate(std::span<const float> ld, std::uint32_t bounces);
+  // The frame's backend calls, shared by evaluate and run_from_texture: the converged solve,
+  // or the first bounce then `bounces` feedback steps, each call's stage times added.
+  template <class Converged, class First, class Step>
+  Status run_bounces(std::uint32_t bounces, Converged converged, First first, Step step);
   void add_times();
 
   Backend* backend_ = nullptr;

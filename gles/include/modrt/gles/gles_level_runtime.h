@@ -243,6 +243,11 @@ class GlesLevelRuntime final : public StagedBackend {
   // its programs compiled on first use.
   Status upload_reduced_operators(const ReducedFeedback& op);
   Status build_reduced_programs();
+  // Compiles kFullscreenVert with head + kCommon + fragment into out (recorded for the
+  // destructor), binds its samplers to units in order and sets u_count when count >= 0. The
+  // program is left in use for the caller's further uniforms.
+  Status make_program(const char* name, const std::string& head, const char* fragment, Program& out,
+                      std::initializer_list<const char*> samplers, int count = -1);
   Status check_texture_name(std::uint32_t texture, const char* who) const;
   // Scissor rects covering the linear-layout ranges [i * per, (i + 1) * per) of the flagged
   // items, consecutive items merged; appended to rects_ (cleared first).
