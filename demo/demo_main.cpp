@@ -276,8 +276,9 @@ int main(int argc, char** argv) {
                                                 : "GL pass + readback",
               total.direct / n);
   const std::string steps =
-      run.value()->converged() ? std::string("converged solve")
-                               : "update + " + std::to_string(run.value()->frame_steps()) + " feedback steps";
+      run.value()->converged()
+          ? std::string("converged solve")
+          : "update + " + std::to_string(run.value()->feedback_steps()) + " feedback steps";
   std::printf("  indirect (%s backend: %s%s) %8.3f\n", gles_backend ? "gles" : "cpu", steps.c_str(),
               gles_backend ? "" : ", atlas upload", total.indirect / n);
   if (camera_skip) {

@@ -42,8 +42,11 @@ glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
 DemoRun::~DemoRun() = default;
 
 std::uint32_t DemoRun::frame_steps() const {
-  if (converged_) return kConvergedBounces;
-  return std::uint32_t(bounces_option_ >= 0 ? bounces_option_ : kDemoFallbackSteps);
+  return bounces_option_ >= 0 ? std::uint32_t(bounces_option_) : kConvergedBounces;
+}
+
+std::uint32_t DemoRun::feedback_steps() const {
+  return bounces_option_ >= 0 ? std::uint32_t(bounces_option_) : converged_ ? 0 : kConvergedFallbackSteps;
 }
 
 Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const Dictionary& dict,

@@ -32,9 +32,6 @@ enum class DemoBackend { gles, cpu };
 enum class DemoDirect { gpu, cpu };
 
 inline constexpr int kDemoConverged = -1;
-// Feedback steps per frame where the backend has no converged solve (GLES with clutter): the
-// same on every frame, so that no frame shows fewer bounces than another (issue 20).
-inline constexpr int kDemoFallbackSteps = 4;
 
 struct DemoRunOptions {
   DemoBackend backend = DemoBackend::gles;
@@ -44,8 +41,8 @@ struct DemoRunOptions {
   float exposure = 1.0f;
   // Multi-bounce: kDemoConverged (the default) is the converged multi-bounce every frame where
   // the backend has it (Backend::converged_available: the CPU backend, clutter included; GLES
-  // without clutter), else kDemoFallbackSteps feedback steps every frame; N >= 0 is exactly N
-  // feedback steps every frame.
+  // without clutter), else the frame pipeline's kConvergedFallbackSteps feedback steps every frame; N >= 0 is
+  // exactly N feedback steps every frame.
   int bounces = -1;
   // DRT for the scene's clutter (docs/drt.md): operators built at create(). The clutter
   // meshes need it (they are lit by the clutter lightmap); a caller that turns it off must
@@ -92,10 +89,12 @@ class DemoRun {
   Status render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8);
 
   const Level& level() const { return level_; }
-  // What every frame's indirect light runs: the converged solve (frame_steps() is then
-  // kConvergedBounces), or one update and frame_steps() feedback steps.
+  // What every frame's indirect light runs: the converged solve, or one update and
+  // feedback_steps() feedback steps. frame_steps() is what the pipeline is given
+  // (kConvergedBounces by default: the solve, or the pipeline's fallback steps).
   bool converged() const { return converged_; }
   std::uint32_t frame_steps() const;
+  std::uint32_t feedback_steps() const;
   const Backend& backend() const { return *backend_; }
   Backend& backend() { return *backend_; }
   const StageTimes& times() const { return times_; }

@@ -517,5 +517,39 @@ TEST(CApiClutter, GlesContextMatchesTheCpuContext) {
   }
 }
 
+// A GLES context with clutter has no converged solve: MODRT_BOUNCES_CONVERGED runs the frame
+// pipeline's fallback, one evaluation and kConvergedFallbackSteps feedback steps, on every update
+// (bit for bit what bounces 4 gives) and counts it; a CPU context solves with its clutter and
+// counts no fallback.
+TEST(CApiClutter, ConvergedOnGlesWithClutterRunsTheFallbackSteps) {
+  MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
+  static_assert(kConvergedFallbackSteps == 4, "modrt.h states 4 feedback steps");
+  Handles h;
+  modrt_context* converged = h.context(MODRT_BACKEND_GLES, MODRT_BOUNCES_CONVERGED);
+  modrt_context* four = h.context(MODRT_BACKEND_GLES, kConvergedFallbackSteps);
+  modrt_context* cpu = h.context(MODRT_BACKEND_CPU, MODRT_BOUNCES_CONVERGED);
+  ASSERT_TRUE(converged && four && cpu);
+  const Results a = c_api_frame(converged, h, true), b = c_api_frame(four, h, true);
+  EXPECT_EQ(a.lightmap, b.lightmap);
+  EXPECT_EQ(a.clutter_lightmap, b.clutter_lightmap);
+  c_api_frame(cpu, h, true);
+  modrt_solve_stats st = modrt::rt::sized<modrt_solve_stats>();
+  ASSERT_EQ(modrt_context_get_solve_stats(converged, &st), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(st.fallback_updates, 1u);
+  EXPECT_EQ(st.solves, 0u);
+  ASSERT_EQ(modrt_context_get_solve_stats(cpu, &st), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(st.fallback_updates, 0u);
+  EXPECT_EQ(st.solves, 1u);
+  // Without the clutter the GLES context solves again.
+  ASSERT_EQ(modrt_context_set_clutter(converged, nullptr), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(converged), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_get_solve_stats(converged, &st), MODRT_OK) << modrt_last_error();
+  EXPECT_EQ(st.solves, 1u);
+  EXPECT_EQ(st.fallback_updates, 1u);
+  modrt_context_destroy(cpu);
+  modrt_context_destroy(four);
+  modrt_context_destroy(converged);
+}
+
 }  // namespace
 }  // namespace modrt

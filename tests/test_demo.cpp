@@ -311,7 +311,7 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
 
 // The default multi-bounce is the converged one where the backend has it (the CPU backend, on
 // the walls alone and on the built-in scene with its clutter; GLES on the walls alone, its
-// solve fed by the GPU's ld texture), else kDemoFallbackSteps feedback steps on every frame
+// solve fed by the GPU's ld texture), else kConvergedFallbackSteps feedback steps on every frame
 // (GLES with clutter): with the light held still, frame 7's indirect light is frame 0's within
 // 1 % (the check; before, frame 0 ran 6 feedback steps and the others 2). Two explicit
 // feedback steps per frame are measurably darker than the converged solve, so the comparison

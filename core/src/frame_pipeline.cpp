@@ -109,17 +109,20 @@ Status FramePipeline::run_from_texture(std::uint32_t ld_texture) {
 
 template <class Converged, class First, class Step>
 Status FramePipeline::run_bounces(std::uint32_t bounces, Converged converged, First first, Step step) {
-  if (bounces == kConvergedBounces) {
+  if (bounces == kConvergedBounces && backend_->converged_available()) {
     if (Status s = converged(); !s.ok()) return s;
     add_times();
     return Status::success();
   }
+  const bool fallback = bounces == kConvergedBounces;
+  const std::uint32_t steps = fallback ? kConvergedFallbackSteps : bounces;
   if (Status s = first(); !s.ok()) return s;
   add_times();
-  for (std::uint32_t i = 0; i < bounces; ++i) {
+  for (std::uint32_t i = 0; i < steps; ++i) {
     if (Status s = step(); !s.ok()) return s;
     add_times();
   }
+  frames_fallback_ += fallback;
   return Status::success();
 }
 
@@ -164,6 +167,7 @@ FrameStats FramePipeline::stats() const {
   FrameStats s;
   s.frames = frames_;
   s.frames_skipped = frames_skipped_;
+  s.frames_fallback = frames_fallback_;
   s.evaluations = minus(backend_->evaluation_stats(), start_);
   return s;
 }

@@ -216,10 +216,6 @@ modrt_status create_backend(modrt_context* c) {
   if (!backend.ok()) return backend_fail(c, fn, backend.status());
   c->backend = std::move(backend).value();
   c->description = c->backend->description();
-  if (o.bounces == MODRT_BOUNCES_CONVERGED && !c->backend->converged_available())
-    return fail(MODRT_ERROR_UNSUPPORTED,
-                std::string(fn) + ": options.bounces MODRT_BOUNCES_CONVERGED: the " + c->description +
-                    " backend has no converged solve (CPU contexts have it; GLES ones without clutter)");
   FrameOptions frame;
   frame.bounces = o.bounces;
   frame.skip_unchanged = o.skip_unchanged != 0;
@@ -696,10 +692,6 @@ modrt_status modrt_context_set_bounces(modrt_context* context, uint32_t bounces)
                   unsigned(bounces), unsigned(kMaxFrameBounces));
     return fail(MODRT_ERROR_INVALID_ARGUMENT, static_cast<const char*>(text));
   }
-  if (bounces == MODRT_BOUNCES_CONVERGED && !context->backend->converged_available())
-    return fail(MODRT_ERROR_UNSUPPORTED,
-                std::string(fn) + ": bounces MODRT_BOUNCES_CONVERGED: the " + context->description +
-                    " backend has no converged solve (CPU contexts have it; GLES ones without clutter)");
   context->options.bounces = bounces;
   return MODRT_OK;
 }
@@ -1000,6 +992,7 @@ modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_s
   k.spectral_radius = st.spectral_radius;
   k.contraction = st.contraction;
   k.build_ns = st.build_ns;
+  k.fallback_updates = context->pipeline->stats().frames_fallback;
   *out = k;
   return MODRT_OK;
 }

@@ -37,6 +37,11 @@ inline constexpr std::uint32_t kMaxFrameBounces = 64;
 // The `bounces` value of the converged solve (Backend::update_converged, reduced_feedback.h):
 // every frame shows the converged multi-bounce, warm-started from the last frame's.
 inline constexpr std::uint32_t kConvergedBounces = 0xffffffffu;
+// What a kConvergedBounces frame runs where the backend has no converged solve
+// (Backend::converged_available false: GLES with clutter): one update and this many feedback
+// steps, on every frame alike, so that no frame shows fewer bounces than another (issue 20).
+// FrameStats::frames_fallback counts those frames.
+inline constexpr std::uint32_t kConvergedFallbackSteps = 4;
 
 struct FrameOptions {
   // Feedback steps after each update (0..kMaxFrameBounces), or kConvergedBounces.
@@ -48,6 +53,8 @@ struct FrameOptions {
 struct FrameStats {
   std::uint64_t frames = 0;            // frames that succeeded
   std::uint64_t frames_skipped = 0;    // of them, frames that ran nothing (identical input)
+  std::uint64_t frames_fallback = 0;   // of them, kConvergedBounces frames run as one update and
+                                       // kConvergedFallbackSteps feedback steps (no converged solve)
   BackendEvaluationStats evaluations;  // the backend's, since the pipeline's creation
 };
 
@@ -87,7 +94,8 @@ class FramePipeline {
   FramePipeline(Backend& backend, const FrameOptions& options);
   Status evaluate(std::span<const float> ld, std::uint32_t bounces);
   // The frame's backend calls, shared by evaluate and run_from_texture: the converged solve,
-  // or the first bounce then `bounces` feedback steps, each call's stage times added.
+  // or the first bounce then `bounces` feedback steps (kConvergedFallbackSteps for
+  // kConvergedBounces where the backend has no converged solve), each call's stage times added.
   template <class Converged, class First, class Step>
   Status run_bounces(std::uint32_t bounces, Converged converged, First first, Step step);
   void add_times();
@@ -101,7 +109,7 @@ class FramePipeline {
   float rho_max_ = 0.0f;
   BackendStageTimes times_;
   BackendEvaluationStats start_;  // the backend's at creation
-  std::uint64_t frames_ = 0, frames_skipped_ = 0;
+  std::uint64_t frames_ = 0, frames_skipped_ = 0, frames_fallback_ = 0;
 };
 
 }  // namespace modrt

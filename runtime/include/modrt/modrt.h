@@ -345,8 +345,9 @@ MODRT_API modrt_status modrt_context_update(modrt_context* context);
  * contexts (with or without clutter: the clutter's light bounces with its albedo, as in
  * modrt_context_set_clutter_albedo) and GLES contexts without clutter, whose solve runs on the
  * GPU from b0 every update with an a-priori iteration count (nothing read back, no warm
- * start; docs/gles.md); a GLES context with clutter refuses it (MODRT_ERROR_UNSUPPORTED at
- * creation and in set_bounces, and the update fails once clutter is attached). */
+ * start; docs/gles.md). A GLES context with clutter has no converged solve: its updates then run
+ * one evaluation and 4 feedback steps (core's kConvergedFallbackSteps), every update alike,
+ * counted in modrt_solve_stats.fallback_updates. */
 #define MODRT_BOUNCES_CONVERGED 0xffffffffu
 
 /* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64, or
@@ -536,6 +537,9 @@ typedef struct modrt_solve_stats {
   double spectral_radius;
   double contraction;
   uint64_t build_ns; /* the last build of the reduced operators (at the first solve after set_albedo) */
+  uint64_t fallback_updates; /* MODRT_BOUNCES_CONVERGED updates run as one evaluation and 4
+                                feedback steps: the context had no converged solve (GLES with
+                                clutter) */
 } modrt_solve_stats;
 MODRT_API modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_solve_stats* out);
 
