@@ -161,60 +161,22 @@ glm::dvec3 block_to_world(const modrt_level_block& b, glm::dvec3 p) {
   return trilinear(b, p);
 }
 
-// The canonical coordinates of world point x in block b: Newton on block_to_world (the inverse
-// the runtime's probe sampler uses; exact in one step for unwarped blocks).
-glm::dvec3 world_to_block(const modrt_level_block& b, const glm::dvec3& x) {
-  glm::dvec3 p(0.5);
-  for (int it = 0; it < 20; ++it) {
-    const glm::dvec3 r = block_to_world(b, p) - x;
-    glm::dmat3 j(0.0);
-    for (int a = 0; a < 3; ++a) {
-      glm::dvec3 lo = p, hi = p;
-      lo[a] = 0.0, hi[a] = 1.0;
-      // The warp is linear along each axis: its partial derivative is the difference of the ends.
-      j[a] = block_to_world(b, hi) - block_to_world(b, lo);
-    }
-    if (!(std::abs(glm::determinant(j)) > 1e-300)) break;
-    const glm::dvec3 step = glm::inverse(j) * r;
-    p -= step;
-    if (glm::length(step) < 1e-12) break;
-  }
-  return p;
-}
-
-// Where the dynamic object is in the probe volume: its block (the one it lies in, or nearest
-// within 1 % of a block), the lower corner of its 2 x 2 x 2 probes on the block's canonical
-// g^3 grid (probe centres at (i + 0.5) / g) and the trilinear weights, for the probe shader.
+// Where the dynamic object is in the probe volume, for the probe shader: its block, the lower
+// corner of its 2 x 2 x 2 probes on the block's canonical g^3 grid and the trilinear weights
+// (modrt_context_locate_probe: core's ProbeSampler, Newton on the block's warp).
 struct ProbeCell {
   int block = 0;
   glm::ivec3 i0{0};
   glm::vec3 f{0.0f};
 };
-ProbeCell locate_probe_cell(const std::vector<modrt_level_block>& blocks, int g, const glm::dvec3& x) {
-  double best = 1e30;
-  int block = 0;
-  glm::dvec3 q(0.5);
-  for (std::size_t i = 0; i < blocks.size() && best > 0.0; ++i) {
-    glm::dvec3 lo(1e30), hi(-1e30);
-    for (const auto& c : blocks[i].corners)
-      lo = glm::min(lo, glm::dvec3(c[0], c[1], c[2])), hi = glm::max(hi, glm::dvec3(c[0], c[1], c[2]));
-    const glm::dvec3 grow = 0.01 * (hi - lo);
-    if (glm::any(glm::lessThan(x, lo - grow)) || glm::any(glm::greaterThan(x, hi + grow))) continue;
-    const glm::dvec3 p = world_to_block(blocks[i], x);
-    const double outside = std::max({0.0, -p.x, -p.y, -p.z, p.x - 1.0, p.y - 1.0, p.z - 1.0});
-    if (outside < best) best = outside, block = int(i), q = p;
-  }
-  if (best > 0.01) {
-    char text[160];
-    std::snprintf(text, sizeof text,
-                  "the dynamic object at (%g, %g, %g) lies outside every block of the level", x.x, x.y, x.z);
-    fail(text);
-  }
+ProbeCell locate_probe_cell(const modrt_context* ctx, const glm::vec3& x) {
+  modrt_probe_cell c = modrt::rt::sized<modrt_probe_cell>();
+  const float position[3] = {x.x, x.y, x.z};
+  check("modrt_context_locate_probe (the dynamic object)", modrt_context_locate_probe(ctx, position, &c));
   ProbeCell cell;
-  cell.block = block;
-  const glm::dvec3 gc = glm::clamp(q * double(g) - 0.5, glm::dvec3(0.0), glm::dvec3(std::max(g - 1, 0)));
-  cell.i0 = glm::min(glm::ivec3(glm::floor(gc)), glm::ivec3(std::max(g - 2, 0)));
-  cell.f = g > 1 ? glm::vec3(gc - glm::dvec3(cell.i0)) : glm::vec3(0.0f);
+  cell.block = int(c.block);
+  cell.i0 = glm::ivec3(c.lower[0], c.lower[1], c.lower[2]);
+  cell.f = glm::vec3(c.weight[0], c.weight[1], c.weight[2]);
   return cell;
 }
 
@@ -941,7 +903,7 @@ void run(const SceneModeOptions& o) {
     if (have_dynamic && sizes.probe_grid > 0) {
       check("modrt_context_get_probe_texture",
             modrt_context_get_probe_texture(ctx.get(), &probes, nullptr, nullptr, nullptr));
-      cell = locate_probe_cell(blocks, int(sizes.probe_grid), glm::dvec3(dynamic_offset));
+      cell = locate_probe_cell(ctx.get(), dynamic_offset);
     }
     if (texel_count > 0)
       check("modrt_context_get_clutter_texture",
