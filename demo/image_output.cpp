@@ -5,8 +5,9 @@
 #include <cmath>
 #include <filesystem>
 
-#include <OpenImageIO/imageio.h>
 #include <unistd.h>
+
+#include "image_io.h"
 
 namespace modrt::demo {
 
@@ -22,8 +23,8 @@ void encode_srgb8(std::span<const float> linear_rgb, float scale, std::span<std:
 namespace {
 
 // Writes through a temporary file next to `path`, renamed into place.
-Status write_image(const std::string& path, int width, int height, OIIO::TypeDesc type, const void* pixels,
-                   OIIO::TypeDesc file_type) {
+Status write_image(const std::string& path, int width, int height, modrt_image_io_type type,
+                   const void* pixels, modrt_image_io_type file_type) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path target(path);
@@ -31,12 +32,10 @@ Status write_image(const std::string& path, int width, int height, OIIO::TypeDes
   // Keep the extension last so OpenImageIO picks the right writer for the temp file.
   const fs::path temp =
       target.parent_path() / (".tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
-  auto out = OIIO::ImageOutput::create(temp.string());
-  if (!out) return Status::error(ErrorCode::io_error, path + ": no image writer: " + OIIO::geterror());
-  OIIO::ImageSpec spec(width, height, 3, file_type);
-  spec.attribute("compression", "zip");  // EXR: lossless, a fraction of the raw size
-  if (!out->open(temp.string(), spec) || !out->write_image(type, pixels) || !out->close()) {
-    const std::string error = out->geterror();
+  // "zip" compression: EXR's lossless one, a fraction of the raw size (ignored by PNG).
+  if (const std::string error =
+          image_io::write(temp.string(), width, height, 3, type, pixels, file_type, "zip");
+      !error.empty()) {
     fs::remove(temp, ec);
     return Status::error(ErrorCode::io_error, path + ": " + error);
   }
@@ -53,7 +52,7 @@ Status write_image(const std::string& path, int width, int height, OIIO::TypeDes
 Status write_rgb8_image(const std::string& path, int width, int height, std::span<const std::uint8_t> rgb) {
   if (rgb.size() != 3 * std::size_t(width) * std::size_t(height))
     return Status::error(ErrorCode::invalid_argument, path + ": pixel buffer does not match the image size");
-  return write_image(path, width, height, OIIO::TypeDesc::UINT8, rgb.data(), OIIO::TypeDesc::UINT8);
+  return write_image(path, width, height, MODRT_IMAGE_IO_UINT8, rgb.data(), MODRT_IMAGE_IO_UINT8);
 }
 
 std::size_t count_non_finite(std::span<const float> values) {
@@ -76,8 +75,8 @@ Status write_rgb_float_image(const std::string& path, int width, int height, std
   for (const float v : rgb) largest = std::max(largest, std::abs(v));
   const bool float32 = largest > kHalfMax;
   if (wrote_float32) *wrote_float32 = float32;
-  return write_image(path, width, height, OIIO::TypeDesc::FLOAT, rgb.data(),
-                     float32 ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
+  return write_image(path, width, height, MODRT_IMAGE_IO_FLOAT, rgb.data(),
+                     float32 ? MODRT_IMAGE_IO_FLOAT : MODRT_IMAGE_IO_HALF);
 }
 
 }  // namespace modrt::demo

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// modrt demo — writing images through OpenImageIO, atomically.
+// modrt demo — writing images through OpenImageIO (loaded on first use, image_io.h), atomically.
 #pragma once
 
 #include <cstddef>

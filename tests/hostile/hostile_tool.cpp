@@ -2,7 +2,8 @@
 // modrt-hostile-tool: the hostile runner's helper (tests/hostile/README.md).
 //
 //   modrt-hostile-tool stats FILE...
-//     Reads each image (PNG, EXR, ... through OpenImageIO) and prints one line per file:
+//     Reads each image (PNG, EXR, ... through OpenImageIO, loaded for this subcommand only:
+//     demo/image_io/image_io.h) and prints one line per file:
 //       STATS <file> values=<n> nonfinite=<n> negative=<n> nonzero=<n> min=<v> max=<v>
 //     (min / max over the finite values). Exit 1 when a file cannot be read.
 //
@@ -32,8 +33,7 @@
 #include <string>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
-
+#include "image_io.h"
 #include "modrt/modrt.h"
 #include "modrt/modrt.hpp"
 
@@ -62,22 +62,14 @@ struct Stats {
 int stats_main(int argc, char** argv) {
   int status = 0;
   for (int i = 2; i < argc; ++i) {
-    std::unique_ptr<OIIO::ImageInput> in = OIIO::ImageInput::open(argv[i]);
-    if (!in) {
-      std::fprintf(stderr, "modrt-hostile-tool: %s: %s\n", argv[i], OIIO::geterror().c_str());
-      status = 1;
-      continue;
-    }
-    const OIIO::ImageSpec& spec = in->spec();
-    std::vector<float> pixels(std::size_t(spec.width) * std::size_t(spec.height) *
-                              std::size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) {
-      std::fprintf(stderr, "modrt-hostile-tool: %s: %s\n", argv[i], in->geterror().c_str());
+    modrt::image_io::FloatImage image;
+    if (const std::string error = modrt::image_io::read_float(argv[i], image); !error.empty()) {
+      std::fprintf(stderr, "modrt-hostile-tool: %s: %s\n", argv[i], error.c_str());
       status = 1;
       continue;
     }
     Stats s;
-    for (float v : pixels) s.add(v);
+    for (float v : image.pixels) s.add(v);
     s.print(argv[i]);
   }
   return status;
