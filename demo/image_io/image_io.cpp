@@ -41,7 +41,8 @@ Loaded load() {
     void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) {
       const char* message = ::dlerror();
-      tried += (tried.empty() ? "" : ", ") + path.string() + " (" + (message ? message : "dlopen failed") + ")";
+      tried +=
+          (tried.empty() ? "" : ", ") + path.string() + " (" + (message ? message : "dlopen failed") + ")";
       continue;
     }
     using TableFn = const modrt_image_io_v1* (*)();
@@ -67,8 +68,9 @@ const modrt_image_io_v1* module(std::string* error) {
   return loaded.table;
 }
 
-std::string write(const std::string& path, int width, int height, int channels, modrt_image_io_type pixel_type,
-                  const void* pixels, modrt_image_io_type file_type, const char* compression) {
+std::string write(const std::string& path, int width, int height, int channels,
+                  modrt_image_io_type pixel_type, const void* pixels, modrt_image_io_type file_type,
+                  const char* compression) {
   std::string error;
   const modrt_image_io_v1* io = module(&error);
   if (!io) return error;

@@ -17,8 +17,9 @@ namespace modrt::image_io {
 const modrt_image_io_v1* module(std::string* error);
 
 // Writes an image (image_io_abi.h's write); returns "" on success, else the error message.
-std::string write(const std::string& path, int width, int height, int channels, modrt_image_io_type pixel_type,
-                  const void* pixels, modrt_image_io_type file_type, const char* compression = nullptr);
+std::string write(const std::string& path, int width, int height, int channels,
+                  modrt_image_io_type pixel_type, const void* pixels, modrt_image_io_type file_type,
+                  const char* compression = nullptr);
 
 struct FloatImage {
   int width = 0, height = 0, channels = 0;

@@ -37,7 +37,8 @@ int write_image(const char* path, int width, int height, int channels, int pixel
   if (memory == OIIO::TypeDesc::UNKNOWN || file == OIIO::TypeDesc::UNKNOWN)
     return fail("unknown pixel type", error, error_size);
   if (width <= 0 || height <= 0 || channels <= 0 || !pixels)
-    return fail("empty image (" + std::to_string(width) + " x " + std::to_string(height) + ")", error, error_size);
+    return fail("empty image (" + std::to_string(width) + " x " + std::to_string(height) + ")", error,
+                error_size);
   std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(path);
   if (!out) return fail("no image writer: " + OIIO::geterror(), error, error_size);
   OIIO::ImageSpec spec(width, height, channels, file);
