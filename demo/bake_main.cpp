@@ -6,7 +6,7 @@
 #include <utility>
 
 #include <CLI/CLI.hpp>
-#include <Eigen/SVD>
+#include "modrt/precompute/svd.h"
 
 #include "modrt/dictionary_io.h"
 #include "modrt/file_io.h"

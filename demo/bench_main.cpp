@@ -36,8 +36,8 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <Eigen/SVD>
 #include <nlohmann/json.hpp>
+#include "modrt/precompute/svd.h"
 
 #include "cli_checks.h"
 #include "modrt/cpu/cpu_level_runtime.h"

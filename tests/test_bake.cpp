@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/SVD>
+#include "modrt/precompute/svd.h"
 
 #include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"

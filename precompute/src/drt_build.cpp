@@ -12,9 +12,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <Eigen/SVD>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
+#include "modrt/precompute/svd.h"
 
 #include "drt_gather.h"
 #include "modrt/precompute/block_scene.h"

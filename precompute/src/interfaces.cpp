@@ -14,9 +14,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <Eigen/SparseCore>
 #include <glm/geometric.hpp>
+#include "modrt/precompute/svd.h"
 
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/reduction.h"

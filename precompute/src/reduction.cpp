@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-#include <Eigen/SVD>
+#include "modrt/precompute/svd.h"
 
 namespace modrt::precompute {
 

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/SVD>
+#include "modrt/precompute/svd.h"
 
 #include "modrt/cpu/cpu_level_runtime.h"
 #include "modrt/level_runtime.h"
