@@ -95,6 +95,16 @@ modrt_level* load_level_handle(const std::string& name = "maze11") {
       << modrt_last_error();
   return l;
 }
+// The defaults with one bounce (bounces 0), for the comparisons with one-bounce references
+// (level_reference, CpuLevelRuntime::evaluate). The default is the converged multi-bounce
+// (CApi.ConvergedBouncesAreCoresConvergedSolve).
+modrt_context_options one_bounce_options(modrt_backend backend = MODRT_BACKEND_CPU) {
+  modrt_context_options o;
+  modrt_context_options_init(&o);
+  o.backend = backend;
+  o.bounces = 0;
+  return o;
+}
 
 std::vector<float> read_lightmap(modrt_context* c) {
   modrt_sizes s = modrt::rt::sized<modrt_sizes>();
@@ -170,6 +180,7 @@ TEST(CApi, CpuContextEqualsTheCpuBackendAndTheReference) {
     modrt_context_options o;
     modrt_context_options_init(&o);
     o.skip_unchanged = 0;
+    o.bounces = 0;  // one bounce, as the reference and the CPU backend's evaluate
     modrt_context* c = nullptr;
     ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
     EXPECT_EQ(std::string(modrt_context_description(c)).rfind("cpu ", 0), 0u);
@@ -245,8 +256,9 @@ TEST(CApi, ProbesAreTheReferenceProbesInTheWorldFrame) {
   EXPECT_TRUE(turned) << "the maze should hold turned blocks, or the rotation is untested";
   modrt_dictionary* d = load_dictionary_handle();
   modrt_level* l = load_level_handle();
+  const modrt_context_options o = one_bounce_options();
   modrt_context* c = nullptr;
-  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
   ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   const test::LevelReference ref = level_reference(t.level, t.ld);
@@ -325,8 +337,9 @@ TEST(CApi, LightsGiveTheDirectLightEvaluatorsLd) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
   modrt_level* l = load_level_handle();
+  const modrt_context_options o = one_bounce_options();
   modrt_context* c = nullptr;
-  ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &c), MODRT_OK) << modrt_last_error();
+  ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
   ASSERT_EQ(modrt_context_set_albedo(c, t.albedo.data(), t.albedo.size()), MODRT_OK) << modrt_last_error();
   cpu::CpuDirectLight direct = cpu::CpuDirectLight::create(t.level, t.albedo).value();
   std::vector<float> ld(t.ld.size());
@@ -506,8 +519,7 @@ TEST(CApi, SkipCountersAndTimings) {
   const test::TestLevel& t = test_level("maze11");
   modrt_dictionary* d = load_dictionary_handle();
   modrt_level* l = load_level_handle();
-  modrt_context_options o;
-  modrt_context_options_init(&o);
+  modrt_context_options o = one_bounce_options();  // the one-bounce skip counters, block by block
   o.timing = 1;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
@@ -699,26 +711,36 @@ TEST(CApi, NoAllocationPerFrame) {
     for (int k = 0; k < 16; ++k) cameras[f][k] = float(vp[k / 4][k % 4]);
     ASSERT_EQ(modrt_context_set_camera(c, cameras[f], pos), MODRT_OK) << modrt_last_error();
   }
-  bool ok = true;
-  g_allocations = 0;
-  g_count_allocations = true;
-  int frame = 0;
-  for (const auto& lights : frames) {
-    ok &= modrt_context_set_camera(c, cameras[frame++], pos) == MODRT_OK;
-    ok &= modrt_context_set_lights(c, lights.data(), lights.size()) == MODRT_OK;
+  // The first converged update (the default bounces) builds the solve's reduced operators, once
+  // per context and albedo (modrt.h, "Memory"): at load time, here.
+  ASSERT_EQ(modrt_context_set_lights(c, frames[0].data(), frames[0].size()), MODRT_OK);
+  ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
+  // The frames under the converged multi-bounce, then with one bounce and with 3 feedback steps.
+  for (std::uint32_t bounces : {MODRT_BOUNCES_CONVERGED, 0u, 3u}) {
+    SCOPED_TRACE("bounces " + std::to_string(bounces));
+    ASSERT_EQ(modrt_context_set_bounces(c, bounces), MODRT_OK);
+    bool ok = true;
+    g_allocations = 0;
+    g_count_allocations = true;
+    int frame = 0;
+    for (const auto& lights : frames) {
+      ok &= modrt_context_set_camera(c, cameras[frame++], pos) == MODRT_OK;
+      ok &= modrt_context_set_lights(c, lights.data(), lights.size()) == MODRT_OK;
+      ok &= modrt_context_update(c) == MODRT_OK;
+      ok &= modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()) == MODRT_OK;
+      ok &= modrt_context_read_atlas(c, atlas.data(), atlas.size()) == MODRT_OK;
+      ok &= modrt_context_probe_sh(c, pos, MODRT_PROBE_IRRADIANCE_OVER_PI, sh) == MODRT_OK;
+      modrt_timings tm = modrt::rt::sized<modrt_timings>();
+      modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
+      ok &= modrt_context_get_timings(c, &tm) == MODRT_OK && modrt_context_get_skip_stats(c, &k) == MODRT_OK;
+    }
+    ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
     ok &= modrt_context_update(c) == MODRT_OK;
-    ok &= modrt_context_read_lightmap(c, lightmap.data(), lightmap.size()) == MODRT_OK;
-    ok &= modrt_context_read_atlas(c, atlas.data(), atlas.size()) == MODRT_OK;
-    ok &= modrt_context_probe_sh(c, pos, MODRT_PROBE_IRRADIANCE_OVER_PI, sh) == MODRT_OK;
-    modrt_timings tm = modrt::rt::sized<modrt_timings>();
-    modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
-    ok &= modrt_context_get_timings(c, &tm) == MODRT_OK && modrt_context_get_skip_stats(c, &k) == MODRT_OK;
+    g_count_allocations = false;
+    EXPECT_TRUE(ok) << modrt_last_error();
+    EXPECT_EQ(g_allocations.load(), 0);
+    ASSERT_EQ(modrt_context_set_lights(c, frames[0].data(), frames[0].size()), MODRT_OK);  // lights again
   }
-  ASSERT_EQ(modrt_context_set_ld(c, t.ld.data(), t.ld.size()), MODRT_OK);
-  ok &= modrt_context_update(c) == MODRT_OK;
-  g_count_allocations = false;
-  EXPECT_TRUE(ok) << modrt_last_error();
-  EXPECT_EQ(g_allocations.load(), 0);
   // The counter sees the API's allocations: loading allocates.
   g_allocations = 0;
   g_count_allocations = true;
@@ -886,10 +908,20 @@ void expect_spike_is_clean(modrt_backend backend) {
   o.backend = backend;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
-  for (float spike : {1e6f, 1e30f}) {
+  for (const auto& [spike, bounces] : {std::pair{1e6f, MODRT_BOUNCES_CONVERGED}, std::pair{1e6f, 0u},
+                                       std::pair{1e30f, 0u}, std::pair{1e30f, MODRT_BOUNCES_CONVERGED}}) {
     std::vector<float> ld(t.ld.size(), 0.0f);
     ld[3 * 40] = spike;
+    ASSERT_EQ(modrt_context_set_bounces(c, bounces), MODRT_OK);
     ASSERT_EQ(modrt_context_set_ld(c, ld.data(), ld.size()), MODRT_OK) << modrt_last_error();
+    if (spike > 1e29f && bounces != 0) {
+      // The bounces could carry this light past kMaxLightValue: refused, naming it, and the
+      // results of the one-bounce update before stay.
+      const std::vector<float> before = read_lightmap(c);
+      expect_error(modrt_context_update(c), MODRT_ERROR_INVALID_ARGUMENT, {"kMaxLightValue"});
+      EXPECT_EQ(read_lightmap(c), before);
+      continue;
+    }
     ASSERT_EQ(modrt_context_update(c), MODRT_OK) << modrt_last_error();
     const std::vector<float> lightmap = read_lightmap(c), atlas = read_atlas(c);
     const std::string what = std::string(modrt_context_description(c)) + " spike " + std::to_string(spike);
@@ -1019,6 +1051,18 @@ TEST(CApi, ConvergedBouncesAreCoresConvergedSolve) {
       level_converged_bounce(t.level, small_test_dictionary(), t.ld, albedo, {}, b, r, ref);
   ASSERT_TRUE(rep.ok());
   EXPECT_LT(rel_l2(lightmap, ref), 2e-3);
+  // It is the default since 0.4: options_init's, and null options', bit for bit.
+  {
+    modrt_context_options defaults;
+    modrt_context_options_init(&defaults);
+    EXPECT_EQ(defaults.bounces, MODRT_BOUNCES_CONVERGED);
+    modrt_context* by_default = nullptr;
+    ASSERT_EQ(modrt_context_create(d, l, nullptr, nullptr, &by_default), MODRT_OK) << modrt_last_error();
+    ASSERT_EQ(modrt_context_set_ld(by_default, t.ld.data(), t.ld.size()), MODRT_OK);
+    ASSERT_EQ(modrt_context_update(by_default), MODRT_OK) << modrt_last_error();
+    EXPECT_EQ(read_lightmap(by_default), lightmap);
+    modrt_context_destroy(by_default);
+  }
   // The solve's statistics: core's spectral radius, the default tolerance met.
   modrt_solve_stats st = modrt::rt::sized<modrt_solve_stats>();
   ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK) << modrt_last_error();
@@ -1112,7 +1156,7 @@ TEST(CApi, SixtyFourBouncesConvergeAndOptionsAreChecked) {
   modrt_level* l = load_level_handle();
   modrt_context_options o;
   modrt_context_options_init(&o);
-  EXPECT_EQ(o.bounces, 0u);
+  EXPECT_EQ(o.bounces, MODRT_BOUNCES_CONVERGED);
   EXPECT_EQ(o.max_albedo, kDefaultMaxAlbedo);
   o.bounces = 64;
   modrt_context* c = nullptr;
@@ -1279,7 +1323,7 @@ void expect_bounces_per_update(modrt_backend backend, double tolerance) {
     ASSERT_FALSE(modrt::rt::Level::load_memory(assets().level.data(), assets().level.size(), "maze11", lw));
     modrt::rt::Context cw;
     ASSERT_FALSE(modrt::rt::Context::create(dw, lw, modrt::rt::default_options(backend), cw));
-    EXPECT_EQ(cw.bounces(), 0u);
+    EXPECT_EQ(cw.bounces(), MODRT_BOUNCES_CONVERGED);  // the default
     EXPECT_FALSE(cw.set_bounces(7));
     EXPECT_EQ(cw.bounces(), 7u);
     EXPECT_TRUE(cw.set_bounces(65));
@@ -1309,6 +1353,7 @@ void expect_vector_irradiance_matches(modrt_backend backend, double tolerance) {
   modrt_context_options o;
   modrt_context_options_init(&o);
   o.backend = backend;
+  o.bounces = 0;  // one bounce, as the reference
   o.vector_irradiance = 1;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
@@ -1630,6 +1675,7 @@ TEST(CApiGles, LdFromTheAppsTextureNeedsNoReadback) {
   modrt_context_options_init(&o);
   o.backend = MODRT_BACKEND_GLES;
   o.gl_loader = counting_loader;
+  o.bounces = 0;  // one bounce: compared with one-bounce references, linear in ld
   o.gl_loader_user = get_proc;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
@@ -1726,6 +1772,7 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
   modrt_context_options_init(&o);
   o.backend = MODRT_BACKEND_GLES;
   o.gl_loader = counting_loader;
+  o.bounces = 0;  // one bounce: compared with one-bounce references, linear in ld
   o.gl_loader_user = get_proc;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
@@ -2174,7 +2221,15 @@ TEST(CApi, CppWrapper) {
   ASSERT_FALSE(ctx.update());
   std::vector<float> lightmap(ctx.sizes().lightmap);
   ASSERT_FALSE(ctx.read_lightmap(lightmap.data(), lightmap.size()));
-  EXPECT_LT(rel_l2(lightmap, level_reference(t.level, t.ld).lightmap), 1e-5);
+  {  // default_options: the converged multi-bounce (CApi.ConvergedBouncesAreCoresConvergedSolve)
+    const LevelBufferSizes sz = level_buffer_sizes(t.level, small_test_dictionary());
+    std::vector<float> b(sz.b), r(sz.r), ref(sz.lightmap);
+    ASSERT_TRUE(level_converged_bounce(t.level, small_test_dictionary(), t.ld, level_sample_albedo(t.level),
+                                       {}, b, r, ref)
+                    .ok());
+    EXPECT_LT(rel_l2(lightmap, ref), 2e-3);
+  }
+  EXPECT_EQ(ctx.solve_stats().solves, 1u);
   EXPECT_EQ(ctx.atlas_texture(), 0u);
   // The camera skip and the solve statistics through the wrapper: a wrong count is named; every
   // block visible is the full path (the lightmap above).
@@ -2187,7 +2242,7 @@ TEST(CApi, CppWrapper) {
   std::vector<float> again(lightmap.size());
   ASSERT_FALSE(ctx.read_lightmap(again.data(), again.size()));
   EXPECT_EQ(again, lightmap);
-  EXPECT_EQ(ctx.solve_stats().solves, 0u) << "one bounce: no converged solve";
+  EXPECT_EQ(ctx.solve_stats().solves, 1u) << "the same input: skipped, no second solve";
   modrt_light light;
   modrt_light_init(&light);
   e = ctx.set_light_gpu(light);  // the GPU light pass needs a GLES context
@@ -2205,6 +2260,7 @@ TEST(CApiGles, ContextOnTheCallersEglContext) {
   modrt_context_options o;
   modrt_context_options_init(&o);
   o.backend = MODRT_BACKEND_GLES;
+  o.bounces = 0;  // one bounce, as the reference
   o.timing = 1;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();
@@ -2279,6 +2335,7 @@ TEST(CApiGles, ContextThroughTheAppsLoaderOnOsmesa) {
   modrt_context_options_init(&o);
   o.backend = MODRT_BACKEND_GLES;
   o.gl_loader = osmesa_loader;
+  o.bounces = 0;  // one bounce: compared with one-bounce references, linear in ld
   o.gl_loader_user = get_proc;
   modrt_context* c = nullptr;
   ASSERT_EQ(modrt_context_create(d, l, &o, nullptr, &c), MODRT_OK) << modrt_last_error();

@@ -197,7 +197,7 @@ TEST(CApiClutter, CpuContextIsTheCppBackendBitForBit) {
 TEST(CApiClutter, CppWrapper) {
   const Scene& s = pillars();
   Handles h;
-  modrt_context* c = h.context(MODRT_BACKEND_CPU, 0);
+  modrt_context* c = h.context(MODRT_BACKEND_CPU, MODRT_BOUNCES_CONVERGED);  // default_options' bounces
   const Results ref = c_api_frame(c, h, false);
   modrt_context_destroy(c);
   rt::Dictionary dict;

@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
       "with --scene a glTF scene lit through the C API"};
   std::string dictionary_path, level_path, out_path;
   int scale = 16;
-  int bounces = 2;
+  int bounces = -1;
   float albedo_value = 0.7f;  // used only with --albedo: else the level's own per-face albedo
   modrt::host::SceneModeOptions scene;
   app.add_option("dictionary", dictionary_path, "atlas mode: dictionary file (.modrt)");
@@ -163,8 +163,10 @@ int main(int argc, char** argv) {
   app.add_option("--scale", scale, "atlas mode: pixels per atlas texel")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
-  app.add_option("--bounces", bounces, "multi-bounce feedback steps per update")
-      ->check(CLI::Range(0, 64))
+  app.add_option("--bounces", bounces,
+                 "multi-bounce: N >= 0 feedback steps per update; -1: the converged multi-bounce (the "
+                 "runtime's default)")
+      ->check(CLI::Range(-1, 64))
       ->capture_default_str();
   CLI::Option* albedo_option =
       app.add_option("--albedo", albedo_value,
@@ -252,7 +254,7 @@ int main(int argc, char** argv) {
   // 3. A GLES context of modrt on the app's current context (entry points via eglGetProcAddress).
   modrt_context_options options = modrt::rt::default_options(MODRT_BACKEND_GLES);
   options.timing = 1;
-  options.bounces = std::uint32_t(bounces);
+  options.bounces = modrt::host::context_bounces(bounces);
   options.vector_irradiance = 1;  // for normal maps; a dictionary without the operators says so
   modrt::rt::Context ctx;
   modrt::rt::Error created = modrt::rt::Context::create(dict, level, options, ctx);
@@ -294,7 +296,7 @@ int main(int argc, char** argv) {
       "frame: lights %.3f ms (CPU), update %.3f ms (b %.3f, r %.3f, atlas %.3f, probes %.3f ms GPU)\n",
       double(t.light_ns) * 1e-6, double(t.update_ns) * 1e-6, double(t.b_ns) * 1e-6, double(t.r_ns) * 1e-6,
       double(t.atlas_ns) * 1e-6, double(t.probes_ns) * 1e-6);
-  std::printf("bounces per update: %d\n", bounces);
+  std::printf("bounces per update: %s\n", bounces < 0 ? "converged" : std::to_string(bounces).c_str());
   float sh[27];
   if (sizes.probe_grid > 0 && !ctx.probe_sh(lights[0].position, sh))
     std::printf("probe E/pi at the point light (SH9 DC, RGB): %.4f %.4f %.4f\n", double(sh[0]), double(sh[1]),

@@ -431,7 +431,7 @@ void run(const SceneModeOptions& o) {
   if (scene.proxy_walls) add_proxy_walls(blocks, scene);
 
   modrt_context_options options = modrt::rt::default_options(MODRT_BACKEND_GLES);
-  options.bounces = std::uint32_t(o.bounces);
+  options.bounces = context_bounces(o.bounces);
   options.vector_irradiance = 1;
   options.timing = 1;
   modrt::rt::Context ctx;
@@ -570,9 +570,9 @@ void run(const SceneModeOptions& o) {
       o.scene.c_str(), scene.meshes.size(), scene.materials.size(), scene.images.size(), scene.clutter.size(),
       have_dynamic ? ", a dynamic object" : "", static_triangles, mapped_triangles, cut_triangles);
   std::printf(
-      "modrt %s: %s; level %u blocks, %u samples, atlas %ux%u, probe grid %u, %u bounces per update\n",
+      "modrt %s: %s; level %u blocks, %u samples, atlas %ux%u, probe grid %u, bounces per update: %s\n",
       modrt_version_string(), ctx.description(), info.block_count, info.sample_count, sizes.atlas_width,
-      sizes.atlas_height, sizes.probe_grid, options.bounces);
+      sizes.atlas_height, sizes.probe_grid, o.bounces < 0 ? "converged" : std::to_string(o.bounces).c_str());
 
   // ---- GL objects ----
   Gl gl;

@@ -8,14 +8,23 @@
 // lightmap; each frame is written as DIR/frame_NNNN.png.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
+#include <modrt/modrt.h>
+
 namespace modrt::host {
+
+// options.bounces for the host's --bounces N: N feedback steps per update, or for N < 0 the
+// converged multi-bounce (MODRT_BOUNCES_CONVERGED, the runtime's default).
+inline std::uint32_t context_bounces(int bounces) {
+  return bounces < 0 ? MODRT_BOUNCES_CONVERGED : std::uint32_t(bounces);
+}
 
 struct SceneModeOptions {
   std::string scene, dictionary, level, clutter, out_dir;
   int frames = 4, width = 480, height = 270;
-  int bounces = 2;  // options.bounces: feedback steps per update
+  int bounces = -1;  // feedback steps per update; -1: the converged multi-bounce (context_bounces)
   float exposure = 1.0f;
   int shadow_size = 1024;  // texels per cube face
 };

@@ -305,7 +305,9 @@ void modrt_context_options_init(modrt_context_options* options) {
   options->skip_unchanged = 1;
   options->max_lights = 8;
   options->shadows = 1;
-  options->bounces = 0;
+  // Since 0.4 the light is fully bounced by default (issue 20): one bounce (0) underlit every
+  // interior by the whole series' remainder, and an app had to know to ask for more.
+  options->bounces = MODRT_BOUNCES_CONVERGED;
   options->max_albedo = kDefaultMaxAlbedo;
   options->vector_irradiance = 0;
 }
@@ -337,7 +339,10 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
                                              "modrt_context_options_init");
           s != MODRT_OK)
         return s;
-      o = read_sized(*options, o);  // a 0.2 caller's struct: bounces and max_albedo keep their defaults
+      // A 0.2 caller's struct ends before bounces and max_albedo: they keep 0.2's behaviour, one
+      // bounce, and the default max_albedo.
+      if (options->struct_size <= offsetof(modrt_context_options, bounces)) o.bounces = 0;
+      o = read_sized(*options, o);
     }
     if (const int backend = c_enum_value(o.backend);
         backend != MODRT_BACKEND_CPU && backend != MODRT_BACKEND_GLES)

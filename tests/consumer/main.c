@@ -50,19 +50,32 @@ static int all_finite(const float* v, size_t n, const char* what) {
   return 1;
 }
 
-/* What the demo does beyond one bounce, from plain C on the CPU context `ctx` (lit by the sun,
- * updated once): multi-bounce, vector irradiance for normal-mapped surfaces, the probe volume,
- * and (given a .modrtdrt file) a clutter object. */
+/* What the demo does beyond one bounce, from plain C on the CPU context `ctx` (default options,
+ * lit by the sun, updated once): multi-bounce, vector irradiance for normal-mapped surfaces, the
+ * probe volume, and (given a .modrtdrt file) a clutter object. */
 static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_context* ctx,
                              const modrt_sizes* sizes, const char* clutter_path) {
   const size_t n3 = sizes->lightmap;
   float* one = malloc(n3 * sizeof *one);
   float* more = malloc(n3 * sizeof *more);
+  float* converged = malloc(n3 * sizeof *converged);
   float* ld = malloc(n3 * sizeof *ld);
   float* vec = malloc(4 * n3 * sizeof *vec);
-  if (!one || !more || !ld || !vec) return 1;
-  CHECK(modrt_context_read_lightmap(ctx, one, n3));
+  if (!one || !more || !converged || !ld || !vec) return 1;
   CHECK(modrt_context_read_ld(ctx, ld, n3));
+
+  /* The default bounces solve the whole bounce series (MODRT_BOUNCES_CONVERGED, since 0.4);
+   * 0 bounces on the same context give the one-bounce lightmap. */
+  uint32_t default_bounces = 0;
+  CHECK(modrt_context_get_bounces(ctx, &default_bounces));
+  if (default_bounces != MODRT_BOUNCES_CONVERGED) {
+    fprintf(stderr, "bounces: the default is %u, expected MODRT_BOUNCES_CONVERGED\n", default_bounces);
+    return 1;
+  }
+  CHECK(modrt_context_read_lightmap(ctx, converged, n3));
+  CHECK(modrt_context_set_bounces(ctx, 0));
+  CHECK(modrt_context_update(ctx));
+  CHECK(modrt_context_read_lightmap(ctx, one, n3));
 
   /* Multi-bounce: four feedback steps per update, with vector irradiance. More light, never
    * past the bound max(ld) / (1 - max albedo) of the fed-back light. */
@@ -81,12 +94,16 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
     if (ld[i] > ld_max) ld_max = ld[i];
     if (more[i] > lm_max) lm_max = more[i];
   }
-  const double m1 = mean_of(one, n3), m5 = mean_of(more, n3);
-  printf("multi-bounce: mean lightmap %g with one bounce, %g with 4 more (max %g, bound %g)\n", m1, m5,
-         lm_max, ld_max / (1.0 - options.max_albedo));
-  if (!all_finite(more, n3, "multi-bounce lightmap") || !(m5 > m1) ||
-      !(lm_max <= ld_max / (1.0 - options.max_albedo))) {
-    fprintf(stderr, "multi-bounce: expected more light than one bounce, within the bound\n");
+  float conv_max = 0.0f;
+  for (size_t i = 0; i < n3; ++i)
+    if (converged[i] > conv_max) conv_max = converged[i];
+  const double m1 = mean_of(one, n3), m5 = mean_of(more, n3), mc = mean_of(converged, n3);
+  printf("multi-bounce: mean lightmap %g with one bounce, %g with 4 more, %g converged (max %g, bound %g)\n",
+         m1, m5, mc, conv_max, ld_max / (1.0 - options.max_albedo));
+  if (!all_finite(more, n3, "multi-bounce lightmap") || !all_finite(converged, n3, "converged lightmap") ||
+      !(m5 > m1) || !(mc > m5) || !(lm_max <= ld_max / (1.0 - options.max_albedo)) ||
+      !(conv_max <= ld_max / (1.0 - options.max_albedo))) {
+    fprintf(stderr, "multi-bounce: expected more light with each bounce, the series within the bound\n");
     return 1;
   }
 
@@ -220,6 +237,18 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
     fprintf(stderr, "converged: expected one converged solve within 1e-3 and a radius below 1\n");
     return 1;
   }
+  /* The same solve as the default context's. */
+  CHECK(modrt_context_read_lightmap(bounced, more, n3));
+  double d_conv = 0.0, n_conv = 0.0;
+  for (size_t i = 0; i < n3; ++i) {
+    d_conv += ((double)more[i] - converged[i]) * ((double)more[i] - converged[i]);
+    n_conv += (double)converged[i] * converged[i];
+  }
+  if (!(sqrt(d_conv / n_conv) < 1e-5)) {
+    fprintf(stderr, "converged: set_bounces(MODRT_BOUNCES_CONVERGED) differs from the default by rel L2 %g\n",
+            sqrt(d_conv / n_conv));
+    return 1;
+  }
   const float view_projection[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   const float far_eye[3] = {-1e6f, -1e6f, -1e6f};
   CHECK(modrt_context_set_camera(bounced, view_projection, far_eye));
@@ -303,6 +332,7 @@ static int more_capabilities(modrt_dictionary* dict, modrt_level* level, modrt_c
   modrt_context_destroy(bounced);
   free(one);
   free(more);
+  free(converged);
   free(ld);
   free(vec);
   return 0;

@@ -123,6 +123,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 9) : fuzz_int(in, 0, 9));
   options.bounces =
       std::uint32_t(in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(0, 3) : fuzz_int(in, 0, 3));
+  if (in.ConsumeBool()) options.bounces = MODRT_BOUNCES_CONVERGED;  // the default
   if (in.ConsumeBool()) options.max_albedo = fuzz_float(in);
   options.vector_irradiance = in.ConsumeBool();
   modrt_context* context = nullptr;

@@ -36,7 +36,10 @@
  * later layout comes with a new function.
  *
  * Memory. Loading and context creation allocate; the per-frame calls (set_lights, set_ld,
- * update, the queries and reads) do not allocate (outside an error message on failure). The
+ * update, the queries and reads) do not allocate (outside an error message on failure), except
+ * the first converged update (MODRT_BOUNCES_CONVERGED, the default) after creation and after
+ * the albedo or the clutter changed, which builds the solve's reduced operators: update once
+ * at load time to take that cost there. The
  * allocator passed at creation receives the allocations the runtime layer makes for the
  * handle (see modrt_allocator for the exact extent).
  */
@@ -213,7 +216,9 @@ typedef struct modrt_context_options {
    * the bound max(ld) / (1 - max rho) holds every bounce sum, so no lightmap value grows past
    * it (feedback_policy.h). With skip_unchanged, an update whose ld and albedo are those of the
    * last update runs nothing (frames_skipped). modrt_context_set_bounces changes it later.
-   * MODRT_BOUNCES_CONVERGED: the converged multi-bounce every update instead. */
+   * MODRT_BOUNCES_CONVERGED: the converged multi-bounce every update instead; since 0.4 the
+   * default (modrt_context_options_init, and null options). A caller whose struct_size is 0.2's
+   * (it ends before this field) keeps 0.2's one bounce. */
   uint32_t bounces;
   float max_albedo;
   /* Since 0.3. Nonzero: every update also evaluates vector irradiance (MRT §6.4: four OHLSH
@@ -223,8 +228,9 @@ typedef struct modrt_context_options {
   int vector_irradiance;
 } modrt_context_options;
 
-/* Defaults: CPU, 1 thread, probes on, timing off, skipping on, 8 lights, shadows on, no extra
- * bounces, max_albedo 0.95, vector irradiance off. */
+/* Defaults: CPU, 1 thread, probes on, timing off, skipping on, 8 lights, shadows on, the
+ * converged multi-bounce (MODRT_BOUNCES_CONVERGED; 0.3's default was 0: one bounce), max_albedo
+ * 0.95, vector irradiance off. */
 MODRT_API void modrt_context_options_init(modrt_context_options* options);
 
 /* Checks that the level was built against the dictionary (MODRT_ERROR_MISMATCH otherwise),

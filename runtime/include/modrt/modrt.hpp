@@ -203,7 +203,8 @@ class Context : public Handle<modrt_context, modrt_context_destroy> {
   Error read_albedo(float* out, size_t count) const {
     return check(modrt_context_read_albedo(h_, out, count));
   }
-  // The feedback steps of the following updates, 0 to 64 (modrt_context_set_bounces).
+  // The feedback steps of the following updates, 0 to 64, or MODRT_BOUNCES_CONVERGED (the
+  // default; modrt_context_set_bounces).
   Error set_bounces(uint32_t bounces) { return check(modrt_context_set_bounces(h_, bounces)); }
   uint32_t bounces() const {
     uint32_t n = 0;
