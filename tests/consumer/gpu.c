@@ -4,13 +4,15 @@
  * itself in its own fragment shader (a point light at the level's samples, from
  * modrt_level_get_samples), hands the texture to a GLES context with multi-bounce
  * (modrt_context_set_ld_texture, options.bounces), then samples the runtime's outputs in its own
- * shaders: the padded atlas and the world-frame probe texture. The same frame on a CPU context,
- * with the same ld computed on the CPU, is the reference.
+ * shaders: the padded atlas, the four vector-irradiance atlases (normal-mapped surfaces) and the
+ * world-frame probe texture. The same frame on a CPU context, with the same ld computed on the
+ * CPU, is the reference.
  *
  *   modrt_consumer_gpu dictionary.modrt level.modrtlevel
  *
- * Exits 0 when the GPU frame matches the CPU frame (relative L2 below 1e-4 on the atlas and the
- * probes), 77 when no EGL surfaceless GLES 3 context can be made, 1 otherwise. */
+ * Exits 0 when the GPU frame matches the CPU frame (relative L2 below 1e-4 on the atlas, each
+ * vector-irradiance coefficient and the probes), 77 when no EGL surfaceless GLES 3 context can be made, 1
+ * otherwise. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -216,6 +218,7 @@ int main(int argc, char** argv) {
   modrt_context_options_init(&o);
   o.backend = MODRT_BACKEND_GLES;
   o.bounces = kBounces;
+  o.vector_irradiance = 1;
   modrt_context* gpu = NULL;
   CHECK(modrt_context_create(dict, level, &o, NULL, &gpu));
   uint32_t width = 0, height = 0;
@@ -278,6 +281,9 @@ int main(int argc, char** argv) {
   int atlas_format = -1, probe_format = -1;
   CHECK(modrt_context_get_atlas_texture(gpu, &atlas_texture, &atlas_format));
   CHECK(modrt_context_get_probe_texture(gpu, &probe_texture, &probe_format, &probe_width, &probe_height));
+  uint32_t vector_textures[4] = {0, 0, 0, 0};
+  int vector_format = -1;
+  CHECK(modrt_context_get_vector_textures(gpu, vector_textures, &vector_format));
 
   /* The reference: a CPU context, the same ld from memory, the same bounces. */
   o.backend = MODRT_BACKEND_CPU;
@@ -301,15 +307,31 @@ int main(int argc, char** argv) {
   }
   const double atlas_error = rel_l2(atlas_gpu, atlas_cpu, sizes.atlas);
   const double probe_error = rel_l2(probes_gpu, probes_cpu, sizes.probes);
+  /* The vector-irradiance coefficient atlases, in the atlas's layout and format: coefficient i
+   * of E(n) / pi for a normal n in the texel's face frame (modrt.h). */
+  float* vector_gpu = malloc(sizeof(float) * sizes.atlas);
+  float* vector_cpu = malloc(sizeof(float) * sizes.atlas);
+  double vector_error = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    CHECK(modrt_context_read_vector_atlas(cpu, i, vector_cpu, sizes.atlas));
+    if (!sample_runtime_texture(vector_textures[i], vector_format, (int)info.atlas_width, sizes.atlas / 3,
+                                vector_gpu)) {
+      fprintf(stderr, "sampling vector-irradiance texture %d failed\n", i);
+      return 1;
+    }
+    const double e = rel_l2(vector_gpu, vector_cpu, sizes.atlas);
+    if (!isnan(vector_error) && !(e <= vector_error)) vector_error = e; /* the worst; a NaN sticks */
+  }
   double atlas_mean = 0.0;
   for (size_t i = 0; i < sizes.atlas; ++i) atlas_mean += atlas_cpu[i];
   atlas_mean /= (double)(sizes.atlas ? sizes.atlas : 1);
   printf(
       "modrt_consumer_gpu: %s, ld from the app's pass (%ux%u), %d bounces: atlas rel L2 %.2e against "
-      "the CPU context (mean %.4g), world probes rel L2 %.2e (%ux%u texture)\n",
-      modrt_context_description(gpu), width, height, kBounces, atlas_error, atlas_mean, probe_error,
-      probe_width, probe_height);
-  const int ok = atlas_mean > 0.0 && atlas_error < 1e-4 && probe_error < 1e-4;
+      "the CPU context (mean %.4g), vector irradiance worst coefficient rel L2 %.2e, world probes rel L2 "
+      "%.2e (%ux%u texture)\n",
+      modrt_context_description(gpu), width, height, kBounces, atlas_error, atlas_mean, vector_error,
+      probe_error, probe_width, probe_height);
+  const int ok = atlas_mean > 0.0 && atlas_error < 1e-4 && vector_error < 1e-4 && probe_error < 1e-4;
   if (!ok) fprintf(stderr, "modrt_consumer_gpu: the GPU frame does not match the CPU frame\n");
 
   modrt_context_destroy(cpu);
@@ -317,7 +339,7 @@ int main(int argc, char** argv) {
   modrt_level_destroy(level);
   modrt_dictionary_destroy(dict);
   free(geometry), free(albedo), free(ld), free(position), free(normal), free(rho);
-  free(atlas_cpu), free(probes_cpu), free(atlas_gpu), free(probes_gpu);
+  free(atlas_cpu), free(probes_cpu), free(atlas_gpu), free(probes_gpu), free(vector_gpu), free(vector_cpu);
   eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
   eglTerminate(display);
   return ok ? 0 : 1;
