@@ -89,6 +89,11 @@ foreach(_modrt_program IN ITEMS modrt-bake modrt-relight modrt-level modrt-demo 
     install(TARGETS ${_modrt_program} RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT programs)
   endif()
 endforeach()
+# The programs' image I/O module (OpenImageIO, dlopen'ed on first use: demo/image_io), where
+# they look for it: <libdir>/modrt.
+if(TARGET modrt_image_io AND TARGET modrt-demo)
+  install(TARGETS modrt_image_io LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}/modrt" COMPONENT programs)
+endif()
 if(TARGET modrt-embed-host)
   file(RELATIVE_PATH _modrt_bin_to_lib "/prefix/${CMAKE_INSTALL_BINDIR}" "/prefix/${CMAKE_INSTALL_LIBDIR}")
   set_target_properties(modrt-embed-host PROPERTIES INSTALL_RPATH "$ORIGIN/${_modrt_bin_to_lib}")

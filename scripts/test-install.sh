@@ -54,7 +54,8 @@ cmake --install "$build_dir" --prefix "$prefix"
 
 dict="$repo_root/tests/fuzz/corpus/dictionary/tiny_interfaces.modrt"
 level="$repo_root/tests/fuzz/corpus/level_file/maze11.modrtlevel"
-# Operators of the DRT fuzz seed: valid structure for the tiny dictionary's kb, no level recorded.
+# Operators of the DRT fuzz seed: valid structure for the tiny dictionary's kb, built for no
+# level (the full-build run below also gives the consumer a scene's own clutter).
 clutter="$repo_root/tests/fuzz/corpus/drt_file/two_objects.modrtdrt"
 
 echo "test-install.sh: find_package(modrt) consumer"
@@ -109,7 +110,7 @@ if [[ -n $full_build ]]; then
   full_prefix="$work/full-prefix"
   cmake --install "$full_build" --prefix "$full_prefix" >/dev/null
   for f in lib/libmodrt_precompute.a lib/cmake/modrt/modrtPrecomputeTargets.cmake bin/modrt-bake bin/modrt-demo \
-    bin/modrt-embed-host; do
+    bin/modrt-embed-host lib/modrt/libmodrt_image_io.so; do
     [[ -e $full_prefix/$f ]] || { echo "test-install.sh: the full install lacks $f" >&2; exit 1; }
   done
   echo "test-install.sh: COMPONENTS runtime with Embree, Eigen and TBB unfindable"
@@ -118,6 +119,23 @@ if [[ -n $full_build ]]; then
   cmake --build "$work/consumer-full" -j"$jobs"
   "$work/consumer-full/modrt_consumer" "$dict" "$level"
   "$work/consumer-full/modrt_consumer_static" "$dict" "$level"
+  # The consumer on one scene's own assets, made by the installed tools as an app's asset
+  # pipeline makes them (the fuzz seed above fits the tiny level's layout but was built for no
+  # level): a small dictionary (embed_host_scene.sh's settings), host_room's level, and the DRT
+  # operators modrt-demo builds for host_room's clutter (--save-clutter).
+  echo "test-install.sh: the consumer on host_room's own level and clutter, made by the installed tools"
+  assets="$work/host_room"
+  mkdir -p "$assets"
+  "$full_prefix/bin/modrt-bake" -o "$assets/dict.modrt" --res 8 --rays 1024 --sh-rays 256 --probe-grid 2 \
+    --lightfield-spatial 6 --lightfield-directional 12 --response-rays 1024 >"$assets/bake.log"
+  "$full_prefix/bin/modrt-level" --level data/scenes/host_room.level.json --dictionary "$assets/dict.modrt" \
+    --save "$assets/host_room.modrtlevel" --out "$assets/level_out" >"$assets/level.log"
+  "$full_prefix/bin/modrt-demo" --scene data/scenes/host_room.gltf --dictionary "$assets/dict.modrt" \
+    --size 64x36 --frames 1 --drt-rays 64 --save-clutter "$assets/host_room.modrtdrt" --no-exr \
+    --out "$assets/demo" >"$assets/demo.log" 2>&1 || { cat "$assets/demo.log"; exit 1; }
+  [[ -s $assets/demo/frame_0000.png ]] || { echo "test-install.sh: the installed modrt-demo wrote no PNG" >&2; exit 1; }
+  "$work/consumer-full/modrt_consumer" "$assets/dict.modrt" "$assets/host_room.modrtlevel" \
+    "$assets/host_room.modrtdrt"
   # The installed example host finds the shared runtime next to it (RPATH $ORIGIN/../lib).
   # (ldd's output kept first: grep -q stopping early would make a pipe fail under pipefail.)
   embed_host_libs="$(ldd "$full_prefix/bin/modrt-embed-host")"

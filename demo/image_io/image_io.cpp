@@ -15,14 +15,19 @@ struct Loaded {
   std::string error;
 };
 
-// Where the module is looked for: beside the program in the build tree's layout (bin/, lib/),
-// then where this build wrote it (MODRT_IMAGE_IO_MODULE_PATH, from demo/CMakeLists.txt).
+// Where the module is looked for: where an installed program's module lies (<libdir>/modrt,
+// relative to the program's bin directory), beside the program in the build tree's layout
+// (bin/, lib/), then where this build wrote it (MODRT_IMAGE_IO_MODULE_PATH; demo/image_io's
+// CMakeLists.txt gives all three).
 std::vector<std::filesystem::path> candidates() {
   namespace fs = std::filesystem;
   std::vector<fs::path> paths;
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) paths.push_back(exe.parent_path().parent_path() / "lib" / MODRT_IMAGE_IO_MODULE_NAME);
+  if (!ec) {
+    paths.push_back(exe.parent_path() / MODRT_IMAGE_IO_INSTALLED_FROM_BIN / MODRT_IMAGE_IO_MODULE_NAME);
+    paths.push_back(exe.parent_path().parent_path() / "lib" / MODRT_IMAGE_IO_MODULE_NAME);
+  }
   paths.emplace_back(MODRT_IMAGE_IO_MODULE_PATH);
   return paths;
 }
