@@ -136,6 +136,11 @@ if [[ -n $full_build ]]; then
   [[ -s $assets/demo/frame_0000.png ]] || { echo "test-install.sh: the installed modrt-demo wrote no PNG" >&2; exit 1; }
   "$work/consumer-full/modrt_consumer" "$assets/dict.modrt" "$assets/host_room.modrtlevel" \
     "$assets/host_room.modrtdrt"
+  # Its GPU half with the clutter: the clutter lightmap texture sampled at the texels' coordinates.
+  rc=0
+  "$work/consumer-full/modrt_consumer_gpu" "$assets/dict.modrt" "$assets/host_room.modrtlevel" \
+    "$assets/host_room.modrtdrt" || rc=$?
+  ((rc == 0 || rc == 77)) || exit "$rc"
   # The installed example host finds the shared runtime next to it (RPATH $ORIGIN/../lib).
   # (ldd's output kept first: grep -q stopping early would make a pipe fail under pipefail.)
   embed_host_libs="$(ldd "$full_prefix/bin/modrt-embed-host")"

@@ -8,11 +8,15 @@
  * world-frame probe texture. The same frame on a CPU context, with the same ld computed on the
  * CPU, is the reference.
  *
- *   modrt_consumer_gpu dictionary.modrt level.modrtlevel
+ *   modrt_consumer_gpu dictionary.modrt level.modrtlevel [clutter.modrtdrt]
+ *
+ * Given operators built for the level's clutter (modrt-demo --save-clutter), the clutter object
+ * is lit by the same point light at its texels (modrt_clutter_get_texels) and its lightmap
+ * texture (modrt_context_get_clutter_texture) is sampled too, at each texel's coordinates.
  *
  * Exits 0 when the GPU frame matches the CPU frame (relative L2 below 1e-4 on the atlas, each
- * vector-irradiance coefficient and the probes), 77 when no EGL surfaceless GLES 3 context can be made, 1
- * otherwise. */
+ * vector-irradiance coefficient, the probes and the clutter lightmap), 77 when no EGL surfaceless GLES 3
+ * context can be made, 1 otherwise. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -123,6 +127,15 @@ static const char* kLdFragment =
     "  o = vec4(texelFetch(u_albedo, t, 0).rgb * u_intensity * cosine / r2 / 3.14159265358979, 1.0);\n"
     "}\n";
 
+static void point_light_at(const float* x, const float* n, const float* albedo, float* ld) {
+  float d[3] = {kLightPosition[0] - x[0], kLightPosition[1] - x[1], kLightPosition[2] - x[2]};
+  float r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+  if (r2 < 1e-8f) r2 = 1e-8f;
+  float cosine = (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / sqrtf(r2);
+  if (cosine < 0.0f) cosine = 0.0f;
+  for (int c = 0; c < 3; ++c) ld[c] = albedo[c] * kLightIntensity[c] * cosine / r2 / 3.14159265358979f;
+}
+
 static void point_light_ld(const modrt_level_sample* samples, const float* albedo, size_t count, float* ld) {
   for (size_t s = 0; s < count; ++s) {
     const float* x = samples[s].position;
@@ -185,9 +198,36 @@ static double rel_l2(const float* a, const float* b, size_t n) {
   return den > 0.0 ? sqrt(num / den) : sqrt(num);
 }
 
+/* The clutter of argv[3] on a context: lit by the point light at its texels (albedo 0.5, which
+ * also feeds its light back with the bounces). Returns the texel count, 0 on failure. */
+static uint32_t attach_clutter(modrt_context* context, modrt_clutter* clutter) {
+  modrt_clutter_info ci;
+  memset(&ci, 0, sizeof ci);
+  ci.struct_size = sizeof ci;
+  if (modrt_clutter_get_info(clutter, &ci) != MODRT_OK || !ci.has_texel_geometry || ci.texel_count == 0) {
+    fprintf(stderr, "clutter: no texels with positions (rebuild it with modrt-demo --save-clutter)\n");
+    return 0;
+  }
+  const size_t n = ci.texel_count;
+  modrt_clutter_texel* texels = malloc(n * sizeof *texels);
+  float* clutter_ld = malloc(3 * n * sizeof *clutter_ld);
+  float* albedo = malloc(3 * n * sizeof *albedo);
+  if (!texels || !clutter_ld || !albedo) return 0;
+  for (size_t i = 0; i < 3 * n; ++i) albedo[i] = 0.5f;
+  int ok = modrt_clutter_get_texels(clutter, texels, n) == MODRT_OK;
+  for (size_t t = 0; ok && t < n; ++t)
+    point_light_at(texels[t].position, texels[t].normal, albedo, &clutter_ld[3 * t]);
+  ok = ok && modrt_context_set_clutter(context, clutter) == MODRT_OK &&
+       modrt_context_set_clutter_light(context, clutter_ld, NULL, 3 * n) == MODRT_OK &&
+       modrt_context_set_clutter_albedo(context, albedo, 3 * n) == MODRT_OK;
+  if (!ok) fprintf(stderr, "clutter: %s\n", modrt_last_error());
+  free(texels), free(clutter_ld), free(albedo);
+  return ok ? ci.texel_count : 0;
+}
+
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    fprintf(stderr, "usage: %s dictionary.modrt level.modrtlevel\n", argv[0]);
+  if (argc != 3 && argc != 4) {
+    fprintf(stderr, "usage: %s dictionary.modrt level.modrtlevel [clutter.modrtdrt]\n", argv[0]);
     return 2;
   }
   EGLDisplay display = EGL_NO_DISPLAY;
@@ -199,6 +239,8 @@ int main(int argc, char** argv) {
   modrt_level* level = NULL;
   CHECK(modrt_dictionary_load_file(argv[1], NULL, &dict));
   CHECK(modrt_level_load_file(argv[2], NULL, &level));
+  modrt_clutter* clutter = NULL;
+  if (argc == 4) CHECK(modrt_clutter_load_file(argv[3], NULL, &clutter));
   modrt_level_info info;
   memset(&info, 0, sizeof info);
   info.struct_size = sizeof info;
@@ -271,6 +313,8 @@ int main(int argc, char** argv) {
   }
 
   /* The frame: ld from the texture, kBounces feedback steps; nothing read back by the runtime. */
+  const uint32_t clutter_texels = clutter ? attach_clutter(gpu, clutter) : 0;
+  if (clutter && !clutter_texels) return 1;
   CHECK(modrt_context_set_ld_texture(gpu, ld_texture));
   CHECK(modrt_context_update(gpu));
   modrt_sizes sizes;
@@ -289,6 +333,7 @@ int main(int argc, char** argv) {
   o.backend = MODRT_BACKEND_CPU;
   modrt_context* cpu = NULL;
   CHECK(modrt_context_create(dict, level, &o, NULL, &cpu));
+  if (clutter && !attach_clutter(cpu, clutter)) return 1;
   CHECK(modrt_context_set_ld(cpu, ld, 3 * samples));
   CHECK(modrt_context_update(cpu));
   float* atlas_cpu = malloc(sizeof(float) * sizes.atlas);
@@ -322,6 +367,45 @@ int main(int argc, char** argv) {
     const double e = rel_l2(vector_gpu, vector_cpu, sizes.atlas);
     if (!isnan(vector_error) && !(e <= vector_error)) vector_error = e; /* the worst; a NaN sticks */
   }
+  /* The clutter lightmap texture, fetched whole by the app's shader and read at each texel's
+   * coordinates, against the CPU context's clutter lightmap. */
+  double clutter_error = 0.0;
+  if (clutter) {
+    uint32_t clutter_texture = 0, clutter_width = 0, clutter_height = 0;
+    int clutter_format = -1;
+    CHECK(modrt_context_get_clutter_texture(gpu, &clutter_texture, &clutter_format, &clutter_width,
+                                            &clutter_height));
+    const size_t n = clutter_texels, whole = (size_t)clutter_width * clutter_height;
+    uint32_t* xy = malloc(2 * n * sizeof *xy);
+    float* sampled = malloc(3 * whole * sizeof *sampled);
+    float* at_texels = malloc(3 * n * sizeof *at_texels);
+    float* clutter_cpu = malloc(3 * n * sizeof *clutter_cpu);
+    if (!xy || !sampled || !at_texels || !clutter_cpu) return 1;
+    CHECK(modrt_context_get_clutter_texel_coords(gpu, xy, 2 * n));
+    CHECK(modrt_context_read_clutter_lightmap(cpu, clutter_cpu, 3 * n));
+    if (!sample_runtime_texture(clutter_texture, clutter_format, (int)clutter_width, whole, sampled)) {
+      fprintf(stderr, "sampling the clutter texture failed\n");
+      return 1;
+    }
+    for (size_t t = 0; t < n; ++t) {
+      if (xy[2 * t] >= clutter_width || xy[2 * t + 1] >= clutter_height) {
+        fprintf(stderr, "clutter texel %zu at (%u, %u) is outside the %ux%u texture\n", t, xy[2 * t],
+                xy[2 * t + 1], clutter_width, clutter_height);
+        return 1;
+      }
+      const size_t at = (size_t)xy[2 * t + 1] * clutter_width + xy[2 * t];
+      for (int c = 0; c < 3; ++c) at_texels[3 * t + (size_t)c] = sampled[3 * at + (size_t)c];
+    }
+    clutter_error = rel_l2(at_texels, clutter_cpu, 3 * n);
+    double mean = 0.0;
+    for (size_t i = 0; i < 3 * n; ++i) mean += clutter_cpu[i];
+    printf(
+        "modrt_consumer_gpu: clutter, %zu texels in a %ux%u texture: rel L2 %.2e against the CPU context "
+        "(mean %.4g)\n",
+        n, clutter_width, clutter_height, clutter_error, mean / (double)(3 * n));
+    if (!(mean > 0.0)) clutter_error = INFINITY; /* a black clutter lightmap proves nothing */
+    free(xy), free(sampled), free(at_texels), free(clutter_cpu);
+  }
   double atlas_mean = 0.0;
   for (size_t i = 0; i < sizes.atlas; ++i) atlas_mean += atlas_cpu[i];
   atlas_mean /= (double)(sizes.atlas ? sizes.atlas : 1);
@@ -331,11 +415,13 @@ int main(int argc, char** argv) {
       "%.2e (%ux%u texture)\n",
       modrt_context_description(gpu), width, height, kBounces, atlas_error, atlas_mean, vector_error,
       probe_error, probe_width, probe_height);
-  const int ok = atlas_mean > 0.0 && atlas_error < 1e-4 && vector_error < 1e-4 && probe_error < 1e-4;
+  const int ok = atlas_mean > 0.0 && atlas_error < 1e-4 && vector_error < 1e-4 && probe_error < 1e-4 &&
+                 clutter_error < 1e-4;
   if (!ok) fprintf(stderr, "modrt_consumer_gpu: the GPU frame does not match the CPU frame\n");
 
   modrt_context_destroy(cpu);
   modrt_context_destroy(gpu);
+  modrt_clutter_destroy(clutter);
   modrt_level_destroy(level);
   modrt_dictionary_destroy(dict);
   free(geometry), free(albedo), free(ld), free(position), free(normal), free(rho);
