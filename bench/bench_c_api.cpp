@@ -58,6 +58,7 @@ void BM_CApiFrame(benchmark::State& state) {
   modrt_context_options o;
   modrt_context_options_init(&o);
   o.skip_unchanged = 0;
+  o.bounces = 0;  // one bounce, the direct path's frame (the default is the converged solve)
   if (modrt_dictionary_load_memory(dict_bytes.data(), dict_bytes.size(), "bench", nullptr, &d) != MODRT_OK ||
       modrt_level_load_memory(level_bytes.data(), level_bytes.size(), "bench", nullptr, &l) != MODRT_OK ||
       modrt_context_create(d, l, &o, nullptr, &c) != MODRT_OK) {
