@@ -1266,6 +1266,11 @@ void expect_bounces_per_update(modrt_backend backend, double tolerance) {
     EXPECT_EQ(n, step.bounces);
     ASSERT_EQ(modrt_context_get_skip_stats(c, &k1), MODRT_OK);
     EXPECT_EQ(k1.frames_skipped - k0.frames_skipped, step.skipped ? 1u : 0u);
+    if (step.skipped) {  // a skipped frame keeps every block and tile (computed + kept per frame)
+      EXPECT_EQ(k1.blocks_computed, k0.blocks_computed);
+      EXPECT_EQ(k1.blocks_kept - k0.blocks_kept, t.level.blocks.size());
+      EXPECT_EQ(k1.tiles_kept - k0.tiles_kept, t.level.blocks.size());
+    }
 
     ASSERT_TRUE(pipeline.run(*step.ld, step.bounces).ok());
     EXPECT_EQ(pipeline.last_frame_skipped(), step.skipped);

@@ -89,11 +89,21 @@ TEST(FramePipeline, ARepeatedFrameIsSkippedExactly) {
   ASSERT_TRUE(p.run(t.ld).ok());
   EXPECT_FALSE(p.last_frame_skipped());
   const std::vector<float> first = lightmap_of(*a);
-  const std::uint64_t evaluations = p.stats().evaluations.evaluations;
+  const BackendEvaluationStats before = p.stats().evaluations;
 
+  // The skipped frame runs nothing and counts as one evaluation that kept everything, so
+  // computed + kept stays evaluations x blocks (modrt_skip_stats).
   ASSERT_TRUE(p.run(t.ld).ok());
   EXPECT_TRUE(p.last_frame_skipped());
-  EXPECT_EQ(p.stats().evaluations.evaluations, evaluations);
+  const BackendEvaluationStats after = p.stats().evaluations;
+  EXPECT_EQ(after.evaluations, before.evaluations + 1);
+  EXPECT_EQ(after.evaluations_skipped, before.evaluations_skipped + 1);
+  EXPECT_EQ(after.blocks_computed, before.blocks_computed);
+  EXPECT_EQ(after.blocks_kept, before.blocks_kept + t.level.blocks.size());
+  EXPECT_EQ(after.slots_kept, before.slots_kept + t.level.slots.size());
+  EXPECT_EQ(after.tiles_written, before.tiles_written);
+  EXPECT_EQ(after.tiles_kept, before.tiles_kept + t.level.blocks.size());
+  EXPECT_EQ(after.blocks_computed + after.blocks_kept, after.evaluations * t.level.blocks.size());
   EXPECT_EQ(p.stats().frames, 2u);
   EXPECT_EQ(p.stats().frames_skipped, 1u);
   EXPECT_EQ(lightmap_of(*a), first);

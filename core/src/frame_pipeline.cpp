@@ -79,6 +79,7 @@ Status FramePipeline::run(std::span<const float> ld, std::uint32_t bounces) {
     if (options_.skip_unchanged && last_valid_ && bounces == last_bounces_ &&
         std::equal(ld.begin(), ld.end(), ld_last_.begin())) {
       ++frames_, ++frames_skipped_;
+      backend_->count_frame_kept();
       times_ = BackendStageTimes{};
       last_skipped_ = true;
       return Status::success();

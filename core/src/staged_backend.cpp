@@ -103,6 +103,13 @@ void StagedBackend::count(const StageWork& w) {
   stats_.tiles_hidden += hidden_, stats_.tiles_caught_up += caught_up_;
 }
 
+void StagedBackend::count_frame_kept() {
+  const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
+  ++stats_.evaluations, ++stats_.evaluations_skipped;
+  stats_.blocks_kept += blocks, stats_.slots_kept += slots, stats_.tiles_kept += blocks;
+  times_ = BackendStageTimes{};
+}
+
 // Whether a padding neighbour of block i (a block whose interior i's padding copies) is flagged.
 static bool padding_source_flagged(const AtlasBlockPadding& padding, std::size_t i,
                                    const std::vector<std::uint8_t>& flags) {
@@ -310,10 +317,7 @@ Status StagedBackend::update(std::span<const float> ld) {
   if (Status s = validate_light_signal(ld, level_.sample_count, "ld"); !s.ok()) return s;
   const bool everything = !updated_;
   if (options_.skip_unchanged && dirty_.mark(ld, everything) == 0 && !everything) {  // this frame's results
-    const std::uint64_t blocks = level_.blocks.size(), slots = level_.slots.size();
-    ++stats_.evaluations, ++stats_.evaluations_skipped;
-    stats_.blocks_kept += blocks, stats_.slots_kept += slots, stats_.tiles_kept += blocks;
-    times_ = BackendStageTimes{};
+    count_frame_kept();
     return Status::success();
   }
   return run_input_and_evaluate(false, ld, 0, false, 0.0f, {});

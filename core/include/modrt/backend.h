@@ -200,6 +200,10 @@ class Backend {
   // queries; cpu: the steady clock around each stage). Off by default.
   virtual void set_timing(bool on) { (void)on; }
   virtual BackendEvaluationStats evaluation_stats() const = 0;
+  // Counts a frame the caller skipped whole (its input repeated the last frame's exactly, so
+  // every result stands) as an evaluation that kept every block, slot and tile: the frame
+  // pipeline's skip of a repeated multi-bounce frame, so computed + kept stays evaluations x blocks.
+  virtual void count_frame_kept() = 0;
 
   // GPU-resident ld (architecture.md §5 step 1 on the GPU): as update(), with ld read from a GL
   // texture (GL_TEXTURE_2D) the caller rendered, sample s at texel (s % width, s / width) of

@@ -131,6 +131,7 @@ class StagedBackend : public Backend {
   const BackendStageTimes& stage_times() const final { return times_; }
   void set_timing(bool on) final { timing_ = on; }
   BackendEvaluationStats evaluation_stats() const final { return stats_; }
+  void count_frame_kept() final;
   Status set_clutter(const DrtOperators* drt) final;
   Status set_clutter_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct) final;
   Status set_clutter_albedo(std::span<const float> clutter_albedo,
