@@ -539,6 +539,69 @@ TEST_P(BackendConformance, SkippingUnchangedWorkIsExact) {
   EXPECT_EQ(read_outputs(*incremental).atlas, read_outputs(*full).atlas);
 }
 
+// The converged solve's b0 = Td_b ld_direct depends on its block's ld only: a backend that keeps
+// it between converged frames (the cpu) computes b0 of the blocks whose ld changed since the
+// last one, and every output equals a backend that computes them all, bit for bit, across a
+// repeated ld, a one-bounce update and a new albedo in between.
+TEST_P(BackendConformance, ConvergedFramesRecomputeOnlyTheChangedB0Exactly) {
+  const TestLevel& t = test_level("maze41");
+  std::unique_ptr<Backend> incremental = make(t.level), full = make(t.level, {.skip_unchanged = false});
+  ASSERT_TRUE(incremental && full);
+  // The others compute every b0 in every converged frame (ConvergedUpdateMatchesLevelConvergedBounce).
+  if (incremental->kind() != BackendKind::cpu) GTEST_SKIP() << incremental->description() << ": keeps no b0";
+  ASSERT_TRUE(incremental->set_albedo(t.albedo).ok());
+  ASSERT_TRUE(full->set_albedo(t.albedo).ok());
+  const std::size_t blocks = t.level.blocks.size();
+  std::vector<float> ld = t.ld, previous;
+  std::vector<float> darker = t.albedo;
+  for (float& v : darker) v *= 0.6f;
+  std::uint64_t changed_blocks = 0, computed_before = 0;
+  ReducedSolveSettings solve;
+  solve.tolerance = 1e-5f;
+  for (int frame = 0; frame < 12; ++frame) {
+    animate_moving_light(t.level, t.ld, frame, ld);  // every fifth frame repeats
+    if (frame == 6) {                                // a one-bounce frame between converged ones
+      ASSERT_TRUE(incremental->update(ld).ok());
+      ASSERT_TRUE(full->update(ld).ok());
+    }
+    if (frame == 9) {
+      ASSERT_TRUE(incremental->set_albedo(darker).ok());
+      ASSERT_TRUE(full->set_albedo(darker).ok());
+    }
+    if (frame >= 1 && frame <= 5) {  // the counters over converged frames only
+      for (const LevelBlock& blk : t.level.blocks)
+        changed_blocks += !std::equal(ld.begin() + 3 * blk.sample_offset,
+                                      ld.begin() + 3 * (blk.sample_offset + blk.sample_count),
+                                      previous.begin() + 3 * blk.sample_offset);
+    }
+    if (frame == 1) computed_before = incremental->evaluation_stats().blocks_computed;
+    previous = ld;
+    ASSERT_TRUE(incremental->update_converged(ld, solve).ok()) << "frame " << frame;
+    ASSERT_TRUE(full->update_converged(ld, solve).ok()) << "frame " << frame;
+    if (frame == 5) {
+      const std::uint64_t computed = incremental->evaluation_stats().blocks_computed - computed_before;
+      EXPECT_EQ(computed, changed_blocks) << incremental->description();
+      EXPECT_LT(changed_blocks, 5 * blocks);
+      std::printf("  %s: b0 for %llu of %llu block-frames over 5 converged frames\n",
+                  incremental->description(), (unsigned long long)computed, (unsigned long long)(5 * blocks));
+    }
+    const Outputs a = read_outputs(*incremental), b = read_outputs(*full);
+    ASSERT_EQ(a.lightmap, b.lightmap) << "frame " << frame;
+    ASSERT_EQ(a.atlas, b.atlas) << "frame " << frame;
+    ASSERT_EQ(a.probes, b.probes) << "frame " << frame;
+    ASSERT_EQ(a.vector, b.vector) << "frame " << frame;
+    if (frame == 5 || frame == 11) {  // and both are the converged bounce of this frame's ld
+      const LevelBufferSizes sz = level_buffer_sizes(t.level, dict());
+      std::vector<float> bs(sz.b), rs(sz.r), ref(sz.lightmap);
+      ConvergedBounceSettings cs;
+      cs.solve = solve;
+      ASSERT_TRUE(
+          level_converged_bounce(t.level, dict(), ld, frame < 9 ? t.albedo : darker, cs, bs, rs, ref).ok());
+      EXPECT_LE(rel_l2(a.lightmap, ref), 1e-4) << "frame " << frame;  // two solves at 1e-5 of max |b|
+    }
+  }
+}
+
 // ---- The camera skip: only the visible blocks' tiles and rectangles ----
 
 // The first block whose lightmap samples, atlas rectangles (padding included) or vector

@@ -92,46 +92,61 @@ AtlasBlockPadding atlas_block_padding(const Level& level) {
   return p;
 }
 
+LevelBlockChanges LevelBlockChanges::create(const Level& level) {
+  LevelBlockChanges c;
+  c.level_ = &level;
+  c.ld_last_.assign(3 * std::size_t(level.sample_count), 0.0f);
+  c.changed_.assign(level.blocks.size(), 1);
+  c.count_ = level.blocks.size();
+  return c;
+}
+
+std::size_t LevelBlockChanges::mark(std::span<const float> ld, bool everything) {
+  const Level& level = *level_;
+  const bool all = everything || !valid_ || ld.size() != ld_last_.size();
+  count_ = 0;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
+    const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
+    const bool changed =
+        all || std::memcmp(ld.data() + first, ld_last_.data() + first, count * sizeof(float)) != 0;
+    changed_[i] = changed;
+    if (changed) {
+      if (first + count <= ld.size())
+        std::memcpy(ld_last_.data() + first, ld.data() + first, count * sizeof(float));
+      ++count_;
+    }
+  }
+  valid_ = ld.size() == ld_last_.size();
+  return count_;
+}
+
 LevelDirtyTracker LevelDirtyTracker::create(const Level& level) {
   LevelDirtyTracker t;
   t.level_ = &level;
   t.deps_ = level_dependencies(level);
-  t.ld_last_.assign(3 * std::size_t(level.sample_count), 0.0f);
-  t.block_dirty_.assign(level.blocks.size(), 1);
+  t.blocks_ = LevelBlockChanges::create(level);
   t.slot_dirty_.assign(level.slots.size(), 1);
   t.tile_dirty_.assign(level.blocks.size(), 1);
-  t.dirty_blocks_ = t.dirty_tiles_ = level.blocks.size();
+  t.dirty_tiles_ = level.blocks.size();
   t.dirty_slots_ = level.slots.size();
   return t;
 }
 
 std::size_t LevelDirtyTracker::mark(std::span<const float> ld, bool everything) {
   const Level& level = *level_;
-  const bool all = everything || !valid_ || ld.size() != ld_last_.size();
-  dirty_blocks_ = 0;
-  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
-    const std::size_t first = 3 * std::size_t(level.blocks[i].sample_offset);
-    const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
-    const bool changed =
-        all || std::memcmp(ld.data() + first, ld_last_.data() + first, count * sizeof(float)) != 0;
-    block_dirty_[i] = changed;
-    if (changed) {
-      if (first + count <= ld.size())
-        std::memcpy(ld_last_.data() + first, ld.data() + first, count * sizeof(float));
-      ++dirty_blocks_;
-    }
-  }
+  const std::size_t dirty_blocks = blocks_.mark(ld, everything);
+  const std::span<const std::uint8_t> block_dirty = blocks_.blocks();
   std::fill(slot_dirty_.begin(), slot_dirty_.end(), std::uint8_t(0));
   for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    if (block_dirty_[i])
+    if (block_dirty[i])
       for (std::uint32_t s : deps_.slots_fed_by(i)) slot_dirty_[s] = 1;
   dirty_slots_ = std::size_t(std::count(slot_dirty_.begin(), slot_dirty_.end(), std::uint8_t(1)));
-  std::copy(block_dirty_.begin(), block_dirty_.end(), tile_dirty_.begin());
+  std::copy(block_dirty.begin(), block_dirty.end(), tile_dirty_.begin());
   for (std::size_t s = 0; s < level.slots.size(); ++s)
     if (slot_dirty_[s]) tile_dirty_[level.slots[s].block] = 1;
   dirty_tiles_ = std::size_t(std::count(tile_dirty_.begin(), tile_dirty_.end(), std::uint8_t(1)));
-  valid_ = ld.size() == ld_last_.size();
-  return dirty_blocks_;
+  return dirty_blocks;
 }
 
 }  // namespace modrt

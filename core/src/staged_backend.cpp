@@ -46,6 +46,7 @@ StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const S
       sizes_(level_buffer_sizes(level, dict)),
       has_probes_(options.probes && sizes_.probes > 0),
       dirty_(LevelDirtyTracker::create(level)),
+      b0_changes_(LevelBlockChanges::create(level)),
       all_blocks_(level.blocks.size(), 1),
       all_slots_(level.slots.size(), 1),
       no_slots_(level.slots.size(), 0),
@@ -408,10 +409,26 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
     converged_.build_ns =
         std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start).count());
   }
-  // Every block's b and tile; r comes from the solve (stage_solve), no slot is computed after it.
-  const StageWork work{all_blocks_, no_slots_, all_blocks_, all_blocks_.size(), 0, all_blocks_.size(), false,
-                       {},          0};
-  if (Status s = stage_begin(); !s.ok()) return s;
+  // Every block's tile, and b0 of every block or (stage_solve_keeps_b0) of the blocks whose ld
+  // changed; r comes from the solve (stage_solve), no slot is computed after it.
+  const bool changed_b0_only = !texture && options_.skip_unchanged && stage_solve_keeps_b0();
+  if (changed_b0_only)
+    b0_changes_.mark(ld_direct);
+  else
+    b0_changes_.invalidate();
+  const StageWork work{changed_b0_only ? b0_changes_.blocks() : std::span<const std::uint8_t>(all_blocks_),
+                       no_slots_,
+                       all_blocks_,
+                       changed_b0_only ? b0_changes_.count() : all_blocks_.size(),
+                       0,
+                       all_blocks_.size(),
+                       false,
+                       {},
+                       0};
+  if (Status s = stage_begin(); !s.ok()) {
+    b0_changes_.invalidate();
+    return s;
+  }
   Status s = timed(TimedStage::upload,
                    [&] { return texture ? stage_ld_texture(ld_texture) : stage_ld(ld_direct, work); });
   if (s.ok()) s = evaluate(work, false, {}, &settings);
@@ -422,6 +439,7 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
   }
   dirty_.invalidate();  // the results on hand are not update(ld_direct)'s
   if (!s.ok()) {
+    b0_changes_.invalidate();  // the backend's b0 may be half written
     warm_ = false;
     mark_all_stale();
     return s;

@@ -29,7 +29,8 @@ class CpuBackend final : public StagedBackend {
         atlas_(sizes().atlas, 0.0f),
         probes_(has_probes() ? sizes().probes : 0, 0.0f),
         rho_(sizes().ld, 0.0f),
-        ld_feedback_(sizes().ld, 0.0f) {
+        ld_feedback_(sizes().ld, 0.0f),
+        b0_(sizes().b, 0.0f) {
     set_timing(options.timing);
   }
 
@@ -58,10 +59,12 @@ class CpuBackend final : public StagedBackend {
   }
   Status stage_b(const StageWork& work) override {
     rt_.compute_b(ld_, work.blocks);
+    b_blocks_ = work.blocks;
     return Status::success();
   }
   // The converged solve on this runtime's kernels and threads; b* becomes the runtime's b.
   bool stage_solve_available() const override { return true; }
+  bool stage_solve_keeps_b0() const override { return true; }
   void stage_reduced_apply(const ReducedFeedback& op, std::span<const float> x,
                            std::span<float> out) override {
     rt_.apply_reduced_feedback(op, x, out);
@@ -70,11 +73,16 @@ class CpuBackend final : public StagedBackend {
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override {
     // With clutter the unknowns are b then c (reduced_feedback.h), c0 = Td_c clutter_ld; the
     // DRT terms through this backend's DRT kernels, the rest of them in core.
-    const std::span<const float> b0 = rt_.b();
-    const std::size_t nb = b0.size();
+    // b0 of the blocks the b stage computed; the others' are the last converged evaluation's.
+    const std::span<const float> b = rt_.b();
+    const std::size_t nb = b.size(), per_block = 3 * std::size_t(level().kb);
+    for (std::size_t i = 0; i < b_blocks_.size(); ++i)
+      if (b_blocks_[i])
+        std::copy_n(b.begin() + std::ptrdiff_t(per_block * i), per_block,
+                    b0_.begin() + std::ptrdiff_t(per_block * i));
     const bool with_clutter = op.clutter.drt != nullptr;
-    if (!warm) std::copy(b0.begin(), b0.end(), x.begin());
-    rt_.reduced_rhs(op, solver.rhs().first(nb));
+    if (!warm) std::copy(b0_.begin(), b0_.end(), x.begin());
+    rt_.reduced_rhs(op, b0_, solver.rhs().first(nb));
     reduced_clutter_start(op, nb, cl_.c_direct, x, solver.rhs(), warm);
     Status drt_status;
     report = solver.solve(
@@ -194,6 +202,10 @@ class CpuBackend final : public StagedBackend {
   std::string description_;
   std::vector<float> lightmap_, atlas_, probes_, rho_, ld_feedback_;
   std::span<const float> ld_;  // this evaluation's ld: the caller's or ld_feedback_
+  // The converged solve's b0 = Td_b ld_direct per block (stage_solve_keeps_b0), and the blocks
+  // whose b the last b stage computed.
+  std::vector<float> b0_;
+  std::span<const std::uint8_t> b_blocks_;
   // DRT (only with clutter): the MRT lightmap the runtime writes (base_) and the clutter's light.
   std::optional<CpuDrtRuntime> drt_;
   std::vector<float> base_;

@@ -755,14 +755,14 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
   parallel_for(level.blocks.size(), b_phase);
 }
 
-void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<float> c) {
+void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<const float> b0, std::span<float> c) {
   if (op.P.empty()) {
-    std::copy(b_.begin(), b_.end(), c.begin());
+    std::copy(b0.begin(), b0.end(), c.begin());
     return;
   }
   const std::size_t kb = level_->kb;
   auto rhs_phase = [&](std::size_t i, int) {
-    gemv_channels(isa_, op.P[i].data.data(), kb, kb, b_.data() + 3 * kb * i, c.data() + 3 * kb * i, false);
+    gemv_channels(isa_, op.P[i].data.data(), kb, kb, b0.data() + 3 * kb * i, c.data() + 3 * kb * i, false);
   };
   parallel_for(level_->blocks.size(), rhs_phase);
 }

@@ -63,6 +63,28 @@ struct AtlasBlockPadding {
 // The padding of a checked level (its records and sample texels within the atlas).
 AtlasBlockPadding atlas_block_padding(const Level& level);
 
+// The blocks whose ld changed bit for bit since the last marked ld: LevelDirtyTracker's first
+// step, and alone the converged solve's b0 = Td_b ld (staged_backend.h), which depends on its
+// block's ld only. create() allocates (the last ld and the flags); mark() does not.
+class LevelBlockChanges {
+ public:
+  static LevelBlockChanges create(const Level& level);
+  // Flags the blocks whose ld differs from the last marked one (every block on the first call,
+  // after invalidate(), or with `everything`) and keeps their ld. Returns how many are flagged.
+  // ld must have 3 x samples floats.
+  std::size_t mark(std::span<const float> ld, bool everything = false);
+  void invalidate() { valid_ = false; }
+  std::span<const std::uint8_t> blocks() const { return changed_; }  // 1: changed
+  std::size_t count() const { return count_; }
+
+ private:
+  const Level* level_ = nullptr;
+  std::vector<float> ld_last_;
+  std::vector<std::uint8_t> changed_;
+  std::size_t count_ = 0;
+  bool valid_ = false;
+};
+
 // Exact dirty tracking over one level's frames. create() allocates (the last ld and the
 // flags); mark() does not.
 class LevelDirtyTracker {
@@ -76,12 +98,12 @@ class LevelDirtyTracker {
   std::size_t mark(std::span<const float> ld, bool everything = false);
   // The next mark() marks everything (the results on hand are not of the last marked ld: a
   // feedback step ran, a frame failed half way, the clutter changed).
-  void invalidate() { valid_ = false; }
+  void invalidate() { blocks_.invalidate(); }
 
-  std::span<const std::uint8_t> blocks() const { return block_dirty_; }  // 1: dirty
+  std::span<const std::uint8_t> blocks() const { return blocks_.blocks(); }  // 1: dirty
   std::span<const std::uint8_t> slots() const { return slot_dirty_; }
   std::span<const std::uint8_t> tiles() const { return tile_dirty_; }
-  std::size_t dirty_blocks() const { return dirty_blocks_; }
+  std::size_t dirty_blocks() const { return blocks_.count(); }
   std::size_t dirty_slots() const { return dirty_slots_; }
   std::size_t dirty_tiles() const { return dirty_tiles_; }
   const LevelDependencies& dependencies() const { return deps_; }
@@ -89,10 +111,9 @@ class LevelDirtyTracker {
  private:
   const Level* level_ = nullptr;
   LevelDependencies deps_;
-  std::vector<float> ld_last_;
-  std::vector<std::uint8_t> block_dirty_, slot_dirty_, tile_dirty_;
-  std::size_t dirty_blocks_ = 0, dirty_slots_ = 0, dirty_tiles_ = 0;
-  bool valid_ = false;
+  LevelBlockChanges blocks_;
+  std::vector<std::uint8_t> slot_dirty_, tile_dirty_;
+  std::size_t dirty_slots_ = 0, dirty_tiles_ = 0;
 };
 
 }  // namespace modrt

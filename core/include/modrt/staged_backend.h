@@ -196,6 +196,11 @@ class StagedBackend : public Backend {
   virtual Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                              const ReducedSolveSettings& settings, ReducedSolveReport& report);
   virtual bool stage_solve_available() const { return false; }  // true where stage_solve is implemented
+  // true where the backend keeps b0 per block between converged evaluations: the b stage of a
+  // converged evaluation then computes b0 of the blocks whose ld changed since the last one that
+  // succeeded (work.blocks; with skip_unchanged, from CPU ld), and stage_solve takes the other
+  // blocks' b0 from the last such evaluation. false: every block's, every converged evaluation.
+  virtual bool stage_solve_keeps_b0() const { return false; }
   // out = G x of `op` with the backend's kernels, for the radius estimates of the build
   // (build_reduced_feedback); default: core's reference_apply_reduced_feedback.
   virtual void stage_reduced_apply(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
@@ -276,6 +281,8 @@ class StagedBackend : public Backend {
   LevelBufferSizes sizes_;
   bool has_probes_ = false;
   LevelDirtyTracker dirty_;
+  LevelBlockChanges
+      b0_changes_;  // the blocks whose b0 a converged evaluation computes (stage_solve_keeps_b0)
   std::vector<std::uint8_t> all_blocks_, all_slots_, no_slots_;  // every flag 1; every slot flag 0
   std::vector<float> rho_;                                       // the clamped albedo, for stage_albedo
   float rho_max_ = 0.0f;
