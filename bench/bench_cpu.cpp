@@ -39,6 +39,20 @@
 //                                              ratio_8_steps = converged / update() + 8
 //                                              multi_bounce_step(); iterations per frame, the
 //                                              last residual and error bound, build_ms
+//   BM_ReducedDirectSolve/<blocks>              the converged solve's fixed point b = c + G b
+//                                              (reduced_feedback.h) solved directly: I - G
+//                                              assembled per channel from op.A, op.B and the
+//                                              Tb->r records, factored once (Eigen SparseLU, COLAMD),
+//                                              each frame c = P b0 (b0 = Td_b ld), three sparse
+//                                              triangular solve pairs; the frames of
+//                                              BM_CpuConverged/<blocks>/0. Time: that solve.
+//                                              Counters: ratio_frame = (one-bounce update() +
+//                                              the direct solve) / update_converged() of the same
+//                                              frames (cpu backend, one thread, alternately): the
+//                                              direct solve replaces the iteration, the rest of a
+//                                              frame is the one-bounce update's; factor_ms, nnz
+//                                              of I - G and of L + U per channel, residual
+//                                              |(I - G) b - c| / |c| (scalar reference G)
 //   BM_CpuCameraSkip/<blocks>/<converged>        the camera skip (set_visible_blocks from
 //                                              CameraVisibility) against the same backend without
 //                                              it, measured alternately, cpu backend, one thread,
@@ -50,7 +64,12 @@
 //                                              Counters: ratio = with / without, ratio_full = with /
 //                                              a one-bounce full update (no skipping, no camera: the
 //                                              issue's baseline), visible blocks and tiles written
-//                                              per frame with and without
+//                                              per frame with and without, blocks_b (blocks whose
+//                                              b, or b0, was computed per frame); the frame with the
+//                                              skip per stage (its stage times): b_us, solve_us,
+//                                              tiles_us (r and tiles), atlas_us, probes_us (probes
+//                                              and vector irradiance), iterations (applications
+//                                              of G per converged frame)
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -70,11 +89,14 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <thread>
 #include <tuple>
 #include <vector>
 
+#include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "modrt/cpu/cpu_backend.h"
@@ -86,6 +108,7 @@
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
+#include "modrt/reduced_feedback.h"
 
 #include "bench_levels.h"
 
@@ -707,6 +730,159 @@ void BM_CpuConverged(benchmark::State& state) {
   state.SetLabel(c.description());
 }
 
+// ---- the converged solve against a direct one (issue 20) ----
+
+// The frames of BM_CpuConverged/<blocks>/0.
+std::vector<std::vector<float>> converged_frames(const PresetLevel& pl, int blocks) {
+  if (blocks <= 41) {
+    const LightSequence* seq = light_sequence(blocks);
+    return seq ? seq->ld : std::vector<std::vector<float>>{};
+  }
+  std::vector<std::vector<float>> frames;
+  for (int f = 0; f < 8; ++f) {
+    frames.push_back(pl.ld);
+    const float scale = 1.0f + 0.1f * float(std::sin(2.0 * 3.14159265358979 * f / 8.0));
+    for (float& v : frames.back()) v *= scale;
+  }
+  return frames;
+}
+
+// I - G of channel ch (reduced_feedback.h): G(i, i) = A_i (plain iteration only), and for each
+// slot s entering block i and each record m of s, G(i, source(m)) += B_s T_m (kb x kr x kb).
+Eigen::SparseMatrix<double> reduced_system(const Level& level, const LevelDependencies& deps,
+                                           const ReducedFeedback& op, int ch) {
+  const std::size_t kb = op.kb, kr = op.kr, n = kb * level.blocks.size();
+  std::vector<Eigen::Triplet<double>> entries;
+  for (std::size_t k = 0; k < n; ++k) entries.emplace_back(int(k), int(k), 1.0);
+  const auto channel = [ch](const ChannelMatrix& m, std::size_t r, std::size_t k) {
+    return double(m.data[3 * (r * m.cols + k) + std::size_t(ch)]);
+  };
+  std::vector<double> BT(kb * kb);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    if (!op.A.empty())
+      for (std::size_t r = 0; r < kb; ++r)
+        for (std::size_t k = 0; k < kb; ++k)
+          entries.emplace_back(int(kb * i + r), int(kb * i + k), -channel(op.A[i], r, k));
+    for (std::uint32_t s : deps.slots_of_block(i))
+      for (std::uint32_t m : deps.records_of_slot(s)) {
+        const ResponseRecord& rec = level.records[m];
+        std::fill(BT.begin(), BT.end(), 0.0);
+        for (std::size_t r = 0; r < kb; ++r)
+          for (std::size_t q = 0; q < kr; ++q) {
+            const double bq = channel(op.B[s], r, q);
+            for (std::size_t k = 0; k < kb; ++k)
+              BT[r * kb + k] += bq * double(rec.T(std::uint32_t(q), std::uint32_t(k)));
+          }
+        for (std::size_t r = 0; r < kb; ++r)
+          for (std::size_t k = 0; k < kb; ++k)
+            entries.emplace_back(int(kb * i + r), int(kb * rec.source_block + k), -BT[r * kb + k]);
+      }
+  }
+  Eigen::SparseMatrix<double> M(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  M.setFromTriplets(entries.begin(), entries.end());  // duplicates summed
+  return M;
+}
+
+void BM_ReducedDirectSolve(benchmark::State& state) {
+  const int blocks = int(state.range(0));
+  const PresetLevel* pl = preset_level(blocks, 16, 32);
+  if (!pl) return state.SkipWithError("no dictionary or level");
+  const Level& level = pl->level;
+  const std::vector<std::vector<float>> frames = converged_frames(*pl, blocks);
+  if (frames.empty()) return state.SkipWithError("no frames");
+  const LevelDependencies deps = level_dependencies(level);
+  const std::vector<float> albedo = level_sample_albedo(level);
+  std::vector<float> rho(albedo.size());
+  clamp_albedo(albedo, kDefaultMaxAlbedo, rho);
+  Result<ReducedFeedback> built = build_reduced_feedback(level, *pl->dict, deps, rho);
+  if (!built.ok()) return state.SkipWithError(built.status().to_string().c_str());
+  const ReducedFeedback& op = built.value();
+  // I - G's nonzeros per channel: kb^2 per pair of coupled blocks (a record couples its slot's
+  // block with its source) and the diagonal. Past kMaxNonzeros the assembly alone outweighs the
+  // iteration's matrix-free G (records kr x kb plus slots kb x kr) and the factor's fill would
+  // not fit in memory: reported, not factored.
+  constexpr double kMaxNonzeros = 8e6;
+  std::set<std::pair<std::uint32_t, std::uint32_t>> coupled;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i)
+    for (std::uint32_t s : deps.slots_of_block(i))
+      for (std::uint32_t m : deps.records_of_slot(s))
+        coupled.emplace(std::uint32_t(i), level.records[m].source_block);
+  const double kb2 = double(op.kb) * op.kb;
+  const double nnz_estimate = double(coupled.size()) * kb2 + double(op.kb) * double(level.blocks.size());
+  if (nnz_estimate > kMaxNonzeros) {
+    const std::string why = "I - G has " + std::to_string(std::llround(nnz_estimate)) +
+                            " nonzeros per channel (" + std::to_string(coupled.size()) +
+                            " coupled block pairs x kb^2): not factored";
+    return state.SkipWithError(why.c_str());
+  }
+  // Factor I - G per channel, once (as a runtime would when the albedo is set).
+  using Lu = Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>;
+  std::vector<std::unique_ptr<Lu>> lu;
+  double nnz = 0.0, nnz_lu = 0.0;
+  const auto f0 = std::chrono::steady_clock::now();
+  for (int ch = 0; ch < 3; ++ch) {
+    const Eigen::SparseMatrix<double> M = reduced_system(level, deps, op, ch);
+    nnz += double(M.nonZeros()) / 3.0;
+    lu.push_back(std::make_unique<Lu>());
+    lu.back()->compute(M);
+    if (lu.back()->info() != Eigen::Success) return state.SkipWithError("SparseLU failed");
+    nnz_lu += double(lu.back()->nnzL() + lu.back()->nnzU()) / 3.0;
+  }
+  const double factor_s = seconds_since(f0);
+  // The iterative solve on the same frames (cpu backend, one thread), for the frame ratio.
+  cpu::CpuBackendOptions o;
+  o.runtime.threads = 1;
+  o.runtime.skip.enabled = false;
+  Result<std::unique_ptr<Backend>> conv = cpu::create_cpu_backend(level, *pl->dict, o);
+  Result<std::unique_ptr<Backend>> one = cpu::create_cpu_backend(level, *pl->dict, o);
+  if (!conv.ok() || !one.ok()) return state.SkipWithError("cpu backend");
+  if (!conv.value()->set_albedo(albedo).ok() || !one.value()->set_albedo(albedo).ok() ||
+      !conv.value()->update_converged(frames[0]).ok())  // operators built, cold solve
+    return state.SkipWithError("cpu backend frame");
+  const std::size_t n = op.unknowns(level);
+  std::vector<float> b0(n), c(n), x(n), r_scratch(3 * std::size_t(op.kr) * level.slots.size()), gx(n);
+  Eigen::VectorXd rhs(int(n / 3)), sol(int(n / 3));
+  double t_direct = 0.0, t_one = 0.0, t_conv = 0.0;
+  std::size_t f = 1;
+  bool ok = true;
+  for (auto _ : state) {
+    const std::vector<float>& ld = frames[f++ % frames.size()];
+    ok &= level_compute_b(level, *pl->dict, ld, b0).ok();  // in the one-bounce update's time below
+    auto t0 = std::chrono::steady_clock::now();
+    reference_reduced_rhs(level, op, b0, c);
+    for (int ch = 0; ch < 3; ++ch) {
+      for (std::size_t k = 0; k < n / 3; ++k) rhs[Eigen::Index(k)] = double(c[3 * k + std::size_t(ch)]);
+      sol = lu[std::size_t(ch)]->solve(rhs);
+      for (std::size_t k = 0; k < n / 3; ++k) x[3 * k + std::size_t(ch)] = float(sol[Eigen::Index(k)]);
+    }
+    const double dt = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    ok &= one.value()->update(ld).ok();
+    t_one += seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    ok &= conv.value()->update_converged(ld).ok();
+    t_conv += seconds_since(t0);
+    t_direct += dt;
+    state.SetIterationTime(dt);
+    benchmark::ClobberMemory();
+  }
+  if (!ok) return state.SkipWithError("a frame failed");
+  // The last frame's residual |x - c - G x| / |c|, with the scalar reference G.
+  reference_apply_reduced_feedback(level, deps, op, x, r_scratch, gx);
+  double res = 0.0, norm = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double d = double(x[k]) - double(c[k]) - double(gx[k]);
+    res += d * d;
+    norm += double(c[k]) * double(c[k]);
+  }
+  state.counters["ratio_frame"] = (t_one + t_direct) / t_conv;
+  state.counters["factor_ms"] = factor_s * 1e3;
+  state.counters["nnz"] = nnz;
+  state.counters["nnz_lu"] = nnz_lu;
+  state.counters["residual"] = norm > 0.0 ? std::sqrt(res / norm) : 0.0;
+  state.SetLabel(conv.value()->description());
+}
+
 // ---- the camera skip (issue 20) ----
 
 void BM_CpuCameraSkip(benchmark::State& state) {
@@ -737,6 +913,9 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   };
   bool ok = frame(a, seq->ld[0]) && frame(b, seq->ld[0]);
   const BackendEvaluationStats a0 = a.evaluation_stats(), b0 = b.evaluation_stats();
+  a.set_timing(true);  // where the frame with the skip spends its time (the steady clock per stage)
+  BackendStageTimes stages;
+  const ConvergedStats c0 = a.converged_stats();
   double t_with = 0.0, t_without = 0.0, t_full = 0.0, visible = 0.0;
   std::size_t f = 1;
   for (auto _ : state) {
@@ -746,6 +925,9 @@ void BM_CpuCameraSkip(benchmark::State& state) {
     const Result<VisibilityStats> seen = camera.update(view_projection[cam], eyes[cam]);
     ok &= seen.ok() && a.set_visible_blocks(camera.visible()).ok() && frame(a, ld);
     const double dt = seconds_since(t0);
+    const BackendStageTimes& st = a.stage_times();
+    stages.b += st.b, stages.feedback += st.feedback, stages.lightmap += st.lightmap;
+    stages.atlas += st.atlas, stages.probes += st.probes, stages.vector += st.vector;
     t0 = std::chrono::steady_clock::now();
     ok &= frame(b, ld);
     t_without += seconds_since(t0);
@@ -766,6 +948,14 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   state.counters["tiles_with"] =
       double(as.tiles_written + as.tiles_caught_up - a0.tiles_written - a0.tiles_caught_up) / n;
   state.counters["tiles_without"] = double(bs.tiles_written - b0.tiles_written) / n;
+  state.counters["blocks_b"] = double(as.blocks_computed - a0.blocks_computed) / n;
+  const auto us = [n](std::uint64_t ns) { return double(ns) * 1e-3 / n; };
+  state.counters["b_us"] = us(stages.b);
+  state.counters["solve_us"] = us(stages.feedback);
+  state.counters["tiles_us"] = us(stages.lightmap);
+  state.counters["atlas_us"] = us(stages.atlas);
+  state.counters["probes_us"] = us(stages.probes + stages.vector);
+  if (converged) state.counters["iterations"] = double(a.converged_stats().iterations - c0.iterations) / n;
   state.SetLabel(a.description());
 }
 
@@ -792,6 +982,12 @@ BENCHMARK(BM_CpuConverged)
     ->Args({1000, 0})
     ->Args({1000, 1})
     ->ArgNames({"blocks", "moving"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ReducedDirectSolve)
+    ->Arg(41)
+    ->Arg(1000)
+    ->ArgNames({"blocks"})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuCameraSkip)
