@@ -281,8 +281,8 @@ class StagedBackend : public Backend {
   LevelBufferSizes sizes_;
   bool has_probes_ = false;
   LevelDirtyTracker dirty_;
-  LevelBlockChanges
-      b0_changes_;  // the blocks whose b0 a converged evaluation computes (stage_solve_keeps_b0)
+  // The blocks whose b0 a converged evaluation computes (stage_solve_keeps_b0).
+  LevelBlockChanges b0_changes_;
   std::vector<std::uint8_t> all_blocks_, all_slots_, no_slots_;  // every flag 1; every slot flag 0
   std::vector<float> rho_;                                       // the clamped albedo, for stage_albedo
   float rho_max_ = 0.0f;

@@ -239,11 +239,11 @@ class CpuLevelRuntime {
   const CpuSkipStats& skip_stats() const { return stats_; }
 
   // The converged solve (core's reduced_feedback.h), twins of reference_reduced_rhs (c = P b0,
-  // b0 = Td_b ld_direct as compute_b writes it, threaded over blocks) and reference_apply_reduced_feedback
-  // (out = A_i x_i
-  // + sum of B_s r_s over the slots entering block i, r = Tb->r x through this runtime's record
-  // operators, float or float16; threaded over slots, then blocks). c, x and out: sizes().b
-  // floats; r is this runtime's r. Nothing is allocated.
+  // b0 = Td_b ld_direct as compute_b writes it, threaded over blocks) and
+  // reference_apply_reduced_feedback (out = A_i x_i + sum of B_s r_s over the slots entering
+  // block i, r = Tb->r x through this runtime's record operators, float or float16; threaded
+  // over slots, then blocks). b0, c, x and out: sizes().b floats; r is this runtime's r.
+  // Nothing is allocated.
   void reduced_rhs(const ReducedFeedback& op, std::span<const float> b0, std::span<float> c);
   void apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
   // After the solve: b = b_new (sizes().b floats, the solve's b*) and r the last application's,
