@@ -38,7 +38,11 @@
 //                                              backend kind, no skipping, measured alternately);
 //                                              ratio_8_steps = converged / update() + 8
 //                                              multi_bounce_step(); iterations per frame, the
-//                                              last residual and error bound, build_ms
+//                                              last residual and error bound, build_ms;
+//                                              /incremental:1 the incremental solve (the
+//                                              default, ReducedSolver::solve_incremental), 0 the
+//                                              full iteration; applications = blocks G was
+//                                              applied to per frame / blocks
 //   BM_ReducedDirectSolve/<blocks>              the converged solve's fixed point b = c + G b
 //                                              (reduced_feedback.h) solved directly: I - G
 //                                              assembled per channel from op.A, op.B and the
@@ -665,6 +669,8 @@ void BM_CpuFloat16(benchmark::State& state) {
 void BM_CpuConverged(benchmark::State& state) {
   const int blocks = int(state.range(0));
   const bool moving = state.range(1) != 0;
+  ReducedSolveSettings solve;
+  solve.incremental = state.range(2) != 0;
   const PresetLevel* pl = preset_level(blocks, 16, 32);
   if (!pl) return state.SkipWithError("no dictionary or level");
   std::vector<std::vector<float>> frames;
@@ -697,7 +703,7 @@ void BM_CpuConverged(benchmark::State& state) {
   Backend& n = *steps.value();
   const std::vector<float> albedo = level_sample_albedo(pl->level);
   if (!c.set_albedo(albedo).ok() || !n.set_albedo(albedo).ok()) return state.SkipWithError("set_albedo");
-  if (!c.update_converged(frames[0]).ok())
+  if (!c.update_converged(frames[0], solve).ok())
     return state.SkipWithError("update_converged");  // build + cold solve
   const ConvergedStats built = c.converged_stats();
   double t_conv = 0.0, t_one = 0.0, t_steps = 0.0;
@@ -706,7 +712,7 @@ void BM_CpuConverged(benchmark::State& state) {
   for (auto _ : state) {
     const std::vector<float>& ld = frames[f++ % frames.size()];
     auto t0 = std::chrono::steady_clock::now();
-    ok &= c.update_converged(ld).ok();
+    ok &= c.update_converged(ld, solve).ok();
     const double dc = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     ok &= n.update(ld).ok();
@@ -723,6 +729,8 @@ void BM_CpuConverged(benchmark::State& state) {
   state.counters["ratio_one_bounce"] = t_conv / t_one;
   state.counters["ratio_8_steps"] = t_conv / t_steps;
   state.counters["iterations"] = solves > 0 ? double(st.iterations - built.iterations) / solves : 0.0;
+  state.counters["applications"] =
+      solves > 0 ? double(st.blocks_applied - built.blocks_applied) / (solves * double(blocks)) : 0.0;
   state.counters["residual"] = st.last.residual;
   state.counters["error_bound"] = st.last.error_bound;
   state.counters["contraction"] = st.contraction;
@@ -955,7 +963,11 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   state.counters["tiles_us"] = us(stages.lightmap);
   state.counters["atlas_us"] = us(stages.atlas);
   state.counters["probes_us"] = us(stages.probes + stages.vector);
-  if (converged) state.counters["iterations"] = double(a.converged_stats().iterations - c0.iterations) / n;
+  if (converged) {
+    const ConvergedStats cs = a.converged_stats();
+    state.counters["iterations"] = double(cs.iterations - c0.iterations) / n;
+    state.counters["applications"] = double(cs.blocks_applied - c0.blocks_applied) / (n * double(blocks));
+  }
   state.SetLabel(a.description());
 }
 
@@ -978,10 +990,9 @@ BENCHMARK(BM_CpuFloat16)
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuConverged)
-    ->Args({41, 0})
-    ->Args({1000, 0})
-    ->Args({1000, 1})
-    ->ArgNames({"blocks", "moving"})
+    ->ArgsProduct({{41}, {0}, {0, 1}})
+    ->ArgsProduct({{1000}, {0, 1}, {0, 1}})
+    ->ArgNames({"blocks", "moving", "incremental"})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReducedDirectSolve)

@@ -340,6 +340,138 @@ TEST(ReducedFeedback, HistoryPredictionHelpsAMovingLight) {
   EXPECT_LE(total[1], total[0]);
 }
 
+// The incremental application over two disjoint sets of blocks, the second added to the first,
+// is the full application: y = G x and r = Tb->r x (both iterations: block Jacobi and plain).
+TEST(ReducedFeedback, DeltaApplicationsAddUpToTheFullOne) {
+  const TestLevel& t = test_level("maze41");
+  const LevelDependencies deps = level_dependencies(t.level);
+  const LevelBufferSizes sz = level_buffer_sizes(t.level, dict());
+  Result<ReducedFeedback> jacobi = build_reduced_feedback(t.level, dict(), deps, t.albedo);
+  ASSERT_TRUE(jacobi.ok());
+  ASSERT_TRUE(jacobi->A.empty());
+  // The plain iteration's form (A per block): any A serves for the sum, so a fixed pattern.
+  ReducedFeedback plain = jacobi.value();
+  plain.block_jacobi = false;
+  plain.A.assign(t.level.blocks.size(), ChannelMatrix{t.level.kb, t.level.kb, {}});
+  for (std::size_t i = 0; i < plain.A.size(); ++i) {
+    plain.A[i].data.resize(3 * std::size_t(t.level.kb) * t.level.kb);
+    for (std::size_t k = 0; k < plain.A[i].data.size(); ++k)
+      plain.A[i].data[k] = 0.01f * float((k * 7 + i * 3) % 11) - 0.04f;
+  }
+  std::vector<float> b0(sz.b);
+  ASSERT_TRUE(level_compute_b(t.level, dict(), t.ld, b0).ok());
+  std::vector<std::uint8_t> even(t.level.blocks.size()), odd(t.level.blocks.size());
+  for (std::size_t i = 0; i < even.size(); ++i) even[i] = i % 3 == 0, odd[i] = i % 3 != 0;
+  std::vector<float> y_full(sz.b), r_full(sz.r), y(sz.b), r(sz.r), r_delta(sz.r);
+  for (const ReducedFeedback* o : {&plain, &jacobi.value()}) {
+    reference_apply_reduced_feedback(t.level, deps, *o, b0, r_full, y_full);
+    std::fill(y.begin(), y.end(), 0.0f);
+    std::fill(r.begin(), r.end(), 0.0f);
+    reference_apply_reduced_feedback_delta(t.level, deps, *o, b0, even, y, r, r_delta);
+    reference_apply_reduced_feedback_delta(t.level, deps, *o, b0, odd, y, r, r_delta);
+    EXPECT_LE(test::rel_l2(y, y_full), 1e-6) << (o == &plain ? "plain" : "block Jacobi");
+    EXPECT_LE(test::rel_l2(r, r_full), 1e-6);
+  }
+  const ReducedFeedback& op = jacobi.value();
+  // A set reaching no slot leaves r and y as they were.
+  std::vector<std::uint8_t> none(t.level.blocks.size(), 0);
+  const std::vector<float> y_before = y, r_before = r;
+  reference_apply_reduced_feedback_delta(t.level, deps, op, b0, none, y, r, r_delta);
+  EXPECT_EQ(y, y_before);
+  EXPECT_EQ(r, r_before);
+}
+
+// The incremental solve over a moving light (each frame a different block brightens, the rest
+// dims a little): every frame within its own error bound of the tight cold solve, an unchanged
+// frame applies nothing, and over the frames it applies G to fewer blocks than the full
+// iteration with the history's prediction; a refresh every solve gives the same answers.
+TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
+  const TestLevel& t = test_level("maze41");
+  const LevelDependencies deps = level_dependencies(t.level);
+  Result<ReducedFeedback> op = build_reduced_feedback(t.level, dict(), deps, t.albedo);
+  ASSERT_TRUE(op.ok());
+  const LevelBufferSizes sz = level_buffer_sizes(t.level, dict());
+  const std::size_t blocks = t.level.blocks.size(), per_block = 3 * std::size_t(t.level.kb);
+  std::vector<float> r(sz.r), r_delta(sz.r), b0(sz.b);
+  const auto apply = [&](std::span<const float> in, std::span<float> out) {
+    reference_apply_reduced_feedback(t.level, deps, op.value(), in, r, out);
+  };
+  const auto apply_delta = [&](std::span<const float> d, std::span<const std::uint8_t> flags, std::span<float> y,
+                               std::span<float> r_acc) {
+    reference_apply_reduced_feedback_delta(t.level, deps, op.value(), d, flags, y, r_acc, r_delta);
+  };
+  ReducedSolveSettings settings;  // the default tolerance (1e-3), as the runtimes use it
+  ReducedSolveSettings tight;
+  tight.tolerance = 1e-7f;
+  for (int refresh : {64, 1}) {
+    settings.refresh_interval = refresh;
+    ReducedSolver inc = ReducedSolver::create(sz.b, 4, per_block, sz.r), full = ReducedSolver::create(sz.b, 4, per_block),
+                  cold = ReducedSolver::create(sz.b);
+    std::vector<float> x(sz.b), x_full(sz.b), x_cold(sz.b), r_tight(sz.r);
+    std::uint64_t applied_inc = 0, applied_full = 0;
+    for (int frame = 0; frame < 14; ++frame) {
+      std::vector<float> ld = t.ld;
+      const int k = frame >= 12 ? 11 : frame;  // frames 12 and 13 repeat frame 11
+      const LevelBlock& blk = t.level.blocks[std::size_t(k * 5) % blocks];
+      for (float& v : ld) v *= 1.0f - 0.01f * float(k % 4);
+      for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i) ld[3 * blk.sample_offset + i] *= 3.0f;
+      ASSERT_TRUE(level_compute_b(t.level, dict(), ld, b0).ok());
+      reference_reduced_rhs(t.level, op.value(), b0, inc.rhs());
+      reference_reduced_rhs(t.level, op.value(), b0, full.rhs());
+      reference_reduced_rhs(t.level, op.value(), b0, cold.rhs());
+      const ReducedSolveReport rep = inc.solve_incremental(apply_delta, x, op->contraction, settings, frame > 0);
+      if (frame == 0) x_full = b0;
+      const ReducedSolveReport rep_full = full.solve(apply, x_full, op->contraction, settings, frame > 0);
+      const std::vector<float> r_full = r;  // the full iteration's last application's
+      x_cold = b0;
+      ASSERT_TRUE(cold.solve(apply, x_cold, op->contraction, tight).converged);
+      r_tight = r;  // Tb->r of the tight solve's last iterate
+      ASSERT_TRUE(rep.converged) << frame;
+      if (frame > 0) {
+        applied_inc += rep.blocks_applied;
+        applied_full += rep_full.blocks_applied;
+      }
+      // |x - b*| <= error_bound max |x| (the bound the stopping rule states), checked with margin
+      // for the estimate q of the contraction.
+      double err = 0.0, largest = 0.0;
+      for (std::size_t i = 0; i < x.size(); ++i)
+        err = std::max(err, double(std::fabs(x[i] - x_cold[i]))), largest = std::max(largest, double(std::fabs(x[i])));
+      EXPECT_LE(err, 1.5 * op->contraction * double(settings.tolerance) * largest)
+          << "refresh " << refresh << " frame " << frame;
+      EXPECT_LE(rep.error_bound, settings.tolerance);
+      // r for the tiles: Tb->r of the x that G was last applied to, within the bound too.
+      // r = Tb->r x_a with max |x_a - b*| <= tolerance max |x| (ReducedSolver): per element
+      // within that times the row's absolute sum over the slot's records.
+      const std::span<const float> r_inc = inc.r();
+      for (std::size_t sl = 0; sl < t.level.slots.size(); ++sl)
+        for (std::uint32_t row_k = 0; row_k < t.level.kr; ++row_k) {
+          double row = 0.0;
+          for (std::uint32_t m : deps.records_of_slot(sl))
+            for (std::uint32_t j = 0; j < t.level.records[m].T.cols; ++j)
+              row += std::fabs(t.level.records[m].T(row_k, j));
+          for (std::size_t c = 0; c < 3; ++c) {
+            const std::size_t e = 3 * (t.level.kr * sl + row_k) + c;
+            ASSERT_LE(std::fabs(double(r_inc[e]) - r_tight[e]), 1.5 * double(settings.tolerance) * largest * row + 1e-9)
+                << "refresh " << refresh << " frame " << frame << " slot " << sl;
+          }
+        }
+      const double er = test::rel_l2(r_inc, r_tight), er_full = test::rel_l2(r_full, r_tight);
+      if (refresh > 1) std::printf("  frame %2d: r rel L2 %.2e (the full iteration's %.2e)\n", frame, er, er_full);
+      if (frame == 13) {
+        EXPECT_EQ(rep.iterations, 0) << "an unchanged rhs applies nothing";
+        if (refresh > 1) {
+          EXPECT_EQ(rep.blocks_applied, 0u);
+        }
+      }
+    }
+    std::printf("refresh %d: 13 warm frames: incremental %llu block applications, full iteration %llu (%zu blocks)\n",
+                refresh, (unsigned long long)applied_inc, (unsigned long long)applied_full, blocks);
+    if (refresh > 1) {
+      EXPECT_LT(applied_inc, applied_full);
+    }
+  }
+}
+
 // Albedo near 1 (max_albedo 0.999): everywhere, and one white block among dark ones. The
 // estimate is damped to kReducedMaxSpectralRadius where it passes it; the solve converges and
 // every lightmap is finite, non-negative and within the energy bound ld_max / (1 - s q), q the

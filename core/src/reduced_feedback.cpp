@@ -476,12 +476,81 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
 }
 
+void reference_apply_reduced_feedback_delta(const Level& level, const LevelDependencies& deps,
+                                            const ReducedFeedback& op, std::span<const float> delta,
+                                            std::span<const std::uint8_t> blocks, std::span<float> y,
+                                            std::span<float> r, std::span<float> r_delta) {
+  const std::size_t bsz = 3 * std::size_t(op.kb), rsz = 3 * std::size_t(op.kr);
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    float* rs = r_delta.data() + rsz * s;
+    std::fill(rs, rs + rsz, 0.0f);
+    for (std::uint32_t m : deps.records_of_slot(s)) {
+      const ResponseRecord& rec = level.records[m];
+      if (blocks[rec.source_block]) reference_gemv_rgb(rec.T, delta.data() + bsz * rec.source_block, rs, true);
+    }
+    float* acc = r.data() + rsz * s;
+    for (std::size_t k = 0; k < rsz; ++k) acc[k] += rs[k];
+  }
+  std::vector<float> gd(bsz);  // the scalar reference allocates
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    std::fill(gd.begin(), gd.end(), 0.0f);
+    if (!op.A.empty() && blocks[i]) reference_gemv_channels(op.A[i], delta.data() + bsz * i, gd.data(), false);
+    for (std::uint32_t s : deps.slots_of_block(i))
+      reference_gemv_channels(op.B[s], r_delta.data() + rsz * s, gd.data(), true);
+    float* dst = y.data() + bsz * i;
+    for (std::size_t k = 0; k < bsz; ++k) dst[k] += gd[k];
+  }
+}
+
 int reduced_solve_iterations(double contraction, float tolerance, int max_iterations) {
   const int cap = std::max(max_iterations, 1);
   if (!(contraction > 1e-12)) return 1;
   if (!(contraction < 1.0) || !(tolerance > 0.0f)) return cap;
   const double k = std::ceil(std::log(double(tolerance)) / std::log(contraction));
   return k < 1.0 ? 1 : (k > double(cap) ? cap : int(k));
+}
+
+bool ReducedSolver::history_coefficients(std::size_t c, int k_max, double* a) const {
+  const std::size_t n = rhs_.size();
+  double g[kMaxHistory][kMaxHistory] = {}, h[kMaxHistory] = {};
+  for (int p = 0; p < k_max; ++p) {
+    const float* rp = history_rhs_.data() + history_slot(p, n);
+    for (std::size_t i = c; i < n; i += 3) h[p] += double(rp[i]) * rhs_[i];
+    for (int q = 0; q <= p; ++q) {
+      const float* rq = history_rhs_.data() + history_slot(q, n);
+      double d = 0.0;
+      for (std::size_t i = c; i < n; i += 3) d += double(rp[i]) * rq[i];
+      g[p][q] = g[q][p] = d;
+    }
+  }
+  double trace = 0.0;
+  for (int p = 0; p < k_max; ++p) trace += g[p][p];
+  if (!(trace > 0.0)) return false;  // this channel has no light: nothing to predict
+  for (int p = 0; p < k_max; ++p) g[p][p] += 1e-9 * trace;
+  // Gaussian elimination with partial pivoting on [g | h].
+  const int k = k_max;
+  for (int col = 0; col < k; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < k; ++r)
+      if (std::fabs(g[r][col]) > std::fabs(g[pivot][col])) pivot = r;
+    if (!(std::fabs(g[pivot][col]) > 1e-300)) return false;
+    if (pivot != col) {
+      for (int j = 0; j < k; ++j) std::swap(g[col][j], g[pivot][j]);
+      std::swap(h[col], h[pivot]);
+    }
+    for (int r = col + 1; r < k; ++r) {
+      const double f = g[r][col] / g[col][col];
+      for (int j = col; j < k; ++j) g[r][j] -= f * g[col][j];
+      h[r] -= f * h[col];
+    }
+  }
+  for (int r = k - 1; r >= 0; --r) {
+    double v = h[r];
+    for (int j = r + 1; j < k; ++j) v -= g[r][j] * a[j];
+    a[r] = v / g[r][r];
+    if (!std::isfinite(a[r])) return false;
+  }
+  return true;
 }
 
 void ReducedSolver::predict(std::span<float> x, bool warm, int history) {
@@ -492,67 +561,55 @@ void ReducedSolver::predict(std::span<float> x, bool warm, int history) {
   }
   if (count_ == 0) return;
   const int k_max = std::min(count_, std::max(history, 1));
-  const auto slot = [&](int age) {  // age 0: the newest pair
-    return std::size_t((head_ - 1 - age + 2 * capacity_) % capacity_) * n;
-  };
   if (history <= 0) {  // the last solution moved by the change of rhs
-    const float* r_last = history_rhs_.data() + slot(0);
+    const float* r_last = history_rhs_.data() + history_slot(0, n);
     for (std::size_t i = 0; i < n; ++i) x[i] += rhs_[i] - r_last[i];
     return;
   }
-  // Per channel: the least-squares a of rhs ~ sum_k a_k rhs_k (normal equations, a small ridge
-  // for near-dependent pairs), then x = sum_k a_k x_k + (rhs - sum_k a_k rhs_k).
+  // Per channel: x = sum_k a_k x_k + (rhs - sum_k a_k rhs_k).
   for (std::size_t c = 0; c < 3; ++c) {
-    double g[kMaxHistory][kMaxHistory] = {}, h[kMaxHistory] = {}, a[kMaxHistory] = {};
-    for (int p = 0; p < k_max; ++p) {
-      const float* rp = history_rhs_.data() + slot(p);
-      for (std::size_t i = c; i < n; i += 3) h[p] += double(rp[i]) * rhs_[i];
-      for (int q = 0; q <= p; ++q) {
-        const float* rq = history_rhs_.data() + slot(q);
-        double d = 0.0;
-        for (std::size_t i = c; i < n; i += 3) d += double(rp[i]) * rq[i];
-        g[p][q] = g[q][p] = d;
-      }
-    }
-    double trace = 0.0;
-    for (int p = 0; p < k_max; ++p) trace += g[p][p];
-    if (!(trace > 0.0)) continue;  // this channel has no light: nothing to predict
-    for (int p = 0; p < k_max; ++p) g[p][p] += 1e-9 * trace;
-    // Gaussian elimination with partial pivoting on [g | h].
-    int k = k_max;
-    bool ok = true;
-    for (int col = 0; col < k && ok; ++col) {
-      int pivot = col;
-      for (int r = col + 1; r < k; ++r)
-        if (std::fabs(g[r][col]) > std::fabs(g[pivot][col])) pivot = r;
-      if (!(std::fabs(g[pivot][col]) > 1e-300)) ok = false;
-      if (!ok) break;
-      if (pivot != col) {
-        for (int j = 0; j < k; ++j) std::swap(g[col][j], g[pivot][j]);
-        std::swap(h[col], h[pivot]);
-      }
-      for (int r = col + 1; r < k; ++r) {
-        const double f = g[r][col] / g[col][col];
-        for (int j = col; j < k; ++j) g[r][j] -= f * g[col][j];
-        h[r] -= f * h[col];
-      }
-    }
-    for (int r = k - 1; r >= 0 && ok; --r) {
-      double v = h[r];
-      for (int j = r + 1; j < k; ++j) v -= g[r][j] * a[j];
-      a[r] = v / g[r][r];
-      ok = std::isfinite(a[r]);
-    }
-    if (!ok) continue;  // x stays the last solution for this channel
+    double a[kMaxHistory] = {};
+    if (!history_coefficients(c, k_max, a)) continue;  // x stays the last solution for this channel
     for (std::size_t i = c; i < n; i += 3) {
       double v = rhs_[i];
-      for (int p = 0; p < k; ++p) {
-        const std::size_t o = slot(p) + i;
+      for (int p = 0; p < k_max; ++p) {
+        const std::size_t o = history_slot(p, n) + i;
         v += a[p] * (double(history_x_[o]) - double(history_rhs_[o]));
       }
       x[i] = float(v);
     }
   }
+}
+
+void ReducedSolver::predict_state(int history) {
+  if (count_ == 0) return;
+  const std::size_t n = rhs_.size(), nr = r_.size();
+  const int k_max = std::min(count_, std::max(history, 1));
+  const auto combine = [&](const double* a, std::size_t c, std::size_t size, const std::vector<float>& ring,
+                           std::vector<float>& out) {
+    for (std::size_t i = c; i < size; i += 3) {
+      double v = 0.0;
+      for (int p = 0; p < k_max; ++p) v += a[p] * double(ring[history_slot(p, size) + i]);
+      out[i] = float(v);
+    }
+  };
+  for (std::size_t c = 0; c < 3; ++c) {
+    double a[kMaxHistory] = {};
+    if (!history_coefficients(c, k_max, a)) continue;  // the state stays the last solve's
+    combine(a, c, n, history_x_, applied_);
+    combine(a, c, n, history_y_, next_);
+    combine(a, c, nr, history_r_, r_);
+  }
+}
+
+void ReducedSolver::remember_state() {
+  const std::size_t n = rhs_.size(), nr = r_.size(), o = std::size_t(head_) * n;
+  std::copy(rhs_.begin(), rhs_.end(), history_rhs_.begin() + std::ptrdiff_t(o));
+  std::copy(applied_.begin(), applied_.end(), history_x_.begin() + std::ptrdiff_t(o));
+  std::copy(next_.begin(), next_.end(), history_y_.begin() + std::ptrdiff_t(o));
+  std::copy(r_.begin(), r_.end(), history_r_.begin() + std::ptrdiff_t(std::size_t(head_) * nr));
+  head_ = (head_ + 1) % capacity_;
+  count_ = std::min(count_ + 1, capacity_);
 }
 
 void ReducedSolver::remember(std::span<const float> x) {
@@ -572,6 +629,40 @@ ReducedSolver::Step ReducedSolver::step(std::span<float> x) {
     x[i] = v;
   }
   return st;
+}
+
+ReducedSolver::Step ReducedSolver::incremental_step(std::span<float> x) {
+  Step st;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const float v = rhs_[i] + next_[i];
+    const float d = v - applied_[i];
+    st.change = std::max(st.change, double(std::fabs(d)));
+    st.largest = std::max(st.largest, double(std::fabs(v)));
+    x[i] = v;
+    delta_[i] = d;
+  }
+  return st;
+}
+
+std::size_t ReducedSolver::flag_changed(double threshold) {
+  const std::size_t n = delta_.size();
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < flags_.size(); ++k) {
+    const std::size_t first = k * block_floats_, last = std::min(n, first + block_floats_);
+    double change = 0.0;
+    for (std::size_t i = first; i < last; ++i) change = std::max(change, double(std::fabs(delta_[i])));
+    flags_[k] = change > threshold ? 1 : 0;
+    count += flags_[k];
+  }
+  return count;
+}
+
+void ReducedSolver::take_flagged(std::span<const float> x) {
+  const std::size_t n = applied_.size();
+  for (std::size_t k = 0; k < flags_.size(); ++k)
+    if (flags_[k])
+      for (std::size_t i = k * block_floats_, last = std::min(n, i + block_floats_); i < last; ++i)
+        applied_[i] = x[i];
 }
 
 namespace {

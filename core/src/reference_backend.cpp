@@ -69,6 +69,18 @@ class ReferenceBackend final : public StagedBackend {
     if (!warm) std::copy(b_.begin(), b_.end(), x.begin());
     reference_reduced_rhs(level(), op, b_, solver.rhs().first(nb));
     reduced_clutter_start(op, nb, cl_.c_direct, x, solver.rhs(), warm);
+    if (!with_clutter && settings.incremental) {
+      r_delta_.resize(r_.size());
+      report = solver.solve_incremental(
+          [&](std::span<const float> d, std::span<const std::uint8_t> blocks, std::span<float> y,
+              std::span<float> r) {
+            reference_apply_reduced_feedback_delta(level(), deps_, op, d, blocks, y, r, r_delta_);
+          },
+          x, op.contraction, settings, warm);
+      std::copy(x.begin(), x.begin() + std::ptrdiff_t(nb), b_.begin());
+      std::copy(solver.r().begin(), solver.r().end(), r_.begin());  // Tb->r of the solve's x_a
+      return Status::success();
+    }
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {
           reference_apply_reduced_feedback(level(), deps_, op, in, r_, out);
@@ -165,6 +177,7 @@ class ReferenceBackend final : public StagedBackend {
   // ld_: this evaluation's ld (the caller's for the dirty blocks, or the fed-back one);
   // base_: the MRT lightmap (Ub b + Ur r), lightmap_ with the DRT delta when there is clutter.
   std::vector<float> ld_, b_, r_, base_, lightmap_, atlas_, probes_;
+  std::vector<float> r_delta_;  // the incremental solve's Tb->r d
   FeedbackClamp feedback_;  // the clamped albedo and the bound of the step
   ClutterBuffers cl_;
 };

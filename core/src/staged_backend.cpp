@@ -249,6 +249,7 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
     if (!s.ok()) return s;
     converged_.last = report;
     ++converged_.solves, converged_.iterations += std::uint64_t(report.iterations);
+    converged_.blocks_applied += report.blocks_applied;
   }
   if (Status s = timed(TimedStage::r, [&] { return stage_r(mrt); }); !s.ok()) return s;
   if (Status s = timed(TimedStage::lightmap, [&] { return stage_tiles(tiles); }); !s.ok()) return s;
@@ -398,7 +399,9 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
     if (!op.ok()) return op.status();
     reduced_.emplace(std::move(op).value());
     const std::size_t unknowns = reduced_->unknowns(level_);
-    if (solver_.unknowns() != unknowns) solver_ = ReducedSolver::create(unknowns);
+    if (solver_.unknowns() != unknowns)
+      solver_ = ReducedSolver::create(unknowns, ReducedSolveSettings{}.history, 3 * std::size_t(level_.kb),
+                                      sizes_.r);
     x_.assign(unknowns, 0.0f);
     if (drt_) clutter_scratch_.allocate(level_, level_.kb, *drt_);
     warm_ = false;

@@ -84,6 +84,14 @@ class CpuBackend final : public StagedBackend {
     if (!warm) std::copy(b0_.begin(), b0_.end(), x.begin());
     rt_.reduced_rhs(op, b0_, solver.rhs().first(nb));
     reduced_clutter_start(op, nb, cl_.c_direct, x, solver.rhs(), warm);
+    if (!with_clutter && settings.incremental) {
+      report = solver.solve_incremental(
+          [&](std::span<const float> d, std::span<const std::uint8_t> blocks, std::span<float> y,
+              std::span<float> r) { rt_.apply_reduced_feedback_delta(op, d, blocks, y, r); },
+          x, op.contraction, settings, warm);
+      rt_.finish_reduced_solve(x.first(nb), solver.r());
+      return Status::success();
+    }
     Status drt_status;
     report = solver.solve(
         [&](std::span<const float> in, std::span<float> out) {

@@ -262,6 +262,8 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   rt.r_.assign(rt.sizes_.r, 0.0f);
   rt.r_planar_.assign(rt.sizes_.r, 0.0f);
   rt.x_planar_.assign(rt.sizes_.b, 0.0f);
+  rt.r_delta_.assign(rt.sizes_.r, 0.0f);
+  rt.slot_touched_.assign(level.slots.size(), 0);
   rt.ld_planar_.assign(3 * rt.max_block_samples_ * std::size_t(options.threads), 0.0f);
   rt.rho_.assign(rt.sizes_.ld, 0.0f);
   rt.ld_feedback_.assign(rt.sizes_.ld, 0.0f);
@@ -755,6 +757,46 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
   parallel_for(level.blocks.size(), b_phase);
 }
 
+void CpuLevelRuntime::apply_reduced_feedback_delta(const ReducedFeedback& op, std::span<const float> d,
+                                                   std::span<const std::uint8_t> blocks, std::span<float> y,
+                                                   std::span<float> r) {
+  const Level& level = *level_;
+  const std::size_t kb = level.kb, kr = level.kr;
+  const std::span<const std::uint32_t> items = flagged(blocks);
+  auto planar_phase = [&](std::size_t k, int) {
+    const std::size_t i = items[k];
+    deinterleave_rgb(d.data() + 3 * kb * i, kb, x_planar_.data() + 3 * kb * i, kb);
+  };
+  parallel_for(items.size(), planar_phase);
+  auto r_phase = [&](std::size_t s, int) {
+    float* rd = r_delta_.data() + 3 * kr * s;
+    bool touched = false;
+    for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
+      const std::size_t rec = slot_records_[q], src = level.records[rec].source_block;
+      if (!blocks[src]) continue;
+      if (!touched) std::fill(rd, rd + 3 * kr, 0.0f);
+      touched = true;
+      gemv(record_ops_[rec], kr, kb, x_planar_.data() + 3 * kb * src, rd, true);
+    }
+    slot_touched_[s] = touched ? 1 : 0;
+    if (touched) {
+      float* acc = r.data() + 3 * kr * s;
+      for (std::size_t k = 0; k < 3 * kr; ++k) acc[k] += rd[k];
+    }
+  };
+  parallel_for(level.slots.size(), r_phase);
+  auto b_phase = [&](std::size_t i, int) {
+    float* dst = y.data() + 3 * kb * i;
+    if (!op.A.empty() && blocks[i])
+      gemv_channels(isa_, op.A[i].data.data(), kb, kb, d.data() + 3 * kb * i, dst, true);
+    for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
+      const std::size_t s = block_slots_[j];
+      if (slot_touched_[s]) gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_delta_.data() + 3 * kr * s, dst, true);
+    }
+  };
+  parallel_for(level.blocks.size(), b_phase);
+}
+
 void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<const float> b0, std::span<float> c) {
   if (op.P.empty()) {
     std::copy(b0.begin(), b0.end(), c.begin());
@@ -767,8 +809,9 @@ void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<const flo
   parallel_for(level_->blocks.size(), rhs_phase);
 }
 
-void CpuLevelRuntime::finish_reduced_solve(std::span<const float> b_new) {
+void CpuLevelRuntime::finish_reduced_solve(std::span<const float> b_new, std::span<const float> r) {
   std::copy(b_new.begin(), b_new.end(), b_.begin());
+  std::copy(r.begin(), r.end(), r_.begin());
   const std::size_t kb = level_->kb, kr = level_->kr;
   for (std::size_t i = 0; i < level_->blocks.size(); ++i)
     deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);

@@ -79,6 +79,7 @@ struct ConvergedStats {
   bool block_jacobi = true;
   std::uint64_t build_ns = 0;                // the last build of the reduced operators
   std::uint64_t solves = 0, iterations = 0;  // converged updates, and their applications of M
+  std::uint64_t blocks_applied = 0;          // their blocks_applied (ReducedSolveReport)
 };
 
 // The size of a texture in texels.

@@ -130,6 +130,13 @@ void reference_reduced_rhs(const Level& level, const ReducedFeedback& op, std::s
 void reference_apply_reduced_feedback(const Level& level, const LevelDependencies& deps,
                                       const ReducedFeedback& op, std::span<const float> x,
                                       std::span<float> r_scratch, std::span<float> out);
+// The incremental solve's application (ReducedSolver::solve_incremental): y += G d and
+// r += Tb->r d with d read only in the flagged blocks (the others count as 0); r_delta receives
+// Tb->r d (3 kr per slot). Of the b part only. Allocates.
+void reference_apply_reduced_feedback_delta(const Level& level, const LevelDependencies& deps,
+                                            const ReducedFeedback& op, std::span<const float> delta,
+                                            std::span<const std::uint8_t> blocks, std::span<float> y,
+                                            std::span<float> r, std::span<float> r_delta);
 // The clutter's terms of G (op.clutter not empty), x and out of op.unknowns(level) floats, b
 // then c: out's b part (holding the b part of G x) gains P s Td_b diag(rho) (dUb b + dUc c)
 // (s Td_b ... for the plain iteration), its c part becomes s Td_c diag(rho_c) (Cb b + Cc c).
@@ -155,17 +162,28 @@ struct ReducedSolveSettings {
   // The warm start's memory (ReducedSolver): the last `history` solves' (rhs, solution) pairs;
   // 0: the last solution moved by the change of rhs only.
   int history = 4;
+  // The incremental solve (ReducedSolver::solve_incremental) where the backend applies G to a
+  // part of the blocks: each pass applies G only to the blocks whose change still exceeds the
+  // stopping rule's threshold. Same stopping rule and error bound; false: every block each pass.
+  bool incremental = true;
+  // Every this many incremental solves, G x is recomputed whole (no float drift accumulates).
+  int refresh_interval = 64;
 };
 
 struct ReducedSolveReport {
   int iterations = 0;        // applications of M
   bool converged = false;    // the tolerance was met (else max_iterations ran)
   float residual = 0.0f;     // max |b0 + s M b - b| / max |b| at the last b before its step
-  float error_bound = 0.0f;  // residual q / (1 - q): the estimated relative error of b
+  // residual q / (1 - q): the estimated relative error of b (the incremental solve: residual /
+  // (1 - q), the error of the iterate its r comes from, ReducedSolver)
+  float error_bound = 0.0f;
   // false: a GPU solve that ran its a-priori iteration count (reduced_solve_iterations) without
   // reading the residual back; residual and error_bound then hold that count's bound q^k, and
   // converged says whether the count was within max_iterations.
   bool measured = true;
+  // Blocks G was applied to over the solve's passes (iterations x blocks for the full
+  // iteration; fewer for the incremental one, whose refresh counts every block once).
+  std::uint64_t blocks_applied = 0;
 };
 
 // The iterations after which a solve started from b0 is within `tolerance` of b*, a priori:
@@ -185,19 +203,45 @@ int reduced_solve_iterations(double contraction, float tolerance, int max_iterat
 // starts from the least-squares combination of the last `history` pairs (per channel) plus the
 // part of rhs they do not explain (the first term of (I - G)^-1 of it, at no cost): a light
 // that dims or brightens is solved at once, one that moves along a path nearly so.
+//
+// The incremental solve (solve_incremental) keeps, across solves, the iterate x_a that G was last
+// applied to and y = G x_a; a pass sets x = rhs + y and applies G only to the change d = x - x_a of
+// the blocks where max |d| exceeds the threshold t = tolerance (1 - q) max |x|: y += G d, x_a = x
+// there. Since x = rhs + G x_a and b* = rhs + G b*, x - b* = G (x_a - x) + G (x - b*), so
+// |x - b*| <= q / (1 - q) max |x - x_a| (the full iteration's bound with its step) and
+// |x_a - b*| <= max |x - x_a| / (1 - q). The solve stops when every block's change is at most t:
+// b* (x) is then within q tolerance max |x| and the r the tiles read (Tb->r x_a) is Tb->r of a
+// vector within tolerance max |x| of b*. A frame whose rhs changed in a few blocks applies G
+// around them only; an unchanged rhs applies nothing.
 class ReducedSolver {
  public:
   static constexpr int kMaxHistory = 8;
-  static ReducedSolver create(std::size_t unknowns, int history = ReducedSolveSettings{}.history) {
+  // block_floats: the unknowns per block (3 kb) for the incremental solve and blocks_applied; the
+  // unknowns after the last whole block (the clutter's c) are one block more. 0: one block.
+  // r_floats: the incremental solve's r (3 kr per slot).
+  static ReducedSolver create(std::size_t unknowns, int history = ReducedSolveSettings{}.history,
+                              std::size_t block_floats = 0, std::size_t r_floats = 0) {
     ReducedSolver s;
     s.next_.assign(unknowns, 0.0f);
     s.rhs_.assign(unknowns, 0.0f);
     s.capacity_ = history < 1 ? 1 : (history > kMaxHistory ? kMaxHistory : history);
     s.history_rhs_.assign(unknowns * std::size_t(s.capacity_), 0.0f);
     s.history_x_.assign(unknowns * std::size_t(s.capacity_), 0.0f);
+    s.block_floats_ = block_floats == 0 || block_floats > unknowns ? (unknowns ? unknowns : 1) : block_floats;
+    const std::size_t blocks = (unknowns + s.block_floats_ - 1) / s.block_floats_;
+    s.applied_.assign(unknowns, 0.0f);
+    s.delta_.assign(unknowns, 0.0f);
+    s.flags_.assign(blocks, 0);
+    s.all_.assign(blocks, 1);
+    s.r_.assign(r_floats, 0.0f);
+    s.history_y_.assign(unknowns * std::size_t(s.capacity_), 0.0f);
+    s.history_r_.assign(r_floats * std::size_t(s.capacity_), 0.0f);
     return s;
   }
+  // The incremental solve's r = Tb->r x_a (the r the tiles read after it).
+  std::span<const float> r() const { return r_; }
   std::size_t unknowns() const { return next_.size(); }
+  std::size_t blocks() const { return flags_.size(); }
   std::span<float> rhs() { return rhs_; }
 
   // Iterates x <- rhs() + G x. With `warm` (x is the last solve's solution for the last rhs),
@@ -221,7 +265,57 @@ class ReducedSolver {
         break;
       }
     }
+    report.blocks_applied = std::uint64_t(report.iterations) * blocks();
     remember(x);
+    incremental_solves_ = -1;  // next_ no longer holds G x_a, nor the history the incremental state
+    return report;
+  }
+
+  // The incremental solve (class comment). apply_delta(d, blocks, y, r) adds G d to y and
+  // Tb->r d to r (r(): 3 kr per slot) reading d only in the blocks flagged in `blocks`. warm
+  // false (another operator, or after a full solve) starts from x_a = 0; a warm solve starts from
+  // the history's prediction (the least-squares combination of the last settings.history
+  // solves' rhs, per channel, applied to their x_a, G x_a and r alike, so y = G x_a and r =
+  // Tb->r x_a still hold); every settings.refresh_interval solves y and r are recomputed from
+  // x_a whole. x receives b* (its content on entry is not read). Allocates nothing.
+  template <class ApplyDelta>
+  ReducedSolveReport solve_incremental(ApplyDelta&& apply_delta, std::span<float> x, double contraction,
+                                       const ReducedSolveSettings& settings, bool warm) {
+    ReducedSolveReport report;
+    const double q = contraction < 1e-12 ? 1e-12 : contraction;
+    const double per_change = 1.0 / (1.0 - q);  // |x_a - b*| per unit of max |x - x_a|
+    if (!warm || incremental_solves_ < 0) {
+      std::fill(applied_.begin(), applied_.end(), 0.0f);
+      std::fill(next_.begin(), next_.end(), 0.0f);
+      std::fill(r_.begin(), r_.end(), 0.0f);
+      count_ = 0, incremental_solves_ = 0;
+    } else if (incremental_solves_ >= settings.refresh_interval) {
+      std::fill(next_.begin(), next_.end(), 0.0f);
+      std::fill(r_.begin(), r_.end(), 0.0f);
+      apply_delta(std::span<const float>(applied_), std::span<const std::uint8_t>(all_), std::span<float>(next_),
+                  std::span<float>(r_));
+      report.blocks_applied += blocks();
+      incremental_solves_ = 0;
+    } else if (settings.history > 0) {
+      predict_state(settings.history);
+    }
+    for (int pass = 0;; ++pass) {
+      const Step st = incremental_step(x);
+      report.residual = float(st.largest > 0.0 ? st.change / st.largest : 0.0);
+      report.error_bound = float(report.residual * per_change);
+      if (st.change * per_change <= double(settings.tolerance) * st.largest) {
+        report.converged = true;
+        break;
+      }
+      if (pass == settings.max_iterations) break;
+      report.blocks_applied += flag_changed(double(settings.tolerance) * st.largest / per_change);
+      apply_delta(std::span<const float>(delta_), std::span<const std::uint8_t>(flags_), std::span<float>(next_),
+                  std::span<float>(r_));
+      take_flagged(x);
+      report.iterations = pass + 1;
+    }
+    remember_state();
+    ++incremental_solves_;
     return report;
   }
 
@@ -235,7 +329,31 @@ class ReducedSolver {
   void predict(std::span<float> x, bool warm, int history);
   // Keeps (rhs, x) as the newest pair.
   void remember(std::span<const float> x);
+  // The least-squares coefficients of rhs ~ sum_k a_k rhs_k over the newest k_max pairs of
+  // channel c (normal equations, a small ridge); false where the channel has no light or the
+  // system is singular.
+  bool history_coefficients(std::size_t c, int k_max, double* a) const;
+  std::size_t history_slot(int age, std::size_t n) const {  // age 0: the newest pair
+    return std::size_t((head_ - 1 - age + 2 * capacity_) % capacity_) * n;
+  }
+  // The incremental solve's warm start: applied_, next_ and r_ = the history's combination.
+  void predict_state(int history);
+  // Keeps (rhs, applied, next, r) as the newest entry.
+  void remember_state();
+  // The incremental solve's pass: x = rhs + next, delta = x - applied, the largest change, value.
+  Step incremental_step(std::span<float> x);
+  // flags = the blocks whose largest |delta| exceeds threshold; returns their count.
+  std::size_t flag_changed(double threshold);
+  // applied = x in the flagged blocks.
+  void take_flagged(std::span<const float> x);
   std::vector<float> next_, rhs_;
+  // The incremental solve: x_a (applied_), next_ = G x_a while incremental_solves_ >= 0 (the
+  // solves since the last refresh), the change and the block flags of a pass, every block flagged.
+  std::vector<float> applied_, delta_, r_;
+  std::vector<float> history_y_, history_r_;  // with history_x_ (x_a) and history_rhs_: the ring
+  std::vector<std::uint8_t> flags_, all_;
+  std::size_t block_floats_ = 1;
+  int incremental_solves_ = -1;
   std::vector<float> history_rhs_, history_x_;  // capacity_ pairs, a ring; newest at head_ - 1
   int capacity_ = 1, count_ = 0, head_ = 0;
 };

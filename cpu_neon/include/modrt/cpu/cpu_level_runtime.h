@@ -246,10 +246,16 @@ class CpuLevelRuntime {
   // Nothing is allocated.
   void reduced_rhs(const ReducedFeedback& op, std::span<const float> b0, std::span<float> c);
   void apply_reduced_feedback(const ReducedFeedback& op, std::span<const float> x, std::span<float> out);
+  // The incremental solve's application (twin of reference_apply_reduced_feedback_delta): y +=
+  // G d and r += Tb->r d (3 kr per slot), d read only in the flagged blocks; a record is read
+  // only when its source block is flagged, a slot's B only when such a record enters it.
+  // Threaded over slots, then blocks. Nothing is allocated.
+  void apply_reduced_feedback_delta(const ReducedFeedback& op, std::span<const float> d,
+                                    std::span<const std::uint8_t> blocks, std::span<float> y, std::span<float> r);
   // After the solve: b = b_new (sizes().b floats, the solve's b*) and r the last application's,
-  // the b and r that compute_r_and_tiles (with no slot flagged), compute_probes and
-  // compute_vector_irradiance read.
-  void finish_reduced_solve(std::span<const float> b_new);
+  // or `r` where given (the incremental solve's, ReducedSolver::r()): the b and r that
+  // compute_r_and_tiles (with no slot flagged), compute_probes and compute_vector_irradiance read.
+  void finish_reduced_solve(std::span<const float> b_new, std::span<const float> r = {});
 
   // b and r of the last evaluate() (interleaved, level_runtime.h layouts).
   std::span<const float> b() const { return b_; }
@@ -306,6 +312,9 @@ class CpuLevelRuntime {
   std::size_t max_block_samples_ = 0;
   std::vector<float> b_, b_planar_, r_, r_planar_, ld_planar_;
   std::vector<float> x_planar_;  // apply_reduced_feedback's planar x
+  // apply_reduced_feedback_delta: Tb->r d, and per slot whether a flagged record entered it.
+  std::vector<float> r_delta_;
+  std::vector<std::uint8_t> slot_touched_;
   std::vector<float> rho_, ld_feedback_;
   // CSR schedules: records of slot s are slot_records_[slot_record_begin_[s] ..
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
