@@ -1077,6 +1077,9 @@ TEST(CApi, ConvergedBouncesAreCoresConvergedSolve) {
   EXPECT_LT(st.contraction, 1.0);
   EXPECT_EQ(st.damping, 1.0f) << "albedo below 0.98: no damping";
   EXPECT_GT(st.build_ns, 0u);
+  // The CPU context's incremental solve: at most every block per pass.
+  EXPECT_GT(st.blocks_applied, 0u);
+  EXPECT_LE(st.blocks_applied, st.iterations * t.level.blocks.size());
   none.struct_size = 4;
   expect_error(modrt_context_get_solve_stats(c, &none), MODRT_ERROR_INVALID_ARGUMENT,
                {"modrt_context_get_solve_stats", "out.struct_size is 4"});
@@ -1097,6 +1100,13 @@ TEST(CApi, ConvergedBouncesAreCoresConvergedSolve) {
   ASSERT_EQ(modrt_context_set_bounces(c, MODRT_BOUNCES_CONVERGED), MODRT_OK);
   ASSERT_EQ(modrt_context_update(c), MODRT_OK);
   EXPECT_LT(rel_l2(read_lightmap(c), ref), 2e-3);
+  // The light did not change since the last solve (the 3-bounce update between left it as it
+  // was): the incremental solve applies nothing.
+  const std::uint64_t applied = st.blocks_applied;
+  ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK);
+  EXPECT_EQ(st.solves, 2u);
+  EXPECT_EQ(st.last_iterations, 0u);
+  EXPECT_EQ(st.blocks_applied, applied);
   expect_error(modrt_context_set_bounces(c, 65), MODRT_ERROR_INVALID_ARGUMENT,
                {"modrt_context_set_bounces", "65"});
   modrt_context_destroy(c);

@@ -163,6 +163,7 @@ Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, 
 
   report = ReducedSolveReport{};
   report.iterations = k;
+  report.blocks_applied = std::uint64_t(k) * level_->blocks.size();  // every pass draws every block
   const double q = std::max(op.contraction, 1e-12);
   const double a_priori = std::pow(q, double(k));
   if (timing()) {

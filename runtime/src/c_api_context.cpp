@@ -998,6 +998,7 @@ modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_s
   k.contraction = st.contraction;
   k.build_ns = st.build_ns;
   k.fallback_updates = context->pipeline->stats().frames_fallback;
+  k.blocks_applied = st.blocks_applied;
   *out = k;
   return MODRT_OK;
 }

@@ -546,6 +546,11 @@ typedef struct modrt_solve_stats {
   uint64_t fallback_updates; /* MODRT_BOUNCES_CONVERGED updates run as one evaluation and 4
                                 feedback steps: the context had no converged solve (GLES with
                                 clutter) */
+  /* Blocks the solves applied M to, over every solve. A CPU context without clutter
+   * solves incrementally: each pass applies M only to the blocks whose b still changes by more
+   * than the tolerance allows, so blocks_applied / (iterations x blocks) is below 1 and an
+   * update whose light did not change runs 0 iterations; elsewhere it is iterations x blocks. */
+  uint64_t blocks_applied;
 } modrt_solve_stats;
 MODRT_API modrt_status modrt_context_get_solve_stats(const modrt_context* context, modrt_solve_stats* out);
 
