@@ -396,8 +396,8 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
   const auto apply = [&](std::span<const float> in, std::span<float> out) {
     reference_apply_reduced_feedback(t.level, deps, op.value(), in, r, out);
   };
-  const auto apply_delta = [&](std::span<const float> d, std::span<const std::uint8_t> flags, std::span<float> y,
-                               std::span<float> r_acc) {
+  const auto apply_delta = [&](std::span<const float> d, std::span<const std::uint8_t> flags,
+                               std::span<float> y, std::span<float> r_acc) {
     reference_apply_reduced_feedback_delta(t.level, deps, op.value(), d, flags, y, r_acc, r_delta);
   };
   ReducedSolveSettings settings;  // the default tolerance (1e-3), as the runtimes use it
@@ -405,8 +405,8 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
   tight.tolerance = 1e-7f;
   for (int refresh : {64, 1}) {
     settings.refresh_interval = refresh;
-    ReducedSolver inc = ReducedSolver::create(sz.b, 4, per_block, sz.r), full = ReducedSolver::create(sz.b, 4, per_block),
-                  cold = ReducedSolver::create(sz.b);
+    ReducedSolver inc = ReducedSolver::create(sz.b, 4, per_block, sz.r),
+                  full = ReducedSolver::create(sz.b, 4, per_block), cold = ReducedSolver::create(sz.b);
     std::vector<float> x(sz.b), x_full(sz.b), x_cold(sz.b), r_tight(sz.r);
     std::uint64_t applied_inc = 0, applied_full = 0;
     for (int frame = 0; frame < 14; ++frame) {
@@ -414,12 +414,14 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
       const int k = frame >= 12 ? 11 : frame;  // frames 12 and 13 repeat frame 11
       const LevelBlock& blk = t.level.blocks[std::size_t(k * 5) % blocks];
       for (float& v : ld) v *= 1.0f - 0.01f * float(k % 4);
-      for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i) ld[3 * blk.sample_offset + i] *= 3.0f;
+      for (std::size_t i = 0; i < 3 * std::size_t(blk.sample_count); ++i)
+        ld[3 * blk.sample_offset + i] *= 3.0f;
       ASSERT_TRUE(level_compute_b(t.level, dict(), ld, b0).ok());
       reference_reduced_rhs(t.level, op.value(), b0, inc.rhs());
       reference_reduced_rhs(t.level, op.value(), b0, full.rhs());
       reference_reduced_rhs(t.level, op.value(), b0, cold.rhs());
-      const ReducedSolveReport rep = inc.solve_incremental(apply_delta, x, op->contraction, settings, frame > 0);
+      const ReducedSolveReport rep =
+          inc.solve_incremental(apply_delta, x, op->contraction, settings, frame > 0);
       if (frame == 0) x_full = b0;
       const ReducedSolveReport rep_full = full.solve(apply, x_full, op->contraction, settings, frame > 0);
       const std::vector<float> r_full = r;  // the full iteration's last application's
@@ -435,7 +437,8 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
       // for the estimate q of the contraction.
       double err = 0.0, largest = 0.0;
       for (std::size_t i = 0; i < x.size(); ++i)
-        err = std::max(err, double(std::fabs(x[i] - x_cold[i]))), largest = std::max(largest, double(std::fabs(x[i])));
+        err = std::max(err, double(std::fabs(x[i] - x_cold[i]))),
+        largest = std::max(largest, double(std::fabs(x[i])));
       EXPECT_LE(err, 1.5 * op->contraction * double(settings.tolerance) * largest)
           << "refresh " << refresh << " frame " << frame;
       EXPECT_LE(rep.error_bound, settings.tolerance);
@@ -451,12 +454,14 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
               row += std::fabs(t.level.records[m].T(row_k, j));
           for (std::size_t c = 0; c < 3; ++c) {
             const std::size_t e = 3 * (t.level.kr * sl + row_k) + c;
-            ASSERT_LE(std::fabs(double(r_inc[e]) - r_tight[e]), 1.5 * double(settings.tolerance) * largest * row + 1e-9)
+            ASSERT_LE(std::fabs(double(r_inc[e]) - r_tight[e]),
+                      1.5 * double(settings.tolerance) * largest * row + 1e-9)
                 << "refresh " << refresh << " frame " << frame << " slot " << sl;
           }
         }
       const double er = test::rel_l2(r_inc, r_tight), er_full = test::rel_l2(r_full, r_tight);
-      if (refresh > 1) std::printf("  frame %2d: r rel L2 %.2e (the full iteration's %.2e)\n", frame, er, er_full);
+      if (refresh > 1)
+        std::printf("  frame %2d: r rel L2 %.2e (the full iteration's %.2e)\n", frame, er, er_full);
       if (frame == 13) {
         EXPECT_EQ(rep.iterations, 0) << "an unchanged rhs applies nothing";
         if (refresh > 1) {
@@ -464,8 +469,9 @@ TEST(ReducedFeedback, IncrementalSolveAppliesFewerBlocksWithinTheBound) {
         }
       }
     }
-    std::printf("refresh %d: 13 warm frames: incremental %llu block applications, full iteration %llu (%zu blocks)\n",
-                refresh, (unsigned long long)applied_inc, (unsigned long long)applied_full, blocks);
+    std::printf(
+        "refresh %d: 13 warm frames: incremental %llu block applications, full iteration %llu (%zu blocks)\n",
+        refresh, (unsigned long long)applied_inc, (unsigned long long)applied_full, blocks);
     if (refresh > 1) {
       EXPECT_LT(applied_inc, applied_full);
     }

@@ -486,7 +486,8 @@ void reference_apply_reduced_feedback_delta(const Level& level, const LevelDepen
     std::fill(rs, rs + rsz, 0.0f);
     for (std::uint32_t m : deps.records_of_slot(s)) {
       const ResponseRecord& rec = level.records[m];
-      if (blocks[rec.source_block]) reference_gemv_rgb(rec.T, delta.data() + bsz * rec.source_block, rs, true);
+      if (blocks[rec.source_block])
+        reference_gemv_rgb(rec.T, delta.data() + bsz * rec.source_block, rs, true);
     }
     float* acc = r.data() + rsz * s;
     for (std::size_t k = 0; k < rsz; ++k) acc[k] += rs[k];
@@ -494,7 +495,8 @@ void reference_apply_reduced_feedback_delta(const Level& level, const LevelDepen
   std::vector<float> gd(bsz);  // the scalar reference allocates
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     std::fill(gd.begin(), gd.end(), 0.0f);
-    if (!op.A.empty() && blocks[i]) reference_gemv_channels(op.A[i], delta.data() + bsz * i, gd.data(), false);
+    if (!op.A.empty() && blocks[i])
+      reference_gemv_channels(op.A[i], delta.data() + bsz * i, gd.data(), false);
     for (std::uint32_t s : deps.slots_of_block(i))
       reference_gemv_channels(op.B[s], r_delta.data() + rsz * s, gd.data(), true);
     float* dst = y.data() + bsz * i;

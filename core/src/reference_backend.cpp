@@ -178,7 +178,7 @@ class ReferenceBackend final : public StagedBackend {
   // base_: the MRT lightmap (Ub b + Ur r), lightmap_ with the DRT delta when there is clutter.
   std::vector<float> ld_, b_, r_, base_, lightmap_, atlas_, probes_;
   std::vector<float> r_delta_;  // the incremental solve's Tb->r d
-  FeedbackClamp feedback_;  // the clamped albedo and the bound of the step
+  FeedbackClamp feedback_;      // the clamped albedo and the bound of the step
   ClutterBuffers cl_;
 };
 

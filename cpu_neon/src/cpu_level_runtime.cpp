@@ -791,7 +791,8 @@ void CpuLevelRuntime::apply_reduced_feedback_delta(const ReducedFeedback& op, st
       gemv_channels(isa_, op.A[i].data.data(), kb, kb, d.data() + 3 * kb * i, dst, true);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j];
-      if (slot_touched_[s]) gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_delta_.data() + 3 * kr * s, dst, true);
+      if (slot_touched_[s])
+        gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_delta_.data() + 3 * kr * s, dst, true);
     }
   };
   parallel_for(level.blocks.size(), b_phase);

@@ -171,9 +171,9 @@ struct ReducedSolveSettings {
 };
 
 struct ReducedSolveReport {
-  int iterations = 0;        // applications of M
-  bool converged = false;    // the tolerance was met (else max_iterations ran)
-  float residual = 0.0f;     // max |b0 + s M b - b| / max |b| at the last b before its step
+  int iterations = 0;      // applications of M
+  bool converged = false;  // the tolerance was met (else max_iterations ran)
+  float residual = 0.0f;   // max |b0 + s M b - b| / max |b| at the last b before its step
   // residual q / (1 - q): the estimated relative error of b (the incremental solve: residual /
   // (1 - q), the error of the iterate its r comes from, ReducedSolver)
   float error_bound = 0.0f;
@@ -292,8 +292,8 @@ class ReducedSolver {
     } else if (incremental_solves_ >= settings.refresh_interval) {
       std::fill(next_.begin(), next_.end(), 0.0f);
       std::fill(r_.begin(), r_.end(), 0.0f);
-      apply_delta(std::span<const float>(applied_), std::span<const std::uint8_t>(all_), std::span<float>(next_),
-                  std::span<float>(r_));
+      apply_delta(std::span<const float>(applied_), std::span<const std::uint8_t>(all_),
+                  std::span<float>(next_), std::span<float>(r_));
       report.blocks_applied += blocks();
       incremental_solves_ = 0;
     } else if (settings.history > 0) {
@@ -309,8 +309,8 @@ class ReducedSolver {
       }
       if (pass == settings.max_iterations) break;
       report.blocks_applied += flag_changed(double(settings.tolerance) * st.largest / per_change);
-      apply_delta(std::span<const float>(delta_), std::span<const std::uint8_t>(flags_), std::span<float>(next_),
-                  std::span<float>(r_));
+      apply_delta(std::span<const float>(delta_), std::span<const std::uint8_t>(flags_),
+                  std::span<float>(next_), std::span<float>(r_));
       take_flagged(x);
       report.iterations = pass + 1;
     }

@@ -251,7 +251,8 @@ class CpuLevelRuntime {
   // only when its source block is flagged, a slot's B only when such a record enters it.
   // Threaded over slots, then blocks. Nothing is allocated.
   void apply_reduced_feedback_delta(const ReducedFeedback& op, std::span<const float> d,
-                                    std::span<const std::uint8_t> blocks, std::span<float> y, std::span<float> r);
+                                    std::span<const std::uint8_t> blocks, std::span<float> y,
+                                    std::span<float> r);
   // After the solve: b = b_new (sizes().b floats, the solve's b*) and r the last application's,
   // or `r` where given (the incremental solve's, ReducedSolver::r()): the b and r that
   // compute_r_and_tiles (with no slot flagged), compute_probes and compute_vector_irradiance read.
