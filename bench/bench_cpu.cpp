@@ -73,7 +73,10 @@
 //                                              skip per stage (its stage times): b_us, solve_us,
 //                                              tiles_us (r and tiles), atlas_us, probes_us (probes
 //                                              and vector irradiance), iterations (applications
-//                                              of G per converged frame)
+//                                              of G per converged frame), probe_blocks (blocks whose
+//                                              probes the evaluation computed; every frame reads
+//                                              two blocks' probes, the camera's and the next one's
+//                                              of the flight, a hidden one's computed on read)
 //
 // Counters: GFLOPs = 2 flops per multiply-add of every GEMV of the frame (Td_b, Tb->r records,
 // Ub, mapped Ur rows; 3 channels) per second; roofline = GFLOPs / BM_PeakFma's rate for the
@@ -916,10 +919,16 @@ void BM_CpuCameraSkip(benchmark::State& state) {
   const std::vector<float> albedo = level_sample_albedo(level);
   if (!a.set_albedo(albedo).ok() || !b.set_albedo(albedo).ok()) return state.SkipWithError("set_albedo");
   CameraVisibility camera(level);
-  const auto frame = [&](Backend& be, const std::vector<float>& ld) {
-    return converged ? be.update_converged(ld).ok() : be.update(ld).ok();
+  // A frame, and the probes a renderer reads for two dynamic objects: one in the camera's block,
+  // one in the block the flight goes to next (camera_flight: block cam / 4).
+  std::vector<float> object_probes(a.sizes().probes / level.blocks.size());
+  const auto frame = [&](Backend& be, const std::vector<float>& ld, std::size_t cam) {
+    bool done = converged ? be.update_converged(ld).ok() : be.update(ld).ok();
+    for (std::size_t k = 0; k < 2 && done && !object_probes.empty(); ++k)
+      done = be.read_block_probes((cam / 4 + k) % level.blocks.size(), object_probes).ok();
+    return done;
   };
-  bool ok = frame(a, seq->ld[0]) && frame(b, seq->ld[0]);
+  bool ok = frame(a, seq->ld[0], 0) && frame(b, seq->ld[0], 0);
   const BackendEvaluationStats a0 = a.evaluation_stats(), b0 = b.evaluation_stats();
   a.set_timing(true);  // where the frame with the skip spends its time (the steady clock per stage)
   BackendStageTimes stages;
@@ -931,16 +940,18 @@ void BM_CpuCameraSkip(benchmark::State& state) {
     const std::size_t cam = f++ % eyes.size();
     auto t0 = std::chrono::steady_clock::now();
     const Result<VisibilityStats> seen = camera.update(view_projection[cam], eyes[cam]);
-    ok &= seen.ok() && a.set_visible_blocks(camera.visible()).ok() && frame(a, ld);
+    ok &= seen.ok() && a.set_visible_blocks(camera.visible()).ok() && frame(a, ld, cam);
     const double dt = seconds_since(t0);
     const BackendStageTimes& st = a.stage_times();
     stages.b += st.b, stages.feedback += st.feedback, stages.lightmap += st.lightmap;
     stages.atlas += st.atlas, stages.probes += st.probes, stages.vector += st.vector;
     t0 = std::chrono::steady_clock::now();
-    ok &= frame(b, ld);
+    ok &= frame(b, ld, cam);
     t_without += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     ok &= full.value()->update(ld).ok();
+    for (std::size_t k = 0; k < 2 && ok && !object_probes.empty(); ++k)
+      ok &= full.value()->read_block_probes((cam / 4 + k) % level.blocks.size(), object_probes).ok();
     t_full += seconds_since(t0);
     t_with += dt;
     visible += seen.ok() ? double(seen->visible) : 0.0;
@@ -957,6 +968,7 @@ void BM_CpuCameraSkip(benchmark::State& state) {
       double(as.tiles_written + as.tiles_caught_up - a0.tiles_written - a0.tiles_caught_up) / n;
   state.counters["tiles_without"] = double(bs.tiles_written - b0.tiles_written) / n;
   state.counters["blocks_b"] = double(as.blocks_computed - a0.blocks_computed) / n;
+  state.counters["probe_blocks"] = double(as.probe_blocks_computed - a0.probe_blocks_computed) / n;
   const auto us = [n](std::uint64_t ns) { return double(ns) * 1e-3 / n; };
   state.counters["b_us"] = us(stages.b);
   state.counters["solve_us"] = us(stages.feedback);

@@ -285,9 +285,10 @@ int main(int argc, char** argv) {
     const BackendEvaluationStats es = run.value()->backend().evaluation_stats();
     std::printf(
         "    camera skip: %zu of %zu blocks visible in the last frame; tiles written %llu, hidden %llu, "
-        "caught up %llu\n",
+        "caught up %llu; probe blocks computed %llu, on read %llu\n",
         run.value()->visible_blocks(), level.blocks.size(), (unsigned long long)es.tiles_written,
-        (unsigned long long)es.tiles_hidden, (unsigned long long)es.tiles_caught_up);
+        (unsigned long long)es.tiles_hidden, (unsigned long long)es.tiles_caught_up,
+        (unsigned long long)es.probe_blocks_computed, (unsigned long long)es.probe_blocks_caught_up);
   }
   if (gles_backend)
     std::printf(

@@ -288,7 +288,9 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
         times_.vector += double(pt.vector) * 1e-6;
   }
   // The probe volume where the dynamic object is: the backend's world-frame texture (GLES), or
-  // the CPU backend's probes turned into the world frame and uploaded.
+  // the CPU backend's probes of the object's block (the renderer samples that cell only; with
+  // the camera skip a hidden block's are computed by this read) turned into the world frame
+  // and uploaded.
   if (s.ok() && probe_sampler_.grid() > 0) {
     const Result<ProbeCell> cell = probe_sampler_.locate(glm::dvec3(state.dynamic_offset), "dynamic object");
     if (!cell.ok()) s = cell.status();
@@ -299,7 +301,11 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
         probe_texture = GLuint(texture.value());
       else
         s = texture.status();
-    } else if (s.ok() && (s = backend_->read_probes(probes_)).ok()) {
+    } else if (s.ok()) {
+      const std::size_t per_block = probes_.size() / level_.blocks.size(), block = cell.value().block;
+      s = backend_->read_block_probes(block, std::span<float>(probes_).subspan(per_block * block, per_block));
+    }
+    if (s.ok() && !probes_.empty()) {
       probe_sampler_.world_probes(probes_, false, world_probes_);
       const Result<GLuint> uploaded = renderer_->upload_probes(world_probes_);
       if (uploaded.ok())

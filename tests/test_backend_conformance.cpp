@@ -682,10 +682,20 @@ TEST_P(BackendConformance, CameraSkipKeepsEveryVisibleBlockExact) {
     }
     ASSERT_TRUE(be->update(ld).ok());
     ASSERT_TRUE(full->update(ld).ok());
+    // One block's probes first (a hidden block's computed on this read), then all of them.
+    const std::size_t probe_block = std::size_t(rng() % blocks);
+    const std::size_t per_block = be->sizes().probes / blocks;
+    std::vector<float> pa(per_block), pb(per_block);
+    ASSERT_TRUE(be->read_block_probes(probe_block, pa).ok());
+    ASSERT_TRUE(full->read_block_probes(probe_block, pb).ok());
+    ASSERT_EQ(pa, pb) << "frame " << frame << " block " << probe_block
+                      << (visible[probe_block] ? "" : " (hidden)");
     const Outputs a = read_outputs(*be), b = read_outputs(*full);
     const std::string mismatch = visible_block_mismatch(t.level, a, b, visible);
     ASSERT_TRUE(mismatch.empty()) << be->description() << " frame " << frame << ": " << mismatch;
     ASSERT_EQ(a.probes, b.probes) << "frame " << frame;
+    ASSERT_TRUE(std::equal(pb.begin(), pb.end(), b.probes.begin() + std::ptrdiff_t(per_block * probe_block)))
+        << "read_block_probes is read_probes' slice";
   }
   const BackendEvaluationStats st = be->evaluation_stats(), fs = full->evaluation_stats();
   EXPECT_EQ(st.evaluations, std::uint64_t(kFrames));
@@ -696,6 +706,14 @@ TEST_P(BackendConformance, CameraSkipKeepsEveryVisibleBlockExact) {
   EXPECT_GT(st.tiles_caught_up, 0u);
   EXPECT_GT(caught_up_on_repeats, 0u) << "frames 4 and 24 repeat the ld and change the visible set";
   EXPECT_LT(st.tiles_written + st.tiles_caught_up, fs.tiles_written);
+  // Every changed block's probes computed once, by the evaluation where visible, else when read
+  // (every frame reads them all here); GLES computes every block's (its renderer samples them).
+  EXPECT_EQ(st.probe_blocks_computed + st.probe_blocks_caught_up, fs.probe_blocks_computed);
+  EXPECT_EQ(fs.probe_blocks_caught_up, 0u);
+  if (be->kind() == BackendKind::gles)
+    EXPECT_EQ(st.probe_blocks_caught_up, 0u);
+  else
+    EXPECT_LT(2 * st.probe_blocks_computed, fs.probe_blocks_computed) << "the hidden blocks' probes waited";
 #if MODRT_TEST_GLES
   // GLES draws the visible blocks' atlas rectangles only (its own count of redrawn blocks).
   const auto* g = dynamic_cast<const gles::GlesLevelRuntime*>(be.get());

@@ -626,6 +626,17 @@ void expect_camera_skip_keeps_the_visible_atlas(modrt_backend backend) {
       if (visible[i]) {
         ASSERT_TRUE(rects_equal(a, b, i)) << "frame " << frame << " visible block " << i;
       }
+    // The probe volume anywhere, hidden blocks included (computed when sampled on a CPU context).
+    for (std::size_t i = frame % 3; i < level.blocks.size(); i += 3) {
+      glm::dvec3 centre(0.0);
+      for (const glm::dvec3& corner : level.blocks[i].corners) centre += corner / 8.0;
+      const float x[3] = {float(centre.x), float(centre.y + 0.1), float(centre.z)};
+      float sa[27], sb[27];
+      ASSERT_EQ(modrt_context_probe_sh(c, x, MODRT_PROBE_RADIANCE, sa), MODRT_OK) << modrt_last_error();
+      ASSERT_EQ(modrt_context_probe_sh(full, x, MODRT_PROBE_RADIANCE, sb), MODRT_OK) << modrt_last_error();
+      ASSERT_TRUE(std::equal(sa, sa + 27, sb))
+          << "frame " << frame << (visible[i] ? " visible" : " hidden") << " block " << i;
+    }
   }
   modrt_skip_stats k = modrt::rt::sized<modrt_skip_stats>();
   ASSERT_EQ(modrt_context_get_skip_stats(c, &k), MODRT_OK);

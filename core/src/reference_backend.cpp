@@ -116,6 +116,8 @@ class ReferenceBackend final : public StagedBackend {
     level_fill_atlas(level(), lightmap_, atlas_);
     return Status::success();
   }
+  bool stage_probe_skip_available() const override { return true; }
+  std::span<const float> stage_probes_data() const override { return probes_; }
   Status stage_probes(const StageWork& work) override {
     for (std::size_t i = 0; i < level().blocks.size(); ++i)
       if (work.tiles[i]) level_compute_block_probes(level(), dict(), deps_, b_, r_, i, probes_);

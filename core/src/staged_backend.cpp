@@ -59,7 +59,10 @@ StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const S
       tiles_work_(level.blocks.size(), 0),
       out_work_(level.blocks.size(), 0),
       atlas_work_(level.blocks.size(), 0),
-      no_blocks_(level.blocks.size(), 0) {}
+      no_blocks_(level.blocks.size(), 0),
+      probe_stale_(level.blocks.size(), 0),
+      probe_work_(level.blocks.size(), 0),
+      probe_wanted_(level.blocks.size(), 0) {}
 
 Status StagedBackend::refused(const std::string& what) const {
   return Status::error(ErrorCode::invalid_argument, name_ + ": " + what);
@@ -197,9 +200,47 @@ Status StagedBackend::catch_up(bool all) {
   return Status::success();
 }
 
+std::size_t StagedBackend::plan_probes(const StageWork& out) {
+  // With clutter stage_probes adds the DRT probe deltas over every block: all of them, always.
+  const bool skip = stage_probe_skip_available() && !drt_;
+  std::size_t count = 0;
+  probe_stale_count_ = 0;
+  for (std::size_t i = 0; i < level_.blocks.size(); ++i) {
+    const bool changed = out.tiles[i] || probe_stale_[i];
+    probe_work_[i] = changed && (!skip || visible_[i]);
+    probe_stale_[i] = changed && !probe_work_[i];
+    count += probe_work_[i], probe_stale_count_ += probe_stale_[i];
+  }
+  return count;
+}
+
+Status StagedBackend::catch_up_probes(const std::vector<std::uint8_t>& wanted) {
+  if (!updated_ || probe_stale_count_ == 0 || !has_probes_) return Status::success();
+  const std::size_t n = level_.blocks.size();
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    probe_work_[i] = probe_stale_[i] && wanted[i];
+    count += probe_work_[i];
+  }
+  if (count == 0) return Status::success();
+  const StageWork work{no_blocks_, no_slots_, probe_work_, 0, 0, count, count == n, {}, 0};
+  Status s = stage_begin();
+  if (s.ok()) s = stage_probes(work);
+  stage_end(s.ok());
+  if (!s.ok()) return s;  // the flags stand
+  for (std::size_t i = 0; i < n; ++i) probe_stale_[i] = probe_stale_[i] && !probe_work_[i];
+  probe_stale_count_ -= count;
+  stats_.probe_blocks_caught_up += count;
+  return Status::success();
+}
+
 void StagedBackend::mark_all_stale() {
   // After a failed evaluation no tile is known to be current (the next one computes every
   // block's b, r and the visible tiles). A backend without the camera skip recomputes all.
+  if (stage_probe_skip_available()) {
+    std::fill(probe_stale_.begin(), probe_stale_.end(), std::uint8_t(1));
+    probe_stale_count_ = probe_stale_.size();
+  }
   if (!stage_camera_skip_available()) return;
   std::fill(stale_.begin(), stale_.end(), std::uint8_t(1));
   std::fill(atlas_stale_.begin(), atlas_stale_.end(), std::uint8_t(1));
@@ -218,7 +259,8 @@ Status StagedBackend::set_visible_blocks(std::span<const std::uint8_t> visible) 
       for (std::uint32_t j : padding_.sources_of(i)) ext_[j] = 1;
   camera_skip_ = !visible.empty();
   // A block that became visible shows this frame's light now (its tiles were left unwritten).
-  return catch_up(false);
+  if (Status s = catch_up(false); !s.ok()) return s;
+  return catch_up_probes(visible_);
 }
 
 // architecture.md §5 steps 2–9 after the input stage; see the header for the order.
@@ -231,7 +273,7 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
         all_blocks_, all_slots_, all_blocks_, mrt.block_count, mrt.slot_count, all_blocks_.size(), true,
         {},          0};
   // The camera skip: the tiles and rectangles of the visible blocks (and the stale ones); the
-  // probes are every block's (the volume is sampled anywhere; DRT adds to all of it).
+  // probes of the visible blocks (the others' when read: plan_probes).
   StageWork tiles = mrt, output = out;
   hidden_ = caught_up_ = 0;
   if (camera_active()) plan_camera(mrt, out, tiles, output);
@@ -257,8 +299,20 @@ Status StagedBackend::evaluate(const StageWork& mrt, bool clutter_feedback, cons
     if (Status s = timed(TimedStage::drt, [&] { return stage_deltas(output); }); !s.ok()) return s;
   if (Status s = timed(TimedStage::atlas, [&] { return stage_atlas(output); }); !s.ok()) return s;
   if (Status s = timed(TimedStage::vector, [&] { return stage_vector(output); }); !s.ok()) return s;
-  if (has_probes_)
-    if (Status s = timed(TimedStage::probes, [&] { return stage_probes(out); }); !s.ok()) return s;
+  if (has_probes_) {
+    const std::size_t count = plan_probes(out);
+    const StageWork probes{out.blocks,
+                           out.slots,
+                           probe_work_,
+                           out.block_count,
+                           out.slot_count,
+                           count,
+                           count == level_.blocks.size(),
+                           {},
+                           0};
+    if (Status s = timed(TimedStage::probes, [&] { return stage_probes(probes); }); !s.ok()) return s;
+    stats_.probe_blocks_computed += count;
+  }
   if (drt_)
     if (Status s = timed(TimedStage::clutter, [&] { return stage_clutter_lightmap(); }); !s.ok()) return s;
   return Status::success();
@@ -499,7 +553,32 @@ Status StagedBackend::read_probes(std::span<float> out) {
   if (!has_probes_)
     return refused("no probes: the dictionary has none, or the backend's probes option is off");
   if (Status s = check_read("probes", sizes_.probes, out.size()); !s.ok()) return s;
+  if (Status s = catch_up_probes(all_blocks_); !s.ok()) return s;
   return read_output(StageOutput::probes, out);
+}
+
+Status StagedBackend::read_block_probes(std::size_t block, std::span<float> out) {
+  if (!has_probes_)
+    return refused("no probes: the dictionary has none, or the backend's probes option is off");
+  const std::size_t n = level_.blocks.size();
+  if (block >= n)
+    return refused("read_block_probes: block " + std::to_string(block) + " of a level with " +
+                   std::to_string(n) + " blocks");
+  const std::size_t per_block = sizes_.probes / n;
+  if (Status s = check_read("block probes", per_block, out.size()); !s.ok()) return s;
+  if (probe_stale_[block]) {
+    std::fill(probe_wanted_.begin(), probe_wanted_.end(), std::uint8_t(0));
+    probe_wanted_[block] = 1;
+    if (Status s = catch_up_probes(probe_wanted_); !s.ok()) return s;
+  }
+  std::span<const float> all = stage_probes_data();
+  if (all.empty()) {
+    probe_scratch_.resize(sizes_.probes);
+    if (Status s = read_output(StageOutput::probes, probe_scratch_); !s.ok()) return s;
+    all = probe_scratch_;
+  }
+  std::copy_n(all.begin() + std::ptrdiff_t(per_block * block), per_block, out.begin());
+  return Status::success();
 }
 
 Status StagedBackend::read_vector_lightmap(std::span<float> out) {

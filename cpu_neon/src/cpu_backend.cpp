@@ -139,6 +139,8 @@ class CpuBackend final : public StagedBackend {
     return Status::success();
   }
   bool stage_camera_skip_available() const override { return true; }
+  bool stage_probe_skip_available() const override { return true; }
+  std::span<const float> stage_probes_data() const override { return probes_; }
   Status stage_probes(const StageWork& work) override {
     rt_.compute_probes(work.tiles, probes_);
     return clutter() ? drt_->apply_probes(rt_.b(), cl_.c, probes_) : Status::success();  // DRT §5 (U_dyn)

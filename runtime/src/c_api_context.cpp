@@ -67,6 +67,9 @@ struct modrt_context {
   std::uint32_t ld_texture = 0;
   bool vector_current = false;
   bool probes_current = false;
+  // Per block whether `probes` holds its probes of the last update (modrt_context_probe_sh reads
+  // one block's on a CPU context: with the camera skip a hidden block's are computed on demand).
+  HookVector<std::uint8_t> probe_block_current;
   HookVector<cpu::CpuLight> lights;  // capacity max_lights
 
   // DRT: the clutter set on the backend (a reference kept: the backend borrows its operators).
@@ -84,6 +87,7 @@ struct modrt_context {
         albedo(HookAllocator<float>(&alloc)),
         vector(HookAllocator<float>(&alloc)),
         vector_plane(HookAllocator<float>(&alloc)),
+        probe_block_current(HookAllocator<std::uint8_t>(&alloc)),
         lights(HookAllocator<cpu::CpuLight>(&alloc)) {
     retain(d);
     retain(l);
@@ -290,6 +294,22 @@ modrt_status current_probes(modrt_context* c, const char* fn) {
   return MODRT_OK;
 }
 
+// The probes of `block` in c->probes: one block's read from a CPU or reference backend (a GLES
+// backend reads its probe texture back whole, so every block's at once).
+modrt_status current_block_probes(modrt_context* c, std::size_t block, const char* fn) {
+  if (c->backend->kind() == BackendKind::gles) return current_probes(c, fn);
+  if (modrt_status s = check_probes_on(c, fn); s != MODRT_OK) return s;
+  if (c->probes_current || c->probe_block_current[block] || c->pipeline->stats().frames == 0) return MODRT_OK;
+  const std::size_t per_block = c->probes.size() / c->probe_block_current.size();
+  BackendCall call(c);
+  if (Status s = c->backend->read_block_probes(
+          block, std::span<float>(c->probes.data() + per_block * block, per_block));
+      !s.ok())
+    return backend_fail(c, fn, s);
+  c->probe_block_current[block] = 1;
+  return MODRT_OK;
+}
+
 }  // namespace
 
 extern "C" {
@@ -397,6 +417,7 @@ modrt_status modrt_context_create(modrt_dictionary* dictionary, modrt_level* lev
     if (modrt_status s = set_feedback_albedo(c, c->albedo); s != MODRT_OK) return s;
     if (c->probes_on) {
       c->probes.assign(c->sizes.probes, 0.0f);
+      c->probe_block_current.assign(c->lv().blocks.size(), 0);
       c->sampler = ProbeSampler(c->lv(), c->probe_grid);
       c->camera = CameraVisibility(c->lv());
     }
@@ -681,6 +702,7 @@ modrt_status modrt_context_update(modrt_context* context) {
       t.atlas_ns = st.atlas + st.clutter;    // with the clutter atlas
       t.probes_ns = st.probes + st.vector;   // with the vector irradiance
       context->probes_current = false;
+      std::fill(context->probe_block_current.begin(), context->probe_block_current.end(), std::uint8_t(0));
       context->vector_current = false;
     }
     t.update_ns = ns_since(t0);
@@ -833,9 +855,13 @@ modrt_status modrt_context_probe_sh(modrt_context* context, const float position
       if (!std::isfinite(position[a]))
         return fail(MODRT_ERROR_NON_FINITE,
                     std::string(fn) + ": position[" + std::to_string(a) + "] is not finite");
-    if (modrt_status s = current_probes(context, fn); s != MODRT_OK) return s;
-    if (Status s = context->sampler.sample(context->probes, glm::dvec3(position[0], position[1], position[2]),
-                                           kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
+    const glm::dvec3 x(position[0], position[1], position[2]);
+    const Result<ProbeCell> cell = context->sampler.locate(x);
+    if (!cell.ok())
+      return fail(from_error_code(cell.status().code()), std::string(fn) + ": " + cell.status().message());
+    if (modrt_status s = current_block_probes(context, cell.value().block, fn); s != MODRT_OK) return s;
+    if (Status s =
+            context->sampler.sample(context->probes, x, kind_value == MODRT_PROBE_IRRADIANCE_OVER_PI, out);
         !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     return MODRT_OK;

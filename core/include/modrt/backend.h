@@ -62,12 +62,15 @@ struct BackendEvaluationStats {
   std::uint64_t evaluations_skipped = 0;               // the input was identical to the last one: nothing ran
   std::uint64_t blocks_computed = 0, blocks_kept = 0;  // b_i = Td_b ld_i (a block whose ld is 0: computed)
   std::uint64_t slots_computed = 0, slots_kept = 0;    // r_s = Tb->r b
-  std::uint64_t tiles_written = 0, tiles_kept = 0;     // the block's atlas tiles (and its probes)
+  std::uint64_t tiles_written = 0, tiles_kept = 0;     // the block's atlas tiles
   // The camera skip (set_visible_blocks): computed + kept + hidden = evaluations x blocks, where
   // tiles_hidden counts the changed tiles of blocks outside the visible set (not written then).
   // tiles_caught_up: tiles written late, when their block became visible (or before a
   // feedback step read them), not counted in the sum.
   std::uint64_t tiles_hidden = 0, tiles_caught_up = 0;
+  // Blocks whose probes an evaluation computed, and those computed later, when read or when
+  // their block came into view (the camera skip); without it every changed block's are computed.
+  std::uint64_t probe_blocks_computed = 0, probe_blocks_caught_up = 0;
 };
 
 // The converged multi-bounce of a backend (update_converged, reduced_feedback.h).
@@ -140,15 +143,18 @@ class Backend {
 
   // Skip what the camera cannot see (issue 20): visible[i] != 0 marks block i potentially
   // visible (level_visible_blocks, or the renderer's own visibility set); empty: every block
-  // (the default). b and r are still computed for every block (they carry light), the probes
-  // too, but a block's lightmap tile and its atlas rectangles (and vector atlases on a GPU) are
-  // written only while it is visible, and those of its open-face neighbours that its padding
-  // reads. A block that becomes visible has its tiles produced by this call, from the b and r
-  // on hand, so that the outputs of every visible block equal the full path's bit for bit; a
+  // (the default). b and r are still computed for every block (they carry light), but a
+  // block's lightmap tile and its atlas rectangles (and vector atlases on a GPU) are written
+  // only while it is visible, and those of its open-face neighbours that its padding reads.
+  // A block that becomes visible has its tiles produced by this call, from the b and r on
+  // hand, so that the outputs of every visible block equal the full path's bit for bit; a
   // feedback step first produces every hidden tile (it reads the whole lightmap). The hidden
   // blocks' texels in read_lightmap / read_atlas are not current (an earlier frame's, and
-  // with clutter this frame's deltas over them). Refused (nothing changes) for a wrong size,
-  // and by a backend without it.
+  // with clutter this frame's deltas over them). The probes of a hidden block (CPU and
+  // reference backends, without clutter; GLES computes every block's) are computed when they
+  // are read (read_probes, read_block_probes) or the block comes into view, so every probe
+  // read equals the full path's. Refused (nothing changes) for a wrong size, and by a
+  // backend without it.
   virtual Status set_visible_blocks(std::span<const std::uint8_t> visible) {
     (void)visible;
     return Status::error(ErrorCode::invalid_argument,
@@ -160,6 +166,9 @@ class Backend {
   virtual Status read_lightmap(std::span<float> lightmap) = 0;
   virtual Status read_atlas(std::span<float> atlas) = 0;
   virtual Status read_probes(std::span<float> probes) = 0;
+  // The probes of block `block` only (sizes().probes / blocks floats, read_probes' slice of it):
+  // with the camera skip, the one hidden block's probes are computed, not every one's.
+  virtual Status read_block_probes(std::size_t block, std::span<float> probes) = 0;
   // Vector irradiance (MRT §6.4, level_compute_vector_irradiance's layout, sizes().vector_lightmap
   // floats): four OHLSH coefficients x RGB per sample, for normal-mapped surfaces. Fails when
   // the dictionary has no vector operators or the backend was created without them.

@@ -127,6 +127,7 @@ class StagedBackend : public Backend {
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
+  Status read_block_probes(std::size_t block, std::span<float> probes) final;
   Status read_vector_lightmap(std::span<float> vector_lightmap) final;
   const BackendStageTimes& stage_times() const final { return times_; }
   void set_timing(bool on) final { timing_ = on; }
@@ -224,6 +225,14 @@ class StagedBackend : public Backend {
     return Status::success();
   }
   virtual Status stage_probes(const StageWork& work) = 0;
+  // The camera skip's probes: true where stage_probes computes the work.tiles blocks' probes
+  // only (and adds no DRT over the others), so that a hidden block's probes can wait until
+  // they are read or the block comes into view; a backend whose renderer samples the probe
+  // volume on the GPU (GLES) keeps the default and computes every block's.
+  virtual bool stage_probe_skip_available() const { return false; }
+  // Where the backend keeps the probes in CPU memory (sizes().probes floats), for
+  // read_block_probes to copy one block's; empty: read_output copies them all.
+  virtual std::span<const float> stage_probes_data() const { return {}; }
   // Around each evaluation (GL state); stage_end runs after a failed stage too (ok false).
   virtual Status stage_begin() { return Status::success(); }
   virtual void stage_end(bool ok) { (void)ok; }
@@ -268,6 +277,11 @@ class StagedBackend : public Backend {
   // (visible, ext) with the b and r on hand; with all, every one (before a feedback step).
   void plan_camera(const StageWork& mrt, const StageWork& out, StageWork& tiles, StageWork& atlas);
   Status catch_up(bool all);
+  // The probes of the stale blocks flagged in `wanted`, from the b and r on hand.
+  Status catch_up_probes(const std::vector<std::uint8_t>& wanted);
+  // This evaluation's probe work (probe_work_): the blocks whose probes changed (out.tiles) or
+  // waited, within visible_ where the backend has the probe skip; the rest stay stale.
+  std::size_t plan_probes(const StageWork& out);
   void mark_all_stale();
   bool camera_active() const { return camera_skip_ || stale_count_ > 0 || atlas_stale_count_ > 0; }
   Status check_read(const char* what, std::size_t expected, std::size_t got) const;
@@ -307,6 +321,11 @@ class StagedBackend : public Backend {
   std::vector<std::uint8_t> visible_, ext_, stale_, atlas_stale_, tiles_work_, out_work_, atlas_work_,
       no_blocks_;
   std::size_t stale_count_ = 0, atlas_stale_count_ = 0;
+  // Per block whether its probes are not current (hidden while they changed), the probe work
+  // of one evaluation or catch-up, and a one-block request (read_block_probes).
+  std::vector<std::uint8_t> probe_stale_, probe_work_, probe_wanted_;
+  std::size_t probe_stale_count_ = 0;
+  std::vector<float> probe_scratch_;  // read_block_probes without stage_probes_data
   bool catching_up_ = false;
   std::uint64_t hidden_ = 0, caught_up_ = 0;  // of the evaluation being counted
   BackendStageTimes times_;

@@ -370,9 +370,12 @@ MODRT_API modrt_status modrt_context_get_bounces(const modrt_context* context, u
 /* Since 0.4. Skip what the camera cannot see (docs/cpu.md "The camera skip"): the following
  * updates write the lightmap tiles and atlas rectangles of the potentially visible blocks only
  * (CPU: and the tiles of the neighbours their padding copies; GLES: the atlas pass and the
- * vector atlases over those rectangles); b, r and the probes stay every block's, since
- * they carry light to the visible ones and the probe volume is sampled anywhere. A block that
- * comes into view gets this frame's light in this call; the others' texels are not current.
+ * vector atlases over those rectangles); b and r stay every block's, since they carry light
+ * to the visible ones. On a CPU context without clutter the probes are computed for the
+ * visible blocks, and a hidden block's when modrt_context_probe_sh samples it or
+ * modrt_context_read_probes reads them all, so every probe read is current (GLES: every
+ * block's, its probe texture is sampled on the GPU). A block that comes into view gets this
+ * frame's light in this call; the others' texels are not current.
  *   - modrt_context_set_camera: the blocks seen from `eye` (world position) through
  *     `view_projection` (16 floats, column-major, OpenGL clip space), by a conservative walk
  *     through the level's open faces; an eye outside every block sees every block.
