@@ -286,7 +286,7 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
     DemoRunOptions options;
     options.backend = backend;
-    options.bounces = 2;  // the same feedback steps on both (GLES has no converged solve with clutter)
+    options.bounces = 2;  // the same feedback steps on both (their converged solves stop at other iterates)
     options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene(), dict(), *ctx, options);
     ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -309,11 +309,10 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
               std::sqrt(num / den), e.mean, e.p99);
 }
 
-// The default multi-bounce is the converged one where the backend has it (the CPU backend, on
-// the walls alone and on the built-in scene with its clutter; GLES on the walls alone, its
-// solve fed by the GPU's ld texture), else kConvergedFallbackSteps feedback steps on every frame
-// (GLES with clutter): with the light held still, frame 7's indirect light is frame 0's within
-// 1 % (the issue's check; before, frame 0 ran 6 feedback steps and the others 2). Two explicit
+// The default multi-bounce is the converged one on both backends, on the walls alone and on the
+// built-in scene with its clutter (GLES: its solve fed by the GPU's ld texture, the clutter's c
+// solved with b): with the light held still, frame 7's indirect light is frame 0's within 1 %
+// (the issue's check; before, frame 0 ran 6 feedback steps and the others 2). Two explicit
 // feedback steps per frame are measurably darker than the converged solve, so the comparison
 // can fail.
 TEST(DemoRender, FramesAfterTheFirstAreAsBrightAsTheFirst) {
@@ -347,7 +346,7 @@ TEST(DemoRender, FramesAfterTheFirstAreAsBrightAsTheFirst) {
       std::printf("  %s, %s: mean indirect: %s frame 0 %.5f, frame 7 %.5f\n", gles ? "gles" : "cpu",
                   clutter ? "with clutter" : "walls", converged ? "converged" : "4 feedback steps", first,
                   seventh);
-      EXPECT_EQ(converged, !(gles && clutter)) << "GLES has no converged solve with clutter";
+      EXPECT_TRUE(converged);
       ASSERT_GT(first, 0.0);
       EXPECT_NEAR(seventh / first, 1.0, 0.01);
       if (converged) {
@@ -442,7 +441,7 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
     DemoRunOptions options;
     options.backend = backend;
-    options.bounces = 2;  // the same feedback steps on both (GLES has no converged solve with clutter)
+    options.bounces = 2;  // the same feedback steps on both (their converged solves stop at other iterates)
     options.drt_rays = 128;
     options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
     // --save-clutter: the operators built here, written for an app (core's drt_io.h).
@@ -597,8 +596,9 @@ class ReadPixelsCountingContext : public platform::GlContext {
   platform::GlContext& inner_;
 };
 
-// Issue 19: on the GLES path a frame reads back nothing but its image (linear and sRGB8): ld,
-// the multi-bounce bound, the atlas, the probe volume and the clutter lightmap stay on the GPU.
+// Issue 19: on the GLES path a frame reads back nothing but its image (linear and sRGB8) and,
+// timed, the solve's one-texel residual: ld, the multi-bounce bound, the atlas, the probe volume
+// and the clutter lightmap stay on the GPU.
 // The accessors for tests (clutter_lightmap(), ld()) still read back, on request.
 TEST(DemoRender, GlesFrameReadsBackOnlyItsImage) {
   platform::GlContext* ctx = osmesa();
@@ -619,11 +619,16 @@ TEST(DemoRender, GlesFrameReadsBackOnlyItsImage) {
     ReadPixelsCountingContext::reads().clear();
     const Status st = run.value()->render(frame, linear, image);
     ASSERT_TRUE(st.ok()) << st.to_string();
-    const auto& reads = ReadPixelsCountingContext::reads();
+    // The image twice; and, because the demo times its passes (each waits for the GPU anyway),
+    // the converged solve's residual: one texel (gles_reduced_solve.cpp), nothing larger.
+    std::vector<std::pair<int, int>> reads;
+    for (const auto& r : ReadPixelsCountingContext::reads())
+      if (!(r.width == 1 && r.height == 1)) reads.push_back({r.width, r.height});
+    ASSERT_LE(ReadPixelsCountingContext::reads().size(), 3u) << "frame " << frame;
     ASSERT_EQ(reads.size(), 2u) << "frame " << frame << ": " << reads.size() << " glReadPixels calls";
     for (const auto& r : reads) {
-      EXPECT_EQ(r.width, 48);
-      EXPECT_EQ(r.height, 27);
+      EXPECT_EQ(r.first, 48);
+      EXPECT_EQ(r.second, 27);
     }
   }
   ReadPixelsCountingContext::reads().clear();

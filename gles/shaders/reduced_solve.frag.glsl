@@ -6,12 +6,15 @@
 //   STAGE 1 (rhs)      c = P_i b0_i                    (block Jacobi; the plain iteration's c is b0)
 //   STAGE 2 (apply)    x' = c + [A_i x_i] + sum_s B_s r_s   (A only for the plain iteration, PLAIN 1)
 //   STAGE 3 (residual) one texel: (max |x' - x|, max |x'|) over every mode and channel
+//   STAGE 4 (clutter)  u = b0 + s sum over block i's reached samples p of w_p delta_p, the DRT
+//                      deltas fed back (core's reduced_clutter_feedback before P): then STAGE 1
+//                      of u is c = P b0 + s P t for this step (the plain iteration's c is u)
 // The per-channel matrices (P, A: kb x kb; B: kb x kr) are packed in 4 x 4 blocks, one mat4
 // per (item, go, gi, channel) in four texels (its columns):
 //   texel (((item * GROUPS + go) * COLS + gi) * 3 + channel) * 4 + j = M[4go..4go+3][4gi + j]
 // with COLS = GROUPS for P and A, R_GROUPS for B (gles_reduced_solve.cpp, pack_channel_blocks).
 uniform int u_count;  // blocks * GROUPS
-#if STAGE == 1 || STAGE == 2
+#if STAGE == 1 || STAGE == 2 || STAGE == 4
 layout(location = 0) out uvec4 o_red;
 layout(location = 1) out uvec4 o_green;
 layout(location = 2) out uvec4 o_blue;
@@ -73,6 +76,37 @@ void main() {
       add_blocks(red, green, blue, u_b, ((slots[k] * GROUPS + go) * R_GROUPS) * 12, R_GROUPS, u_r_red, u_r_green,
                  u_r_blue, slots[k] * R_GROUPS);
     }
+  }
+  o_red = store_signal(red);
+  o_green = store_signal(green);
+  o_blue = store_signal(blue);
+}
+
+#elif STAGE == 4
+uniform sampler2D u_w;                // texel (p * GROUPS + go) * 3 + channel: w_p[4go..4go+3][channel]
+uniform isampler2D u_block_samples;   // per block: (first reached sample p, count, 0, 0)
+uniform isampler2D u_sample_index;    // per reached sample p: (its level sample, 0, 0, 0)
+uniform usampler2D u_delta;           // per level sample: dUb b + dUc c (drt_delta.frag)
+uniform usampler2D u_b0_red, u_b0_green, u_b0_blue;
+uniform float u_scale;                // the damping s
+
+void main() {
+  int i = fragment_index();
+  vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
+  if (i < u_count) {
+    int block = i / GROUPS;
+    int go = i - block * GROUPS;
+    ivec4 range = load_int(u_block_samples, block);
+    for (int p = range.x; p < range.x + range.y; ++p) {
+      vec3 d = load_signal(u_delta, load_int(u_sample_index, p).x).rgb;
+      int t = (p * GROUPS + go) * 3;
+      red += load(u_w, t) * d.r;
+      green += load(u_w, t + 1) * d.g;
+      blue += load(u_w, t + 2) * d.b;
+    }
+    red = load_signal(u_b0_red, i) + u_scale * red;
+    green = load_signal(u_b0_green, i) + u_scale * green;
+    blue = load_signal(u_b0_blue, i) + u_scale * blue;
   }
   o_red = store_signal(red);
   o_green = store_signal(green);

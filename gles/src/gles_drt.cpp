@@ -444,6 +444,12 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   d->u_feedback_bound_ = gl.glGetUniformLocation(d->prog_feedback_, "u_bound");
   d->u_feedback_scale_ = gl.glGetUniformLocation(d->prog_feedback_, "u_bound_scale");
   d->u_feedback_clutter_max_ = gl.glGetUniformLocation(d->prog_feedback_, "u_clutter_ld_max");
+  if (Status s = program("drt_feedback.frag (LINEAR)", kDrtFeedbackFrag, d->prog_feedback_linear_,
+                         {"u_clutter_ld", "u_rho", "u_direct", "u_texel_xy", "u_atlas", "u_ld_max"},
+                         int(d->sizes_.clutter_texels), "#define LINEAR 1\n");
+      !s.ok())
+    return s;
+  d->u_linear_scale_ = gl.glGetUniformLocation(d->prog_feedback_linear_, "u_scale");
   for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
     if (!pass->entries) continue;
     if (Status s = program(
@@ -509,8 +515,10 @@ void GlesDrt::set_albedo(std::span<const float> rho_c) {
 }
 
 void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
-                        GLuint ld_max_texture) {
-  if (feedback && feed_) {
+                        GLuint ld_max_texture, bool keep_c) {
+  if (keep_c) {
+    light_changed_ = true;  // the next update() starts again from the direct light
+  } else if (feedback && feed_) {
     // The clutter atlas still holds the last evaluation's light (run_clutter comes after).
     gl_.glUseProgram(prog_feedback_);
     gl_.glUniform1f(u_feedback_bound_, bound.bound());
@@ -531,6 +539,20 @@ void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, const Clu
     if (pass->entries)
       draw(pass->program, pass->target,
            {pass->dub, pass->duc, pass->item_entries, pass->entries, b[0], b[1], b[2], c_.texture});
+}
+
+void GlesDrt::solve_start() { draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_}); }
+
+void GlesDrt::solve_step(const std::array<GLuint, 3>& b, float scale) {
+  if (scalar_.entries)
+    draw(scalar_.program, scalar_.target,
+         {scalar_.dub, scalar_.duc, scalar_.item_entries, scalar_.entries, b[0], b[1], b[2], c_.texture});
+  if (!feed_) return;  // no clutter albedo: c stays c0
+  run_clutter(b);      // Cb b + Cc c (+ the direct light, which drt_feedback.frag takes off)
+  gl_.glUseProgram(prog_feedback_linear_);
+  gl_.glUniform1f(u_linear_scale_, scale);
+  draw(prog_feedback_linear_, fed_, {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture, 0});
+  draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});
 }
 
 void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {

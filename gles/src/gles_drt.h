@@ -65,8 +65,17 @@ class GlesDrt {
   // albedo) it is Td_c of the light fed back from the clutter atlas of the last run, clamped
   // at feedback.bound() (drt_feedback_bound). ld_max_texture (not 0): the walls' ld is on the
   // GPU and ld_max is that texture's texel (GlesLevelRuntime's ld_max.frag), not feedback's.
+  // keep_c: c is the converged solve's (solve_step), kept for this evaluation's deltas.
   void run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
-                 GLuint ld_max_texture = 0);
+                 GLuint ld_max_texture = 0, bool keep_c = false);
+  // The converged solve's clutter terms (GlesLevelRuntime::stage_solve; core's
+  // reduced_feedback.h, ReducedClutter). solve_start: c = c0 = Td_c clutter_ld. solve_step, one
+  // Jacobi step from b's planes and the c on hand: delta_texture() = dUb b + dUc c, and with a
+  // clutter albedo c <- Td_c (clutter_ld + scale rho_c (Cb b + Cc c)) (drt_feedback.frag's
+  // LINEAR instance: no clamps, the solve is linear).
+  void solve_start();
+  void solve_step(const std::array<GLuint, 3>& b, float scale);
+  bool has_delta() const { return scalar_.entries != 0; }
   // The clutter atlas from b's planes (and the c of run_scene, for Cc).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
@@ -129,8 +138,9 @@ class GlesDrt {
   GLuint vec_map_ = 0, vec_cc_map_ = 0, prog_vc_vec_ = 0, prog_clutter_vec_ = 0;
   Target y_vec_, clutter_vec_;
   DeltaPass scalar_, vector_, probes_;
-  GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0;
-  GLint u_feedback_bound_ = -1, u_feedback_scale_ = -1, u_feedback_clutter_max_ = -1;
+  GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0,
+         prog_feedback_linear_ = 0;
+  GLint u_feedback_bound_ = -1, u_feedback_scale_ = -1, u_feedback_clutter_max_ = -1, u_linear_scale_ = -1;
   std::vector<GLuint> textures_, framebuffers_, programs_;
   std::vector<float> zeros_, readback_;
 };

@@ -410,6 +410,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   if (Status s = signal3("reduced solve c", blocks * std::size_t(groups_), solve_.rhs); !s.ok()) return s;
   for (Signal3& x : solve_.x)
     if (Status s = signal3("reduced solve x", blocks * std::size_t(groups_), x); !s.ok()) return s;
+  if (Status s = signal3("reduced solve u", blocks * std::size_t(groups_), solve_.u); !s.ok()) return s;
   if (Status s = target("reduced solve residual", 1, 1, GL_RGBA32UI, solve_.residual); !s.ok()) return s;
   if (Status s = target("atlas", atlas_w, atlas_h, output_format, atlas_); !s.ok()) return s;
   if (Status s = target("feedback ld", kLinearWidth, feedback_rows, GL_RGBA32UI, ld_feedback_); !s.ok())
@@ -811,7 +812,7 @@ Status GlesLevelRuntime::stage_clutter_c(ClutterCSource source, const ClutterFee
 
 Status GlesLevelRuntime::stage_deltas(const StageWork&) {
   drt_->run_scene(b_.textures, eval_.clutter_feedback, eval_.clutter,
-                  eval_.ld_max_on_gpu ? ld_max_.texture : 0);
+                  eval_.ld_max_on_gpu ? ld_max_.texture : 0, eval_.solved);
   return check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)");
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "gl_objects.h"
+#include "gles_drt.h"
 #include "modrt/gles/gles_level_runtime.h"
 
 namespace modrt::gles {
@@ -75,6 +76,12 @@ Status GlesLevelRuntime::build_reduced_programs() {
                   {"u_new_red", "u_new_green", "u_new_blue", "u_old_red", "u_old_green", "u_old_blue"});
       !s.ok())
     return s;
+  if (Status s = program(
+          "reduced_solve.frag (clutter)", d + "#define STAGE 4\n", kReducedSolveFrag, solve_.clutter_program,
+          {"u_w", "u_block_samples", "u_sample_index", "u_delta", "u_b0_red", "u_b0_green", "u_b0_blue"});
+      !s.ok())
+    return s;
+  solve_.u_scale = gl_.glGetUniformLocation(solve_.clutter_program.id, "u_scale");
   // b* into b_: reduce.frag with one part is a copy of the three planes.
   if (Status s = program("reduce.frag (copy)", d + "#define PARTS 1\n", kReduceFrag, solve_.copy_program,
                          {"u_partial_red", "u_partial_green", "u_partial_blue"});
@@ -116,8 +123,55 @@ Status GlesLevelRuntime::upload_reduced_operators(const ReducedFeedback& op) {
     pack_channel_blocks(op.B[s], s, groups_, r_groups_, solve_pack_);
   upload_linear(gl_, solve_.slot_matrices, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), slot_texels,
                 sizeof(float));
+  solve_.clutter = op.clutter.drt != nullptr;
+  if (solve_.clutter)
+    if (Status s = upload_reduced_clutter(op.clutter); !s.ok()) return s;
   solve_pack_ = {};  // only needed again for another albedo
   return check("uploading the reduced solve's operators");
+}
+
+Status GlesLevelRuntime::upload_reduced_clutter(const ReducedClutter& cl) {
+  const std::size_t blocks = level_->blocks.size(), reached = cl.samples.size(), kb = level_->kb;
+  const std::size_t w_texels = std::max<std::size_t>(reached * std::size_t(groups_) * 3, 1);
+  const std::size_t index_texels = std::max<std::size_t>(reached, 1);
+  for (auto [name, texels] :
+       {std::pair{"clutter weights", w_texels}, std::pair{"clutter samples", index_texels}})
+    if (linear_rows(texels) > max_texture_size_)
+      return Status::error(ErrorCode::resource_limit,
+                           std::string("gles: the reduced solve's ") + name + " need a " +
+                               std::to_string(kLinearWidth) + " x " + std::to_string(linear_rows(texels)) +
+                               " texture, over this context's GL_MAX_TEXTURE_SIZE " +
+                               std::to_string(max_texture_size_) + ": use the CPU backend's converged solve");
+  // w_p[k][channel] at texel (p GROUPS + k / 4) 3 + channel, component k % 4 (STAGE 4's layout).
+  solve_pack_.assign(4 * w_texels, 0.0f);
+  for (std::size_t p = 0; p < reached; ++p)
+    for (std::size_t k = 0; k < kb; ++k)
+      for (std::size_t ch = 0; ch < 3; ++ch)
+        solve_pack_[4 * ((p * std::size_t(groups_) + k / 4) * 3 + ch) + k % 4] = cl.w[3 * (kb * p + k) + ch];
+  std::vector<std::int32_t> ranges(4 * blocks, 0), index(4 * index_texels, 0);
+  for (std::size_t p = 0; p < reached; ++p) {
+    const std::size_t blk = cl.sample_block[p];
+    if (ranges[4 * blk + 1] == 0) ranges[4 * blk] = std::int32_t(p);  // sample_block is ascending
+    ++ranges[4 * blk + 1];
+    index[4 * p] = std::int32_t(cl.samples[p]);
+  }
+  auto table = [&](GLuint& tex, GLenum format, std::size_t texels) {
+    if (tex) return;
+    tex = create_texture(gl_, format, kLinearWidth, linear_rows(texels));
+    textures_.push_back(tex);
+  };
+  // Sized for this clutter; a later clutter with more reached samples makes new ones.
+  if (solve_.w && linear_rows(w_texels) > solve_.w_rows) solve_.w = solve_.sample_index = 0;
+  table(solve_.w, GL_RGBA32F, w_texels);
+  table(solve_.sample_index, GL_RGBA32I, index_texels);
+  table(solve_.block_samples, GL_RGBA32I, blocks);
+  solve_.w_rows = std::max(solve_.w_rows, linear_rows(w_texels));
+  upload_linear(gl_, solve_.w, GL_RGBA, GL_FLOAT, 4, solve_pack_.data(), w_texels, sizeof(float));
+  upload_linear(gl_, solve_.sample_index, GL_RGBA_INTEGER, GL_INT, 4, index.data(), index_texels,
+                sizeof(std::int32_t));
+  upload_linear(gl_, solve_.block_samples, GL_RGBA_INTEGER, GL_INT, 4, ranges.data(), blocks,
+                sizeof(std::int32_t));
+  return check("uploading the reduced solve's clutter terms");
 }
 
 Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, std::span<float>, bool warm,
@@ -127,14 +181,29 @@ Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, 
   if (!warm)
     if (Status s = upload_reduced_operators(op); !s.ok()) return s;
   const int k = reduced_solve_iterations(op.contraction, settings.tolerance, settings.max_iterations);
-  const Signal3* c = &b_;  // the plain iteration's c is b0, which b_ holds until the copy below
-  if (!solve_.plain) {
+  // c = P b0 once (the plain iteration's c is b0, which b_ holds until the copy below); with
+  // clutter c = P (b0 + s t) of each step's DRT deltas, and the clutter's c from c0.
+  const bool clutter = solve_.clutter && drt_ != nullptr;
+  const auto rhs = [&](const Signal3& from) {
+    if (solve_.plain) return &from;
     draw(solve_.rhs_program, solve_.rhs.framebuffer, solve_.rhs.width, solve_.rhs.height,
-         {solve_.block_matrices, b_.textures[0], b_.textures[1], b_.textures[2]});
-    c = &solve_.rhs;
-  }
+         {solve_.block_matrices, from.textures[0], from.textures[1], from.textures[2]});
+    return static_cast<const Signal3*>(&solve_.rhs);
+  };
+  const Signal3* c = clutter ? nullptr : rhs(b_);
+  if (clutter) drt_->solve_start();
   const Signal3* in = &b_;  // x0 = b0
   for (int it = 0; it < k; ++it) {
+    if (clutter) {
+      // delta and the next c from (x, c) of this step, then u = b0 + s sum w delta, c = P u.
+      drt_->solve_step(in->textures, op.clutter.scale);
+      gl_.glUseProgram(solve_.clutter_program.id);
+      gl_.glUniform1f(solve_.u_scale, op.clutter.scale);
+      draw(solve_.clutter_program, solve_.u.framebuffer, solve_.u.width, solve_.u.height,
+           {solve_.w, solve_.block_samples, solve_.sample_index,
+            drt_->has_delta() ? drt_->delta_texture() : 0, b_.textures[0], b_.textures[1], b_.textures[2]});
+      c = rhs(solve_.u);
+    }
     // r = Tb->r x (the r pass over x's planes), then x' = c + G x.
     draw(prog_r_, r_partial_.framebuffer, r_partial_.width, r_partial_.height,
          {t_, slot_info_, record_block_, in->textures[0], in->textures[1], in->textures[2]});

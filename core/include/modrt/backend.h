@@ -119,7 +119,7 @@ class Backend {
   // set_albedo; the reduced operators are built at the first converged update after it
   // (converged_stats().build_ns: that update allocates). Not converging within
   // settings.max_iterations is reported in converged_stats(), not an error. Refused
-  // (invalid_argument) by a backend without a reduced solve (GLES with clutter). With clutter
+  // (invalid_argument) by a backend without a reduced solve (none today). With clutter
   // the solve includes the clutter's c (its light fed back with set_clutter_albedo's albedo, DRT
   // deltas in the feedback: drt_converged_bounce); set_clutter / set_clutter_albedo rebuild it.
   // GLES solves on the GPU from b0 with an a-priori iteration count (staged_backend.h).

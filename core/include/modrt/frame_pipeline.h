@@ -38,7 +38,7 @@ inline constexpr std::uint32_t kMaxFrameBounces = 64;
 // every frame shows the converged multi-bounce, warm-started from the last frame's.
 inline constexpr std::uint32_t kConvergedBounces = 0xffffffffu;
 // What a kConvergedBounces frame runs where the backend has no converged solve
-// (Backend::converged_available false: GLES with clutter): one update and this many feedback
+// (Backend::converged_available false; every backend today has one): one update and this many feedback
 // steps, on every frame alike, so that no frame shows fewer bounces than another (issue 20).
 // FrameStats::frames_fallback counts those frames.
 inline constexpr std::uint32_t kConvergedFallbackSteps = 4;

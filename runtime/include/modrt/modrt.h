@@ -347,13 +347,12 @@ MODRT_API modrt_status modrt_context_update(modrt_context* context);
 /* Since 0.4. The `bounces` value of the converged multi-bounce (docs/cpu.md "Converged
  * multi-bounce"): every update solves the bounce series to a relative tolerance of 1e-3 in the
  * reduced space (b, r, and with clutter its c), warm-started from the last update's solution,
- * then writes the lightmap, atlas, probes, vector irradiance and clutter lightmap once. CPU
- * contexts (with or without clutter: the clutter's light bounces with its albedo, as in
- * modrt_context_set_clutter_albedo) and GLES contexts without clutter, whose solve runs on the
- * GPU from b0 every update with an a-priori iteration count (nothing read back, no warm
- * start; docs/gles.md). A GLES context with clutter has no converged solve: its updates then run
- * one evaluation and 4 feedback steps (core's kConvergedFallbackSteps), every update alike,
- * counted in modrt_solve_stats.fallback_updates. */
+ * then writes the lightmap, atlas, probes, vector irradiance and clutter lightmap once. CPU and
+ * GLES contexts, with or without clutter (the clutter's light bounces with its albedo, as in
+ * modrt_context_set_clutter_albedo); a GLES context solves on the GPU from b0 every update with
+ * an a-priori iteration count (nothing read back, no warm start; docs/gles.md). A context
+ * without a converged solve (none today) would run one evaluation and 4 feedback steps (core's
+ * kConvergedFallbackSteps), every update alike, counted in modrt_solve_stats.fallback_updates. */
 #define MODRT_BOUNCES_CONVERGED 0xffffffffu
 
 /* Since 0.3. The multi-bounce feedback steps of the following updates (0 to 64, or
@@ -547,8 +546,8 @@ typedef struct modrt_solve_stats {
   double contraction;
   uint64_t build_ns; /* the last build of the reduced operators (at the first solve after set_albedo) */
   uint64_t fallback_updates; /* MODRT_BOUNCES_CONVERGED updates run as one evaluation and 4
-                                feedback steps: the context had no converged solve (GLES with
-                                clutter) */
+                                feedback steps: the context had no converged solve (0 with
+                                today's backends) */
   /* Blocks the solves applied M to, over every solve. A CPU context without clutter
    * solves incrementally: each pass applies M only to the blocks whose b still changes by more
    * than the tolerance allows, so blocks_applied / (iterations x blocks) is below 1 and an

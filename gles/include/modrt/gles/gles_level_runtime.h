@@ -168,13 +168,14 @@ class GlesLevelRuntime final : public StagedBackend {
   Status stage_albedo(std::span<const float> rho) override;
   Status stage_b(const StageWork& work) override;
   // The converged solve on the GPU (gles_reduced_solve.cpp, reduced_solve.frag): x <- c + G x
-  // as fragment passes over b-shaped signals, r = Tb->r x by the r pass. Without clutter only.
-  // Nothing is read back: it starts from b0 every frame and runs reduced_solve_iterations's
+  // as fragment passes over b-shaped signals, r = Tb->r x by the r pass; with clutter the
+  // clutter's c is solved with b (GlesDrt::solve_step, reduced_solve.frag STAGE 4). Nothing is
+  // read back: it starts from b0 every frame and runs reduced_solve_iterations's
   // a-priori count (no warm start: a start it cannot check could be far from b*); with timing
   // on it also reads the last step's residual back (ReducedSolveReport::measured).
   Status stage_solve(const ReducedFeedback& op, ReducedSolver& solver, std::span<float> x, bool warm,
                      const ReducedSolveSettings& settings, ReducedSolveReport& report) override;
-  bool stage_solve_available() const override { return !drt_; }
+  bool stage_solve_available() const override { return true; }
   Status stage_r(const StageWork& work) override;
   Status stage_tiles(const StageWork&) override { return Status::success(); }  // in stage_atlas
   Status stage_atlas(const StageWork& work) override;
@@ -242,6 +243,7 @@ class GlesLevelRuntime final : public StagedBackend {
   // The converged solve's operators packed and uploaded (at a cold solve: a new albedo), and
   // its programs compiled on first use.
   Status upload_reduced_operators(const ReducedFeedback& op);
+  Status upload_reduced_clutter(const ReducedClutter& cl);
   Status build_reduced_programs();
   // Compiles kFullscreenVert with head + kCommon + fragment into out (recorded for the
   // destructor), binds its samplers to units in order and sets u_count when count >= 0. The
@@ -304,6 +306,14 @@ class GlesLevelRuntime final : public StagedBackend {
     GLuint block_matrices = 0, slot_matrices = 0;
     bool plain = false;  // the plain iteration (op.block_jacobi false): A, and c = b0
     Program rhs_program, apply_program, apply_plain_program, residual_program, copy_program;
+    // With clutter (ReducedClutter): u = b0 + s sum w delta per step, its program, and the
+    // tables (w, each block's reached samples, their level samples), RGBA32F / RGBA32I.
+    Signal3 u;
+    Program clutter_program;
+    GLuint w = 0, block_samples = 0, sample_index = 0;
+    int w_rows = 0;  // rows of w and sample_index as created
+    GLint u_scale = -1;
+    bool clutter = false;  // the operators uploaded have clutter terms
   } solve_;
   std::vector<float> solve_pack_;  // packing scratch of upload_reduced_operators
   GLuint vao_ = 0;
