@@ -60,6 +60,7 @@ StagedBackend::StagedBackend(const Level& level, const Dictionary& dict, const S
       out_work_(level.blocks.size(), 0),
       atlas_work_(level.blocks.size(), 0),
       no_blocks_(level.blocks.size(), 0),
+      edge_stale_(level.blocks.size(), 0),
       probe_stale_(level.blocks.size(), 0),
       probe_work_(level.blocks.size(), 0),
       probe_wanted_(level.blocks.size(), 0) {}
@@ -127,14 +128,20 @@ void StagedBackend::plan_camera(const StageWork& mrt, const StageWork& out, Stag
   const std::size_t n = level_.blocks.size();
   std::size_t tile_count = 0, out_count = 0, atlas_count = 0;
   hidden_ = caught_up_ = 0;
+  const bool sources = stage_padding_sources_available();
   for (std::size_t i = 0; i < n; ++i) {
     // A tile is written when it changed now or earlier while hidden, and its block is visible or
-    // a visible block's padding reads it.
-    const bool t = (mrt.tiles[i] || stale_[i]) && ext_[i];
-    tiles_work_[i] = t, tile_count += t;
-    hidden_ += mrt.tiles[i] && !ext_[i];
+    // a visible block's padding reads it; only its padding sources where the backend can (a
+    // padding neighbour that is not visible), and then only when they changed.
+    const bool edges_only = sources && ext_[i] && !visible_[i];
+    const bool t = (mrt.tiles[i] || stale_[i]) && ext_[i] && !edges_only;
+    const bool e = edges_only && (mrt.tiles[i] || edge_stale_[i]);
+    tiles_work_[i] = t ? 1 : e ? kPaddingSourcesTile : 0;
+    tile_count += t || e;
+    hidden_ += mrt.tiles[i] && !t;
     caught_up_ += t && !mrt.tiles[i];
     out_work_[i] = out.tiles[i] || stale_[i];  // changed: now, or earlier while hidden
+    edge_stale_[i] = (mrt.tiles[i] || edge_stale_[i]) && !t && !e;
   }
   // Unwritten from here: the tiles that changed outside ext_, and the rectangles of every block
   // outside visible_ whose tile or padding neighbours changed.
@@ -148,7 +155,7 @@ void StagedBackend::plan_camera(const StageWork& mrt, const StageWork& out, Stag
   }
   stale_count_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    stale_[i] = out_work_[i] && !ext_[i];
+    stale_[i] = out_work_[i] && (!ext_[i] || (sources && !visible_[i]));  // edges only: stays stale
     stale_count_ += stale_[i];
     out_work_[i] = out_work_[i] && ext_[i];
     out_count += out_work_[i];
@@ -165,10 +172,15 @@ Status StagedBackend::catch_up(bool all) {
   const std::size_t n = level_.blocks.size();
   const std::vector<std::uint8_t>& visible = all ? all_blocks_ : visible_;
   const std::vector<std::uint8_t>& ext = all ? all_blocks_ : ext_;
-  std::size_t tile_count = 0, atlas_count = 0;
+  // The stale tiles of the visible blocks (with `all`, every block's); a padding neighbour that
+  // is not visible gets its padding sources where the backend can (plan_camera).
+  const bool sources = stage_padding_sources_available() && !all;
+  std::size_t tile_count = 0, atlas_count = 0, whole = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    tiles_work_[i] = stale_[i] && ext[i];
-    tile_count += tiles_work_[i];
+    const bool edges_only = sources && ext[i] && !visible[i];
+    const bool t = stale_[i] && ext[i] && !edges_only, e = edges_only && edge_stale_[i];
+    tiles_work_[i] = t ? 1 : e ? kPaddingSourcesTile : 0;
+    tile_count += t || e, whole += t;
   }
   for (std::size_t i = 0; i < n; ++i) {
     atlas_work_[i] =
@@ -178,9 +190,9 @@ Status StagedBackend::catch_up(bool all) {
   if (tile_count == 0 && atlas_count == 0) return Status::success();
   // The tiles from the b and r on hand (no block or slot is computed), then what the evaluation
   // that left them unwritten would have done after them.
-  const StageWork tiles{no_blocks_, no_slots_, tiles_work_, 0, 0, tile_count, tile_count == n, {}, 0};
-  const StageWork output{no_blocks_, no_slots_,       tiles_work_, 0,          0,
-                         tile_count, tile_count == n, atlas_work_, atlas_count};
+  const StageWork tiles{no_blocks_, no_slots_, tiles_work_, 0, 0, tile_count, whole == n, {}, 0};
+  const StageWork output{no_blocks_, no_slots_,  tiles_work_, 0,          0,
+                         tile_count, whole == n, atlas_work_, atlas_count};
   catching_up_ = true;
   Status s = stage_begin();
   if (s.ok() && tile_count) s = stage_tiles(tiles);
@@ -192,11 +204,12 @@ Status StagedBackend::catch_up(bool all) {
   if (!s.ok()) return s;  // the flags stand: the next evaluation or catch-up writes them
   stale_count_ = atlas_stale_count_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    stale_[i] = stale_[i] && !ext[i];
+    stale_[i] = stale_[i] && tiles_work_[i] != 1;
+    edge_stale_[i] = edge_stale_[i] && tiles_work_[i] == 0;
     atlas_stale_[i] = atlas_stale_[i] && !visible[i];
     stale_count_ += stale_[i], atlas_stale_count_ += atlas_stale_[i];
   }
-  stats_.tiles_caught_up += tile_count;
+  stats_.tiles_caught_up += whole;
   return Status::success();
 }
 
@@ -243,6 +256,7 @@ void StagedBackend::mark_all_stale() {
   }
   if (!stage_camera_skip_available()) return;
   std::fill(stale_.begin(), stale_.end(), std::uint8_t(1));
+  std::fill(edge_stale_.begin(), edge_stale_.end(), std::uint8_t(1));
   std::fill(atlas_stale_.begin(), atlas_stale_.end(), std::uint8_t(1));
   stale_count_ = atlas_stale_count_ = stale_.size();
 }
@@ -454,8 +468,8 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
     reduced_.emplace(std::move(op).value());
     const std::size_t unknowns = reduced_->unknowns(level_);
     if (solver_.unknowns() != unknowns)
-      solver_ = ReducedSolver::create(unknowns, ReducedSolveSettings{}.history, 3 * std::size_t(level_.kb),
-                                      sizes_.r);
+      solver_ =
+          ReducedSolver::create(unknowns, ReducedSolver::kMaxHistory, 3 * std::size_t(level_.kb), sizes_.r);
     x_.assign(unknowns, 0.0f);
     if (drt_) clutter_scratch_.allocate(level_, level_.kb, *drt_);
     warm_ = false;

@@ -119,6 +119,9 @@ class CpuBackend final : public StagedBackend {
     return Status::success();
   }
   Status stage_r(const StageWork&) override { return Status::success(); }  // in stage_tiles
+  bool stage_padding_sources_available() const override { return true; }
+  static_assert(CpuLevelRuntime::kPaddingSourcesOnly == kPaddingSourcesTile,
+                "stage_tiles passes the camera skip's tile flags to compute_r_and_tiles");
   Status stage_tiles(const StageWork& work) override {
     rt_.compute_r_and_tiles(work.slots, work.tiles,
                             clutter() ? std::span<float>(base_) : std::span<float>(lightmap_));

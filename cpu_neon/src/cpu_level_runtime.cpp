@@ -288,6 +288,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
             rt.vector_row_map_[rt.vector_rows_ * s + 4 * t + i] = 4 * sample + std::int32_t(i);
       }
   }
+  rt.build_padding_rows();
   if (Status s = rt.prepare_operators(options.operators); !s.ok()) return s;
   // Skipping: operator norms for the bounds (of the operators the kernels read: with float16,
   // the half-rounded values), and the per-block / per-slot / per-thread state.
@@ -590,8 +591,33 @@ void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, 
 // Steps 4, 3 and 5 for the tile of block i: r of every slot entering i (records in level
 // order; only the flagged slots when `slots` is given), then lightmap_i = Ub b_i, += Ur r_s
 // scattered onto each slot's entry face.
+void CpuLevelRuntime::build_padding_rows() {
+  const Level& level = *level_;
+  const LightmapAtlas& atlas = level.atlas;
+  std::vector<std::int32_t> texel_sample(std::size_t(atlas.width) * std::size_t(atlas.height), -1);
+  for (std::size_t s = 0; s < atlas.sample_texel.size(); ++s)
+    texel_sample[atlas.sample_texel[s]] = std::int32_t(s);
+  std::vector<std::uint8_t> source(level.sample_count, 0);
+  for (const PaddingRecord& p : atlas.padding)
+    if (p.src < texel_sample.size() && texel_sample[p.src] >= 0) source[std::size_t(texel_sample[p.src])] = 1;
+  padding_ub_rows_.assign(level.sample_count, -1);
+  for (const LevelBlock& b : level.blocks)
+    for (std::uint32_t local = 0; local < b.sample_count; ++local)
+      if (source[b.sample_offset + local]) padding_ub_rows_[b.sample_offset + local] = std::int32_t(local);
+  const std::size_t ur_rows = dict_->interfaces.Ur.rows;
+  padding_ur_rows_.assign(ur_rows * level.slots.size(), -1);
+  for (std::size_t s = 0; s < level.slots.size(); ++s) {
+    const ResponseSlot& slot = level.slots[s];
+    const std::uint32_t offset = level.blocks[slot.block].sample_offset;
+    for (std::size_t t = 0; t < slot.ur_row_to_sample.size() && t < ur_rows; ++t) {
+      const std::int32_t local = slot.ur_row_to_sample[t];
+      if (local >= 0 && source[offset + std::uint32_t(local)]) padding_ur_rows_[ur_rows * s + t] = local;
+    }
+  }
+}
+
 void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lightmap,
-                                             const std::uint8_t* slots, bool write_tile) {
+                                             const std::uint8_t* slots, std::uint8_t write_tile) {
   const Level& level = *level_;
   const std::size_t kb = level.kb, kr = level.kr;
   float* tile = lightmap.data() + 3 * std::size_t(level.blocks[i].sample_offset);
@@ -608,12 +634,20 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
   }
   if (!write_tile) return;
   const std::size_t shape = std::size_t(level.blocks[i].shape);
-  gemv(shape_ops_[shape].ub, dict_->shapes[shape].Ub.rows, kb, b_planar_.data() + 3 * kb * i, tile, false);
-  const std::size_t ur_rows = dict_->interfaces.Ur.rows;
+  const std::size_t ub_rows = dict_->shapes[shape].Ub.rows, ur_rows = dict_->interfaces.Ur.rows;
+  // Padding sources only: the same rows of the same kernels (a row's value does not depend on
+  // which rows beside it are masked), so the samples written equal the whole tile's bit for bit.
+  const bool sources_only = write_tile == kPaddingSourcesOnly;
+  if (sources_only)
+    gemv_masked(shape_ops_[shape].ub, ub_rows, kb, padding_ub_rows_.data() + level.blocks[i].sample_offset,
+                b_planar_.data() + 3 * kb * i, tile);
+  else
+    gemv(shape_ops_[shape].ub, ub_rows, kb, b_planar_.data() + 3 * kb * i, tile, false);
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
-    gemv_scatter(ur_op_, ur_rows, kr, level.slots[s].ur_row_to_sample.data(), r_planar_.data() + 3 * kr * s,
-                 tile);
+    const std::int32_t* rows =
+        sources_only ? padding_ur_rows_.data() + ur_rows * s : level.slots[s].ur_row_to_sample.data();
+    gemv_scatter(ur_op_, ur_rows, kr, rows, r_planar_.data() + 3 * kr * s, tile);
   }
   // The lightmap policy (core reference_runtime.h): no negative texel.
   clamp_nonnegative(isa_, tile, 3 * std::size_t(level.blocks[i].sample_count));
@@ -689,11 +723,11 @@ void CpuLevelRuntime::compute_r_and_tiles(std::span<const std::uint8_t> slots,
                                           std::span<const std::uint8_t> tiles, std::span<float> lightmap) {
   // The items: blocks with a flagged tile, and (high bit set) blocks whose tile is not flagged
   // but a flagged slot enters them.
-  constexpr std::uint32_t kSlotsOnly = 0x80000000u;
+  constexpr std::uint32_t kSlotsOnly = 0x80000000u, kSources = 0x40000000u;
   std::size_t n = 0;
   for (std::size_t i = 0; i < tiles.size(); ++i) {
     if (tiles[i]) {
-      work_items_[n++] = std::uint32_t(i);
+      work_items_[n++] = std::uint32_t(i) | (tiles[i] == kPaddingSourcesOnly ? kSources : 0u);
       continue;
     }
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j)
@@ -704,7 +738,8 @@ void CpuLevelRuntime::compute_r_and_tiles(std::span<const std::uint8_t> slots,
   }
   auto lightmap_phase = [&](std::size_t k, int) {
     const std::uint32_t item = work_items_[k];
-    compute_block_lightmap(item & ~kSlotsOnly, lightmap, slots.data(), (item & kSlotsOnly) == 0);
+    const std::uint8_t tile = (item & kSlotsOnly) ? 0 : (item & kSources) ? kPaddingSourcesOnly : 1;
+    compute_block_lightmap(item & ~(kSlotsOnly | kSources), lightmap, slots.data(), tile);
   };
   parallel_for(n, lightmap_phase);
 }

@@ -145,7 +145,8 @@ class Backend {
   // visible (level_visible_blocks, or the renderer's own visibility set); empty: every block
   // (the default). b and r are still computed for every block (they carry light), but a
   // block's lightmap tile and its atlas rectangles (and vector atlases on a GPU) are written
-  // only while it is visible, and those of its open-face neighbours that its padding reads.
+  // only while it is visible, and of its open-face neighbours what its padding reads (the CPU
+  // backend: those samples only; the reference: their whole tiles).
   // A block that becomes visible has its tiles produced by this call, from the b and r on
   // hand, so that the outputs of every visible block equal the full path's bit for bit; a
   // feedback step first produces every hidden tile (it reads the whole lightmap). The hidden

@@ -213,6 +213,11 @@ class StagedBackend : public Backend {
   // keeps stage_camera_skip_available() false).
   virtual Status stage_atlas(const StageWork& work) = 0;
   virtual bool stage_camera_skip_available() const { return false; }
+  // The camera skip's hidden padding neighbours: true where stage_tiles writes, for a tile flag
+  // of kPaddingSourcesTile, only the samples atlas padding copies (bit-identical to the whole
+  // tile's), so that a block that is not visible costs its edges, not its tile.
+  virtual bool stage_padding_sources_available() const { return false; }
+  static constexpr std::uint8_t kPaddingSourcesTile = 2;
   // The camera skip's catch-up (tiles written late from the b and r on hand): the DRT deltas
   // over them as the evaluation that left them unwritten would have added them. The default
   // reruns stage_deltas (CPU and reference: lightmap = base + deltas, idempotent); a backend
@@ -321,6 +326,9 @@ class StagedBackend : public Backend {
   std::vector<std::uint8_t> visible_, ext_, stale_, atlas_stale_, tiles_work_, out_work_, atlas_work_,
       no_blocks_;
   std::size_t stale_count_ = 0, atlas_stale_count_ = 0;
+  // Per block whether its padding sources (the samples other blocks' padding copies) are not
+  // current: implies stale_ (stage_padding_sources_available).
+  std::vector<std::uint8_t> edge_stale_;
   // Per block whether its probes are not current (hidden while they changed), the probe work
   // of one evaluation or catch-up, and a one-block request (read_block_probes).
   std::vector<std::uint8_t> probe_stale_, probe_work_, probe_wanted_;

@@ -191,8 +191,12 @@ class CpuLevelRuntime {
   // the flagged blocks. compute_r_and_tiles: in one task per block i with a flagged tile or a
   // flagged slot entering it, r of the flagged slots entering i, then, for a flagged tile,
   // tile i = Ub b_i + Ur r (a flagged slot may enter a block whose tile is not flagged: the
-  // camera skip leaves hidden tiles unwritten but every r current). The results are
-  // bit-identical to evaluate()'s; nothing is allocated.
+  // camera skip leaves hidden tiles unwritten but every r current). A tile flag of
+  // kPaddingSourcesOnly writes only the tile's samples that atlas padding copies (the camera
+  // skip's hidden padding neighbours): the operator rows of the other samples are masked, the
+  // rest computed as in the whole tile. The results are bit-identical to evaluate()'s; nothing
+  // is allocated.
+  static constexpr std::uint8_t kPaddingSourcesOnly = 2;
   void compute_b(std::span<const float> ld, std::span<const std::uint8_t> blocks);
   void compute_r_and_tiles(std::span<const std::uint8_t> slots, std::span<const std::uint8_t> tiles,
                            std::span<float> lightmap);
@@ -268,9 +272,11 @@ class CpuLevelRuntime {
   template <class F>
   void parallel_for(std::size_t count, F& f) const;
   void compute_block_b(std::size_t i, std::span<const float> ld, int thread);
-  // slots: flags (null: all); write_tile false: the slots' r only.
+  // slots: flags (null: all); tile: 0 the slots' r only, 1 the whole tile, kPaddingSourcesOnly
+  // the samples atlas padding reads.
   void compute_block_lightmap(std::size_t i, std::span<float> lightmap, const std::uint8_t* slots = nullptr,
-                              bool write_tile = true);
+                              std::uint8_t tile = 1);
+  void build_padding_rows();  // padding_ub_rows_, padding_ur_rows_
   void compute_block_probes(std::size_t i, std::span<float> probes) const;
   std::span<const std::uint32_t> flagged(std::span<const std::uint8_t> flags);
   void skip_block_b(std::size_t i, std::span<const float> ld, int thread);
@@ -321,6 +327,10 @@ class CpuLevelRuntime {
   // slot_record_begin_[s + 1]); slots entering block i likewise in block_slots_.
   std::vector<std::uint32_t> slot_record_begin_, slot_records_, block_slot_begin_, block_slots_;
   std::vector<std::uint32_t> work_items_;  // the flagged indices of a stage call (blocks capacity)
+  // Row masks of the samples atlas padding copies (a padding record's source): per level sample
+  // its block-local index or -1 (Ub's rows, by block sample_offset), and per slot and Ur row its
+  // ur_row_to_sample entry or -1.
+  std::vector<std::int32_t> padding_ub_rows_, padding_ur_rows_;
 
   // Skipping state (all sized by create()). Per block: what phase 1 did (BlockAction), whether
   // b changed, beta_i, ||b_i||_F, the tile's bound and whether it was written, the ld that
