@@ -22,6 +22,13 @@
 //                                          the frame with the skip, walk included, glFinish.
 //                                          Counters: ratio_full = with / full, visible blocks,
 //                                          redrawn blocks per frame with the skip
+//   BM_GlesConverged/<blocks>/<context>    the converged multi-bounce (update_converged: the
+//                                          reduced solve's passes, an a-priori iteration count)
+//                                          against a one-bounce full update (skipping off),
+//                                          measured alternately, ld scaled every frame, the
+//                                          level's albedo; time: the converged frame, glFinish.
+//                                          Counters: ratio_one_bounce, iterations per frame,
+//                                          error_bound (the a-priori bound q^iterations)
 //   BM_CpuBackendFrame/<blocks>/<vector>   the CPU backend's update (best ISA), for the ratio;
 //                                          vector 1: + read_vector_lightmap (computed on read)
 //
@@ -41,6 +48,7 @@
 #include "modrt/cpu/cpu_backend.h"
 #include "modrt/cpu/kernels.h"
 #include "modrt/gles/gles_level_runtime.h"
+#include "modrt/level_geometry.h"
 #include "modrt/level_visibility.h"
 #include "modrt/platform/gl_context.h"
 #include "modrt/platform/gl_program.h"
@@ -328,6 +336,59 @@ void BM_GlesCameraSkip(benchmark::State& state) {
 }
 BENCHMARK(BM_GlesCameraSkip)
     ->ArgsProduct({{41}, {0, 3}})
+    ->ArgNames({"blocks", "context"})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+void BM_GlesConverged(benchmark::State& state) {
+  const BenchLevel* bl = bench_level(int(state.range(0)));
+  platform::GlContext* ctx = context(int(state.range(1)));
+  if (!bl || !ctx) return state.SkipWithError("no dictionary/level or no such GL context here");
+  gles::GlesRuntimeOptions options;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> converged =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
+  options.skip_unchanged = false;
+  Result<std::unique_ptr<gles::GlesLevelRuntime>> one =
+      gles::GlesLevelRuntime::create(ctx->gl(), ctx->info().gles, bl->level, *dictionary(), options);
+  if (!converged.ok() || !one.ok()) return state.SkipWithError("gles runtime");
+  gles::GlesLevelRuntime& a = *converged.value();
+  gles::GlesLevelRuntime& f = *one.value();
+  std::vector<float> ld = bl->ld;
+  // The synthetic ld is not albedo x E / pi of a real light: scaled into a level's usual range.
+  for (std::size_t i = 0; i < ld.size(); ++i) ld[i] = 0.1f * bl->ld[i];
+  const std::vector<float> base = ld;
+  bool ok =
+      a.set_albedo(level_sample_albedo(bl->level)).ok() && a.update_converged(ld).ok() && f.update(ld).ok();
+  ctx->gl().glFinish();
+  const ConvergedStats before = a.converged_stats();
+  double t_converged = 0.0, t_one = 0.0;
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    const float scale = 1.0f + 0.01f * float(frame++ % 17);
+    for (std::size_t i = 0; i < ld.size(); ++i) ld[i] = base[i] * scale;
+    auto t0 = std::chrono::steady_clock::now();
+    ok &= a.update_converged(ld).ok();
+    ctx->gl().glFinish();
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t0 = std::chrono::steady_clock::now();
+    ok &= f.update(ld).ok();
+    ctx->gl().glFinish();
+    t_one += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t_converged += dt;
+    state.SetIterationTime(dt);
+  }
+  if (!ok) return state.SkipWithError("a frame failed");
+  const ConvergedStats st = a.converged_stats();
+  const double n = double(state.iterations());
+  state.counters["ratio_one_bounce"] = t_converged / t_one;
+  state.counters["iterations"] = double(st.iterations - before.iterations) / n;
+  state.counters["error_bound"] = double(st.last.error_bound);
+  state.counters["contraction"] = st.contraction;
+  state.counters["blocks"] = double(bl->level.blocks.size());
+  state.SetLabel(std::string(platform::context_kind_name(ctx->info().kind)) + " " + a.description());
+}
+BENCHMARK(BM_GlesConverged)
+    ->ArgsProduct({{41, 1000}, {0, 3}})
     ->ArgNames({"blocks", "context"})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
