@@ -435,9 +435,20 @@ TEST_P(BackendConformance, BadInputIsNamedAndChangesNothing) {
   std::unique_ptr<Backend> be = make(t.level);
   ASSERT_TRUE(be);
   std::vector<float> atlas(be->sizes().atlas), after(be->sizes().atlas);
+  const std::size_t blocks = t.level.blocks.size(), per_block = be->sizes().probes / blocks;
+  std::vector<float> block_probes(per_block);
   EXPECT_EQ(be->read_atlas(atlas).code(), ErrorCode::invalid_argument) << "nothing computed yet";
+  EXPECT_EQ(be->read_block_probes(0, block_probes).code(), ErrorCode::invalid_argument);
   ASSERT_TRUE(be->update(t.ld).ok());
   ASSERT_TRUE(be->read_atlas(atlas).ok());
+  // One block's probes: a block past the level's and a wrong size are refused by name.
+  Status read = be->read_block_probes(blocks, block_probes);
+  EXPECT_EQ(read.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(read.message().find("block " + std::to_string(blocks) + " of a level with"), std::string::npos)
+      << read.message();
+  std::vector<float> short_probes(per_block - 1);
+  EXPECT_EQ(be->read_block_probes(0, short_probes).code(), ErrorCode::invalid_argument);
+  ASSERT_TRUE(be->read_block_probes(blocks - 1, block_probes).ok());
   std::vector<float> ld = t.ld;
   ld[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
   Status s = be->update(ld);
@@ -478,6 +489,9 @@ TEST_P(BackendConformance, ProbesOffAreRefusedByName) {
   const Status s = be->read_probes(probes);
   EXPECT_EQ(s.code(), ErrorCode::invalid_argument);
   EXPECT_NE(s.message().find("no probes"), std::string::npos) << s.message();
+  const Status one = be->read_block_probes(0, probes);
+  EXPECT_EQ(one.code(), ErrorCode::invalid_argument);
+  EXPECT_NE(one.message().find("no probes"), std::string::npos) << one.message();
   ASSERT_TRUE(be->read_atlas(atlas).ok());
   EXPECT_LE(rel_l2(atlas, level_reference(t.level, t.ld).atlas), tolerance().level);
 }
