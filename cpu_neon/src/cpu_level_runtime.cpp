@@ -588,15 +588,12 @@ void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, 
   deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
 }
 
-// Steps 4, 3 and 5 for the tile of block i: r of every slot entering i (records in level
-// order; only the flagged slots when `slots` is given), then lightmap_i = Ub b_i, += Ur r_s
-// scattered onto each slot's entry face.
 void CpuLevelRuntime::build_padding_rows() {
   const Level& level = *level_;
   const LightmapAtlas& atlas = level.atlas;
   std::vector<std::int32_t> texel_sample(std::size_t(atlas.width) * std::size_t(atlas.height), -1);
-  for (std::size_t s = 0; s < atlas.sample_texel.size(); ++s)
-    texel_sample[atlas.sample_texel[s]] = std::int32_t(s);
+  for (std::size_t s = 0; s < atlas.sample_texel.size() && s < level.sample_count; ++s)
+    if (atlas.sample_texel[s] < texel_sample.size()) texel_sample[atlas.sample_texel[s]] = std::int32_t(s);
   std::vector<std::uint8_t> source(level.sample_count, 0);
   for (const PaddingRecord& p : atlas.padding)
     if (p.src < texel_sample.size() && texel_sample[p.src] >= 0) source[std::size_t(texel_sample[p.src])] = 1;
@@ -616,6 +613,9 @@ void CpuLevelRuntime::build_padding_rows() {
   }
 }
 
+// Steps 4, 3 and 5 for the tile of block i: r of every slot entering i (records in level
+// order; only the flagged slots when `slots` is given), then lightmap_i = Ub b_i, += Ur r_s
+// scattered onto each slot's entry face.
 void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lightmap,
                                              const std::uint8_t* slots, std::uint8_t write_tile) {
   const Level& level = *level_;
