@@ -160,7 +160,8 @@ Status GlesLevelRuntime::upload_reduced_clutter(const ReducedClutter& cl) {
     tex = create_texture(gl_, format, kLinearWidth, linear_rows(texels));
     textures_.push_back(tex);
   };
-  // Sized for this clutter; a later clutter with more reached samples makes new ones.
+  // Sized for this clutter; a later clutter with more reached samples makes new ones (w holds
+  // GROUPS x 3 texels per sample index texel, so its rows grow whenever the index's do).
   if (solve_.w && linear_rows(w_texels) > solve_.w_rows) solve_.w = solve_.sample_index = 0;
   table(solve_.w, GL_RGBA32F, w_texels);
   table(solve_.sample_index, GL_RGBA32I, index_texels);
