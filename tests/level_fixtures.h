@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
-// Shared by the backend tests (CPU, GLES): a single block, a corridor and the 11- and
-// 41-block mazes built against the small test dictionary, with their direct light and
-// albedo, and core's scalar reference for a given ld. Each built once per test program, when
-// first used.
+// Shared by the backend tests (CPU, GLES): a single block, a corridor, the 11- and 41-block
+// mazes and a bend of stretched blocks (each with operators for its own box, MRT §8) built
+// against the small test dictionary, with their direct light and albedo, and core's scalar reference for a
+// given ld. Each built once per test program, when first used.
 #pragma once
 
 #include <cstdio>
@@ -25,14 +25,48 @@
 namespace modrt::test {
 
 struct TestLevel {
-  std::string name;  // "single", "corridor", "maze11", "maze41"
+  std::string name;  // kTestLevelNames
   LevelDescription description;
   Level level;
   std::vector<float> ld, albedo;
 };
 
 // The names of the test levels, in test_levels() order.
-inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11", "maze41"};
+inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11", "maze41", "stretched"};
+
+// Four connected blocks 0.8 high: 1.7 x 0.8 x 1, 0.6 x 0.8 x 1 and 0.7 x 0.8 x 1 along x, then
+// 0.7 x 0.8 x 1.4 along z, the light in the first; every block has a box of its own.
+inline LevelDescription stretched_level() {
+  LevelDescription d;
+  d.name = "stretched";
+  const double x[] = {0.0, 1.7, 2.3, 3.0}, h = 0.8;
+  auto box = [&](glm::ivec3 cell, glm::dvec3 lo, glm::dvec3 hi, FaceMask faces) {
+    BlockDescription b;
+    b.cell = cell;
+    b.faces = faces;
+    b.warped = true;
+    for (int k = 0; k < 8; ++k)
+      b.corners[std::size_t(k)] = {k & 1 ? hi.x : lo.x, (k >> 1) & 1 ? hi.y : lo.y,
+                                   (k >> 2) & 1 ? hi.z : lo.z};
+    for (glm::dvec3& a : b.albedo) a = glm::dvec3(0.7);
+    b.albedo[kFaceNegX] = {0.8, 0.3, 0.2};
+    d.blocks.push_back(b);
+  };
+  auto without = [](std::initializer_list<int> faces) {
+    unsigned m = kAllFaces;
+    for (int f : faces) m &= ~(1u << f);
+    return FaceMask(m);
+  };
+  box({0, 0, 0}, {x[0], 0, 0}, {x[1], h, 1}, without({kFacePosX}));
+  box({1, 0, 0}, {x[1], 0, 0}, {x[2], h, 1}, without({kFaceNegX, kFacePosX}));
+  box({2, 0, 0}, {x[2], 0, 0}, {x[3], h, 1}, without({kFaceNegX, kFacePosZ}));
+  box({2, 0, 1}, {x[2], 0, 1}, {x[3], h, 2.4}, without({kFaceNegZ}));
+  LightDescription l;
+  l.position = {0.5, 0.5, 0.4};
+  l.radius = 0.05;
+  d.lights.push_back(l);
+  return d;
+}
 
 inline TestLevel build_test_level(const std::string& name) {
   TestLevel t{name, {}, {}, {}, {}};
@@ -44,11 +78,15 @@ inline TestLevel build_test_level(const std::string& name) {
     t.description = precompute::maze_level(11).value();
   else if (name == "maze41")
     t.description = precompute::maze_level(41).value();
+  else if (name == "stretched")
+    t.description = stretched_level();
   else {
     std::fprintf(stderr, "no test level named %s\n", name.c_str());
     std::abort();
   }
-  Result<Level> level = precompute::build_level(t.description, small_test_dictionary());
+  precompute::LevelBuildSettings settings;
+  settings.shaped_cache = &test_shaped_cache();
+  Result<Level> level = precompute::build_level(t.description, small_test_dictionary(), settings);
   if (!level.ok()) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), level.status().to_string().c_str());
     std::abort();

@@ -104,7 +104,9 @@ std::vector<BackendCase> backend_cases() {
       {TargetFormat::float32, OperatorFormat::float32, {1e-4, 2e-6, 1e-5}, "float32"},
       {TargetFormat::bits32, OperatorFormat::float32, {1e-4, 2e-6, 1e-5}, "bits32"},
       {TargetFormat::float16, OperatorFormat::float32, {2e-3, 2e-3, 1e-2}, "float16_targets"},
-      {TargetFormat::float32, OperatorFormat::float16, {2e-3, 2e-3, 2e-3}, "float16_operators"},
+      // Half-rounded operators: 6 feedback steps measured 1.8e-3 on the cube levels, 2.0e-3 on
+      // "stretched" (its long boxes feed more light back per step).
+      {TargetFormat::float32, OperatorFormat::float16, {2.5e-3, 2e-3, 2e-3}, "float16_operators"},
   };
   for (ContextRequest context :
        {ContextRequest::egl_surfaceless, ContextRequest::osmesa, ContextRequest::egl_device})

@@ -613,6 +613,10 @@ RoundedOperators rounded_operators(const Level& level) {
   for (ShapeOperators& op : out.dict.shapes) {
     round_to_half(op.Td_b), round_to_half(op.Ub), round_to_half(op.Ubvol), round_to_half(op.Ub_vec);
   }
+  for (ShapedOperators& so : out.level.shaped) {
+    ShapeOperators& op = so.operators;
+    round_to_half(op.Td_b), round_to_half(op.Ub), round_to_half(op.Ubvol), round_to_half(op.Ub_vec);
+  }
   round_to_half(out.dict.interfaces.Ur);
   for (ResponseRecord& rec : out.level.records) round_to_half(rec.T);
   for (Matrix& m : out.level.probe_response) round_to_half(m);

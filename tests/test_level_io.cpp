@@ -158,6 +158,10 @@ TEST(LevelFile, DamagedFilesAreRefusedWithNamedErrors) {
   reseal(b);
   expect_refused(b, ErrorCode::version_mismatch, "version 1 has no per-face albedo");
   b = good;
+  put_u32(b, 8, 2);
+  reseal(b);
+  expect_refused(b, ErrorCode::version_mismatch, "version 2 has no shaped operators");
+  b = good;
   b[20] ^= std::byte(1);  // kb, header checksum not updated
   expect_refused(b, ErrorCode::checksum_mismatch, "header checksum");
   b = good;
@@ -187,12 +191,12 @@ TEST(LevelFile, DamagedFilesAreRefusedWithNamedErrors) {
   put_u32(b, kLevelFileHeaderBytes, 9);
   reseal(b);
   expect_refused(b, ErrorCode::format_error, "block 0: shape 9");
-  // The reserved header field (fuzz_level_file found a file that was accepted with it set, so
-  // it did not serialize back to the same bytes).
+  // The shaped operator count (once a reserved field: fuzz_level_file found a file that was
+  // accepted with it set) past what the body holds.
   b = good;
   put_u32(b, 44, 0x540000u);
   reseal(b);
-  expect_refused(b, ErrorCode::format_error, "reserved");
+  expect_refused(b, ErrorCode::format_error, "shaped operators");
   // Trailing bytes.
   b = good;
   b.insert(b.end(), 4, std::byte(0));

@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/shaped_operators.h"
 
 namespace modrt::test {
 
@@ -33,6 +34,13 @@ inline const Dictionary& small_test_dictionary() {
     return std::move(d).value();
   }();
   return dict;
+}
+
+// Shaped operators (MRT §8) baked for the test dictionary, cached beside it on disk so that
+// the test processes after the first load them instead of baking.
+inline precompute::ShapedOperatorCache& test_shaped_cache() {
+  static precompute::ShapedOperatorCache cache(MODRT_TEST_CACHE_DIR);
+  return cache;
 }
 
 }  // namespace modrt::test

@@ -17,17 +17,19 @@ namespace {
 static_assert(kLevelFileHeaderBytes == binary::kSealedHeaderBytes);
 
 const char* level_version_note(std::uint32_t version) {
-  return version == 1 ? " (version 1 has no per-face albedo)" : "";
+  return version == 1   ? " (version 1 has no per-face albedo)"
+         : version == 2 ? " (version 2 has no shaped operators)"
+                        : "";
 }
 
-// Fields: res, kb, kr, blocks, samples, slots, records; offset 44 reserved.
+// Fields: res, kb, kr, blocks, samples, slots, records, shaped operator sets.
 binary::SealedFormat level_file_format() {
   binary::SealedFormat f;
   f.magic = kLevelFileMagic;
   f.kind = "modrt level file";
   f.writer = "level";
   f.version = kLevelFileVersion;
-  f.fields = 7;
+  f.fields = 8;
   f.max_file_bytes = kMaxLevelFileBytes;
   f.rebuild = "rebuild the level with modrt-level --save";
   f.version_note = level_version_note;
@@ -84,6 +86,35 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
       }
     if (blk.sample_offset != offset) return invalid(code, what, name + ": sample offsets are not contiguous");
     offset += blk.sample_count;
+    if (blk.shaped < -1 || (blk.shaped >= 0 && std::size_t(blk.shaped) >= level.shaped.size()))
+      return invalid(code, what,
+                     name + ": shaped operators " + std::to_string(blk.shaped) +
+                         " out of range (the level has " + std::to_string(level.shaped.size()) + ")");
+    if (blk.shaped >= 0 && level.shaped[std::size_t(blk.shaped)].shape != blk.shape)
+      return invalid(code, what,
+                     name + ": shaped operators " + std::to_string(blk.shaped) +
+                         " were baked for another dictionary shape");
+  }
+  for (std::size_t s = 0; s < level.shaped.size(); ++s) {
+    const ShapedOperators& so = level.shaped[s];
+    const std::string name = "shaped operators " + std::to_string(s);
+    if (so.shape < 0 || so.shape >= kDictionaryShapeCount)
+      return invalid(code, what,
+                     name + ": shape " + std::to_string(so.shape) + " is not 0.." +
+                         std::to_string(kDictionaryShapeCount - 1));
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(so.extent[a]) || !(so.extent[a] > 0.0f))
+        return invalid(ErrorCode::non_finite, what, name + ": extent is not finite and > 0");
+    const std::uint32_t n =
+        std::uint32_t(face_count(dictionary_shape_mask(so.shape)) * level.res * level.res);
+    const ShapeOperators& op = so.operators;
+    if (op.Ub.rows != n || op.Ub.cols != level.kb || op.Td_b.rows != level.kb || op.Td_b.cols != n ||
+        op.Limp.rows != n || op.Limp.cols != level.kb || (!op.Ub_vec.empty() && op.Ub_vec.rows != 4 * n))
+      return invalid(code, what,
+                     name + ": Ub, Td_b, Limp or Ub_vec is not sized for " + std::to_string(n) +
+                         " samples and kb " + std::to_string(level.kb));
+    for (const Matrix* m : {&op.Ub, &op.Td_b, &op.Limp, &op.Ub_vec, &op.Ubvol})
+      if (!finite_matrix(*m)) return invalid(ErrorCode::non_finite, what, name + ": NaN or Inf");
   }
   if (offset != level.sample_count)
     return invalid(code, what,
@@ -205,12 +236,21 @@ Result<std::vector<std::byte>> serialize_level(const Level& level) {
     body.u32(p.dst);
     body.u32(p.src);
   }
+  for (const ShapedOperators& so : level.shaped) {
+    body.i32(so.shape);
+    for (int a = 0; a < 3; ++a) body.f32(so.extent[a]);
+    for (const Matrix* m : {&so.operators.Ub, &so.operators.Td_b, &so.operators.Limp, &so.operators.Ub_vec,
+                            &so.operators.Ubvol})
+      body.matrix(*m);
+  }
+  if (!level.shaped.empty())
+    for (const LevelBlock& blk : level.blocks) body.i32(blk.shaped);
 
-  return binary::seal(
-      level_file_format(),
-      {std::uint32_t(level.res), level.kb, level.kr, std::uint32_t(level.blocks.size()), level.sample_count,
-       std::uint32_t(level.slots.size()), std::uint32_t(level.records.size()), 0},
-      body.bytes);
+  return binary::seal(level_file_format(),
+                      {std::uint32_t(level.res), level.kb, level.kr, std::uint32_t(level.blocks.size()),
+                       level.sample_count, std::uint32_t(level.slots.size()),
+                       std::uint32_t(level.records.size()), std::uint32_t(level.shaped.size())},
+                      body.bytes);
 }
 
 Status save_level(const std::string& path, const Level& level) {
@@ -237,6 +277,7 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
   level.sample_count = header[4];
   const std::uint32_t slot_count = header[5];
   const std::uint32_t record_count = header[6];
+  const std::uint32_t shaped_count = header[7];
   if (level.res > 4096 || level.kb > kMaxMatrixDimension || level.kr > kMaxMatrixDimension)
     return error(ErrorCode::format_error, "res " + std::to_string(level.res) + ", kb " +
                                               std::to_string(level.kb) + " or kr " +
@@ -320,9 +361,28 @@ Result<Level> parse_level(std::span<const std::byte> bytes, const std::string& w
       p.src = in.u32("atlas padding src");
     }
   }
+  // Smallest set: shape, extent and five empty matrices (8 bytes each).
+  if (in.fits("shaped operators", shaped_count, 4 + 12 + 5 * 8)) level.shaped.resize(shaped_count);
+  for (std::uint32_t s = 0; s < shaped_count && in.ok(); ++s) {
+    ShapedOperators& so = level.shaped[s];
+    const std::string f = "shaped operators " + std::to_string(s);
+    so.shape = in.i32(f + " shape");
+    for (int a = 0; a < 3; ++a) so.extent[a] = in.f32(f + " extent");
+    so.operators.Ub = in.matrix(f + " Ub");
+    so.operators.Td_b = in.matrix(f + " Td_b");
+    so.operators.Limp = in.matrix(f + " Limp");
+    so.operators.Ub_vec = in.matrix(f + " Ub_vec");
+    so.operators.Ubvol = in.matrix(f + " Ubvol");
+    if (so.shape >= 0 && so.shape < kDictionaryShapeCount)
+      so.operators.face_mask = dictionary_shape_mask(so.shape);
+  }
+  if (shaped_count > 0 && in.fits("block shaped", block_count, 4))
+    for (std::uint32_t i = 0; i < block_count && in.ok(); ++i)
+      level.blocks[i].shaped = in.i32("block " + std::to_string(i) + " shaped");
   if (!in.ok()) return in.status();
   if (in.left() != 0)
-    return error(ErrorCode::format_error, std::to_string(in.left()) + " trailing bytes after the atlas");
+    return error(ErrorCode::format_error,
+                 std::to_string(in.left()) + " trailing bytes after the shaped operators");
   if (Status s = check_level_structure(level, what, ErrorCode::format_error); !s.ok()) return s;
   return level;
 }

@@ -49,7 +49,7 @@ Status check_level_matches(const Level& level, const Dictionary& dict) {
 void level_compute_block_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
                            std::size_t block, std::span<float> b) {
   const LevelBlock& blk = level.blocks[block];
-  reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Td_b, ld.data() + 3 * std::size_t(blk.sample_offset),
+  reference_gemv_rgb(block_operators(dict, level, blk).Td_b, ld.data() + 3 * std::size_t(blk.sample_offset),
                      b.data() + 3 * std::size_t(level.kb) * block, false);
 }
 
@@ -68,8 +68,8 @@ void level_compute_tile(const Level& level, const Dictionary& dict, const LevelD
                         std::span<float> lightmap) {
   const LevelBlock& blk = level.blocks[block];
   float* dst = lightmap.data() + 3 * std::size_t(blk.sample_offset);
-  reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub, b.data() + 3 * std::size_t(level.kb) * block,
-                     dst, false);
+  reference_gemv_rgb(block_operators(dict, level, blk).Ub, b.data() + 3 * std::size_t(level.kb) * block, dst,
+                     false);
   const Matrix& Ur = dict.interfaces.Ur;
   for (std::uint32_t s : deps.slots_of_block(block)) {
     const ResponseSlot& slot = level.slots[s];
@@ -92,7 +92,7 @@ void level_compute_block_probes(const Level& level, const Dictionary& dict, cons
                                 std::span<float> probes) {
   const std::size_t per_block = 3 * std::size_t(dict.shapes[0].Ubvol.rows);
   float* dst = probes.data() + per_block * block;
-  reference_gemv_rgb(dict.shapes[std::size_t(level.blocks[block].shape)].Ubvol,
+  reference_gemv_rgb(block_operators(dict, level, level.blocks[block]).Ubvol,
                      b.data() + 3 * std::size_t(level.kb) * block, dst, false);
   for (std::uint32_t s : deps.slots_of_block(block))
     reference_gemv_rgb(level.probe_response[std::size_t(level.slots[s].entry_face)],
@@ -178,10 +178,11 @@ void level_compute_probes(const Level& level, const Dictionary& dict, std::span<
 Status check_level_vector_operators(const Level& level, const Dictionary& dict) {
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    if (blk.shape < 0 || std::size_t(blk.shape) >= dict.shapes.size())
+    if (blk.shape < 0 || std::size_t(blk.shape) >= dict.shapes.size() ||
+        (blk.shaped >= 0 && std::size_t(blk.shaped) >= level.shaped.size()))
       return Status::error(ErrorCode::invalid_argument,
                            "vector irradiance: block " + std::to_string(i) + " has no dictionary shape");
-    if (!has_size(dict.shapes[std::size_t(blk.shape)].Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
+    if (!has_size(block_operators(dict, level, blk).Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
       return Status::error(ErrorCode::invalid_argument, "vector irradiance: block " + std::to_string(i) +
                                                             ": the dictionary has no Ub_vec of 4n x kb");
   }
@@ -205,7 +206,7 @@ Status level_compute_vector_irradiance(const Level& level, const Dictionary& dic
   if (Status s = check_level_vector_operators(level, dict); !s.ok()) return s;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    reference_gemv_rgb(dict.shapes[std::size_t(blk.shape)].Ub_vec, b.data() + 3 * std::size_t(level.kb) * i,
+    reference_gemv_rgb(block_operators(dict, level, blk).Ub_vec, b.data() + 3 * std::size_t(level.kb) * i,
                        vector_lightmap.data() + 12 * std::size_t(blk.sample_offset), false);
   }
   for (std::size_t s = 0; s < level.slots.size(); ++s) {
@@ -239,7 +240,10 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
     if (blk.shape < 0 || std::size_t(blk.shape) >= dict.shapes.size())
       return mismatch(name + " uses shape " + std::to_string(blk.shape) + ", the dictionary has " +
                       std::to_string(dict.shapes.size()));
-    const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
+    if (blk.shaped < -1 || (blk.shaped >= 0 && std::size_t(blk.shaped) >= level.shaped.size()))
+      return mismatch(name + " uses shaped operators " + std::to_string(blk.shaped) + ", the level has " +
+                      std::to_string(level.shaped.size()));
+    const ShapeOperators& op = block_operators(dict, level, blk);
     const std::size_t n = blk.sample_count;
     if (!has_size(op.Td_b, kb, n) || !has_size(op.Ub, n, kb) ||
         (probes > 0 && !has_size(op.Ubvol, probes, kb)))

@@ -12,6 +12,11 @@ std::string shape_where(std::size_t shape) {
   return "shape " + std::to_string(shape) + " (" + dictionary_shape_name(int(shape)) + "): ";
 }
 
+std::string operator_set_where(const Dictionary& dict, std::size_t set) {
+  return set < dict.shapes.size() ? shape_where(set)
+                                  : "shaped operators " + std::to_string(set - dict.shapes.size()) + ": ";
+}
+
 double column_norm2(const Matrix& m, std::uint32_t c) {
   double s = 0.0;
   for (std::uint32_t r = 0; r < m.rows; ++r) s += double(m(r, c)) * double(m(r, c));
@@ -39,46 +44,63 @@ void add_max_entry(std::vector<OperatorMeasure>& out, const std::string& where, 
 
 }  // namespace
 
+double shaped_transfer_factor(const glm::vec3& extent) {
+  const double longest = std::max({extent.x, extent.y, extent.z}),
+               shortest = std::min({extent.x, extent.y, extent.z});
+  return shortest > 0.0 && std::isfinite(longest) ? std::sqrt(longest / shortest) : 1.0;
+}
+
 double prior_scale(const DictionarySettings& s) {
   if (s.enrichment_iterations > 0) return std::sqrt(3.0);
   const double g = s.prior_grid;
   return std::max(1.0, std::sqrt(g * g * g));
 }
 
+namespace {
+
+double lightfield_samples(const DictionarySettings& s) {
+  return double(s.lightfield_spatial) * s.lightfield_directional;
+}
+
+// The per-shape measures of one operator set (a dictionary shape or a level's shaped
+// operators): both must meet the same limits.
+void measure_shape_operators(const ShapeOperators& op, const std::string& where, double scale,
+                             double lightfield, double transfer_factor, std::vector<OperatorMeasure>& out) {
+  OperatorMeasure mode{where, "||Ub_k||_2 ||Td_b,k||_2", 0.0, kModeTransferLimit * transfer_factor};
+  OperatorMeasure ub{where, "||Ub_k||_2", 0.0, kModeTransferLimit * transfer_factor * scale};
+  OperatorMeasure td{where, "||Td_b,k||_1", 0.0, kMaxOutputGain};
+  OperatorMeasure limp{where, "||Limp_k||_2", 0.0, kLimpScaleLimit * scale};
+  for (std::uint32_t k = 0; k < op.Ub.cols && k < op.Td_b.rows; ++k) {
+    const double u = column_norm2(op.Ub, k), t2 = row_norm(op.Td_b, k, 2), t1 = row_norm(op.Td_b, k, 1);
+    if (u * t2 > mode.value)
+      mode.value = u * t2,
+      mode.where = where + "Ub column " + std::to_string(k) + " x Td_b row " + std::to_string(k);
+    if (u > ub.value) ub.value = u, ub.where = where + "Ub column " + std::to_string(k);
+    if (t1 > td.value) td.value = t1, td.where = where + "Td_b row " + std::to_string(k);
+  }
+  for (std::uint32_t k = 0; k < op.Limp.cols; ++k) {
+    const double l = column_norm2(op.Limp, k);
+    if (l > limp.value) limp.value = l, limp.where = where + "Limp column " + std::to_string(k);
+  }
+  out.push_back(mode);
+  out.push_back(ub);
+  out.push_back(td);
+  out.push_back(limp);
+  add_max_entry(out, where, "Ub_vec", op.Ub_vec, kUbVecGatherLimit * scale);
+  add_max_entry(out, where, "Ubvol", op.Ubvol, kUbvolGatherLimit * scale);
+  for (int f = 0; f < kFaceCount; ++f)
+    if (!op.Rb_rlf[std::size_t(f)].empty())
+      add_max_entry(out, where, (std::string("Rb_rlf(") + face_name(f) + ")").c_str(),
+                    op.Rb_rlf[std::size_t(f)], kRbRlfGatherLimit * lightfield * scale);
+}
+
+}  // namespace
+
 std::vector<OperatorMeasure> measure_dictionary_operators(const Dictionary& dict) {
   std::vector<OperatorMeasure> out;
-  const double scale = prior_scale(dict.settings);
-  const double lightfield = double(dict.settings.lightfield_spatial) * dict.settings.lightfield_directional;
-  for (std::size_t s = 0; s < dict.shapes.size(); ++s) {
-    const ShapeOperators& op = dict.shapes[s];
-    const std::string where = shape_where(s);
-    OperatorMeasure mode{where, "||Ub_k||_2 ||Td_b,k||_2", 0.0, kModeTransferLimit};
-    OperatorMeasure ub{where, "||Ub_k||_2", 0.0, kModeTransferLimit * scale};
-    OperatorMeasure td{where, "||Td_b,k||_1", 0.0, kMaxOutputGain};
-    OperatorMeasure limp{where, "||Limp_k||_2", 0.0, kLimpScaleLimit * scale};
-    for (std::uint32_t k = 0; k < op.Ub.cols && k < op.Td_b.rows; ++k) {
-      const double u = column_norm2(op.Ub, k), t2 = row_norm(op.Td_b, k, 2), t1 = row_norm(op.Td_b, k, 1);
-      if (u * t2 > mode.value)
-        mode.value = u * t2,
-        mode.where = where + "Ub column " + std::to_string(k) + " x Td_b row " + std::to_string(k);
-      if (u > ub.value) ub.value = u, ub.where = where + "Ub column " + std::to_string(k);
-      if (t1 > td.value) td.value = t1, td.where = where + "Td_b row " + std::to_string(k);
-    }
-    for (std::uint32_t k = 0; k < op.Limp.cols; ++k) {
-      const double l = column_norm2(op.Limp, k);
-      if (l > limp.value) limp.value = l, limp.where = where + "Limp column " + std::to_string(k);
-    }
-    out.push_back(mode);
-    out.push_back(ub);
-    out.push_back(td);
-    out.push_back(limp);
-    add_max_entry(out, where, "Ub_vec", op.Ub_vec, kUbVecGatherLimit * scale);
-    add_max_entry(out, where, "Ubvol", op.Ubvol, kUbvolGatherLimit * scale);
-    for (int f = 0; f < kFaceCount; ++f)
-      if (!op.Rb_rlf[std::size_t(f)].empty())
-        add_max_entry(out, where, (std::string("Rb_rlf(") + face_name(f) + ")").c_str(),
-                      op.Rb_rlf[std::size_t(f)], kRbRlfGatherLimit * lightfield * scale);
-  }
+  for (std::size_t s = 0; s < dict.shapes.size(); ++s)
+    measure_shape_operators(dict.shapes[s], shape_where(s), prior_scale(dict.settings),
+                            lightfield_samples(dict.settings), 1.0, out);
   const InterfaceOperators& io = dict.interfaces;
   const std::pair<const char*, const Matrix*> interfaces[] = {
       {"R_straight", &io.R_straight}, {"R_left", &io.R_left}, {"R_right", &io.R_right},
@@ -115,19 +137,19 @@ std::vector<OperatorMeasure> measure_level_operators(const Level& level) {
 
 std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictionary& dict) {
   const std::uint32_t kb = level.kb, kr = level.kr;
-  // b_k <= ||Td_b,k||_1 max(ld): per shape and mode.
-  std::vector<std::vector<double>> tdb(dict.shapes.size());
+  // b_k <= ||Td_b,k||_1 max(ld): per operator set (dictionary shape or shaped) and mode.
+  std::vector<std::vector<double>> tdb(operator_set_count(dict, level));
   OperatorMeasure b{"b", "gain ld -> b", 0.0, kMaxOutputGain};
-  for (std::size_t s = 0; s < dict.shapes.size(); ++s) {
-    const Matrix& T = dict.shapes[s].Td_b;
+  for (std::size_t s = 0; s < tdb.size(); ++s) {
+    const Matrix& T = operator_set_at(dict, level, s).Td_b;
     for (std::uint32_t k = 0; k < T.rows; ++k) {
       tdb[s].push_back(row_norm(T, k, 1));
       if (tdb[s].back() > b.value)
-        b.value = tdb[s].back(), b.where = shape_where(s) + "Td_b row " + std::to_string(k);
+        b.value = tdb[s].back(), b.where = operator_set_where(dict, s) + "Td_b row " + std::to_string(k);
     }
   }
   auto block_gain = [&](std::size_t block) -> const std::vector<double>& {
-    return tdb[std::size_t(level.blocks[block].shape)];
+    return tdb[operator_set(dict, level.blocks[block])];
   };
   // r_slot <= sum over its records |T| b.
   std::vector<double> rgain(std::size_t(kr) * level.slots.size(), 0.0);
@@ -155,7 +177,7 @@ std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictio
   std::vector<double> probes(probe_rows * level.blocks.size(), 0.0);
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
+    const ShapeOperators& op = block_operators(dict, level, blk);
     const double* g = block_gain(i).data();
     for (std::uint32_t t = 0; t < blk.sample_count; ++t) {
       lm[blk.sample_offset + t] = row_gain(op.Ub, t, g);
@@ -191,9 +213,16 @@ std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictio
       if (v[i] > m.value) m.value = v[i], m.where = std::string(unit) + " " + std::to_string(i / per);
     return m;
   };
-  return {b, r, largest(lm, "lightmap", "sample", 1),
-          largest(probes, "probes", "block", std::max<std::size_t>(probe_rows, 1)),
-          largest(vec, "vector irradiance", "sample", 4)};
+  std::vector<OperatorMeasure> out = {
+      b, r, largest(lm, "lightmap", "sample", 1),
+      largest(probes, "probes", "block", std::max<std::size_t>(probe_rows, 1)),
+      largest(vec, "vector irradiance", "sample", 4)};
+  // A level's shaped operators meet the dictionary shapes' limits (measure_dictionary_operators).
+  for (std::size_t s = 0; s < level.shaped.size(); ++s)
+    measure_shape_operators(level.shaped[s].operators, operator_set_where(dict, dict.shapes.size() + s),
+                            prior_scale(dict.settings), lightfield_samples(dict.settings),
+                            shaped_transfer_factor(level.shaped[s].extent), out);
+  return out;
 }
 
 Status check_measures(const std::vector<OperatorMeasure>& measures, const std::string& what,

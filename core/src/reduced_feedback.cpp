@@ -63,7 +63,8 @@ struct ShapeFaceProducts {
   std::array<std::vector<double>, kFaceCount> face;
 };
 struct EntryProduct {
-  int shape = -1, entry_face = -1;
+  std::size_t operator_set = 0;  // operator_set() of the block: its Td_b
+  int entry_face = -1;
   const std::vector<std::int32_t>* map = nullptr;  // the row map it was computed for
   std::vector<double> product;
 };
@@ -196,7 +197,7 @@ ReducedClutter build_reduced_clutter(const Level& level, const Dictionary& dict,
   const std::size_t kb = level.kb;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    const Matrix& Td = dict.shapes[std::size_t(blk.shape)].Td_b;
+    const Matrix& Td = block_operators(dict, level, blk).Td_b;
     for (std::uint32_t local = 0; local < blk.sample_count; ++local) {
       const std::uint32_t s = blk.sample_offset + local;
       if (!reached[s]) continue;
@@ -319,10 +320,10 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
   plain.kb = level.kb, plain.kr = level.kr, plain.block_jacobi = false;
   plain.A.reserve(level.blocks.size());
   std::vector<double> acc;
-  std::vector<ShapeFaceProducts> shape_products(dict.shapes.size());
+  std::vector<ShapeFaceProducts> shape_products(operator_set_count(dict, level));
   const std::size_t kb2 = std::size_t(plain.kb) * plain.kb;
   for (const LevelBlock& blk : level.blocks) {
-    const ShapeOperators& shape = dict.shapes[std::size_t(blk.shape)];
+    const ShapeOperators& shape = block_operators(dict, level, blk);
     const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
     const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(blk.shape), level.res);
     const std::size_t per_face = std::size_t(layout.texels_per_face());
@@ -334,7 +335,7 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
                                             per_face, face_rho[f]);
     acc.assign(3 * kb2, 0.0);
     if (per_face_constant) {  // A = sum_f rho_f face[f]
-      ShapeFaceProducts& fp = shape_products[std::size_t(blk.shape)];
+      ShapeFaceProducts& fp = shape_products[operator_set(dict, blk)];
       if (!fp.ready) face_products(shape, layout, fp);
       for (int f = 0; f < kFaceCount; ++f) {
         if (layout.slot[std::size_t(f)] < 0) continue;
@@ -354,7 +355,7 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
   std::vector<float> ones;
   for (const ResponseSlot& slot : level.slots) {
     const LevelBlock& blk = level.blocks[slot.block];
-    const Matrix& Td = dict.shapes[std::size_t(blk.shape)].Td_b;
+    const Matrix& Td = block_operators(dict, level, blk).Td_b;
     const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
     // The mapped samples all lie on the entry face: one albedo when that face's is constant.
     float entry_rho[3] = {0.0f, 0.0f, 0.0f};
@@ -374,10 +375,12 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     if (constant) {  // B = rho_entry entry
       EntryProduct* ep = nullptr;
       for (EntryProduct& e : entry_products)
-        if (e.shape == blk.shape && e.entry_face == slot.entry_face && *e.map == slot.ur_row_to_sample)
+        if (e.operator_set == operator_set(dict, blk) && e.entry_face == slot.entry_face &&
+            *e.map == slot.ur_row_to_sample)
           ep = &e;
       if (!ep) {
-        EntryProduct e{blk.shape, slot.entry_face, &slot.ur_row_to_sample, std::vector<double>(3 * kbr, 0.0)};
+        EntryProduct e{operator_set(dict, blk), slot.entry_face, &slot.ur_row_to_sample,
+                       std::vector<double>(3 * kbr, 0.0)};
         ones.assign(3 * std::size_t(blk.sample_count), 1.0f);
         accumulate_weighted_product(Td, ones, Ur, slot.ur_row_to_sample.data(), e.product);
         entry_products.push_back(std::move(e));

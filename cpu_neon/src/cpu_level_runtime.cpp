@@ -182,12 +182,12 @@ Status CpuLevelRuntime::prepare_operators(OperatorStorage storage) {
     std::size_t index;  // of the shape, record or face
   };
   std::vector<Item> items;
-  std::vector<std::uint8_t> shape_used(dict.shapes.size(), 0);
-  for (const LevelBlock& blk : level.blocks) shape_used[std::size_t(blk.shape)] = 1;
-  shape_ops_.assign(dict.shapes.size(), ShapeRefs{});
-  for (std::size_t sh = 0; sh < dict.shapes.size(); ++sh) {
+  std::vector<std::uint8_t> shape_used(operator_set_count(dict, level), 0);
+  for (const LevelBlock& blk : level.blocks) shape_used[operator_set(dict, blk)] = 1;
+  shape_ops_.assign(operator_set_count(dict, level), ShapeRefs{});
+  for (std::size_t sh = 0; sh < operator_set_count(dict, level); ++sh) {
     if (!shape_used[sh]) continue;
-    const ShapeOperators& op = dict.shapes[sh];
+    const ShapeOperators& op = operator_set_at(dict, level, sh);
     items.push_back({&op.Td_b, &shape_ops_[sh].td_b, "Td_b", kShape, sh});
     items.push_back({&op.Ub, &shape_ops_[sh].ub, "Ub", kShape, sh});
     if (sizes_.probes > 0) items.push_back({&op.Ubvol, &shape_ops_[sh].ubvol, "Ubvol", kShape, sh});
@@ -296,10 +296,10 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   // modes are small in D b, and ||X Td_b|| <= ||X D^-1|| ||D Td_b|| for any operator X.
   const std::size_t kb = level.kb;
   Matrix decoded_ub, decoded_td_b, decoded;
-  for (std::size_t sh = 0; sh < dict.shapes.size(); ++sh) {
+  for (std::size_t sh = 0; sh < operator_set_count(dict, level); ++sh) {
     const ShapeRefs& refs = rt.shape_ops_[sh];
-    const Matrix& Ub = kernel_values(dict.shapes[sh].Ub, refs.ub.f16, decoded_ub);
-    const Matrix& Td_b = kernel_values(dict.shapes[sh].Td_b, refs.td_b.f16, decoded_td_b);
+    const Matrix& Ub = kernel_values(operator_set_at(dict, level, sh).Ub, refs.ub.f16, decoded_ub);
+    const Matrix& Td_b = kernel_values(operator_set_at(dict, level, sh).Td_b, refs.td_b.f16, decoded_td_b);
     std::vector<double> d(kb, 0.0);
     for (std::uint32_t r = 0; r < Ub.rows; ++r)
       for (std::size_t k = 0; k < kb; ++k) d[k] += double(Ub(r, std::uint32_t(k))) * Ub(r, std::uint32_t(k));
@@ -317,7 +317,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
   for (std::size_t q = 0; q < level.records.size(); ++q) {
     const ResponseRecord& rec = level.records[q];
     const Matrix& T = kernel_values(rec.T, rt.record_ops_[q].f16, decoded);
-    const std::size_t shape = std::size_t(level.blocks[rec.source_block].shape);
+    const std::size_t shape = operator_set(dict, level.blocks[rec.source_block]);
     rt.record_norm_.push_back(frobenius(T));
     rt.record_d_norm_.push_back(frobenius(T, rt.shape_d_.data() + kb * shape));
   }
@@ -433,12 +433,12 @@ void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   float* b_new = b_scratch_.data() + 3 * kb * std::size_t(thread);
   deinterleave_rgb(l, n, scratch, n);
-  gemv(shape_ops_[std::size_t(blk.shape)].td_b, kb, n, scratch, b_new, false);
+  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb, n, scratch, b_new, false);
   const bool changed = force || !same_bits(b_new, b, 3 * kb);
   if (changed) {
     std::copy(b_new, b_new + 3 * kb, b);
     deinterleave_rgb(b, kb, bp, kb);
-    const double* dk = shape_d_.data() + kb * std::size_t(blk.shape);
+    const double* dk = shape_d_.data() + kb * operator_set(*dict_, blk);
     double n2 = 0.0, dn2 = 0.0;
     for (std::size_t k = 0; k < kb; ++k)
       for (std::size_t c = 0; c < 3; ++c) {
@@ -474,7 +474,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
       const std::size_t rec = slot_records_[q], src = level.records[rec].source_block;
       sources_changed |= b_changed_[src] != 0;
       beta_sum +=
-          record_d_norm_[rec] * shape_d_td_norm_[std::size_t(level.blocks[src].shape)] * ld_delta_[src];
+          record_d_norm_[rec] * shape_d_td_norm_[operator_set(*dict_, level.blocks[src])] * ld_delta_[src];
       total += record_weight(rec, src);
     }
     slot_kept_[s] = !sources_changed;
@@ -529,7 +529,8 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
     }
     r_bound += beta_sum + slot_rho_[s] + slot_drift_[s];
   }
-  tile_bound_[i] = shape_ub_td_norm_[std::size_t(level.blocks[i].shape)] * ld_delta_[i] + ur_norm_ * r_bound;
+  tile_bound_[i] =
+      shape_ub_td_norm_[operator_set(*dict_, level.blocks[i])] * ld_delta_[i] + ur_norm_ * r_bound;
   tile_written_[i] = inputs_changed;
   if (!inputs_changed) return;  // (d) the tile holds exactly what this frame would write
   // Ub b_i is kept in self_lightmap_: when only r changed, the tile restarts from a copy of
@@ -539,8 +540,9 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
   float* self = self_lightmap_.data() + offset;
   const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
   if (force || b_changed_[i]) {
-    const std::size_t shape = std::size_t(level.blocks[i].shape);
-    gemv(shape_ops_[shape].ub, dict_->shapes[shape].Ub.rows, kb, b_planar_.data() + 3 * kb * i, self, false);
+    const std::size_t shape = operator_set(*dict_, level.blocks[i]);
+    gemv(shape_ops_[shape].ub, operator_set_at(*dict_, *level_, shape).Ub.rows, kb,
+         b_planar_.data() + 3 * kb * i, self, false);
   }
   std::copy(self, self + count, tile);
   // Each slot's Ur r contribution is kept too (the values the scatter adds): recomputed only
@@ -584,7 +586,7 @@ void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, 
   const std::size_t n = blk.sample_count, kb = level_->kb;
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   deinterleave_rgb(ld.data() + 3 * std::size_t(blk.sample_offset), n, scratch, n);
-  gemv(shape_ops_[std::size_t(blk.shape)].td_b, kb, n, scratch, b_.data() + 3 * kb * i, false);
+  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb, n, scratch, b_.data() + 3 * kb * i, false);
   deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
 }
 
@@ -633,8 +635,9 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
     deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
   }
   if (!write_tile) return;
-  const std::size_t shape = std::size_t(level.blocks[i].shape);
-  const std::size_t ub_rows = dict_->shapes[shape].Ub.rows, ur_rows = dict_->interfaces.Ur.rows;
+  const std::size_t shape = operator_set(*dict_, level.blocks[i]);
+  const std::size_t ub_rows = operator_set_at(*dict_, *level_, shape).Ub.rows,
+                    ur_rows = dict_->interfaces.Ur.rows;
   // Padding sources only: the same rows of the same kernels (a row's value does not depend on
   // which rows beside it are masked), so the samples written equal the whole tile's bit for bit.
   const bool sources_only = write_tile == kPaddingSourcesOnly;
@@ -689,9 +692,9 @@ void CpuLevelRuntime::compute_block_probes(std::size_t i, std::span<float> probe
   const std::size_t kb = level.kb, kr = level.kr;
   const std::size_t per_block = 3 * std::size_t(dict_->shapes[0].Ubvol.rows);
   float* out = probes.data() + per_block * i;
-  const std::size_t shape = std::size_t(level.blocks[i].shape);
-  gemv(shape_ops_[shape].ubvol, dict_->shapes[shape].Ubvol.rows, kb, b_planar_.data() + 3 * kb * i, out,
-       false);
+  const std::size_t shape = operator_set(*dict_, level.blocks[i]);
+  gemv(shape_ops_[shape].ubvol, operator_set_at(*dict_, *level_, shape).Ubvol.rows, kb,
+       b_planar_.data() + 3 * kb * i, out, false);
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
     gemv(probe_ops_[face], level.probe_response[face].rows, kr, r_planar_.data() + 3 * kr * s, out, true);
@@ -874,9 +877,9 @@ Status CpuLevelRuntime::compute_vector_irradiance(std::span<float> vector_lightm
   auto vector_phase = [&](std::size_t i, int) {
     const LevelBlock& blk = level.blocks[i];
     float* out = vector_lightmap.data() + 12 * std::size_t(blk.sample_offset);
-    const std::size_t shape = std::size_t(blk.shape);
-    gemv(shape_ops_[shape].ub_vec, dict_->shapes[shape].Ub_vec.rows, kb, b_planar_.data() + 3 * kb * i, out,
-         false);
+    const std::size_t shape = operator_set(*dict_, blk);
+    gemv(shape_ops_[shape].ub_vec, operator_set_at(*dict_, *level_, shape).Ub_vec.rows, kb,
+         b_planar_.data() + 3 * kb * i, out, false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
       gemv_scatter(vector_ops_[face], level.vector_response[face].rows, kr,

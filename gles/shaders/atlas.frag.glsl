@@ -10,7 +10,7 @@ uniform isampler2D u_texel_sample;  // atlas-sized: sample whose value the texel
 uniform isampler2D u_sample_info;   // per sample: (block, local index t, atlas x, atlas y)
 uniform isampler2D u_sample_slots;  // per sample: up to four response slots, -1 = none
 uniform isampler2D u_sample_rows;   // per sample: the Ur row of each of those slots
-uniform isampler2D u_block_info;    // per block: (shape, sample_offset, sample_count, quarter turns)
+uniform isampler2D u_block_info;    // per block: (operator set (level.h operator_set), sample_offset, sample_count, quarter turns)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_r_red, u_r_green, u_r_blue;
 #if DRT

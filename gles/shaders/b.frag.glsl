@@ -8,7 +8,7 @@
 // LD_IS_SIGNAL selects the ld source: the caller's upload (RGB32F) or the feedback pass's
 // output (a signal target).
 uniform sampler2D u_td_b;
-uniform isampler2D u_block_info;  // per block: (shape, sample_offset, sample_count, quarter turns)
+uniform isampler2D u_block_info;  // per block: (operator set (level.h operator_set), sample_offset, sample_count, quarter turns)
 #if LD_IS_SIGNAL
 uniform usampler2D u_ld;
 vec3 load_ld(int s) { return load_signal(u_ld, s).rgb; }

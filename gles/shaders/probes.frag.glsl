@@ -6,7 +6,7 @@
 // (face * rows + row) * r_groups + g.
 uniform sampler2D u_ubvol;
 uniform sampler2D u_probe_response;
-uniform isampler2D u_block_info;   // per block: (shape, sample_offset, sample_count, quarter turns)
+uniform isampler2D u_block_info;   // per block: (operator set (level.h operator_set), sample_offset, sample_count, quarter turns)
 uniform isampler2D u_block_slots;  // per block: up to four slots entering it, -1 = none
 uniform isampler2D u_slot_info;    // per slot: (first record, record count, block, entry face)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;

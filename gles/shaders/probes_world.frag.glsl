@@ -6,7 +6,7 @@
 // probe) 9 + k, the layout of probes.frag.
 uniform OUTPUT_SAMPLER u_probes;  // probes.frag's target
 uniform sampler2D u_rotation;     // R32F, 81 x 4: M_turns row-major in row `turns`
-uniform isampler2D u_block_info;  // per block: (shape, sample_offset, sample_count, quarter turns)
+uniform isampler2D u_block_info;  // per block: (operator set (level.h operator_set), sample_offset, sample_count, quarter turns)
 uniform int u_count;              // blocks * PROBE_ROWS
 
 layout(location = 0) out OUTPUT_TYPE o_sh;

@@ -177,7 +177,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   std::vector<std::int32_t> block_slots(4 * std::max<std::size_t>(blocks, 1), -1);
   for (std::size_t i = 0; i < blocks; ++i) {
     const LevelBlock& b = level.blocks[i];
-    block_info[4 * i + 0] = b.shape;
+    block_info[4 * i + 0] = int(operator_set(dict, b));
     block_info[4 * i + 1] = std::int32_t(b.sample_offset);
     block_info[4 * i + 2] = std::int32_t(b.sample_count);
     block_info[4 * i + 3] = b.quarter_turns & 3;  // probes_world.frag
@@ -246,14 +246,14 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   for (const PaddingRecord& p : atlas.padding) texel_sample[p.dst] = texel_sample[p.src];
 
   // ---- operators, packed four modes per texel ----
-  const std::size_t shapes = dict.shapes.size();
+  const std::size_t shapes = operator_set_count(dict, level);
   std::vector<float> td_b(4 * std::max<std::size_t>(shapes * std::size_t(groups_) * std::size_t(n_max_), 1),
                           0.0f);
   std::vector<float> ub(4 * std::max<std::size_t>(shapes * std::size_t(n_max_) * std::size_t(groups_), 1),
                         0.0f);
   for (std::size_t sh = 0; sh < shapes; ++sh) {
-    pack_columns(dict.shapes[sh].Td_b, sh * std::size_t(groups_), std::size_t(n_max_), td_b);
-    pack_rows(dict.shapes[sh].Ub, sh * std::size_t(n_max_), groups_, ub);
+    pack_columns(operator_set_at(dict, level, sh).Td_b, sh * std::size_t(groups_), std::size_t(n_max_), td_b);
+    pack_rows(operator_set_at(dict, level, sh).Ub, sh * std::size_t(n_max_), groups_, ub);
   }
   const Matrix& Ur = dict.interfaces.Ur;
   std::vector<float> ur(4 * std::max<std::size_t>(std::size_t(Ur.rows) * std::size_t(r_groups_), 1), 0.0f);
@@ -274,7 +274,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   if (has_probes_) {
     const std::size_t rows = std::size_t(probe_rows_);
     ubvol.assign(4 * shapes * rows * std::size_t(groups_), 0.0f);
-    for (std::size_t sh = 0; sh < shapes; ++sh) pack_rows(dict.shapes[sh].Ubvol, sh * rows, groups_, ubvol);
+    for (std::size_t sh = 0; sh < shapes; ++sh)
+      pack_rows(operator_set_at(dict, level, sh).Ubvol, sh * rows, groups_, ubvol);
     probe_response.assign(4 * kFaceCount * rows * std::size_t(r_groups_), 0.0f);
     for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f)
       if (level.probe_response[f].rows == rows)
@@ -286,8 +287,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     const std::size_t rows = std::size_t(vector_rows_);
     ub_vec.assign(4 * shapes * std::size_t(n_max_) * 4 * std::size_t(groups_), 0.0f);
     for (std::size_t sh = 0; sh < shapes; ++sh)
-      if (!dict.shapes[sh].Ub_vec.empty())
-        pack_rows(dict.shapes[sh].Ub_vec, sh * std::size_t(n_max_) * 4, groups_, ub_vec);
+      if (!operator_set_at(dict, level, sh).Ub_vec.empty())
+        pack_rows(operator_set_at(dict, level, sh).Ub_vec, sh * std::size_t(n_max_) * 4, groups_, ub_vec);
     vector_response.assign(4 * std::max<std::size_t>(kFaceCount * rows * std::size_t(r_groups_), 1), 0.0f);
     for (std::size_t f = 0; f < std::size_t(kFaceCount); ++f)
       if (level.vector_response[f].rows == rows)

@@ -63,13 +63,14 @@ InterfaceSettings interface_settings(const DictionarySettings& s) {
 namespace {
 
 // bake_shape and bake_shape_with_prior: `given_Ld` null lights the settings' prior lattice.
-ShapeBake bake_shape_from(FaceMask mask, const DictionarySettings& settings, const MatrixXd* given_Ld,
-                          bool with_sh, const BakeProgress& progress) {
+ShapeBake bake_shape_from(FaceMask mask, const glm::dvec3& extent, const DictionarySettings& settings,
+                          const MatrixXd* given_Ld, bool with_sh, const BakeProgress& progress) {
   if (Status s = validate_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
   ShapeBake bake;
   bake.mask = mask;
+  bake.extent = extent;
   bake.layout = SampleLayout::make(mask, int(settings.res));
-  const BlockScene scene(mask);
+  const BlockScene scene(mask, extent);
   StageTimer timer(progress, shape_index_of(mask));
   const std::uint64_t shape_seed = settings.seed ^ (std::uint64_t(mask) << 40);
 
@@ -86,7 +87,7 @@ ShapeBake bake_shape_from(FaceMask mask, const DictionarySettings& settings, con
   timer.done("prior");
 
   bake.F = gather_transport(scene, bake.layout, int(settings.rays), shape_seed);
-  symmetrize_transport(bake.F, bake.layout);
+  symmetrize_transport(bake.F, bake.layout, extent);
   timer.done("F");
 
   bake.raw_transfer = reduce_transfer(bake.F, bake.raw_prior, int(settings.kb));
@@ -114,12 +115,17 @@ ShapeBake bake_shape_from(FaceMask mask, const DictionarySettings& settings, con
 
 ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh,
                      const BakeProgress& progress) {
-  return bake_shape_from(mask, settings, nullptr, with_sh, progress);
+  return bake_shape_from(mask, glm::dvec3(1.0), settings, nullptr, with_sh, progress);
+}
+
+ShapeBake bake_box_shape(FaceMask mask, const glm::dvec3& extent, const DictionarySettings& settings,
+                         bool with_sh, const BakeProgress& progress) {
+  return bake_shape_from(mask, extent, settings, nullptr, with_sh, progress);
 }
 
 ShapeBake bake_shape_with_prior(FaceMask mask, const DictionarySettings& settings, const MatrixXd& Ld,
                                 bool with_sh, const BakeProgress& progress) {
-  return bake_shape_from(mask, settings, &Ld, with_sh, progress);
+  return bake_shape_from(mask, glm::dvec3(1.0), settings, &Ld, with_sh, progress);
 }
 
 ShapeOperators to_operators(const ShapeBake& bake) {

@@ -29,7 +29,12 @@ void embree_error(void*, RTCError code, const char* message) {
 
 }  // namespace
 
-BlockScene::BlockScene(FaceMask mask) : impl_(std::make_unique<Impl>()), mask_(mask) {
+BlockScene::BlockScene(FaceMask mask, const glm::dvec3& extent)
+    : impl_(std::make_unique<Impl>()), mask_(mask), extent_(extent) {
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(extent[a]) || !(extent[a] > 0.0))
+      throw std::invalid_argument("BlockScene: extent " + std::to_string(a) + " = " +
+                                  std::to_string(extent[a]) + ": must be finite and > 0");
   // No "threads=N": with Embree's TBB tasking it installs a process-wide
   // tbb::global_control(max_allowed_parallelism, N) while the device lives, which would
   // serialize every parallel_for of the bake (see level_scene.cpp).
@@ -52,8 +57,8 @@ BlockScene::BlockScene(FaceMask mask) : impl_(std::make_unique<Impl>()), mask_(m
     int q = 0;
     for (int f = 0; f < kFaceCount; ++f) {
       if (!face_present(mask, f)) continue;
-      const glm::dvec3 corners[4] = {face_point(f, 0, 0), face_point(f, 1, 0), face_point(f, 1, 1),
-                                     face_point(f, 0, 1)};
+      const glm::dvec3 corners[4] = {point(face_point(f, 0, 0)), point(face_point(f, 1, 0)),
+                                     point(face_point(f, 1, 1)), point(face_point(f, 0, 1))};
       for (int c = 0; c < 4; ++c)
         for (int a = 0; a < 3; ++a) vertices[(4 * q + c) * 3 + a] = float(corners[c][a]);
       for (int c = 0; c < 4; ++c) indices[4 * q + c] = unsigned(4 * q + c);
@@ -83,11 +88,18 @@ FaceHit BlockScene::intersect(const glm::dvec3& origin, const glm::dvec3& dir, d
   hit.t = rh.ray.tfar;
   // Face coordinates from the hit point in double: exact for planar faces and independent
   // of how Embree splits a quad into triangles.
+  // The hit in canonical coordinates: the box is the unit cube scaled by extent_ per axis.
   const FaceFrame& frame = face_frame(hit.face);
-  const glm::dvec3 p = origin + hit.t * dir - frame.origin;
+  const glm::dvec3 p = (origin + hit.t * dir) / extent_ - frame.origin;
   hit.u = std::clamp(glm::dot(p, frame.u_axis), 0.0, 1.0);
   hit.v = std::clamp(glm::dot(p, frame.v_axis), 0.0, 1.0);
   return hit;
+}
+
+double BlockScene::texel_area(int face, int res) const {
+  const FaceFrame& frame = face_frame(face);
+  const double width = glm::length(frame.u_axis * extent_), height = glm::length(frame.v_axis * extent_);
+  return res > 0 ? width * height / (double(res) * res) : 0.0;
 }
 
 bool BlockScene::occluded(const glm::dvec3& origin, const glm::dvec3& target, double t_near) const {

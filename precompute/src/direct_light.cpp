@@ -28,20 +28,36 @@ void direct_light(const BlockScene& scene, const SampleLayout& layout, const Sph
   sphere_light_points(light.center, light.radius, samples, points);
   auto occluded = [&](const glm::dvec3& a, const glm::dvec3& b) { return scene.occluded(a, b); };
   const int n = layout.sample_count();
-  const double texel_area = layout.res > 0 ? 1.0 / (double(layout.res) * layout.res) : 0.0;
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& range) {
     for (int s = range.begin(); s != range.end(); ++s)
       out[std::size_t(s)] =
-          sphere_light_E_over_pi(layout.position(s), layout.normal(s), light, points, texel_area, occluded);
+          sphere_light_E_over_pi(scene.point(layout.position(s)), layout.normal(s), light, points,
+                                 scene.texel_area(layout.face_of(s), layout.res), occluded);
   });
 }
 
+glm::ivec3 prior_lattice(int grid, const glm::dvec3& extent) {
+  const double shortest = std::min({extent.x, extent.y, extent.z});
+  glm::dvec3 want;
+  for (int a = 0; a < 3; ++a) want[a] = grid * extent[a] / shortest;
+  // At most kMaxPriorLatticeFactor grid^3 lights: a very long box gets a sparser lattice.
+  const double cap = kMaxPriorLatticeFactor * double(grid) * grid * grid, lights = want.x * want.y * want.z;
+  if (lights > cap) want *= std::cbrt(cap / lights);
+  glm::ivec3 out;
+  for (int a = 0; a < 3; ++a) out[a] = std::max(1, int(std::lround(want[a])));
+  return out;
+}
+
 std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid) {
+  return prior_light_positions(mask, glm::ivec3(grid));
+}
+
+std::vector<glm::dvec3> prior_light_positions(FaceMask mask, const glm::ivec3& grid) {
   std::vector<glm::dvec3> lattice;
-  for (int k = 0; k < grid; ++k)
-    for (int j = 0; j < grid; ++j)
-      for (int i = 0; i < grid; ++i)
-        lattice.push_back({(i + 0.5) / grid, (j + 0.5) / grid, (k + 0.5) / grid});
+  for (int k = 0; k < grid.z; ++k)
+    for (int j = 0; j < grid.y; ++j)
+      for (int i = 0; i < grid.x; ++i)
+        lattice.push_back({(i + 0.5) / grid.x, (j + 0.5) / grid.y, (k + 0.5) / grid.z});
   std::vector<glm::dvec3> positions = lattice;
   for (int f = 0; f < kFaceCount; ++f) {
     if (face_present(mask, f)) continue;
@@ -53,13 +69,15 @@ std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid) {
 
 MatrixXd light_prior_matrix(const BlockScene& scene, const SampleLayout& layout, int grid, double radius,
                             int samples, bool normalise) {
-  const std::vector<glm::dvec3> positions = prior_light_positions(layout.mask, grid);
+  const std::vector<glm::dvec3> positions =
+      prior_light_positions(layout.mask, prior_lattice(grid, scene.extent()));
   const int n = layout.sample_count();
   MatrixXd Ld(n, Eigen::Index(positions.size()));
   std::vector<double> column(static_cast<std::size_t>(n));
   Eigen::Index kept = 0;
   for (const glm::dvec3& c : positions) {
-    direct_light(scene, layout, SphereLight{c, radius, 1.0}, samples, column);
+    // A shaped block's lattice is stretched with it (MRT §8: the prior follows the box).
+    direct_light(scene, layout, SphereLight{scene.point(c), radius, 1.0}, samples, column);
     Eigen::Map<const VectorXd> col(column.data(), n);
     const double norm = col.norm();
     if (!(norm > 1e-12)) continue;

@@ -597,7 +597,7 @@ struct DrtBuilder::Pass {
           if (valid[s]) continue;
           const int blk = g.block[s];
           const LevelBlock& lb = level.blocks[std::size_t(blk)];
-          const ShapeOperators& op = dict.shapes[std::size_t(lb.shape)];
+          const ShapeOperators& op = block_operators(dict, level, lb);
           const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(lb.shape), level.res);
           const int local = int(s - lb.sample_offset), face = layout.face_of(local);
           const int within = local - layout.slot[std::size_t(face)] * level.res * level.res;
@@ -891,7 +891,7 @@ namespace {
 
 Status check_dictionary(const Level& level, const Dictionary& dict, bool vector) {
   for (const LevelBlock& b : level.blocks) {
-    const ShapeOperators& op = dict.shapes[std::size_t(b.shape)];
+    const ShapeOperators& op = block_operators(dict, level, b);
     if (op.Limp.rows != b.sample_count || op.Limp.cols != level.kb || op.Ub.cols != level.kb)
       return Status::error(ErrorCode::invalid_argument,
                            "DRT build: dictionary Limp / Ub do not match the level");

@@ -398,7 +398,7 @@ class LimpGather {
       const int blk = sample_block_[idx];
       const LevelBlock& lb = level_.blocks[std::size_t(blk)];
       const std::span<const float> limp =
-          dict_.shapes[std::size_t(lb.shape)].Limp.row(std::uint32_t(idx - lb.sample_offset));
+          block_operators(dict_, level_, lb).Limp.row(std::uint32_t(idx - lb.sample_offset));
       std::vector<double>& row = rows[std::uint32_t(blk)];
       row.resize(level_.kb, 0.0);
       for (std::uint32_t c = 0; c < level_.kb; ++c) row[c] += weight_[idx] * double(limp[c]);

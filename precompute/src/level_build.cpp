@@ -14,6 +14,7 @@
 #include "modrt/precompute/interfaces.h"
 #include "modrt/precompute/linalg.h"
 #include "modrt/precompute/sh_operators.h"
+#include "modrt/precompute/shaped_operators.h"
 #include "modrt/sh.h"
 
 namespace modrt::precompute {
@@ -186,6 +187,30 @@ Matrix turned_vector_response(const Matrix& Ur_vec, int res, int face) {
   return out;
 }
 
+// MRT §8: every block whose quantised proportions are not a cube's gets the operators of
+// its box, one bake per distinct (shape, proportions), shared through the cache.
+Status assign_shaped_operators(Level& level, const Dictionary& dict, const LevelBuildSettings& settings) {
+  ShapedOperatorCache local;
+  ShapedOperatorCache& cache = settings.shaped_cache ? *settings.shaped_cache : local;
+  const int steps = settings.proportion_steps_per_octave;
+  std::map<std::pair<int, ProportionSteps>, int> index;
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    LevelBlock& b = level.blocks[i];
+    const ProportionSteps q = quantise_proportions(block_box_extent(b), steps);
+    if (q == ProportionSteps{}) continue;
+    auto [it, inserted] = index.try_emplace({b.shape, q}, int(level.shaped.size()));
+    if (inserted) {
+      Result<ShapedOperators> ops = cache.get(dict, b.shape, q, steps);
+      if (!ops.ok())
+        return Status::error(ops.status().code(),
+                             "block " + std::to_string(i) + ": " + ops.status().message());
+      level.shaped.push_back(std::move(ops.value()));
+    }
+    b.shaped = it->second;
+  }
+  return Status::success();
+}
+
 }  // namespace
 
 std::uint64_t estimate_level_bytes(const LevelDescription& description, const Dictionary& dict,
@@ -208,6 +233,11 @@ Status validate_level_build_settings(const LevelBuildSettings& settings) {
     return Status::error(ErrorCode::invalid_argument, "build_level: dmax = " + std::to_string(settings.dmax) +
                                                           ": must be in [0, " +
                                                           std::to_string(kMaxLevelDmax) + "]");
+  if (settings.proportion_steps_per_octave < 1 || settings.proportion_steps_per_octave > kMaxProportionSteps)
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "build_level: proportion_steps_per_octave = " + std::to_string(settings.proportion_steps_per_octave) +
+            ": must be in [1, " + std::to_string(kMaxProportionSteps) + "]");
   return Status::success();
 }
 
@@ -262,6 +292,8 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     offset += b.sample_count;
   }
   level.sample_count = offset;
+  if (settings.shaped_operators)
+    if (Status s = assign_shaped_operators(level, dict, settings); !s.ok()) return s;
 
   // Response slots: one per (block, connected canonical side face).
   const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), level.res);
@@ -309,7 +341,7 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
       if (nb < 0) continue;
       const int entry_world = rotate_face(f, sb.quarter_turns) ^ 1;
       const int entry = rotate_face(entry_world, -level.blocks[std::size_t(nb)].quarter_turns);
-      add(frontier, {nb, entry}, to_eigen(dict.shapes[std::size_t(sb.shape)].Rb_rlf[std::size_t(f)]));
+      add(frontier, {nb, entry}, to_eigen(block_operators(dict, level, sb).Rb_rlf[std::size_t(f)]));
     }
     for (int depth = 1; depth <= settings.dmax && !frontier.empty(); ++depth) {
       next.clear();

@@ -45,7 +45,7 @@ MatrixXd vector_irradiance_operator(const BlockScene& scene, const SampleLayout&
       Rng rng(seed, std::uint64_t(s));
       stratified_square(rays, rng, strata);
       const FaceFrame& frame = face_frame(layout.face_of(s));
-      const glm::dvec3 x = layout.position(s);
+      const glm::dvec3 x = scene.point(layout.position(s));
       acc.setZero();
       for (const glm::dvec2& u : strata) {
         const glm::dvec3 local = uniform_hemisphere(u);
@@ -85,7 +85,7 @@ MatrixXd volume_probe_operator(const BlockScene& scene, const SampleLayout& layo
     for (int p = range.begin(); p != range.end(); ++p) {
       Rng rng(seed, std::uint64_t(p));
       stratified_square(rays, rng, strata);
-      const glm::dvec3 x = probe_position(p, grid);
+      const glm::dvec3 x = scene.point(probe_position(p, grid));
       acc.setZero();
       for (const glm::dvec2& u : strata) {
         const glm::dvec3 dir = uniform_sphere(u);

@@ -17,10 +17,11 @@ int BlockSymmetry::apply_face(int face) const {
   return rotate_face(face, quarter_turns);
 }
 
-std::vector<BlockSymmetry> shape_symmetries(FaceMask mask) {
+std::vector<BlockSymmetry> shape_symmetries(FaceMask mask, const glm::dvec3& extent) {
   std::vector<BlockSymmetry> out;
   for (bool mirror : {false, true})
     for (int t = 0; t < 4; ++t) {
+      if (t % 2 == 1 && extent.x != extent.z) continue;
       const BlockSymmetry g{mirror, t};
       FaceMask image = 0;
       for (int f = 0; f < kFaceCount; ++f)

@@ -24,7 +24,7 @@ RowMatrixXd gather_transport(const BlockScene& scene, const SampleLayout& layout
           Rng rng(seed, std::uint64_t(s));
           stratified_square(rays, rng, strata);
           const FaceFrame& frame = face_frame(layout.face_of(s));
-          const glm::dvec3 x = layout.position(s);
+          const glm::dvec3 x = scene.point(layout.position(s));
           double* row = F.row(s).data();
           for (const glm::dvec2& u : strata) {
             const glm::dvec3 dir = to_world(cosine_hemisphere(u), frame.u_axis, frame.v_axis, frame.normal);
@@ -39,8 +39,8 @@ RowMatrixXd gather_transport(const BlockScene& scene, const SampleLayout& layout
   return F;
 }
 
-void symmetrize_transport(RowMatrixXd& F, const SampleLayout& layout) {
-  const std::vector<BlockSymmetry> group = shape_symmetries(layout.mask);
+void symmetrize_transport(RowMatrixXd& F, const SampleLayout& layout, const glm::dvec3& extent) {
+  const std::vector<BlockSymmetry> group = shape_symmetries(layout.mask, extent);
   if (group.size() <= 1) return;
   std::vector<std::vector<int>> perms;
   for (const BlockSymmetry& g : group) perms.push_back(sample_permutation(layout, g));

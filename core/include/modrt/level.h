@@ -21,7 +21,11 @@ namespace modrt {
 inline constexpr double kDefaultFaceAlbedo = 0.7;
 
 struct LevelBlock {
-  int shape = 0;          // dictionary shape index
+  int shape = 0;  // dictionary shape index (the block's face mask, canonicalised)
+  // The block's operators: -1 = its dictionary shape's (a cube's); otherwise an index into
+  // Level::shaped, operators baked for the block's proportions (MRT §8). Look them up with
+  // block_operators() below.
+  int shaped = -1;
   int quarter_turns = 0;  // world = rotate(canonical, quarter_turns)
   glm::ivec3 cell{0};
   std::array<glm::dvec3, 8> corners{};      // world corners (x + 2y + 4z), see level_description.h
@@ -72,6 +76,14 @@ struct LightmapAtlas {
   std::vector<PaddingRecord> padding;
 };
 
+// Operators baked for a box that is not a cube (MRT §8, Figure 12), shared by every block of
+// the level whose dictionary shape and (quantised) proportions they were baked for.
+struct ShapedOperators {
+  int shape = 0;             // dictionary shape (face mask) of the blocks that use them
+  glm::vec3 extent{1.0f};    // the canonical box's edge lengths (x, y, z), geometric mean 1
+  ShapeOperators operators;  // sizes as the dictionary shape's; Rb_rlf for its missing side faces
+};
+
 struct Level {
   int res = 0;
   std::uint32_t kb = 0, kr = 0;
@@ -87,6 +99,24 @@ struct Level {
   // coefficients in the frame of the face each row lands on; empty for floor and ceiling.
   std::array<Matrix, kFaceCount> vector_response;
   LightmapAtlas atlas;
+  std::vector<ShapedOperators> shaped;  // LevelBlock::shaped indexes these
 };
+
+// The level's operator sets on a dictionary: the dictionary's shapes [0, shapes.size()), then
+// the level's shaped operators. Backends upload and index operators by this set index, so a
+// shaped block costs what a cube block costs.
+inline std::size_t operator_set_count(const Dictionary& dict, const Level& level) {
+  return dict.shapes.size() + level.shaped.size();
+}
+inline std::size_t operator_set(const Dictionary& dict, const LevelBlock& block) {
+  return block.shaped < 0 ? std::size_t(block.shape) : dict.shapes.size() + std::size_t(block.shaped);
+}
+inline const ShapeOperators& operator_set_at(const Dictionary& dict, const Level& level, std::size_t set) {
+  return set < dict.shapes.size() ? dict.shapes[set] : level.shaped[set - dict.shapes.size()].operators;
+}
+inline const ShapeOperators& block_operators(const Dictionary& dict, const Level& level,
+                                             const LevelBlock& block) {
+  return operator_set_at(dict, level, operator_set(dict, block));
+}
 
 }  // namespace modrt

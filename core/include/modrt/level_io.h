@@ -4,7 +4,8 @@
 // loads it without the precompute library. Read from a path or from a memory buffer (an
 // app bundle's asset). This comment is the contract.
 //
-// ## Layout (format version 2; version 1 had no per-face albedo and is refused)
+// ## Layout (format version 3; version 1 had no per-face albedo, version 2 no shaped
+// operators; both are refused)
 //
 // All integers are little-endian; floats are IEEE-754 binary32 stored by their bit pattern
 // as a u32, doubles binary64 as a u64. Offsets are from the start of the file.
@@ -21,7 +22,7 @@
 //    32  u32      sample count
 //    36  u32      slot count
 //    40  u32      record count
-//    44  u32      reserved, 0
+//    44  u32      shaped operator set count (Level::shaped)
 //    48  u64      body byte size (the rest of the file)
 //    56  u32      CRC-32 of the body
 //    60  u32      CRC-32 of header bytes [0, 60)
@@ -37,6 +38,10 @@
 //   atlas       i32 width, i32 height, i32 tile, u32 n, u32 sample_texel[n],
 //               u32 has_tiles (0 or 1), when 1 per block: i32 tile_origin_x[6],
 //               i32 tile_origin_y[6]; u32 padding count p, (u32 dst, u32 src)[p]
+//   shaped      per set: i32 shape, f32 extent[3], then Ub, Td_b, Limp, Ub_vec, Ubvol each
+//               as u32 rows, u32 cols, f32 values; when the count is > 0, per block i32
+//               shaped (-1: the dictionary shape's operators). Rb_rlf is not stored: only
+//               the level build uses it.
 //
 // A reader checks, in order: size >= header, magic, version (version_mismatch), header
 // size, header CRC, body size, body CRC (checksum_mismatch), then every field while
@@ -58,7 +63,7 @@
 
 namespace modrt {
 
-inline constexpr std::uint32_t kLevelFileVersion = 2;
+inline constexpr std::uint32_t kLevelFileVersion = 3;
 inline constexpr char kLevelFileMagic[8] = {'M', 'O', 'D', 'R', 'T', 'L', 'V', 'L'};
 inline constexpr std::size_t kLevelFileHeaderBytes = 64;
 // Bytes of one encoded block (the body's first part), and where its albedo starts in it.

@@ -41,6 +41,11 @@ inline constexpr double kOperatorBoundTolerance = 0.5;
 // ||Ub_k||_2 ||Td_b,k||_2 <= ||F||_2 (1 + tolerance); measured 1.0000.
 // ||Ub_k||_2 <= (1 + tolerance) prior_scale; measured 0.82 prior_scale.
 inline constexpr double kModeTransferLimit = 1.0 + kOperatorBoundTolerance;
+// A shaped block's box (Level::shaped, MRT §8) has texels of different areas, so F is no
+// longer symmetric: ||F||_1 <= A_max / A_min (reciprocity A_i F_ij = A_j F_ji, rows sum to at
+// most 1) and ||F||_2 <= sqrt(||F||_1 ||F||_inf) <= sqrt(longest edge / shortest edge). Both
+// limits above are scaled by that factor for shaped operators.
+double shaped_transfer_factor(const glm::vec3& extent);
 // ||Limp_k||_2 <= kLimpScaleLimit prior_scale. Derived: <= 1 (Limp = P S Vm~); the committed
 // tiny dictionaries (res 2, 16 rays) reach 1.78, not explained, so 4 (unused at run time).
 inline constexpr double kLimpScaleLimit = 4.0;
@@ -78,7 +83,8 @@ struct OperatorMeasure {
 std::vector<OperatorMeasure> measure_dictionary_operators(const Dictionary& dict);
 // The level's own operators (records' T, probe and vector responses).
 std::vector<OperatorMeasure> measure_level_operators(const Level& level);
-// The amplification bound of check_level_gain, per intermediate / output.
+// The amplification bound of check_level_gain, per intermediate / output, and the level's
+// shaped operators measured as measure_dictionary_operators measures a shape.
 std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictionary& dict);
 
 // The first measure above its limit, as invalid_argument "<what>: <where>: <what> = v, above

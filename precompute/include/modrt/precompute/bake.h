@@ -19,6 +19,7 @@ namespace modrt::precompute {
 // reports use the intermediate matrices; the dictionary keeps only the operators.
 struct ShapeBake {
   FaceMask mask = kAllFaces;
+  glm::dvec3 extent{1.0};  // the box's edge lengths (bake_box_shape); the unit cube otherwise
   SampleLayout layout;
   RowMatrixXd F;                 // n x n one-bounce operator
   MatrixXd Ld;                   // n x m prior lighting patterns (unit columns)
@@ -40,6 +41,15 @@ struct BakeProgress {
 // tool and API boundaries convert to Status.
 ShapeBake bake_shape(FaceMask mask, const DictionarySettings& settings, bool with_sh = true,
                      const BakeProgress& progress = {});
+
+// bake_shape for the box [0, extent] instead of the unit cube (MRT §8, Figure 12: a block
+// whose proportions are not a cube's): the same samples (res^2 per present face, stretched
+// with their faces), the prior lattice stretched to the box (light_radius unchanged, so pass
+// an extent of about unit size, e.g. geometric mean 1), F re-traced in the box and reduced
+// and enriched as bake_shape does; the symmetrisation uses only the box's symmetries.
+// Throws std::invalid_argument for an extent that is not finite and > 0.
+ShapeBake bake_box_shape(FaceMask mask, const glm::dvec3& extent, const DictionarySettings& settings,
+                         bool with_sh = true, const BakeProgress& progress = {});
 
 // bake_shape with a given prior lighting matrix Ld (n x m: the direct light of m prior lights
 // at the shape's samples, e.g. from direct_light()) in place of the settings' sphere-light

@@ -61,7 +61,7 @@ double sphere_light_E_over_pi(const glm::dvec3& x, const glm::dvec3& n, const Sp
 }
 
 // ld = E / pi at every sample (albedo 1; the caller scales by albedo), into out[n]; the
-// texels' footprint is 1 / res^2 (a unit block).
+// texels' footprint is the scene's texel_area (1 / res^2 in a unit block).
 void direct_light(const BlockScene& scene, const SampleLayout& layout, const SphereLight& light, int samples,
                   std::span<double> out);
 
@@ -69,6 +69,15 @@ void direct_light(const BlockScene& scene, const SampleLayout& layout, const Sph
 // block, plus the same lattice in the neighbouring cell beyond each missing side face
 // (light that enters through interfaces).
 std::vector<glm::dvec3> prior_light_positions(FaceMask mask, int grid);
+// The same with grid.x x grid.y x grid.z lattice cells (canonical coordinates).
+std::vector<glm::dvec3> prior_light_positions(FaceMask mask, const glm::ivec3& grid);
+
+// Lights per axis of the prior lattice in the box [0, extent] (MRT §8: the prior stretched to
+// a shaped block): the cube's density, `grid` lights along the shortest edge and
+// proportionally more along the others, at most kMaxPriorLatticeFactor grid^3 lights in all
+// (a 100:1:1 box gets a sparser lattice). The unit cube gets grid^3.
+inline constexpr double kMaxPriorLatticeFactor = 8.0;
+glm::ivec3 prior_lattice(int grid, const glm::dvec3& extent);
 
 // Ld (n x m): one column per prior light, each normalised to unit L2 norm so that lights
 // near walls do not dominate the prior's SVD (all-zero columns are dropped).

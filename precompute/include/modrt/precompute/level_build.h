@@ -15,8 +15,20 @@
 
 namespace modrt::precompute {
 
+class ShapedOperatorCache;
+
 struct LevelBuildSettings {
   int dmax = 8;  // maximum number of interfaces a path crosses (MRT §6.3)
+  // MRT §8, Figure 12: a block whose proportions are not a cube's gets operators baked for
+  // its box (the prior and F re-traced on the stretched block) instead of the cube's under a
+  // warp. false: every block uses its dictionary shape's cube operators.
+  bool shaped_operators = true;
+  // Proportions are quantised to 1/proportion_steps_per_octave of an octave (1 to 64): blocks
+  // within half a step of a cube keep the cube's operators, and blocks of nearly equal
+  // proportions share one bake. 8 steps: proportions within 4.4 %.
+  int proportion_steps_per_octave = 8;
+  // Bakes kept across builds (null: a cache for this build only); see shaped_operators.h.
+  ShapedOperatorCache* shaped_cache = nullptr;
   // build_level refuses (resource_limit), before building, a level whose estimated size
   // exceeds this: per sample its run-time signals (ld, lightmap, albedo, atlas texel), per
   // response slot an upper bound on its Tb->r records (one per block within dmax interfaces).
@@ -26,6 +38,7 @@ struct LevelBuildSettings {
 // dmax in [0, kMaxLevelDmax] (paths through more interfaces carry no light worth storing;
 // modrt-level's --dmax has the same range); invalid_argument naming it. build_level checks it.
 inline constexpr int kMaxLevelDmax = 64;
+inline constexpr int kMaxProportionSteps = 64;
 Status validate_level_build_settings(const LevelBuildSettings& settings);
 
 // The estimate build_level compares with memory_budget_bytes (bytes).

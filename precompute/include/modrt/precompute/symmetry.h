@@ -23,8 +23,10 @@ struct BlockSymmetry {
   int apply_face(int face) const;
 };
 
-// Every element g of the dihedral group with g(mask) = mask (the identity first).
-std::vector<BlockSymmetry> shape_symmetries(FaceMask mask);
+// Every element g of the dihedral group with g(mask) = mask (the identity first) that also
+// maps the box [0, extent] onto itself: an odd number of quarter turns swaps x and z, so it
+// is a symmetry only when extent.x == extent.z (MRT §8's shaped blocks).
+std::vector<BlockSymmetry> shape_symmetries(FaceMask mask, const glm::dvec3& extent = glm::dvec3(1.0));
 
 // perm[s] = sample that sample s maps to under g (texel centres map onto texel centres).
 std::vector<int> sample_permutation(const SampleLayout& layout, const BlockSymmetry& g);

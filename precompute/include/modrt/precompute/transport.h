@@ -20,8 +20,10 @@ namespace modrt::precompute {
 RowMatrixXd gather_transport(const BlockScene& scene, const SampleLayout& layout, int rays,
                              std::uint64_t seed, int row_begin = 0, int row_end = -1);
 
-// Averages F over the shape's symmetries: F(s, t) <- mean over g of F(g s, g t). The exact
-// operator has these symmetries; its Monte Carlo estimate only approximately.
-void symmetrize_transport(RowMatrixXd& F, const SampleLayout& layout);
+// Averages F over the symmetries of the shape's box (shape_symmetries): F(s, t) <- mean over
+// g of F(g s, g t). The exact operator has these symmetries; its Monte Carlo estimate only
+// approximately.
+void symmetrize_transport(RowMatrixXd& F, const SampleLayout& layout,
+                          const glm::dvec3& extent = glm::dvec3(1.0));
 
 }  // namespace modrt::precompute

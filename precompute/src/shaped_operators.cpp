@@ -1,0 +1,192 @@
+// SPDX-License-Identifier: MIT
+#include "modrt/precompute/shaped_operators.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <string>
+
+#include <Eigen/QR>
+#include <glm/geometric.hpp>
+
+#include "modrt/level_io.h"
+#include "modrt/precompute/bake.h"
+#include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/linalg.h"
+
+namespace modrt::precompute {
+namespace {
+
+std::string extent_text(const glm::dvec3& e) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%.4g x %.4g x %.4g", e.x, e.y, e.z);
+  return text;
+}
+
+}  // namespace
+
+std::array<Matrix, kFaceCount> shaped_exit_operators(const Dictionary& dict, int shape, const Matrix& Limp) {
+  // Express the shaped implicit lights in the cube's (least squares over the samples) and
+  // let the cube's exit operators carry them through the interface.
+  const ShapeOperators& cube = dict.shapes[std::size_t(shape)];
+  std::array<Matrix, kFaceCount> out{};
+  bool any_interface = false;
+  for (const Matrix& m : cube.Rb_rlf) any_interface = any_interface || !m.empty();
+  if (!any_interface) return out;
+  const MatrixXd C = to_eigen(cube.Limp).colPivHouseholderQr().solve(to_eigen(Limp));
+  for (int f = 0; f < kFaceCount; ++f)
+    if (!cube.Rb_rlf[std::size_t(f)].empty())
+      out[std::size_t(f)] = to_float(MatrixXd(to_eigen(cube.Rb_rlf[std::size_t(f)]) * C));
+  return out;
+}
+
+glm::dvec3 block_box_extent(const LevelBlock& block) {
+  // Corner index x + 2y + 4z in world axes; the four edges along axis a join corners c and
+  // c + (1 << a).
+  const auto& c = block.corners;
+  glm::dvec3 world(0.0);
+  for (int a = 0; a < 3; ++a) {
+    const int bit = 1 << a;
+    for (int k = 0; k < 8; ++k)
+      if (!(k & bit)) world[a] += 0.25 * glm::length(c[std::size_t(k | bit)] - c[std::size_t(k)]);
+  }
+  // Canonical x and z are world z and x after an odd number of quarter turns about y.
+  return block.quarter_turns % 2 ? glm::dvec3(world.z, world.y, world.x) : world;
+}
+
+ProportionSteps quantise_proportions(const glm::dvec3& extent, int steps_per_octave) {
+  // Clamp each edge to within kMaxShapedAspect of the shortest, then centre on the log mean.
+  const double shortest = std::log2(std::min({extent.x, extent.y, extent.z}));
+  double l[3], mean_log = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    l[a] = std::min(std::log2(extent[a]), shortest + std::log2(kMaxShapedAspect));
+    mean_log += l[a] / 3.0;
+  }
+  ProportionSteps q{};
+  for (int a = 0; a < 3; ++a) q[std::size_t(a)] = int(std::lround(steps_per_octave * (l[a] - mean_log)));
+  return q;
+}
+
+glm::dvec3 proportions_extent(const ProportionSteps& steps, int steps_per_octave) {
+  glm::dvec3 e;
+  double mean = 0.0;
+  for (int a = 0; a < 3; ++a) mean += double(steps[std::size_t(a)]) / 3.0;
+  for (int a = 0; a < 3; ++a) e[a] = std::exp2((double(steps[std::size_t(a)]) - mean) / steps_per_octave);
+  return e;
+}
+
+Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape, const glm::dvec3& extent) {
+  const std::string what = "shaped operators for shape " + std::to_string(shape) + ", box " + extent_text(extent);
+  if (shape < 0 || std::size_t(shape) >= dict.shapes.size())
+    return Status::error(ErrorCode::invalid_argument, what + ": no such dictionary shape");
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(extent[a]) || !(extent[a] > 0.0))
+      return Status::error(ErrorCode::invalid_argument, what + ": the extent must be finite and > 0");
+  try {
+    const ShapeOperators& cube = dict.shapes[std::size_t(shape)];
+    const bool with_sh = !cube.Ub_vec.empty();
+    ShapeBake bake = bake_box_shape(cube.face_mask, extent, dict.settings, with_sh);
+    ShapedOperators out;
+    out.shape = shape;
+    out.extent = glm::vec3(extent);
+    out.operators = to_operators(bake);
+    if (!with_sh) out.operators.Ub_vec = cube.Ub_vec, out.operators.Ubvol = cube.Ubvol;
+    out.operators.Rb_rlf = shaped_exit_operators(dict, shape, out.operators.Limp);
+    for (const Matrix* m : {&out.operators.Ub, &out.operators.Td_b, &out.operators.Limp})
+      for (float v : m->data)
+        if (!std::isfinite(v)) return Status::error(ErrorCode::non_finite, what + ": the bake produced NaN or Inf");
+    return out;
+  } catch (const std::bad_alloc&) {
+    return Status::error(ErrorCode::resource_limit, what + ": out of memory");
+  } catch (const std::exception& e) {
+    return Status::error(ErrorCode::internal_error, what + ": " + e.what());
+  }
+}
+
+Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int shape, const ProportionSteps& steps,
+                                                 int steps_per_octave) {
+  auto same = [&](const Key& k) {
+    return k.shape == shape && k.steps == steps && k.steps_per_octave == steps_per_octave &&
+           k.settings == dict.settings;
+  };
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const Entry& e : entries_)
+      if (same(e.key)) {
+        ++hits_;
+        return e.operators;
+      }
+  }
+  Result<ShapedOperators> found = load_or_bake(dict, shape, steps, steps_per_octave);
+  if (!found.ok()) return found;
+  const std::lock_guard<std::mutex> lock(mutex_);
+  entries_.push_back({Key{dict.settings, shape, steps_per_octave, steps}, found.value()});
+  return found;
+}
+
+std::string ShapedOperatorCache::file_name(const DictionarySettings& settings, int shape,
+                                           const ProportionSteps& steps, int steps_per_octave) {
+  std::string stem = cache_file_name(settings);
+  if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos) stem.resize(dot);
+  return "shaped-" + stem + "-s" + std::to_string(shape) + "-o" + std::to_string(steps_per_octave) + "-" +
+         std::to_string(steps[0]) + "_" + std::to_string(steps[1]) + "_" + std::to_string(steps[2]) +
+         ".modrtlevel";
+}
+
+Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict, int shape,
+                                                          const ProportionSteps& steps, int steps_per_octave) {
+  const std::string path =
+      directory_.empty() ? std::string() : directory_ + "/" + file_name(dict.settings, shape, steps, steps_per_octave);
+  const glm::vec3 extent(proportions_extent(steps, steps_per_octave));
+  if (!path.empty() && std::filesystem::exists(path)) {
+    Result<Level> saved = load_level(path);
+    // The entry must be what its name says (a file renamed or written by another build).
+    if (saved.ok() && saved->shaped.size() == 1 && saved->shaped[0].shape == shape &&
+        saved->shaped[0].extent == extent && std::uint32_t(saved->res) == dict.settings.res &&
+        saved->kb == dict.settings.kb && saved->shaped[0].operators.Ubvol.rows == dict.shapes[0].Ubvol.rows) {
+      ShapedOperators out = std::move(saved->shaped[0]);
+      out.operators.Rb_rlf = shaped_exit_operators(dict, shape, out.operators.Limp);
+      const std::lock_guard<std::mutex> lock(mutex_);
+      ++disk_loads_;
+      return out;
+    }
+  }
+  Result<ShapedOperators> baked = bake_shaped_operators(dict, shape, glm::dvec3(extent));
+  if (!baked.ok()) return baked;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    ++bakes_;
+  }
+  if (!path.empty()) {
+    // A level with no block that holds the one set; a cache that cannot be written only
+    // costs the next process a bake.
+    Level entry;
+    entry.res = int(dict.settings.res);
+    entry.kb = dict.settings.kb;
+    entry.kr = dict.interfaces.Ur.cols;
+    entry.shaped.push_back(baked.value());
+    std::error_code ec;
+    std::filesystem::create_directories(directory_, ec);
+    (void)save_level(path, entry);
+  }
+  return baked;
+}
+
+std::size_t ShapedOperatorCache::disk_loads() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return disk_loads_;
+}
+
+std::size_t ShapedOperatorCache::bakes() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return bakes_;
+}
+
+std::size_t ShapedOperatorCache::hits() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return hits_;
+}
+
+}  // namespace modrt::precompute
