@@ -73,7 +73,8 @@ TEST(ShapedBox, ClosedBoxTransportMatchesAnalyticFormFactors) {
   auto face_ff = [&](int from, int to) {
     double sum = 0.0;
     for (int i = 0; i < res * res; ++i)
-      for (int j = 0; j < res * res; ++j) sum += F(layout.index(from, i % res, i / res), layout.index(to, j % res, j / res));
+      for (int j = 0; j < res * res; ++j)
+        sum += F(layout.index(from, i % res, i / res), layout.index(to, j % res, j / res));
     return sum / (res * res);
   };
   // Floor (x by z = 2 x 0.5) to ceiling at distance 1.
@@ -83,7 +84,8 @@ TEST(ShapedBox, ClosedBoxTransportMatchesAnalyticFormFactors) {
   // Reciprocity A_f F_fg = A_g F_gf between the floor (area 1) and the -X wall (area 0.5).
   EXPECT_NEAR(1.0 * face_ff(kFaceNegY, kFaceNegX), 0.5 * face_ff(kFaceNegX, kFaceNegY), 0.01);
   // The unit cube's values differ by far more than the tolerance: the box is really stretched.
-  EXPECT_GT(std::abs(parallel_rectangles_form_factor(1.0, 1.0, 1.0) - parallel_rectangles_form_factor(2.0, 0.5, 1.0)),
+  EXPECT_GT(std::abs(parallel_rectangles_form_factor(1.0, 1.0, 1.0) -
+                     parallel_rectangles_form_factor(2.0, 0.5, 1.0)),
             0.03);
   EXPECT_GT(std::abs(perpendicular_rectangles_form_factor(1.0, 1.0, 1.0) -
                      perpendicular_rectangles_form_factor(0.5, 1.0, 2.0)),
@@ -105,7 +107,7 @@ TEST(ShapedBox, UnitBoxBakesTheCube) {
 TEST(ShapedBox, ProportionLattice) {
   const int steps = 8;
   EXPECT_EQ(quantise_proportions({1.0, 1.0, 1.0}, steps), (ProportionSteps{0, 0, 0}));
-  EXPECT_EQ(quantise_proportions({2.0, 2.0, 2.0}, steps), (ProportionSteps{0, 0, 0}));  // scale-free
+  EXPECT_EQ(quantise_proportions({2.0, 2.0, 2.0}, steps), (ProportionSteps{0, 0, 0}));   // scale-free
   EXPECT_EQ(quantise_proportions({1.03, 1.0, 1.0}, steps), (ProportionSteps{0, 0, 0}));  // within half a step
   const ProportionSteps q = quantise_proportions({3.0, 1.0, 1.0}, steps);
   const glm::dvec3 e = proportions_extent(q, steps);
@@ -122,7 +124,8 @@ LevelDescription one_block_room(const glm::dvec3& extent, const glm::dvec3& ligh
   b.cell = {0, 0, 0};
   b.faces = FaceMask(kAllFaces & ~(1u << kFacePosZ));
   b.warped = true;
-  for (int k = 0; k < 8; ++k) b.corners[std::size_t(k)] = glm::dvec3(k & 1, (k >> 1) & 1, (k >> 2) & 1) * extent;
+  for (int k = 0; k < 8; ++k)
+    b.corners[std::size_t(k)] = glm::dvec3(k & 1, (k >> 1) & 1, (k >> 2) & 1) * extent;
   for (glm::dvec3& a : b.albedo) a = glm::dvec3(0.7);
   b.albedo[kFaceNegX] = {0.8, 0.2, 0.2};
   b.albedo[kFacePosX] = {0.2, 0.8, 0.2};
@@ -215,7 +218,8 @@ TEST(ShapedLevel, DiskCacheServesAnotherProcessAndTheLevelFileKeepsTheOperators)
   EXPECT_NE(refused.status().message().find("block 0: shaped operators 1 out of range"), std::string::npos)
       << refused.status().message();
   // A corrupt entry is baked again.
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) std::filesystem::resize_file(entry.path(), 100);
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    std::filesystem::resize_file(entry.path(), 100);
   ShapedOperatorCache third(dir);
   settings.shaped_cache = &third;
   ASSERT_TRUE(build_level(d, test_dictionary(), settings).ok());

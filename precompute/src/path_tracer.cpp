@@ -17,6 +17,15 @@
 
 namespace modrt::precompute {
 
+double relative_noise_floor(const IndirectEstimate& estimate) {
+  double se2 = 0, v2 = 0;
+  for (std::size_t i = 0; i < estimate.value.size() && i < estimate.standard_error.size(); ++i) {
+    se2 += double(estimate.standard_error[i]) * estimate.standard_error[i];
+    v2 += double(estimate.value[i]) * estimate.value[i];
+  }
+  return v2 > 0 ? std::sqrt(se2 / v2) : 0.0;
+}
+
 DirectRadiance level_direct_radiance(const LevelScene& scene, const LevelDescription& description,
                                      int light_samples) {
   std::vector<std::vector<glm::dvec3>> points(description.lights.size());

@@ -78,7 +78,8 @@ glm::dvec3 proportions_extent(const ProportionSteps& steps, int steps_per_octave
 }
 
 Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape, const glm::dvec3& extent) {
-  const std::string what = "shaped operators for shape " + std::to_string(shape) + ", box " + extent_text(extent);
+  const std::string what =
+      "shaped operators for shape " + std::to_string(shape) + ", box " + extent_text(extent);
   if (shape < 0 || std::size_t(shape) >= dict.shapes.size())
     return Status::error(ErrorCode::invalid_argument, what + ": no such dictionary shape");
   for (int a = 0; a < 3; ++a)
@@ -96,7 +97,8 @@ Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape,
     out.operators.Rb_rlf = shaped_exit_operators(dict, shape, out.operators.Limp);
     for (const Matrix* m : {&out.operators.Ub, &out.operators.Td_b, &out.operators.Limp})
       for (float v : m->data)
-        if (!std::isfinite(v)) return Status::error(ErrorCode::non_finite, what + ": the bake produced NaN or Inf");
+        if (!std::isfinite(v))
+          return Status::error(ErrorCode::non_finite, what + ": the bake produced NaN or Inf");
     return out;
   } catch (const std::bad_alloc&) {
     return Status::error(ErrorCode::resource_limit, what + ": out of memory");
@@ -105,8 +107,8 @@ Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape,
   }
 }
 
-Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int shape, const ProportionSteps& steps,
-                                                 int steps_per_octave) {
+Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int shape,
+                                                 const ProportionSteps& steps, int steps_per_octave) {
   auto same = [&](const Key& k) {
     return k.shape == shape && k.steps == steps && k.steps_per_octave == steps_per_octave &&
            k.settings == dict.settings;
@@ -136,9 +138,11 @@ std::string ShapedOperatorCache::file_name(const DictionarySettings& settings, i
 }
 
 Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict, int shape,
-                                                          const ProportionSteps& steps, int steps_per_octave) {
-  const std::string path =
-      directory_.empty() ? std::string() : directory_ + "/" + file_name(dict.settings, shape, steps, steps_per_octave);
+                                                          const ProportionSteps& steps,
+                                                          int steps_per_octave) {
+  const std::string path = directory_.empty()
+                               ? std::string()
+                               : directory_ + "/" + file_name(dict.settings, shape, steps, steps_per_octave);
   const glm::vec3 extent(proportions_extent(steps, steps_per_octave));
   if (!path.empty() && std::filesystem::exists(path)) {
     Result<Level> saved = load_level(path);

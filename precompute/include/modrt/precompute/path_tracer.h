@@ -41,6 +41,10 @@ struct IndirectEstimate {
   std::vector<float> standard_error;
 };
 
+// The estimate's noise floor as a relative L2 error: RMS standard error / RMS value (0 for
+// an all-zero estimate); conservative, like standard_error.
+double relative_noise_floor(const IndirectEstimate& estimate);
+
 // Outgoing *direct* diffuse radiance at a surface point: albedo * E_direct / pi for the
 // runtime's light model. Replaceable so analytic cases (furnace, one emitting face) can be
 // set up exactly.

@@ -60,7 +60,7 @@ class ShapedOperatorCache {
 
   Result<ShapedOperators> get(const Dictionary& dict, int shape, const ProportionSteps& steps,
                               int steps_per_octave);
-  std::size_t bakes() const;  // operator sets baked (cache misses) so far
+  std::size_t bakes() const;       // operator sets baked (cache misses) so far
   std::size_t hits() const;        // served from memory
   std::size_t disk_loads() const;  // served from the directory
 
