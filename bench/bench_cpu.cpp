@@ -230,7 +230,7 @@ struct PresetLevel {
 double frame_flops(const Level& level, const Dictionary& dict) {
   double madds = 0.0;
   for (const LevelBlock& blk : level.blocks) {
-    const ShapeOperators& op = dict.shapes[std::size_t(blk.shape)];
+    const ShapeOperators& op = block_operators(dict, level, blk);
     madds += double(op.Td_b.rows) * op.Td_b.cols + double(op.Ub.rows) * op.Ub.cols;
   }
   madds += double(level.records.size()) * level.kr * level.kb;

@@ -380,12 +380,7 @@ Truth ground_truth(const precompute::LevelScene& scene, const LevelDescription& 
   Truth t;
   t.value = est.value;
   t.paths = paths;
-  double se2 = 0, v2 = 0;
-  for (std::size_t i = 0; i < est.value.size(); ++i) {
-    se2 += double(est.standard_error[i]) * est.standard_error[i];
-    v2 += double(est.value[i]) * est.value[i];
-  }
-  t.noise_floor = v2 > 0 ? std::sqrt(se2 / v2) : 0.0;
+  t.noise_floor = precompute::relative_noise_floor(est);
   return t;
 }
 

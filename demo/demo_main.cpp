@@ -210,6 +210,7 @@ int main(int argc, char** argv) {
   options.drt_rays = drt_rays;
   options.camera_skip = camera_skip;
   options.save_clutter = save_clutter;
+  options.shaped_cache_dir = precompute::default_cache_dir();
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
     std::fprintf(stderr, "modrt-demo: %s\n", run.status().to_string().c_str());

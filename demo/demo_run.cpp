@@ -13,6 +13,7 @@
 #include "modrt/precompute/drt_build.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/precompute/shaped_operators.h"
 #include "modrt/reference_runtime.h"
 #include "scene/proxy_mapping.h"
 
@@ -62,7 +63,10 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   run->dict_ = &dict;
   run->context_ = &context;
   run->options_ = options;
-  Result<Level> level = precompute::build_level(scene.level, dict);
+  precompute::ShapedOperatorCache shaped_cache(options.shaped_cache_dir);
+  precompute::LevelBuildSettings build_settings;
+  build_settings.shaped_cache = &shaped_cache;
+  Result<Level> level = precompute::build_level(scene.level, dict, build_settings);
   if (!level.ok()) return level.status();
   run->level_ = std::move(level).value();
   const Level& lv = run->level_;

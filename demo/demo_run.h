@@ -57,6 +57,9 @@ struct DemoRunOptions {
   // When set: the DRT operators built at create() are written there (.modrtdrt, core's
   // drt_io.h), for an app that loads them without the precompute library.
   std::string save_clutter;
+  // Where the level build keeps operators baked for blocks that are not cubes (MRT §8,
+  // precompute/shaped_operators.h), so a second run loads them; empty: baked every run.
+  std::string shaped_cache_dir;
 };
 
 // Wall-clock milliseconds per stage, summed over frames (glFinish closes each stage).

@@ -25,6 +25,7 @@
 #include "modrt/precompute/level_json.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/maze.h"
+#include "modrt/precompute/shaped_operators.h"
 #include "modrt/reduced_feedback.h"
 
 namespace {
@@ -111,6 +112,7 @@ int main(int argc, char** argv) {
   std::string level_name = "maze11", out_dir = "out", dictionary_path,
               cache_dir = precompute::default_cache_dir();
   std::string save_path;
+  bool cube_operators = false;
   int bounces = -1, dmax = 8;
   app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
   app.add_option("--out", out_dir, "output directory");
@@ -124,6 +126,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dmax", dmax, "maximum interfaces a light path crosses")
       ->check(CLI::Range(0, precompute::kMaxLevelDmax));
+  app.add_flag("--cube-operators", cube_operators,
+               "every block on its dictionary shape's cube operators, even a stretched one (the default "
+               "bakes operators for each block's box, MRT §8, cached in --cache-dir)");
   app.add_option(
       "--save", save_path,
       "also write the built level to this .modrtlevel file (core/level_io.h), the form an app loads");
@@ -157,6 +162,9 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   precompute::LevelBuildSettings build_settings;
   build_settings.dmax = dmax;
+  build_settings.shaped_operators = !cube_operators;
+  precompute::ShapedOperatorCache shaped_cache(cache_dir);
+  build_settings.shaped_cache = &shaped_cache;
   Result<Level> level = precompute::build_level(desc.value(), dict.value(), build_settings);
   if (!level.ok()) {
     std::fprintf(stderr, "modrt-level: %s: %s\n", level_name.c_str(), level.status().to_string().c_str());
@@ -166,6 +174,9 @@ int main(int argc, char** argv) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   // Passes that ran past 2 s say so on stderr (stdout keeps the summary line).
   if (build_ms > 2000.0) std::fprintf(stderr, "modrt-level: level build: %.1f s\n", build_ms / 1000.0);
+  if (!level->shaped.empty())
+    std::printf("shaped operators: %zu sets for blocks that are not cubes (%zu baked, %zu loaded from %s)\n",
+                level->shaped.size(), shaped_cache.bakes(), shaped_cache.disk_loads(), cache_dir.c_str());
   if (!save_path.empty()) {
     if (Status s = save_level(save_path, level.value()); !s.ok()) {
       std::fprintf(stderr, "modrt-level: %s\n", s.to_string().c_str());
