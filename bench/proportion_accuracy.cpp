@@ -23,9 +23,9 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <random>
 #include <span>
 #include <sstream>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -43,10 +43,10 @@
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_json.h"
-#include "modrt/precompute/shaped_operators.h"
-#include "modrt/precompute/maze.h"
 #include "modrt/precompute/level_scene.h"
+#include "modrt/precompute/maze.h"
 #include "modrt/precompute/path_tracer.h"
+#include "modrt/precompute/shaped_operators.h"
 #include "modrt/reduced_feedback.h"
 
 namespace {
@@ -422,12 +422,14 @@ ProxyTruth trace_proxy_texels(const Options& opt, const RoomTruth& rt, const Lev
 // exact: in place of modrt, the proxy's dense F ld by ray tracing (no low rank, no prior):
 // what the proxy's texel grid and ld sampling alone allow, the floor under any operator.
 Row measure(const Room& room, const LevelDescription& desc, const Dictionary& dict, bool shaped, bool exact,
-            const std::string& proxy_label, const RoomTruth& rt, const ProxyTruth& pt) {
+            const std::string& proxy_label, const RoomTruth& rt, const ProxyTruth& pt,
+            bool connected = false) {
   Row row;
   row.room = room.name;
   row.proxy = proxy_label;
   precompute::LevelBuildSettings bs;
   bs.shaped_operators = shaped;
+  bs.shaped_connected_blocks = connected;
   const auto t0 = Clock::now();
   Result<Level> built = precompute::build_level(desc, dict, bs);
   row.build_s = seconds_since(t0);
@@ -530,11 +532,14 @@ Status run_room(const Options& opt, const Room& room, const Dictionary& dict, st
                            room.name + " " + p.label + ": " + geometry.status().to_string());
     const ProxyTruth pt = trace_proxy_texels(opt, rt, geometry.value(), noise, room.name, p.label);
     for (const bool shaped : {false, true}) {
-      rows.push_back(measure(room, p.desc, dict, shaped, false, p.label + (shaped ? ", shaped ops" : ", cube ops"),
-                             rt, pt));
+      rows.push_back(measure(room, p.desc, dict, shaped, false,
+                             p.label + (shaped ? ", shaped ops" : ", cube ops"), rt, pt));
       if (!rows.back().error.empty())
         std::fprintf(stderr, "\n  %s: %s\n", rows.back().proxy.c_str(), rows.back().error.c_str());
     }
+    if (p.label.ends_with("stretched blocks"))  // shaped operators on cube interfaces (off by default)
+      rows.push_back(measure(room, p.desc, dict, true, false, p.label + ", shaped ops on cube interfaces", rt,
+                             pt, true));
     rows.push_back(measure(room, p.desc, dict, false, true, p.label + ", exact F ld (texel floor)", rt, pt));
   }
   std::fprintf(stderr, "done in %.0f s\n", seconds_since(t0));
@@ -618,7 +623,11 @@ std::string report(const Options& opt, const std::string& command, const std::st
     << "texels: the proxy's lightmap texels; camera: " << opt.width << "x" << opt.height
     << " pixels into the room through its open +Z face, modrt = bilinear lookup of the proxy's lightmap "
        "on the hit's face. near / mid / far: sum of modrt over sum of the reference in thirds of the "
-       "room's long axis, near = the light's end. Cube ops: `shaped_operators = false`; shaped ops: true.\n\n"
+       "room's long axis, near = the light's end. Cube ops: `shaped_operators = false`; shaped ops: true "
+       "(the default: blocks that connect to no "
+       "other block); shaped ops on cube interfaces: `shaped_connected_blocks = true` as well. Exact F ld: "
+       "the proxy's dense one-bounce operator by ray tracing (16 bounces by iteration), the floor its texels "
+       "and ld sampling allow.\n\n"
     << results_table(rows) << "\n## One block with shaped operators over the other proxies\n\n"
     << "Error ratios; below 1: the stretched block with its own operators is better.\n\n"
     << ratio_table(rows, rooms) << "\n## Ground-truth noise floors\n\n"
@@ -654,7 +663,8 @@ Result<LevelDescription> random_proportion_maze(int blocks, std::uint64_t seed) 
       b.corners[std::size_t(k)] = {x[std::size_t(c.x + (k & 1))] + lo.x, ((k >> 1) & 1) * height,
                                    z[std::size_t(c.z + ((k >> 2) & 1))] + lo.z};
   }
-  for (LightDescription& l : d.lights) l.position = d.blocks[0].corners[0] + glm::dvec3(0.3, 0.3 * height, 0.3);
+  for (LightDescription& l : d.lights)
+    l.position = d.blocks[0].corners[0] + glm::dvec3(0.3, 0.3 * height, 0.3);
   return d;
 }
 
@@ -676,10 +686,12 @@ int run_level(const Options& opt, const std::string& path, const Dictionary& dic
   const precompute::LevelScene scene(real.value(), 2);
   const LevelSampleGeometry g = level_sample_geometry(real.value());
   const Truth one = trace_truth(scene, d.value(), g.position, g.normal, 1, opt.paths, 41);
-  const Truth multi = trace_truth(scene, d.value(), g.position, g.normal, opt.bounces_multi, opt.paths_multi, 42);
-  std::printf("| level | operators | shaped sets | texels 1 bounce | texels converged | noise floor 1 / %d |\n"
-              "|---|---|---|---|---|---|\n",
-              opt.bounces_multi);
+  const Truth multi =
+      trace_truth(scene, d.value(), g.position, g.normal, opt.bounces_multi, opt.paths_multi, 42);
+  std::printf(
+      "| level | operators | shaped sets | texels 1 bounce | texels converged | noise floor 1 / %d |\n"
+      "|---|---|---|---|---|---|\n",
+      opt.bounces_multi);
   for (const bool shaped : {false, true}) {
     precompute::LevelBuildSettings bs;
     bs.shaped_operators = shaped;
@@ -698,8 +710,8 @@ int run_level(const Options& opt, const std::string& path, const Dictionary& dic
       return 1;
     }
     std::printf("| %s | %s | %zu | %.3f | %.3f | %.3f / %.3f |\n", path.c_str(), shaped ? "shaped" : "cube",
-                level->shaped.size(), rel_l2(lm_one, one.value), rel_l2(lm_conv, multi.value), one.noise_floor,
-                multi.noise_floor);
+                level->shaped.size(), rel_l2(lm_one, one.value), rel_l2(lm_conv, multi.value),
+                one.noise_floor, multi.noise_floor);
   }
   return 0;
 }
@@ -714,10 +726,12 @@ int run_build_time(int blocks, const Dictionary& dict, const std::string& dict_n
   precompute::LevelBuildSettings settings;
   settings.shaped_cache = &cache;
   settings.proportion_steps_per_octave = steps;
+  settings.shaped_connected_blocks = true;  // every block of the maze connects: bake them all
   double seconds[3] = {0, 0, 0};
   std::size_t sets = 0, runtime_floats = 0, dictionary_floats = 0;
   for (const ShapeOperators& op : dict.shapes)
-    dictionary_floats += op.Ub.data.size() + op.Td_b.data.size() + op.Ub_vec.data.size() + op.Ubvol.data.size();
+    dictionary_floats +=
+        op.Ub.data.size() + op.Td_b.data.size() + op.Ub_vec.data.size() + op.Ubvol.data.size();
   for (int pass = 0; pass < 3; ++pass) {
     settings.shaped_operators = pass > 0;
     const auto t0 = Clock::now();
@@ -736,8 +750,9 @@ int run_build_time(int blocks, const Dictionary& dict, const std::string& dict_n
   }
   constexpr double kMiB = 1024.0 * 1024.0;
   std::printf("| %zu | %s | %d | %zu | %.2f | %.1f | %.2f | %.1f / %.1f | %.1f |\n", d->blocks.size(),
-              dict_name.c_str(), steps, sets, seconds[0], seconds[1], seconds[2], 4.0 * double(runtime_floats) / kMiB,
-              2.0 * double(runtime_floats) / kMiB, 4.0 * double(dictionary_floats) / kMiB);
+              dict_name.c_str(), steps, sets, seconds[0], seconds[1], seconds[2],
+              4.0 * double(runtime_floats) / kMiB, 2.0 * double(runtime_floats) / kMiB,
+              4.0 * double(dictionary_floats) / kMiB);
   return 0;
 }
 
@@ -800,9 +815,10 @@ int main(int argc, char** argv) {
 
   if (!level_file.empty()) return run_level(opt, level_file, dict.value());
   if (build_time_blocks > 0) {
-    std::printf("| blocks | dictionary | steps per octave | shaped sets | build s, cube operators | build s, "
-                "shaped cold | build s, shaped from the cache | shaped operators MiB, float32 / float16 | "
-                "dictionary shapes MiB, float32 |\n|---|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| blocks | dictionary | steps per octave | shaped sets | build s, cube operators | build s, "
+        "shaped cold | build s, shaped from the cache | shaped operators MiB, float32 / float16 | "
+        "dictionary shapes MiB, float32 |\n|---|---|---|---|---|---|---|---|---|\n");
     return run_build_time(build_time_blocks, dict.value(), dict_name, steps);
   }
   const auto start = Clock::now();

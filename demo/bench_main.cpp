@@ -870,9 +870,24 @@ std::string backends_section(const std::vector<Row>& rows, const SuiteConfig& cf
   return f.str();
 }
 
+// The report of modrt-proportion-accuracy --markdown (blocks that are not cubes), one heading
+// level down, as a section of this report: both are generated, neither is edited by hand.
+Result<std::string> proportions_section(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::error(ErrorCode::io_error, "--proportions: cannot read " + path);
+  std::ostringstream o;
+  o << "## Blocks that are not cubes (`" << path << "`)\n\n";
+  for (std::string line; std::getline(in, line);) {
+    if (line.starts_with("# ")) continue;  // its title: this section's heading replaces it
+    if (line.starts_with("#")) line = "#" + line;
+    o << line << "\n";
+  }
+  return o.str();
+}
+
 Status write_report(const std::string& path, const std::string& chart_rel, const std::string& chart_msg,
                     const SuiteConfig& cfg, const std::vector<Row>& rows, const std::string& command,
-                    double total_s) {
+                    double total_s, const std::string& proportions) {
   std::ostringstream f;
   const std::time_t now = std::time(nullptr);
   char date[64];
@@ -982,6 +997,7 @@ Status write_report(const std::string& path, const std::string& chart_rel, const
   double out_floor = 0.0;
   for (const Row& r : rows)
     if (!r.in_prior) out_floor = std::max(out_floor, r.noise_floor);
+  f << proportions;
   f << "## Notes\n\n"
     << "- `mrt` rows are the scalar reference runtime (`level_evaluate`, `level_multi_bounce`); `mrt_cpu` "
        "and "
@@ -1080,6 +1096,10 @@ int main(int argc, char** argv) {
   app.add_option("--report", report_path,
                  "write a Markdown report (e.g. docs/accuracy.md); implies a chart, "
                  "by default next to it (<report>.png)");
+  std::string proportions_path;
+  app.add_option("--proportions", proportions_path,
+                 "with --report: include this modrt-proportion-accuracy --markdown report (blocks that are "
+                 "not cubes) as a section");
   app.add_option("--check-thresholds", thresholds_path,
                  "fail (exit 3) when MRT's in-prior relative L2 exceeds these");
   app.add_option("--write-thresholds", write_headroom,
@@ -1096,6 +1116,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (write_headroom > 0 && thresholds_path.empty()) {
     std::fprintf(stderr, "modrt-bench: --write-thresholds needs --check-thresholds FILE\n");
+    return 2;
+  }
+  // Before the suite's minutes, not after them.
+  if (!proportions_path.empty() && !proportions_section(proportions_path).ok()) {
+    std::fprintf(stderr, "modrt-bench: --proportions: cannot read %s\n", proportions_path.c_str());
     return 2;
   }
   std::string command = "modrt-bench";
@@ -1211,7 +1236,17 @@ int main(int argc, char** argv) {
     if (!chart_path.empty() && std::filesystem::exists(chart_path))
       chart_rel = std::filesystem::relative(chart_path, std::filesystem::absolute(report_path).parent_path())
                       .string();
-    if (Status st = write_report(report_path, chart_rel, chart_msg, cfg, rows, command, total_s); !st.ok()) {
+    std::string proportions;
+    if (!proportions_path.empty()) {
+      Result<std::string> section = proportions_section(proportions_path);
+      if (!section.ok()) {
+        std::fprintf(stderr, "modrt-bench: %s\n", section.status().to_string().c_str());
+        return 1;
+      }
+      proportions = std::move(section).value() + "\n";
+    }
+    if (Status st = write_report(report_path, chart_rel, chart_msg, cfg, rows, command, total_s, proportions);
+        !st.ok()) {
       std::fprintf(stderr, "modrt-bench: %s\n", st.to_string().c_str());
       return 1;
     }

@@ -35,7 +35,9 @@ struct TestLevel {
 inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11", "maze41", "stretched"};
 
 // Four connected blocks 0.8 high: 1.7 x 0.8 x 1, 0.6 x 0.8 x 1 and 0.7 x 0.8 x 1 along x, then
-// 0.7 x 0.8 x 1.4 along z, the light in the first; every block has a box of its own.
+// 0.7 x 0.8 x 1.4 along z, the light in the first (connected: the cube's operators, under
+// their warps); and two rooms open to the outside, a 1.6 x 0.8 x 1 room and a 1 x 0.3 x 1
+// slab, each lit by a light of its own and baked for its box (Level::shaped, MRT §8).
 inline LevelDescription stretched_level() {
   LevelDescription d;
   d.name = "stretched";
@@ -61,10 +63,15 @@ inline LevelDescription stretched_level() {
   box({1, 0, 0}, {x[1], 0, 0}, {x[2], h, 1}, without({kFaceNegX, kFacePosX}));
   box({2, 0, 0}, {x[2], 0, 0}, {x[3], h, 1}, without({kFaceNegX, kFacePosZ}));
   box({2, 0, 1}, {x[2], 0, 1}, {x[3], h, 2.4}, without({kFaceNegZ}));
-  LightDescription l;
-  l.position = {0.5, 0.5, 0.4};
-  l.radius = 0.05;
-  d.lights.push_back(l);
+  box({0, 0, 3}, {0, 0, 3}, {1.6, h, 4}, without({kFacePosZ}));
+  box({4, 0, 0}, {4, 0, 0}, {5, 0.3, 1}, without({kFaceNegZ}));
+  for (const glm::dvec3& p :
+       {glm::dvec3(0.5, 0.5, 0.4), glm::dvec3(0.4, 0.5, 3.3), glm::dvec3(4.3, 0.15, 0.6)}) {
+    LightDescription l;
+    l.position = p;
+    l.radius = 0.05;
+    d.lights.push_back(l);
+  }
   return d;
 }
 

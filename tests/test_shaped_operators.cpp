@@ -5,12 +5,14 @@
 // reference on its real geometry (cube operators under a warp against shaped operators).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "level_fixtures.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/bake.h"
@@ -261,6 +263,21 @@ TEST(ShapedLevel, LongRoomOneBounceFollowsTheRoom) {
   EXPECT_GT(error[0], 0.3);
   EXPECT_LT(error[1], 0.12);
   EXPECT_LT(error[1], error[0] / 3.0);
+}
+
+// The backends' conformance suites run the "stretched" level: it must keep both kinds of
+// blocks, or their shaped-operator coverage would vanish silently.
+TEST(ShapedLevel, ConformanceFixtureHasShapedAndConnectedCubeBlocks) {
+  const test::TestLevel& t = test::test_level("stretched");
+  EXPECT_EQ(t.level.shaped.size(), 2u);
+  int shaped = 0, connected = 0;
+  for (const LevelBlock& b : t.level.blocks) {
+    shaped += b.shaped >= 0;
+    connected +=
+        b.shaped < 0 && std::any_of(b.neighbour.begin(), b.neighbour.end(), [](int n) { return n >= 0; });
+  }
+  EXPECT_EQ(shaped, 2);
+  EXPECT_EQ(connected, 4);
 }
 
 }  // namespace
