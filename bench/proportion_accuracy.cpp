@@ -33,6 +33,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vector_relational.hpp>
 
+#include "image_output.h"
 #include "modrt/cube.h"
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
@@ -247,8 +248,9 @@ Truth trace_truth(const precompute::LevelScene& scene, const LevelDescription& d
 // Front-facing camera hits on the real room: pixels that see nothing, or the outside of a
 // wall, carry no lightmap and are left out.
 struct CameraView {
-  int pixels = 0;
+  int pixels = 0, width = 0, height = 0;
   std::vector<glm::dvec3> position, normal;
+  std::vector<int> pixel;  // image index (row-major, top row first) of each kept point
 };
 
 CameraView camera_view(const precompute::LevelScene& scene, const Camera& cam, int width, int height) {
@@ -256,6 +258,8 @@ CameraView camera_view(const precompute::LevelScene& scene, const Camera& cam, i
                                                               cam.vertical_fov_degrees, width, height);
   CameraView view;
   view.pixels = width * height;
+  view.width = width;
+  view.height = height;
   for (std::size_t k = 0; k < hits.hit.size(); ++k) {
     const precompute::LevelHit& h = hits.hit[k];
     if (h.block < 0 || h.clutter >= 0) continue;
@@ -263,6 +267,7 @@ CameraView camera_view(const precompute::LevelScene& scene, const Camera& cam, i
     if (glm::dot(scene.hit_normal(h), hits.normal[k]) < 0.0) continue;
     view.position.push_back(hits.position[k]);
     view.normal.push_back(hits.normal[k]);
+    view.pixel.push_back(int(k));
   }
   return view;
 }
@@ -372,7 +377,8 @@ struct Row {
   double build_s = 0;
   double texels_one = 0, texels_converged = 0, camera_one = 0, camera_converged = 0;
   std::array<double, 3> thirds{};
-  std::size_t camera_missed = 0;  // camera points that no proxy face holds (should be 0)
+  std::size_t camera_missed = 0;         // camera points that no proxy face holds (should be 0)
+  std::vector<float> camera_one_values;  // modrt's one bounce at the camera points (RGB)
 };
 
 struct NoiseRow {
@@ -388,7 +394,7 @@ struct Options {
   int paths_multi = 256;  // paths per point, 16 bounces
   int bounces_multi = 16;
   int width = 96, height = 64;
-  std::string cache_dir, markdown;
+  std::string cache_dir, markdown, images;
   std::vector<std::string> rooms;
 };
 
@@ -478,7 +484,51 @@ Row measure(const Room& room, const LevelDescription& desc, const Dictionary& di
   row.camera_one = rel_l2(cam_one, rt.camera_one.value);
   row.camera_converged = rel_l2(cam_conv, rt.camera_multi.value);
   row.thirds = third_ratios(room, rt.view.position, cam_one, rt.camera_one.value);
+  row.camera_one_values = cam_one;
   return row;
+}
+
+// ---------------------------------------------------------------- pictures
+
+// One bounce through the camera, left to right: the path tracer, one block with the cube's
+// operators, one block with its own box's. One exposure for all three (the truth's 99th
+// percentile at 0.8), pixels that see no wall black.
+Status write_camera_strip(const Options& opt, const Room& room, const RoomTruth& rt,
+                          const std::vector<Row>& rows) {
+  const CameraView& v = rt.view;
+  std::vector<const std::vector<float>*> panels = {&rt.camera_one.value};
+  for (const char* suffix : {"1 block, cube ops", "1 block, shaped ops"})
+    for (const Row& r : rows)
+      if (r.room == room.name && r.proxy == suffix &&
+          r.camera_one_values.size() == rt.camera_one.value.size())
+        panels.push_back(&r.camera_one_values);
+  if (panels.size() != 3)
+    return Status::error(ErrorCode::internal_error, room.name + ": missing camera values");
+  std::vector<float> sorted = rt.camera_one.value;
+  std::sort(sorted.begin(), sorted.end());
+  const float p99 = sorted.empty() ? 1.0f : sorted[sorted.size() * 99 / 100];
+  const int w = v.width, h = v.height, gap = 4, strip_w = 3 * w + 2 * gap;
+  std::vector<float> linear(std::size_t(strip_w) * std::size_t(h) * 3, 0.0f);
+  for (std::size_t p = 0; p < panels.size(); ++p)
+    for (std::size_t i = 0; i < v.pixel.size(); ++i) {
+      const int x = v.pixel[i] % w + int(p) * (w + gap), y = v.pixel[i] / w;
+      for (int c = 0; c < 3; ++c)
+        linear[(std::size_t(y) * std::size_t(strip_w) + std::size_t(x)) * 3 + std::size_t(c)] =
+            (*panels[p])[3 * i + std::size_t(c)];
+    }
+  std::vector<std::uint8_t> rgb(linear.size());
+  demo::encode_srgb8(linear, p99 > 0.0f ? 0.8f / p99 : 1.0f, rgb);
+  // Each camera pixel as a 3 x 3 block, to be seen in the docs (no detail is added).
+  constexpr int kZoom = 3;
+  std::vector<std::uint8_t> big(rgb.size() * kZoom * kZoom);
+  for (int y = 0; y < h * kZoom; ++y)
+    for (int x = 0; x < strip_w * kZoom; ++x)
+      for (int c = 0; c < 3; ++c)
+        big[(std::size_t(y) * std::size_t(strip_w * kZoom) + std::size_t(x)) * 3 + std::size_t(c)] =
+            rgb[(std::size_t(y / kZoom) * std::size_t(strip_w) + std::size_t(x / kZoom)) * 3 +
+                std::size_t(c)];
+  return demo::write_rgb8_image(opt.images + "/proportions-" + room.key + ".png", strip_w * kZoom, h * kZoom,
+                                big);
 }
 
 // ---------------------------------------------------------------- one room
@@ -543,6 +593,7 @@ Status run_room(const Options& opt, const Room& room, const Dictionary& dict, st
     rows.push_back(measure(room, p.desc, dict, false, true, p.label + ", exact F ld (texel floor)", rt, pt));
   }
   std::fprintf(stderr, "done in %.0f s\n", seconds_since(t0));
+  if (!opt.images.empty()) return write_camera_strip(opt, room, rt, rows);
   return Status::success();
 }
 
@@ -774,6 +825,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--cache-dir", opt.cache_dir, "dictionary cache directory")->capture_default_str();
   app.add_option("--rooms", opt.rooms, "only these rooms (long, corridor, room, slab)");
+  app.add_option("--images", opt.images,
+                 "also write per room a PNG of the camera's one bounce: path tracer | one block, cube "
+                 "operators | one block, shaped operators (proportions-<room>.png)");
   int build_time_blocks = 0, steps = 8;
   std::string level_file;
   app.add_option("--level", level_file,
