@@ -172,7 +172,9 @@ TEST(CApi, LoadsFromMemoryAndFileAlike) {
 }
 
 TEST(CApi, CpuContextEqualsTheCpuBackendAndTheReference) {
-  for (const char* name : {"single", "corridor", "maze11"}) {
+  // "stretched": a level file with shaped operators (Level::shaped, format version 3) through
+  // the installed runtime's load and context.
+  for (const char* name : {"single", "corridor", "maze11", "stretched"}) {
     SCOPED_TRACE(name);
     const test::TestLevel& t = test_level(name);
     modrt_dictionary* d = load_dictionary_handle();
