@@ -727,6 +727,11 @@ int run_level(const Options& opt, const std::string& path, const Dictionary& dic
     std::fprintf(stderr, "modrt-proportion-accuracy: %s\n", d.status().to_string().c_str());
     return 1;
   }
+  if (d->lights.empty()) {  // every error would be 0 / 0
+    std::fprintf(stderr, "modrt-proportion-accuracy: %s: lights: the level has none, nothing to compare\n",
+                 path.c_str());
+    return 1;
+  }
   precompute::LevelBuildSettings cube;
   cube.shaped_operators = false;
   Result<Level> real = precompute::build_level(d.value(), dict, cube);
