@@ -142,6 +142,7 @@ std::vector<Room> make_rooms() {
   r.albedo = grey_walls();
   r.light = sphere_light({0.6, 0.6, 0.5});  // off-centre, towards the -X back corner
   r.cells = {2, 1, 2};
+  r.coarse_cells = {2, 1, 1};  // two 1 x 1 x 2 blocks side by side
   r.axis = 2;
   r.camera = {{1.0, 0.5, 2.8}, {1.0, 0.45, 0.0}, 60};
   rooms.push_back(r);
@@ -396,6 +397,7 @@ struct Options {
   int width = 96, height = 64;
   std::string cache_dir, markdown, images;
   std::vector<std::string> rooms;
+  const Matrix* interface_basis = nullptr;  // the dictionary's Hrlf: connected shaped blocks
 };
 
 // The references one room needs, traced once and shared by its proxies and build settings.
@@ -429,13 +431,13 @@ ProxyTruth trace_proxy_texels(const Options& opt, const RoomTruth& rt, const Lev
 // what the proxy's texel grid and ld sampling alone allow, the floor under any operator.
 Row measure(const Room& room, const LevelDescription& desc, const Dictionary& dict, bool shaped, bool exact,
             const std::string& proxy_label, const RoomTruth& rt, const ProxyTruth& pt,
-            bool connected = false) {
+            const Matrix* interface_basis = nullptr) {
   Row row;
   row.room = room.name;
   row.proxy = proxy_label;
   precompute::LevelBuildSettings bs;
   bs.shaped_operators = shaped;
-  bs.shaped_connected_blocks = connected;
+  bs.interface_basis = interface_basis;
   const auto t0 = Clock::now();
   Result<Level> built = precompute::build_level(desc, dict, bs);
   row.build_s = seconds_since(t0);
@@ -587,9 +589,9 @@ Status run_room(const Options& opt, const Room& room, const Dictionary& dict, st
       if (!rows.back().error.empty())
         std::fprintf(stderr, "\n  %s: %s\n", rows.back().proxy.c_str(), rows.back().error.c_str());
     }
-    if (p.label.ends_with("stretched blocks"))  // shaped operators on cube interfaces (off by default)
-      rows.push_back(measure(room, p.desc, dict, true, false, p.label + ", shaped ops on cube interfaces", rt,
-                             pt, true));
+    if (p.label.ends_with("stretched blocks") && opt.interface_basis)  // connected: traced interfaces
+      rows.push_back(measure(room, p.desc, dict, true, false, p.label + ", shaped ops, traced interfaces", rt,
+                             pt, opt.interface_basis));
     rows.push_back(measure(room, p.desc, dict, false, true, p.label + ", exact F ld (texel floor)", rt, pt));
   }
   std::fprintf(stderr, "done in %.0f s\n", seconds_since(t0));
@@ -675,8 +677,9 @@ std::string report(const Options& opt, const std::string& command, const std::st
     << " pixels into the room through its open +Z face, modrt = bilinear lookup of the proxy's lightmap "
        "on the hit's face. near / mid / far: sum of modrt over sum of the reference in thirds of the "
        "room's long axis, near = the light's end. Cube ops: `shaped_operators = false`; shaped ops: true "
-       "(the default: blocks that connect to no "
-       "other block); shaped ops on cube interfaces: `shaped_connected_blocks = true` as well. Exact F ld: "
+       "without an interface basis: only blocks that connect to no other block); traced interfaces: with "
+       "the dictionary's interface basis (`interface_basis`), connected blocks too, their R, Rb->rlf and "
+       "response traced in their box. Exact F ld: "
        "the proxy's dense one-bounce operator by ray tracing (16 bounces by iteration), the floor its texels "
        "and ld sampling allow.\n\n"
     << results_table(rows) << "\n## One block with shaped operators over the other proxies\n\n"
@@ -751,6 +754,7 @@ int run_level(const Options& opt, const std::string& path, const Dictionary& dic
   for (const bool shaped : {false, true}) {
     precompute::LevelBuildSettings bs;
     bs.shaped_operators = shaped;
+    bs.interface_basis = opt.interface_basis;  // connected blocks too, their interfaces traced
     Result<Level> level = precompute::build_level(d.value(), dict, bs);
     if (!level.ok()) {
       std::fprintf(stderr, "modrt-proportion-accuracy: %s\n", level.status().to_string().c_str());
@@ -772,7 +776,8 @@ int run_level(const Options& opt, const std::string& path, const Dictionary& dic
   return 0;
 }
 
-int run_build_time(int blocks, const Dictionary& dict, const std::string& dict_name, int steps) {
+int run_build_time(int blocks, const Dictionary& dict, const Matrix& basis, const std::string& dict_name,
+                   int steps) {
   Result<LevelDescription> d = random_proportion_maze(blocks, 7);
   if (!d.ok()) {
     std::fprintf(stderr, "modrt-proportion-accuracy: %s\n", d.status().to_string().c_str());
@@ -782,7 +787,7 @@ int run_build_time(int blocks, const Dictionary& dict, const std::string& dict_n
   precompute::LevelBuildSettings settings;
   settings.shaped_cache = &cache;
   settings.proportion_steps_per_octave = steps;
-  settings.shaped_connected_blocks = true;  // every block of the maze connects: bake them all
+  settings.interface_basis = &basis;  // every block of the maze connects: bake them all
   double seconds[3] = {0, 0, 0};
   std::size_t sets = 0, runtime_floats = 0, dictionary_floats = 0;
   for (const ShapeOperators& op : dict.shapes)
@@ -872,13 +877,21 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  Result<Matrix> basis = precompute::load_or_bake_interface_basis(
+      ds, opt.cache_dir, {}, [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); });
+  if (!basis.ok()) {
+    std::fprintf(stderr, "modrt-proportion-accuracy: interface basis: %s\n",
+                 basis.status().to_string().c_str());
+    return 1;
+  }
+  opt.interface_basis = &basis.value();
   if (!level_file.empty()) return run_level(opt, level_file, dict.value());
   if (build_time_blocks > 0) {
     std::printf(
         "| blocks | dictionary | steps per octave | shaped sets | build s, cube operators | build s, "
         "shaped cold | build s, shaped from the cache | shaped operators MiB, float32 / float16 | "
         "dictionary shapes MiB, float32 |\n|---|---|---|---|---|---|---|---|---|\n");
-    return run_build_time(build_time_blocks, dict.value(), dict_name, steps);
+    return run_build_time(build_time_blocks, dict.value(), basis.value(), dict_name, steps);
   }
   const auto start = Clock::now();
   std::vector<Row> rows;

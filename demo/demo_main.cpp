@@ -162,6 +162,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   Result<Dictionary> dict = Status::success();
+  Result<Matrix> interface_basis = Status::error(ErrorCode::invalid_argument, "--dictionary: no basis");
   if (!dictionary_path.empty()) {
     dict = load_dictionary(dictionary_path);
   } else {
@@ -179,6 +180,16 @@ int main(int argc, char** argv) {
     };
     dict = precompute::load_or_bake_dictionary(settings, precompute::default_cache_dir(), progress,
                                                [](const std::string& m) { std::printf("%s\n", m.c_str()); });
+    // Shaped blocks' interfaces (a few seconds' re-bake for a dictionary cached without it).
+    if (dict.ok() && settings.lightfield_spatial > 0) {
+      interface_basis = precompute::load_or_bake_interface_basis(
+          settings, precompute::default_cache_dir(), progress,
+          [](const std::string& m) { std::printf("%s\n", m.c_str()); });
+      if (!interface_basis.ok())
+        std::fprintf(stderr,
+                     "modrt-demo: warning: %s; stretched blocks connected to others keep cube operators\n",
+                     interface_basis.status().to_string().c_str());
+    }
   }
   if (!dict.ok()) {
     std::fprintf(stderr, "modrt-demo: dictionary: %s\n", dict.status().to_string().c_str());
@@ -211,6 +222,7 @@ int main(int argc, char** argv) {
   options.camera_skip = camera_skip;
   options.save_clutter = save_clutter;
   options.shaped_cache_dir = precompute::default_cache_dir();
+  options.interface_basis = interface_basis.ok() ? &interface_basis.value() : nullptr;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
     std::fprintf(stderr, "modrt-demo: %s\n", run.status().to_string().c_str());

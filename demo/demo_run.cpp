@@ -66,6 +66,7 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
   precompute::ShapedOperatorCache shaped_cache(options.shaped_cache_dir);
   precompute::LevelBuildSettings build_settings;
   build_settings.shaped_cache = &shaped_cache;
+  build_settings.interface_basis = options.interface_basis;
   Result<Level> level = precompute::build_level(scene.level, dict, build_settings);
   if (!level.ok()) return level.status();
   run->level_ = std::move(level).value();

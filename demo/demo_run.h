@@ -60,6 +60,9 @@ struct DemoRunOptions {
   // Where the level build keeps operators baked for blocks that are not cubes (MRT §8,
   // precompute/shaped_operators.h), so a second run loads them; empty: baked every run.
   std::string shaped_cache_dir;
+  // The dictionary's interface basis (precompute::load_or_bake_interface_basis): with it,
+  // stretched blocks connected to others get shaped operators too; null: only unconnected ones.
+  const Matrix* interface_basis = nullptr;
 };
 
 // Wall-clock milliseconds per stage, summed over frames (glFinish closes each stage).

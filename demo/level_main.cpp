@@ -116,8 +116,10 @@ int main(int argc, char** argv) {
   int bounces = -1, dmax = 8;
   app.add_option("--level", level_name, "level JSON file, or corridor, l_corner, mazeN (e.g. maze41)");
   app.add_option("--out", out_dir, "output directory");
-  app.add_option("--dictionary", dictionary_path,
-                 "dictionary file (default: bake on first use into the cache)");
+  app.add_option(
+      "--dictionary", dictionary_path,
+      "dictionary file (default: bake on first use into the cache; a file has no interface basis, so "
+      "stretched blocks connected to others keep cube operators)");
   app.add_option("--cache-dir", cache_dir, "dictionary cache directory");
   app.add_option("--bounces", bounces,
                  "multi-bounce: N >= 0 feedback iterations (0 = one bounce); -1: the converged multi-bounce "
@@ -159,12 +161,24 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "modrt-level: %s\n", dict.status().to_string().c_str());
     return 1;
   }
+  // Shaped blocks connected to others need the dictionary's interface basis, which only a
+  // cached dictionary has beside it.
+  Result<Matrix> interface_basis = Status::error(ErrorCode::invalid_argument, "no basis");
+  if (!cube_operators && dictionary_path.empty() && !dict->interfaces.empty()) {
+    interface_basis = precompute::load_or_bake_interface_basis(
+        DictionarySettings{}, cache_dir, {}, [](const std::string& m) { std::printf("%s\n", m.c_str()); });
+    if (!interface_basis.ok()) {
+      std::fprintf(stderr, "modrt-level: %s\n", interface_basis.status().to_string().c_str());
+      return 1;
+    }
+  }
   const auto t0 = std::chrono::steady_clock::now();
   precompute::LevelBuildSettings build_settings;
   build_settings.dmax = dmax;
   build_settings.shaped_operators = !cube_operators;
   precompute::ShapedOperatorCache shaped_cache(cache_dir);
   build_settings.shaped_cache = &shaped_cache;
+  build_settings.interface_basis = interface_basis.ok() ? &interface_basis.value() : nullptr;
   Result<Level> level = precompute::build_level(desc.value(), dict.value(), build_settings);
   if (!level.ok()) {
     std::fprintf(stderr, "modrt-level: %s: %s\n", level_name.c_str(), level.status().to_string().c_str());

@@ -35,9 +35,10 @@ struct TestLevel {
 inline constexpr const char* kTestLevelNames[] = {"single", "corridor", "maze11", "maze41", "stretched"};
 
 // Four connected blocks 0.8 high: 1.7 x 0.8 x 1, 0.6 x 0.8 x 1 and 0.7 x 0.8 x 1 along x, then
-// 0.7 x 0.8 x 1.4 along z, the light in the first (connected: the cube's operators, under
-// their warps); and two rooms open to the outside, a 1.6 x 0.8 x 1 room and a 1 x 0.3 x 1
-// slab, each lit by a light of its own and baked for its box (Level::shaped, MRT §8).
+// 0.7 x 0.8 x 1.4 along z, the light in the first (connected: built with the interface basis,
+// their interfaces traced in their boxes, shaped_interfaces.h); and two rooms open to the
+// outside, a 1.6 x 0.8 x 1 room and a 1 x 0.3 x 1 slab, each lit by a light of its own. Every
+// block is baked for its box (Level::shaped, MRT §8).
 inline LevelDescription stretched_level() {
   LevelDescription d;
   d.name = "stretched";
@@ -93,6 +94,7 @@ inline TestLevel build_test_level(const std::string& name) {
   }
   precompute::LevelBuildSettings settings;
   settings.shaped_cache = &test_shaped_cache();
+  if (name == "stretched") settings.interface_basis = &small_test_interface_basis();
   Result<Level> level = precompute::build_level(t.description, small_test_dictionary(), settings);
   if (!level.ok()) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), level.status().to_string().c_str());

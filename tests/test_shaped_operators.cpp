@@ -265,19 +265,20 @@ TEST(ShapedLevel, LongRoomOneBounceFollowsTheRoom) {
   EXPECT_LT(error[1], error[0] / 3.0);
 }
 
-// The backends' conformance suites run the "stretched" level: it must keep both kinds of
-// blocks, or their shaped-operator coverage would vanish silently.
-TEST(ShapedLevel, ConformanceFixtureHasShapedAndConnectedCubeBlocks) {
+// The backends' conformance suites run the "stretched" level: it must keep shaped blocks both
+// connected (traced interfaces) and not, or their coverage would vanish silently.
+TEST(ShapedLevel, ConformanceFixtureHasConnectedAndUnconnectedShapedBlocks) {
   const test::TestLevel& t = test::test_level("stretched");
-  EXPECT_EQ(t.level.shaped.size(), 2u);
+  EXPECT_EQ(t.level.shaped.size(), 6u);
   int shaped = 0, connected = 0;
   for (const LevelBlock& b : t.level.blocks) {
     shaped += b.shaped >= 0;
     connected +=
-        b.shaped < 0 && std::any_of(b.neighbour.begin(), b.neighbour.end(), [](int n) { return n >= 0; });
+        b.shaped >= 0 && std::any_of(b.neighbour.begin(), b.neighbour.end(), [](int n) { return n >= 0; });
   }
-  EXPECT_EQ(shaped, 2);
+  EXPECT_EQ(shaped, 6);
   EXPECT_EQ(connected, 4);
+  EXPECT_FALSE(t.level.records.empty());
 }
 
 }  // namespace

@@ -36,6 +36,19 @@ inline const Dictionary& small_test_dictionary() {
   return dict;
 }
 
+// The test dictionary's interface basis Hrlf (shaped blocks' interfaces), cached beside it.
+inline const Matrix& small_test_interface_basis() {
+  static const Matrix basis = [] {
+    Result<Matrix> b = precompute::load_or_bake_interface_basis(small_test_settings(), MODRT_TEST_CACHE_DIR);
+    if (!b.ok()) {
+      std::fprintf(stderr, "test interface basis: %s\n", b.status().to_string().c_str());
+      std::abort();
+    }
+    return std::move(b).value();
+  }();
+  return basis;
+}
+
 // Shaped operators (MRT §8) baked for the test dictionary, cached beside it on disk so that
 // the test processes after the first load them instead of baking.
 inline precompute::ShapedOperatorCache& test_shaped_cache() {

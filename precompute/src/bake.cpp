@@ -182,7 +182,7 @@ BakeMemoryEstimate estimate_bake_memory(const DictionarySettings& s) {
 std::uint64_t estimate_bake_bytes(const DictionarySettings& s) { return estimate_bake_memory(s).total; }
 
 Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress,
-                                   std::uint64_t memory_budget) {
+                                   std::uint64_t memory_budget, Matrix* lightfield_basis) {
   if (Status s = validate_settings(settings); !s.ok()) return s;
   if (const BakeMemoryEstimate need = estimate_bake_memory(settings); need.total > memory_budget) {
     constexpr double kGiB = double(1u << 30);
@@ -231,6 +231,7 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
       dict.interfaces.Ur = to_float(ib.Ur);
       dict.interfaces.Urvol = to_float(ib.Urvol);
       dict.interfaces.Ur_vec = to_float(ib.Ur_vec);
+      if (lightfield_basis) *lightfield_basis = to_float(ib.Hrlf);
     }
     if (Status v = validate_dictionary(dict, "baked dictionary"); !v.ok()) return v;
     return dict;

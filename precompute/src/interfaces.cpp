@@ -145,6 +145,16 @@ MatrixXd unit_frobenius(const MatrixXd& m) {
 
 }  // namespace
 
+MatrixXd project_onto_lightfield_basis(const MatrixXd& Hrlf, const MatrixXd& x) {
+  // Hrlf = U S: coefficients S^-2 (U S)^T x.
+  VectorXd inv_norm2(Hrlf.cols());
+  for (Eigen::Index i = 0; i < inv_norm2.size(); ++i) {
+    const double n2 = Hrlf.col(i).squaredNorm();
+    inv_norm2(i) = n2 > 0.0 ? 1.0 / n2 : 0.0;
+  }
+  return inv_norm2.asDiagonal() * parallel_at_b(Hrlf, x);
+}
+
 LightfieldFrame exit_frame(int face) {
   const FaceFrame& f = face_frame(face);
   return {f.origin, f.u_axis, f.v_axis, -f.normal};
@@ -186,10 +196,10 @@ bool classify_propagation(int entry, int exit, Propagation& out) {
 }
 
 MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res,
-                         const InterfaceSettings& s) {
+                         const InterfaceSettings& s, const glm::dvec3& extent) {
   const Grid g(s);
   const SampleLayout layout = SampleLayout::make(shape_mask, res);
-  const BlockScene scene(shape_mask);
+  const BlockScene scene(shape_mask, extent);
   const LightfieldFrame frame = exit_frame(face);
   MatrixXd out = MatrixXd::Zero(g.size(), Limp.cols());
   const double w = 1.0 / (g.ss * g.ss);
@@ -197,7 +207,7 @@ MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, in
     Eigen::RowVectorXd acc(Limp.cols());
     for (int pos = range.begin(); pos != range.end(); ++pos) {
       const int px = pos % g.S, py = pos / g.S;
-      const glm::dvec3 p = frame_point(frame, (px + 0.5) / g.S, (py + 0.5) / g.S);
+      const glm::dvec3 p = scene.point(frame_point(frame, (px + 0.5) / g.S, (py + 0.5) / g.S));
       for (int dy = 0; dy < g.D; ++dy)
         for (int dx = 0; dx < g.D; ++dx) {
           acc.setZero();
@@ -220,11 +230,15 @@ MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, in
 }
 
 SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s) {
+  return box_propagation_operator(glm::dvec3(1.0), kCanonicalEntryFace, propagation_exit_face(dir), s);
+}
+
+SparseRowMatrix box_propagation_operator(const glm::dvec3& extent, int entry, int exit,
+                                         const InterfaceSettings& s) {
   const Grid g(s);
-  const int exit = propagation_exit_face(dir);
   const LightfieldFrame out_frame = exit_frame(exit);
-  const LightfieldFrame in_frame = entry_frame(kCanonicalEntryFace);
-  const FaceFrame& entry_face = face_frame(kCanonicalEntryFace);
+  const LightfieldFrame in_frame = entry_frame(entry);
+  const FaceFrame& entry_face = face_frame(entry);
   const double w = 1.0 / (g.ss * g.ss);
   // Rows are independent: build each position's rows in parallel, then assemble.
   std::vector<std::vector<Eigen::Triplet<double>>> rows(std::size_t(g.S * g.S));
@@ -232,7 +246,7 @@ SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s
     std::vector<std::pair<int, double>> taps_of_row;
     for (int pos = range.begin(); pos != range.end(); ++pos) {
       const int px = pos % g.S, py = pos / g.S;
-      const glm::dvec3 p = frame_point(out_frame, (px + 0.5) / g.S, (py + 0.5) / g.S);
+      const glm::dvec3 p = extent * frame_point(out_frame, (px + 0.5) / g.S, (py + 0.5) / g.S);
       std::vector<Eigen::Triplet<double>>& triplets = rows[std::size_t(pos)];
       for (int dy = 0; dy < g.D; ++dy)
         for (int dx = 0; dx < g.D; ++dx) {
@@ -243,10 +257,12 @@ SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s
                   travel_direction(out_frame, (dx + (sx + 0.5) / g.ss) / g.D, (dy + (sy + 0.5) / g.ss) / g.D);
               // Walk back along -T to the entry plane; inside a convex cell the segment
               // between two faces meets no wall, so this is exact free-space transport.
+              // The walk is in the box's coordinates, the lookup in the canonical cell's
+              // (lightfield positions are normalised to the face).
               const double along = glm::dot(T, entry_face.normal);
               if (along <= 1e-12) continue;
-              const double dist = glm::dot(p - entry_face.origin, entry_face.normal) / along;
-              const glm::dvec3 q = p - dist * T;
+              const double dist = glm::dot(p - extent * entry_face.origin, entry_face.normal) / along;
+              const glm::dvec3 q = (p - dist * T) / extent;
               const glm::dvec3 rel = q - entry_face.origin;
               const double u = glm::dot(rel, entry_face.u_axis), v = glm::dot(rel, entry_face.v_axis);
               if (u < 0.0 || u > 1.0 || v < 0.0 || v > 1.0) continue;  // came from another face
@@ -278,11 +294,12 @@ MatrixXd propagate_lightfield(const MatrixXd& in, Propagation dir, const Interfa
   return propagation_operator(dir, s) * in;
 }
 
-MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s) {
+MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s,
+                                const glm::dvec3& extent) {
   const Grid g(s);
   const FaceMask receiver = dictionary_shape_mask(1);  // dead end: only -Z missing
   const SampleLayout layout = SampleLayout::make(receiver, res);
-  const BlockScene scene(receiver);
+  const BlockScene scene(receiver, extent);
   const LightfieldFrame in_frame = entry_frame(kCanonicalEntryFace);
   const FaceFrame& entry_face = face_frame(kCanonicalEntryFace);
   const int n = layout.sample_count();
@@ -295,20 +312,33 @@ MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSett
       Rng rng(s.seed, std::uint64_t(smp));
       stratified_square(s.response_rays, rng, strata);
       const FaceFrame& frame = face_frame(layout.face_of(smp));
-      const glm::dvec3 x = layout.position(smp);
+      const glm::dvec3 x = scene.point(layout.position(smp));
       acc.setZero();
       for (const glm::dvec2& u : strata) {
         const glm::dvec3 d = to_world(cosine_hemisphere(u), frame.u_axis, frame.v_axis, frame.normal);
         if (scene.intersect(x, d).face >= 0) continue;  // sees this block's own surface
         const double along = -glm::dot(d, entry_face.normal);
         if (along <= 1e-12) continue;
+        // The entry plane z = 0 is the same in the box's and the canonical coordinates.
         const glm::dvec3 q = x + (glm::dot(x - entry_face.origin, entry_face.normal) / along) * d;
-        const Taps taps = lookup(g, in_frame, q, -d);
+        const Taps taps = lookup(g, in_frame, q / extent, -d);
         for (int t = 0; t < taps.count; ++t) acc += taps.weight[t] * in.row(taps.index[t]);
       }
       out.row(smp) = w * acc;
     }
   });
+  return out;
+}
+
+MatrixXd symmetric_response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s,
+                                          const glm::dvec3& extent) {
+  const MatrixXd G = response_to_lightfield(in, res, s, extent);
+  const MatrixXd G_mirrored = response_to_lightfield(mirror_lightfield(Grid(s), in), res, s, extent);
+  const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), res);
+  const std::vector<int> perm = sample_permutation(dead_end, BlockSymmetry{true, 0});
+  MatrixXd out(G.rows(), G.cols());
+  for (Eigen::Index r = 0; r < G.rows(); ++r)
+    out.row(r) = 0.5 * (G.row(r) + G_mirrored.row(perm[std::size_t(r)]));
   return out;
 }
 
@@ -474,15 +504,7 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
   }
   stage("Hrlf + enrichment");
 
-  // Projection onto Hrlf = U S: coefficients S^-2 (U S)^T x.
-  VectorXd inv_norm2(bake.Hrlf.cols());
-  for (Eigen::Index i = 0; i < inv_norm2.size(); ++i) {
-    const double n2 = bake.Hrlf.col(i).squaredNorm();
-    inv_norm2(i) = n2 > 0.0 ? 1.0 / n2 : 0.0;
-  }
-  auto project = [&](const MatrixXd& x) -> MatrixXd {
-    return inv_norm2.asDiagonal() * parallel_at_b(bake.Hrlf, x);
-  };
+  auto project = [&](const MatrixXd& x) -> MatrixXd { return project_onto_lightfield_basis(bake.Hrlf, x); };
   for (int d = 0; d < 3; ++d) bake.R[std::size_t(d)] = project(P[std::size_t(d)] * bake.Hrlf);
   const MatrixXd coefficients = project(Hlf);
   for (const Block& b : blocks)
@@ -490,17 +512,7 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
         coefficients.middleRows(0, coefficients.rows()).middleCols(b.first_col, b.cols);
   stage("R operators");
 
-  {
-    // Frlf has the dead end's mirror symmetry (x -> 1 - x, the entry lightfield mirrored);
-    // its Monte Carlo estimate only approximately, so average the two.
-    const MatrixXd G = response_to_lightfield(bake.Hrlf, res, settings);
-    const MatrixXd G_mirrored = response_to_lightfield(mirror_lightfield(g, bake.Hrlf), res, settings);
-    const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), res);
-    const std::vector<int> perm = sample_permutation(dead_end, BlockSymmetry{true, 0});
-    bake.G.resize(G.rows(), G.cols());
-    for (Eigen::Index r = 0; r < G.rows(); ++r)
-      bake.G.row(r) = 0.5 * (G.row(r) + G_mirrored.row(perm[std::size_t(r)]));
-  }
+  bake.G = symmetric_response_to_lightfield(bake.Hrlf, res, settings);
   Eigen::BDCSVD<MatrixXd> svd(bake.G, Eigen::ComputeThinU | Eigen::ComputeThinV);
   bake.sigma_G = svd.singularValues();
   const Eigen::Index kr = std::min<Eigen::Index>(settings.kr, bake.sigma_G.size());

@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <string>
+#include <tuple>
 
 #include <Eigen/QR>
 #include <glm/geometric.hpp>
@@ -14,6 +15,7 @@
 #include "modrt/precompute/interfaces.h"
 #include "modrt/precompute/linalg.h"
 #include "modrt/precompute/sh_operators.h"
+#include "modrt/precompute/shaped_interfaces.h"
 #include "modrt/precompute/shaped_operators.h"
 #include "modrt/sh.h"
 
@@ -193,16 +195,21 @@ Matrix turned_vector_response(const Matrix& Ur_vec, int res, int face) {
 // cube's, and shaped blocks on cube interfaces measured worse in multi-bounce (two 1 x 1 x 3
 // blocks as a corridor: converged rel L2 1.11 against the cube operators' 0.70,
 // docs/proportions.md).
-Status assign_shaped_operators(Level& level, const Dictionary& dict, const LevelBuildSettings& settings) {
+// Assigns shaped operator sets to blocks whose proportions are not a cube's and, with an
+// interface basis, traces the interfaces of every set (returned by set index; empty when
+// none was traced) and puts their Rb->rlf into the level's sets.
+Result<std::vector<ShapedInterfaces>> assign_shaped_operators(Level& level, const Dictionary& dict,
+                                                              const LevelBuildSettings& settings) {
   ShapedOperatorCache local;
   ShapedOperatorCache& cache = settings.shaped_cache ? *settings.shaped_cache : local;
   const int steps = settings.proportion_steps_per_octave;
+  const bool traced_interfaces = settings.interface_basis && !dict.interfaces.empty();
   std::map<std::pair<int, ProportionSteps>, int> index;
+  std::vector<ShapedInterfaces> interfaces;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     LevelBlock& b = level.blocks[i];
-    if (!settings.shaped_connected_blocks &&
-        std::any_of(b.neighbour.begin(), b.neighbour.end(), [](int n) { return n >= 0; }))
-      continue;
+    const bool connected = std::any_of(b.neighbour.begin(), b.neighbour.end(), [](int n) { return n >= 0; });
+    if (connected && !traced_interfaces) continue;
     const ProportionSteps q = quantise_proportions(block_box_extent(b), steps);
     if (q == ProportionSteps{}) continue;
     auto [it, inserted] = index.try_emplace({b.shape, q}, int(level.shaped.size()));
@@ -212,10 +219,21 @@ Status assign_shaped_operators(Level& level, const Dictionary& dict, const Level
         return Status::error(ops.status().code(),
                              "block " + std::to_string(i) + ": " + ops.status().message());
       level.shaped.push_back(std::move(ops.value()));
+      interfaces.emplace_back();
     }
-    b.shaped = it->second;
+    const std::size_t set = std::size_t(it->second);
+    if (connected && interfaces[set].empty()) {
+      Result<ShapedInterfaces> traced =
+          cache.interfaces(dict, *settings.interface_basis, level.shaped[set], q, steps);
+      if (!traced.ok())
+        return Status::error(traced.status().code(),
+                             "block " + std::to_string(i) + ": " + traced.status().message());
+      interfaces[set] = std::move(traced.value());
+      level.shaped[set].operators.Rb_rlf = interfaces[set].Rb_rlf;
+    }
+    b.shaped = int(set);
   }
-  return Status::success();
+  return interfaces;
 }
 
 }  // namespace
@@ -299,8 +317,18 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     offset += b.sample_count;
   }
   level.sample_count = offset;
-  if (settings.shaped_operators)
-    if (Status s = assign_shaped_operators(level, dict, settings); !s.ok()) return s;
+  std::vector<ShapedInterfaces> shaped_interfaces;
+  if (settings.shaped_operators) {
+    Result<std::vector<ShapedInterfaces>> assigned = assign_shaped_operators(level, dict, settings);
+    if (!assigned.ok()) return assigned.status();
+    shaped_interfaces = std::move(assigned.value());
+  }
+  // The interface operators of block b: its box's where they were traced, else the cube's.
+  auto box_interfaces = [&](const LevelBlock& b) -> const ShapedInterfaces* {
+    return b.shaped >= 0 && !shaped_interfaces[std::size_t(b.shaped)].empty()
+               ? &shaped_interfaces[std::size_t(b.shaped)]
+               : nullptr;
+  };
 
   // Response slots: one per (block, connected canonical side face).
   const SampleLayout dead_end = SampleLayout::make(dictionary_shape_mask(1), level.res);
@@ -335,6 +363,23 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
   const MatrixXd Trlf_r = to_eigen(dict.interfaces.Trlf_r);
   const std::array<MatrixXd, 3> R = {to_eigen(dict.interfaces.R_straight), to_eigen(dict.interfaces.R_left),
                                      to_eigen(dict.interfaces.R_right)};
+  // Shaped boxes' R and Trlf_r in double, converted once per (set, faces).
+  std::map<std::tuple<int, int, int>, MatrixXd> box_R;
+  std::map<std::pair<int, int>, MatrixXd> box_Trlf_r;
+  auto propagation = [&](const LevelBlock& b, int entry, int exit, Propagation dir) -> const MatrixXd& {
+    const ShapedInterfaces* box = box_interfaces(b);
+    if (!box) return R[std::size_t(dir)];
+    auto [it, inserted] = box_R.try_emplace({b.shaped, entry, exit});
+    if (inserted) it->second = to_eigen(box->R[std::size_t(entry)][std::size_t(exit)]);
+    return it->second;
+  };
+  auto response = [&](const LevelBlock& b, int entry) -> const MatrixXd& {
+    const ShapedInterfaces* box = box_interfaces(b);
+    if (!box) return Trlf_r;
+    auto [it, inserted] = box_Trlf_r.try_emplace({b.shaped, entry});
+    if (inserted) it->second = to_eigen(box->Trlf_r[std::size_t(entry)]);
+    return it->second;
+  };
   for (std::size_t src = 0; src < count; ++src) {
     const LevelBlock& sb = level.blocks[src];
     std::map<int, MatrixXd> accumulated;                     // slot -> krlf x kb lightfield sum
@@ -365,13 +410,16 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
           if (nb < 0 || f == entry || !classify_propagation(entry, f, dir)) continue;
           const int entry_world = rotate_face(f, b.quarter_turns) ^ 1;
           const int nb_entry = rotate_face(entry_world, -level.blocks[std::size_t(nb)].quarter_turns);
-          add(next, {nb, nb_entry}, R[std::size_t(dir)] * A);
+          add(next, {nb, nb_entry}, propagation(b, entry, f, dir) * A);
         }
       }
       frontier.swap(next);
     }
-    for (const auto& [slot, A] : accumulated)
-      level.records.push_back({std::uint32_t(src), std::uint32_t(slot), to_float(Trlf_r * A)});
+    for (const auto& [slot, A] : accumulated) {
+      const ResponseSlot& rs = level.slots[std::size_t(slot)];
+      level.records.push_back({std::uint32_t(src), std::uint32_t(slot),
+                               to_float(response(level.blocks[rs.block], rs.entry_face) * A)});
+    }
   }
   build_atlas(level);
   if (!dict.interfaces.Urvol.empty())

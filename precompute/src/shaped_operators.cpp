@@ -15,6 +15,7 @@
 #include "modrt/precompute/bake.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/linalg.h"
+#include "modrt/precompute/matrix_file.h"
 
 namespace modrt::precompute {
 namespace {
@@ -176,6 +177,115 @@ Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict
     (void)save_level(path, entry);
   }
   return baked;
+}
+
+Result<ShapedInterfaces> ShapedOperatorCache::interfaces(const Dictionary& dict, const Matrix& Hrlf,
+                                                         const ShapedOperators& ops,
+                                                         const ProportionSteps& steps, int steps_per_octave) {
+  const Key key{dict.settings, ops.shape, steps_per_octave, steps};
+  auto same = [&](const Key& k) {
+    return k.shape == key.shape && k.steps == steps && k.steps_per_octave == steps_per_octave &&
+           k.settings == dict.settings;
+  };
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const InterfaceEntry& e : interface_entries_)
+      if (same(e.key)) {
+        ++hits_;
+        return e.interfaces;
+      }
+  }
+  Result<ShapedInterfaces> found = load_or_bake_interfaces(dict, Hrlf, ops, steps, steps_per_octave);
+  if (!found.ok()) return found;
+  const std::lock_guard<std::mutex> lock(mutex_);
+  interface_entries_.push_back({key, found.value()});
+  return found;
+}
+
+namespace {
+
+// An interface entry's non-empty matrices and their names in its file.
+std::vector<std::pair<std::string, Matrix*>> interface_matrices(ShapedInterfaces& in) {
+  std::vector<std::pair<std::string, Matrix*>> out;
+  for (int e = 0; e < kFaceCount; ++e) {
+    const std::string f = std::to_string(e);
+    if (!in.Rb_rlf[std::size_t(e)].empty()) out.emplace_back("Rb_rlf " + f, &in.Rb_rlf[std::size_t(e)]);
+    if (!in.Trlf_r[std::size_t(e)].empty()) out.emplace_back("Trlf_r " + f, &in.Trlf_r[std::size_t(e)]);
+    for (int x = 0; x < kFaceCount; ++x)
+      if (!in.R[std::size_t(e)][std::size_t(x)].empty())
+        out.emplace_back("R " + f + " " + std::to_string(x), &in.R[std::size_t(e)][std::size_t(x)]);
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<ShapedInterfaces> ShapedOperatorCache::load_or_bake_interfaces(const Dictionary& dict,
+                                                                      const Matrix& Hrlf,
+                                                                      const ShapedOperators& ops,
+                                                                      const ProportionSteps& steps,
+                                                                      int steps_per_octave) {
+  std::string path;
+  if (!directory_.empty()) {
+    path = directory_ + "/" + file_name(dict.settings, ops.shape, steps, steps_per_octave);
+    path.resize(path.size() - std::string(".modrtlevel").size());
+    path += ".lfops";
+  }
+  const std::string tag = "modrt shaped interfaces of " + std::filesystem::path(path).filename().string();
+  const std::string what = "shaped interfaces for shape " + std::to_string(ops.shape) + ", box " +
+                           extent_text(glm::dvec3(ops.extent));
+  // The sizes a bake produces: the shape's missing side faces, the dictionary's counts.
+  const FaceMask mask = dictionary_shape_mask(ops.shape);
+  const std::uint32_t krlf = dict.settings.krlf, kb = dict.settings.kb, kr = dict.interfaces.Ur.cols;
+  ShapedInterfaces expected;
+  for (int e : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ}) {
+    if (face_present(mask, e)) continue;
+    expected.Rb_rlf[std::size_t(e)] = Matrix(krlf, kb);
+    expected.Trlf_r[std::size_t(e)] = Matrix(kr, krlf);
+    for (int x : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ})
+      if (x != e && !face_present(mask, x)) expected.R[std::size_t(e)][std::size_t(x)] = Matrix(krlf, krlf);
+  }
+  if (!path.empty() && std::filesystem::exists(path)) {
+    Result<std::vector<NamedMatrix>> saved = load_matrix_file(path, tag);
+    const auto want = interface_matrices(expected);
+    bool usable = saved.ok() && saved->size() == want.size();
+    for (std::size_t i = 0; usable && i < want.size(); ++i) {
+      NamedMatrix& m = saved.value()[i];
+      usable = m.name == want[i].first && m.matrix.rows == want[i].second->rows &&
+               m.matrix.cols == want[i].second->cols;
+      if (usable) *want[i].second = std::move(m.matrix);
+    }
+    if (usable) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      ++disk_loads_;
+      return expected;
+    }
+  }
+  ShapedInterfaces out;
+  try {
+    out = bake_shaped_interfaces(dict, Hrlf, ops.shape, glm::dvec3(ops.extent), ops.operators.Limp);
+  } catch (const std::bad_alloc&) {
+    return Status::error(ErrorCode::resource_limit, what + ": out of memory");
+  } catch (const std::exception& e) {
+    return Status::error(ErrorCode::invalid_argument, what + ": " + e.what());
+  }
+  for (const auto& [name, m] : interface_matrices(out))
+    for (float v : m->data)
+      if (!std::isfinite(v))
+        return Status::error(ErrorCode::non_finite, what + ": " + name + " holds NaN or Inf");
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    ++bakes_;
+  }
+  if (!path.empty()) {
+    // A cache that cannot be written only costs the next process a bake.
+    std::error_code ec;
+    std::filesystem::create_directories(directory_, ec);
+    std::vector<MatrixRef> refs;
+    for (const auto& [name, m] : interface_matrices(out)) refs.push_back({name, m});
+    (void)save_matrix_file(path, tag, refs);
+  }
+  return out;
 }
 
 std::size_t ShapedOperatorCache::disk_loads() const {

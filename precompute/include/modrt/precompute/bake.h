@@ -83,8 +83,13 @@ std::uint64_t estimate_bake_bytes(const DictionarySettings& settings);  // estim
 inline constexpr std::uint64_t kDefaultBakeMemoryBudget = std::uint64_t(8) << 30;  // 8 GiB
 
 // Fails with resource_limit, before allocating anything, when estimate_bake_bytes exceeds
-// `memory_budget` (the message gives both and the settings to lower).
+// `memory_budget` (the message gives both and the settings to lower). `lightfield_basis`,
+// when given and the bake has interfaces, receives the reduced lightfield basis Hrlf
+// (S^2 D^2 x krlf, interfaces.h) that the dictionary's interface operators are expressed in:
+// the level build needs it to trace interfaces of shaped blocks (shaped_interfaces.h), and
+// it cannot be re-derived from the dictionary's floats (the basis would rotate).
 Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const BakeProgress& progress = {},
-                                   std::uint64_t memory_budget = kDefaultBakeMemoryBudget);
+                                   std::uint64_t memory_budget = kDefaultBakeMemoryBudget,
+                                   Matrix* lightfield_basis = nullptr);
 
 }  // namespace modrt::precompute

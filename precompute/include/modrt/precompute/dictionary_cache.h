@@ -30,4 +30,19 @@ Result<Dictionary> load_or_bake_dictionary(const DictionarySettings& settings, c
                                            const BakeProgress& progress = {},
                                            const std::function<void(const std::string&)>& log = {});
 
+// The companion of a cached dictionary that holds its interface basis Hrlf (S^2 D^2 x krlf
+// float32, bake_dictionary's lightfield_basis) in a matrix file (matrix_file.h): the
+// dictionary's name with ".lfbasis" for ".modrt". Only the level build reads it (shaped
+// blocks' interfaces); apps never ship it.
+std::string interface_basis_file_name(const DictionarySettings& settings);
+
+// Hrlf of the dictionary `settings` describe. load_or_bake_dictionary saves it beside each
+// dictionary it bakes; for a dictionary cached without it (older caches) this bakes the
+// dictionary again under the entry's lock (the bake is deterministic: the same operators)
+// and saves the basis, and the dictionary too where its interface operators differ from the
+// re-bake's. invalid_argument when the settings have no interfaces.
+Result<Matrix> load_or_bake_interface_basis(const DictionarySettings& settings, const std::string& cache_dir,
+                                            const BakeProgress& progress = {},
+                                            const std::function<void(const std::string&)>& log = {});
+
 }  // namespace modrt::precompute

@@ -86,15 +86,36 @@ using ShapeLimps = std::array<const MatrixXd*, kDictionaryShapeCount>;
 InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceSettings& settings,
                               const std::function<void(const std::string&, double)>& on_stage = {});
 
+// Coefficients of lightfields x (s x m) in the basis Hrlf = U S (orthogonal columns):
+// S^-2 (U S)^T x, krlf x m; a zero column of Hrlf gets zero coefficients.
+MatrixXd project_onto_lightfield_basis(const MatrixXd& Hrlf, const MatrixXd& x);
+
 // --- pieces, exposed for tests ---
-// Lightfield leaving `shape_mask`'s missing face `face` for each column of Limp.
+// The box forms (`extent` != 1) serve shaped blocks (shaped_interfaces.h). A lightfield
+// keeps the cube's parameterisation on every face of a box: positions normalised to the
+// face, directions physical; two connected faces have the same world size, so the lightfield
+// leaving one is the lightfield entering the other, whatever the boxes behind them.
+//
+// Lightfield leaving `shape_mask`'s missing face `face` for each column of Limp (samples of
+// the box `extent`, face coordinates normalised as in bake_box_shape).
 MatrixXd exit_lightfield(FaceMask shape_mask, int face, const MatrixXd& Limp, int res,
-                         const InterfaceSettings& s);
+                         const InterfaceSettings& s, const glm::dvec3& extent = glm::dvec3(1.0));
 // P_dir: resamples a lightfield entering through -Z to the given exit face (free space).
 SparseRowMatrix propagation_operator(Propagation dir, const InterfaceSettings& s);
+// The same through the box `extent`, for light entering through side face `entry` (in
+// entry_frame(entry)) and leaving through side face `exit` (in exit_frame(exit)).
+// box_propagation_operator(1, -Z, propagation_exit_face(dir)) is propagation_operator(dir).
+SparseRowMatrix box_propagation_operator(const glm::dvec3& extent, int entry, int exit,
+                                         const InterfaceSettings& s);
 MatrixXd propagate_lightfield(const MatrixXd& in, Propagation dir, const InterfaceSettings& s);
-// Frlf * in: E/pi at the samples of the dead-end shape lit by lightfields entering through -Z.
-MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);
+// Frlf * in: E/pi at the samples of the dead-end shape (the box `extent`) lit by lightfields
+// entering through -Z.
+MatrixXd response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s,
+                                const glm::dvec3& extent = glm::dvec3(1.0));
+// The same averaged with its mirror image (x -> 1 - x, which maps the dead-end box onto
+// itself): Frlf has that symmetry, its Monte Carlo estimate only approximately.
+MatrixXd symmetric_response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s,
+                                          const glm::dvec3& extent = glm::dvec3(1.0));
 // The same response as OHLSH vector irradiance E/pi in each sample's face frame (sh.h):
 // 4n x in.cols(), row 4 s + i = coefficient i of sample s.
 MatrixXd vector_response_to_lightfield(const MatrixXd& in, int res, const InterfaceSettings& s);

@@ -21,13 +21,13 @@ struct LevelBuildSettings {
   int dmax = 8;  // maximum number of interfaces a path crosses (MRT §6.3)
   // MRT §8, Figure 12: a block whose proportions are not a cube's gets operators baked for
   // its box (the prior and F re-traced on the stretched block) instead of the cube's under a
-  // warp. For now only blocks that connect to no other block (a room open to the outside, a
-  // level of one block): interfaces still follow the unit cube (docs/precompute.md "Shaped
-  // blocks"). false: every block uses its dictionary shape's cube operators.
+  // warp. A block connected to others needs its interfaces traced in its box too
+  // (shaped_interfaces.h), which takes the dictionary's lightfield basis: without
+  // `interface_basis` only blocks that connect to no other block get shaped operators
+  // (docs/precompute.md "Shaped blocks"). false: every block uses its cube operators.
   bool shaped_operators = true;
-  // Also for connected blocks (their interfaces stay the cube's; worse in multi-bounce on a
-  // corridor of stretched blocks): for measurements, and the day interfaces follow shapes.
-  bool shaped_connected_blocks = false;
+  // The dictionary's reduced lightfield basis Hrlf (load_or_bake_interface_basis), or null.
+  const Matrix* interface_basis = nullptr;
   // Proportions are quantised to 1/proportion_steps_per_octave of an octave (1 to 64): blocks
   // within half a step of a cube keep the cube's operators, and blocks of nearly equal
   // proportions share one bake. 8 steps: proportions within 4.4 %.

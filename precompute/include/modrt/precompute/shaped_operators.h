@@ -15,6 +15,7 @@
 
 #include "modrt/dictionary.h"
 #include "modrt/level.h"
+#include "modrt/precompute/shaped_interfaces.h"
 #include "modrt/status.h"
 
 namespace modrt::precompute {
@@ -60,6 +61,10 @@ class ShapedOperatorCache {
 
   Result<ShapedOperators> get(const Dictionary& dict, int shape, const ProportionSteps& steps,
                               int steps_per_octave);
+  // The interface operators of get()'s set `ops` (bake_shaped_interfaces with the
+  // dictionary's basis Hrlf), cached the same way (a matrix file "<file_name stem>.lfops").
+  Result<ShapedInterfaces> interfaces(const Dictionary& dict, const Matrix& Hrlf, const ShapedOperators& ops,
+                                      const ProportionSteps& steps, int steps_per_octave);
   std::size_t bakes() const;       // operator sets baked (cache misses) so far
   std::size_t hits() const;        // served from memory
   std::size_t disk_loads() const;  // served from the directory
@@ -76,6 +81,14 @@ class ShapedOperatorCache {
   };
   Result<ShapedOperators> load_or_bake(const Dictionary& dict, int shape, const ProportionSteps& steps,
                                        int steps_per_octave);
+  Result<ShapedInterfaces> load_or_bake_interfaces(const Dictionary& dict, const Matrix& Hrlf,
+                                                   const ShapedOperators& ops, const ProportionSteps& steps,
+                                                   int steps_per_octave);
+  struct InterfaceEntry {
+    Key key;
+    ShapedInterfaces interfaces;
+  };
+  std::vector<InterfaceEntry> interface_entries_;
   std::string directory_;
   mutable std::mutex mutex_;
   std::vector<Entry> entries_;
