@@ -40,8 +40,10 @@
 #include "modrt/level_description.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
+#include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
+#include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_json.h"
 #include "modrt/precompute/level_scene.h"
@@ -118,6 +120,15 @@ std::vector<Room> make_rooms() {
   r.axis = 0;
   // In front of the open long side: sees the whole back wall and both ends through it.
   r.camera = {{1.5, 0.5, 2.2}, {1.5, 0.45, 0.0}, 60};
+  rooms.push_back(r);
+
+  // The same room at 2 : 1: how far one block may be stretched before its 32 modes show.
+  r.key = "long2";
+  r.name = "long room 2x1x1";
+  r.size = {2, 1, 1};
+  r.cells = {2, 1, 1};
+  r.coarse_cells = {0, 0, 0};
+  r.camera = {{1.0, 0.5, 1.9}, {1.0, 0.45, 0.0}, 60};
   rooms.push_back(r);
 
   r = Room{};
@@ -492,17 +503,17 @@ Row measure(const Room& room, const LevelDescription& desc, const Dictionary& di
 
 // ---------------------------------------------------------------- pictures
 
-// One bounce through the camera, left to right: the path tracer, one block with the cube's
-// operators, one block with its own box's. One exposure for all three (the truth's 99th
+// One bounce through the camera, left to right: the path tracer, then the rows of `proxies`
+// (two: cube operators, shaped operators). One exposure for all three (the truth's 99th
 // percentile at 0.8), pixels that see no wall black.
 Status write_camera_strip(const Options& opt, const Room& room, const RoomTruth& rt,
-                          const std::vector<Row>& rows) {
+                          const std::vector<Row>& rows, const std::array<std::string, 2>& proxies,
+                          const std::string& file) {
   const CameraView& v = rt.view;
   std::vector<const std::vector<float>*> panels = {&rt.camera_one.value};
-  for (const char* suffix : {"1 block, cube ops", "1 block, shaped ops"})
+  for (const std::string& proxy : proxies)
     for (const Row& r : rows)
-      if (r.room == room.name && r.proxy == suffix &&
-          r.camera_one_values.size() == rt.camera_one.value.size())
+      if (r.room == room.name && r.proxy == proxy && r.camera_one_values.size() == rt.camera_one.value.size())
         panels.push_back(&r.camera_one_values);
   if (panels.size() != 3)
     return Status::error(ErrorCode::internal_error, room.name + ": missing camera values");
@@ -529,8 +540,7 @@ Status write_camera_strip(const Options& opt, const Room& room, const RoomTruth&
         big[(std::size_t(y) * std::size_t(strip_w * kZoom) + std::size_t(x)) * 3 + std::size_t(c)] =
             rgb[(std::size_t(y / kZoom) * std::size_t(strip_w) + std::size_t(x / kZoom)) * 3 +
                 std::size_t(c)];
-  return demo::write_rgb8_image(opt.images + "/proportions-" + room.key + ".png", strip_w * kZoom, h * kZoom,
-                                big);
+  return demo::write_rgb8_image(opt.images + "/" + file, strip_w * kZoom, h * kZoom, big);
 }
 
 // ---------------------------------------------------------------- one room
@@ -595,7 +605,19 @@ Status run_room(const Options& opt, const Room& room, const Dictionary& dict, st
     rows.push_back(measure(room, p.desc, dict, false, true, p.label + ", exact F ld (texel floor)", rt, pt));
   }
   std::fprintf(stderr, "done in %.0f s\n", seconds_since(t0));
-  if (!opt.images.empty()) return write_camera_strip(opt, room, rt, rows);
+  if (opt.images.empty()) return Status::success();
+  if (Status s = write_camera_strip(opt, room, rt, rows, {"1 block, cube ops", "1 block, shaped ops"},
+                                    "proportions-" + room.key + ".png");
+      !s.ok())
+    return s;
+  // The coarse proxy's connected stretched blocks: cube operators, then traced interfaces.
+  if (room.coarse_cells.x > 0 && opt.interface_basis) {
+    const std::string coarse =
+        std::to_string(room.coarse_cells.x * room.coarse_cells.y * room.coarse_cells.z) + " stretched blocks";
+    return write_camera_strip(opt, room, rt, rows,
+                              {coarse + ", cube ops", coarse + ", shaped ops, traced interfaces"},
+                              "proportions-" + room.key + "-connected.png");
+  }
   return Status::success();
 }
 
@@ -654,6 +676,31 @@ std::string ratio_table(const std::vector<Row>& rows, const std::vector<Room>& r
   return o.str();
 }
 
+// Per room with a coarse proxy: its stretched blocks with traced interfaces against the N
+// unit blocks and against the same blocks with cube operators.
+std::string connected_ratio_table(const std::vector<Row>& rows, const std::vector<Room>& rooms) {
+  std::ostringstream o;
+  o << "| room | proxy | vs N blocks: camera 1 bounce | camera converged | vs the same blocks, cube ops: "
+       "camera 1 "
+       "bounce | camera converged |\n|---|---|---|---|---|---|\n";
+  auto ratio = [](const Row* a, const Row* b, double Row::*error) {
+    return a && b && b->*error > 0 ? fmt("%.2f", a->*error / b->*error) : std::string("n/a");
+  };
+  for (const Room& room : rooms) {
+    if (room.coarse_cells.x == 0 || room.cells.x == 0) continue;
+    const std::string coarse =
+        std::to_string(room.coarse_cells.x * room.coarse_cells.y * room.coarse_cells.z) + " stretched blocks";
+    const Row* traced = find_row(rows, room.name, coarse, "traced interfaces");
+    const Row* cube = find_row(rows, room.name, coarse, "cube ops");
+    const Row* multi = find_row(
+        rows, room.name, std::to_string(room.cells.x * room.cells.y * room.cells.z) + " blocks", "cube ops");
+    o << "| " << room.name << " | " << coarse << " | " << ratio(traced, multi, &Row::camera_one) << " | "
+      << ratio(traced, multi, &Row::camera_converged) << " | " << ratio(traced, cube, &Row::camera_one)
+      << " | " << ratio(traced, cube, &Row::camera_converged) << " |\n";
+  }
+  return o.str();
+}
+
 std::string noise_table(const std::vector<NoiseRow>& noise, int bounces_multi) {
   std::ostringstream o;
   o << "| room | points | count | paths (1 / " << bounces_multi << " bounces) | noise floor 1 bounce | "
@@ -677,14 +724,19 @@ std::string report(const Options& opt, const std::string& command, const std::st
     << " pixels into the room through its open +Z face, modrt = bilinear lookup of the proxy's lightmap "
        "on the hit's face. near / mid / far: sum of modrt over sum of the reference in thirds of the "
        "room's long axis, near = the light's end. Cube ops: `shaped_operators = false`; shaped ops: true "
-       "without an interface basis: only blocks that connect to no other block); traced interfaces: with "
+       "(without an interface basis only blocks that connect to no other block get them); traced interfaces: "
+       "with "
        "the dictionary's interface basis (`interface_basis`), connected blocks too, their R, Rb->rlf and "
        "response traced in their box. Exact F ld: "
        "the proxy's dense one-bounce operator by ray tracing (16 bounces by iteration), the floor its texels "
        "and ld sampling allow.\n\n"
     << results_table(rows) << "\n## One block with shaped operators over the other proxies\n\n"
     << "Error ratios; below 1: the stretched block with its own operators is better.\n\n"
-    << ratio_table(rows, rooms) << "\n## Ground-truth noise floors\n\n"
+    << ratio_table(rows, rooms)
+    << "\n## Connected stretched blocks with traced interfaces over the other proxies\n\n"
+    << "The coarse proxy's blocks (e.g. two 1.5 x 1 x 1 blocks for the long room), connected through "
+       "interfaces traced in their boxes; error ratios.\n\n"
+    << connected_ratio_table(rows, rooms) << "\n## Ground-truth noise floors\n\n"
     << "RMS standard error / RMS value (conservative: the first direction is stratified).\n\n"
     << noise_table(noise, opt.bounces_multi);
   return o.str();
@@ -817,6 +869,39 @@ int run_build_time(int blocks, const Dictionary& dict, const Matrix& basis, cons
   return 0;
 }
 
+// How much of one stretched block's error is its mode count: the 3 x 1 x 1 box (the long
+// side open) baked at kb = 32, 64, 96 (kd = 2 kb, 4096 rays), one bounce Ub Td_b ld at its
+// own samples against its exact F ld, for a light near one end and one mid-room.
+int run_rank_study(int res) {
+  const double g = std::cbrt(3.0);
+  const glm::dvec3 extent(3.0 / g, 1.0 / g, 1.0 / g);
+  const FaceMask mask = dictionary_shape_mask(1);
+  const glm::dvec3 lights[2] = {{0.13, 0.6, 0.5}, {0.5, 0.3, 0.4}};  // canonical coordinates
+  std::printf("| res | kb | kd | light near one end | light mid-room |\n|---|---|---|---|---|\n");
+  for (const std::uint32_t kb : {32u, 64u, 96u}) {
+    DictionarySettings s;
+    s.res = std::uint32_t(res);
+    s.kb = kb;
+    s.kd = 2 * kb;
+    s.rays = 4096;
+    const precompute::ShapeBake b = precompute::bake_box_shape(mask, extent, s, false);
+    const precompute::BlockScene scene(mask, extent);
+    std::printf("| %d | %u | %u |", res, kb, s.kd);
+    Eigen::VectorXd ld(b.layout.sample_count());
+    for (const glm::dvec3& c : lights) {
+      precompute::SphereLight light;
+      light.center = scene.point(c);
+      precompute::direct_light(scene, b.layout, light, 16,
+                               std::span<double>(ld.data(), std::size_t(ld.size())));
+      const Eigen::VectorXd exact = b.F * ld;
+      const Eigen::VectorXd mrt = b.transfer.Ub * (b.transfer.Td_b * ld);
+      std::printf(" %.4f |", (mrt - exact).norm() / exact.norm());
+    }
+    std::printf("\n");
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -834,10 +919,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 65536))
       ->capture_default_str();
   app.add_option("--cache-dir", opt.cache_dir, "dictionary cache directory")->capture_default_str();
-  app.add_option("--rooms", opt.rooms, "only these rooms (long, corridor, room, slab)");
-  app.add_option("--images", opt.images,
-                 "also write per room a PNG of the camera's one bounce: path tracer | one block, cube "
-                 "operators | one block, shaped operators (proportions-<room>.png)");
+  app.add_option("--rooms", opt.rooms, "only these rooms (long, long2, corridor, room, slab)");
+  app.add_option(
+      "--images", opt.images,
+      "also write per room a PNG of the camera's one bounce: path tracer | one block, cube "
+      "operators | one block, shaped operators (proportions-<room>.png); for rooms with a proxy of "
+      "connected stretched blocks also path tracer | those with cube operators | with traced "
+      "interfaces (proportions-<room>-connected.png)");
   int build_time_blocks = 0, steps = 8;
   std::string level_file;
   app.add_option("--level", level_file,
@@ -847,6 +935,11 @@ int main(int argc, char** argv) {
                  "instead: time build_level on a maze of this many blocks of random proportions (cube "
                  "operators, shaped operators cold, then again from the cache)")
       ->check(CLI::Range(1, 100000));
+  bool rank_study = false;
+  app.add_flag(
+      "--rank-study", rank_study,
+      "instead: one 3 x 1 x 1 block's one-bounce reduction error (Ub Td_b ld against its exact F ld) "
+      "at kb 32, 64, 96, at --res");
   app.add_option("--steps", steps, "proportion_steps_per_octave for --build-time")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
@@ -854,6 +947,7 @@ int main(int argc, char** argv) {
   std::string command = "modrt-proportion-accuracy";
   for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
 
+  if (rank_study) return run_rank_study(opt.res);
   std::vector<Room> rooms = make_rooms();
   if (!opt.rooms.empty()) {
     std::erase_if(rooms, [&](const Room& r) {

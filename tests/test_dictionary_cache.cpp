@@ -164,7 +164,9 @@ TEST(DictionaryCache, StaleTemporariesOfDeadProcessesAreRemoved) {
   CacheDir dir;
   const std::string entry = cache_file_name(tiny_settings());
   const std::string stale = dir.file(entry + ".tmp." + std::to_string(dead_pid()) + ".0");
-  const std::string live = dir.file(entry + ".tmp." + std::to_string(long(::getpid())) + ".7");
+  // A counter far above any this process reaches: write_file_atomic's own temporaries count up
+  // from 0 per process, and one equal to this would collide with it (O_EXCL).
+  const std::string live = dir.file(entry + ".tmp." + std::to_string(long(::getpid())) + ".999999999");
   const std::string other = dir.file("notes.tmp.txt");  // not a temporary of ours
   touch(stale);
   touch(live);
@@ -175,6 +177,42 @@ TEST(DictionaryCache, StaleTemporariesOfDeadProcessesAreRemoved) {
   EXPECT_TRUE(fs::exists(live));  // a save in progress (this process is alive)
   EXPECT_TRUE(fs::exists(other));
   EXPECT_TRUE(fs::exists(dir.file(entry)));
+}
+
+// The interface basis (shaped blocks' interfaces): saved beside every dictionary the cache
+// bakes, loaded without a bake; a cache without it (or with a damaged one) re-bakes, and the
+// re-bake's dictionary is the cached one bit for bit (the bake is deterministic).
+TEST(DictionaryCache, InterfaceBasisIsSavedBesideTheDictionaryAndRebakedWhenMissing) {
+  CacheDir dir;
+  DictionarySettings s = tiny_settings();
+  s.lightfield_spatial = 2;
+  s.lightfield_directional = 3;
+  s.lightfield_supersample = 1;
+  s.krlf = 4;
+  s.kr = 4;
+  s.response_rays = 16;
+  std::atomic<int> bakes{0};
+  const Result<Dictionary> dict = load_or_bake_dictionary(s, dir.str(), counting_progress(bakes));
+  ASSERT_TRUE(dict.ok()) << dict.status().to_string();
+  const std::string basis_path = dir.file(interface_basis_file_name(s));
+  ASSERT_TRUE(fs::exists(basis_path));
+  const Result<Matrix> first = load_or_bake_interface_basis(s, dir.str(), counting_progress(bakes));
+  ASSERT_TRUE(first.ok()) << first.status().to_string();
+  EXPECT_EQ(bakes.load(), 1);  // loaded, not baked
+  EXPECT_EQ(first->rows, 2u * 2u * 3u * 3u);
+  EXPECT_EQ(first->cols, 4u);
+  // Damaged: re-baked, the same basis, and the dictionary left as it was.
+  const auto dictionary_time = fs::last_write_time(dir.file(cache_file_name(s)));
+  fs::resize_file(basis_path, fs::file_size(basis_path) - 3);
+  const Result<Matrix> again = load_or_bake_interface_basis(s, dir.str(), counting_progress(bakes));
+  ASSERT_TRUE(again.ok()) << again.status().to_string();
+  EXPECT_EQ(bakes.load(), 2);
+  EXPECT_EQ(again->data, first->data);
+  EXPECT_EQ(fs::last_write_time(dir.file(cache_file_name(s))), dictionary_time);
+  // Without interfaces there is no basis to ask for.
+  const Result<Matrix> none = load_or_bake_interface_basis(tiny_settings(), dir.str());
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.status().code(), ErrorCode::invalid_argument);
 }
 
 TEST(FileIo, RemoveStaleTemporariesKeepsLiveAndForeignFiles) {

@@ -155,6 +155,41 @@ MatrixXd project_onto_lightfield_basis(const MatrixXd& Hrlf, const MatrixXd& x) 
   return inv_norm2.asDiagonal() * parallel_at_b(Hrlf, x);
 }
 
+MatrixXd reduced_propagation(const MatrixXd& Hrlf, const SparseRowMatrix& P) {
+  // S^-2 Hrlf^T (P Hrlf) by row chunks: P Hrlf (s x krlf, 85 MB at the default settings) is
+  // never formed, and the chunks run in parallel with a deterministic sum.
+  constexpr Eigen::Index kChunk = 2048;
+  const Eigen::Index chunks = (P.rows() + kChunk - 1) / kChunk;
+  const MatrixXd HtPH = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<Eigen::Index>(0, chunks), MatrixXd(MatrixXd::Zero(Hrlf.cols(), Hrlf.cols())),
+      [&](const tbb::blocked_range<Eigen::Index>& r, MatrixXd acc) {
+        std::vector<Eigen::Index> live;
+        for (Eigen::Index c = r.begin(); c != r.end(); ++c) {
+          const Eigen::Index begin = c * kChunk, rows = std::min(kChunk, P.rows() - begin);
+          // Only the rows P reaches (bins whose light comes through the entry; in a long box
+          // most come from its walls): Hrlf^T P Hrlf sums over them alone.
+          live.clear();
+          for (Eigen::Index i = begin; i < begin + rows; ++i)
+            if (P.outerIndexPtr()[i + 1] > P.outerIndexPtr()[i]) live.push_back(i);
+          if (live.empty()) continue;
+          MatrixXd PH(Eigen::Index(live.size()), Hrlf.cols()), H(Eigen::Index(live.size()), Hrlf.cols());
+          for (std::size_t k = 0; k < live.size(); ++k) {
+            PH.row(Eigen::Index(k)) = P.row(live[k]) * Hrlf;
+            H.row(Eigen::Index(k)) = Hrlf.row(live[k]);
+          }
+          acc.noalias() += H.transpose() * PH;
+        }
+        return acc;
+      },
+      [](const MatrixXd& a, const MatrixXd& b) -> MatrixXd { return a + b; });
+  VectorXd inv_norm2(Hrlf.cols());
+  for (Eigen::Index i = 0; i < inv_norm2.size(); ++i) {
+    const double n2 = Hrlf.col(i).squaredNorm();
+    inv_norm2(i) = n2 > 0.0 ? 1.0 / n2 : 0.0;
+  }
+  return inv_norm2.asDiagonal() * HtPH;
+}
+
 LightfieldFrame exit_frame(int face) {
   const FaceFrame& f = face_frame(face);
   return {f.origin, f.u_axis, f.v_axis, -f.normal};

@@ -49,12 +49,13 @@ struct Reader {
 
 }  // namespace
 
-Status save_matrix_file(const std::string& path, const std::string& tag, std::span<const MatrixRef> matrices) {
+Status save_matrix_file(const std::string& path, const std::string& tag,
+                        std::span<const MatrixRef> matrices) {
   std::uint64_t total = 8 + 4 + 4 + tag.size() + 4 + 4;
   for (const MatrixRef& m : matrices) total += 12 + m.name.size() + 4ull * m.matrix->data.size();
   if (total > kMaxMatrixFileBytes)
-    return Status::error(ErrorCode::resource_limit, path + ": the matrix file would be " + std::to_string(total) +
-                                                        " bytes, over the limit of " +
+    return Status::error(ErrorCode::resource_limit, path + ": the matrix file would be " +
+                                                        std::to_string(total) + " bytes, over the limit of " +
                                                         std::to_string(kMaxMatrixFileBytes));
   std::vector<std::byte> out;
   out.reserve(std::size_t(total));

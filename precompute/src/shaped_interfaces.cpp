@@ -49,8 +49,9 @@ ShapedInterfaces bake_shaped_interfaces(const Dictionary& dict, const Matrix& Hr
     const glm::dvec3 turned = dead_end_extent(extent, e);
     for (int x : kSideFaces)
       if (x != e && !face_present(mask, x)) {
-        const SparseRowMatrix P = box_propagation_operator(turned, kCanonicalEntryFace, rotate_face(x, -turns), s);
-        out.R[std::size_t(e)][std::size_t(x)] = to_float(project_onto_lightfield_basis(Hrlf, MatrixXd(P * Hrlf)));
+        const SparseRowMatrix P =
+            box_propagation_operator(turned, kCanonicalEntryFace, rotate_face(x, -turns), s);
+        out.R[std::size_t(e)][std::size_t(x)] = to_float(reduced_propagation(Hrlf, P));
       }
     MatrixXd& G = response_by_axis[turns % 2];
     if (G.size() == 0) G = symmetric_response_to_lightfield(Hrlf, res, s, turned);

@@ -89,6 +89,9 @@ InterfaceBake bake_interfaces(const ShapeLimps& limps, int res, const InterfaceS
 // Coefficients of lightfields x (s x m) in the basis Hrlf = U S (orthogonal columns):
 // S^-2 (U S)^T x, krlf x m; a zero column of Hrlf gets zero coefficients.
 MatrixXd project_onto_lightfield_basis(const MatrixXd& Hrlf, const MatrixXd& x);
+// project_onto_lightfield_basis(Hrlf, P Hrlf) without forming P Hrlf: the reduced R of a
+// propagation operator P.
+MatrixXd reduced_propagation(const MatrixXd& Hrlf, const SparseRowMatrix& P);
 
 // --- pieces, exposed for tests ---
 // The box forms (`extent` != 1) serve shaped blocks (shaped_interfaces.h). A lightfield

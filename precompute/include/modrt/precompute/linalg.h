@@ -26,10 +26,8 @@ inline Matrix to_float(const MatrixXd& m) {
 }
 
 inline MatrixXd to_eigen(const Matrix& m) {
-  MatrixXd e(m.rows, m.cols);
-  for (std::uint32_t r = 0; r < m.rows; ++r)
-    for (std::uint32_t c = 0; c < m.cols; ++c) e(r, c) = m(r, c);
-  return e;
+  using RowMajorFloat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  return Eigen::Map<const RowMajorFloat>(m.data.data(), m.rows, m.cols).cast<double>();
 }
 
 }  // namespace modrt::precompute
