@@ -236,6 +236,13 @@ int main(int argc, char** argv) {
       level.blocks.size(), level.sample_count, level.res, level.kb, level.records.size(),
       run.value()->mapped_triangles(), run.value()->static_triangles(), run.value()->split_triangles(),
       run.value()->outside_triangles(), run.value()->backend().description(), ms_since(t_setup) / 1000.0);
+  if (!level.shaped.empty()) {
+    std::size_t blocks = 0;
+    for (const LevelBlock& b : level.blocks) blocks += b.shaped >= 0;
+    std::printf("  shaped operators: %zu sets for %zu blocks that are not cubes%s\n", level.shaped.size(),
+                blocks,
+                options.interface_basis ? "" : " (connected blocks keep cube operators: no interface basis)");
+  }
   if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0)
     std::printf("  DRT: %zu clutter objects, %zu texels; operators built in %.2f s, %.2f MB\n", d.objects,
                 d.texels, d.seconds, double(d.bytes) / 1e6);
