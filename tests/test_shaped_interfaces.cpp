@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <numbers>
 
+#include "compare_support.h"
 #include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/interfaces.h"
@@ -131,14 +132,7 @@ LevelDescription long_corridor() {
   return d;
 }
 
-double rel_l2(const std::vector<float>& x, const std::vector<float>& ref) {
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    num += (double(x[i]) - ref[i]) * (double(x[i]) - ref[i]);
-    den += double(ref[i]) * ref[i];
-  }
-  return std::sqrt(num / den);
-}
+using test::rel_l2;
 
 // Against the exact one bounce F_level ld on the corridor's own walls: with cube interfaces
 // the light crossing into the second block spreads as if both were cubes; traced in their

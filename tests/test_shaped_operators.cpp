@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "compare_support.h"
 #include "level_fixtures.h"
 #include "modrt/level_io.h"
 #include "modrt/level_runtime.h"
@@ -229,14 +230,7 @@ TEST(ShapedLevel, DiskCacheServesAnotherProcessAndTheLevelFileKeepsTheOperators)
   std::filesystem::remove_all(dir);
 }
 
-double rel_l2(const std::vector<float>& x, const std::vector<float>& ref) {
-  double num = 0.0, den = 0.0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    num += (double(x[i]) - ref[i]) * (double(x[i]) - ref[i]);
-    den += double(ref[i]) * ref[i];
-  }
-  return std::sqrt(num / den);
-}
+using test::rel_l2;
 
 // The long room: 3 x 1 x 1, open at +Z, the light near the -X end. Against the exact
 // one-bounce F_level ld on the block's own geometry (which is the room), the cube's operators

@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <string>
 
-#include <Eigen/QR>
 #include <glm/geometric.hpp>
 
 #include "modrt/level_io.h"
@@ -27,21 +26,6 @@ std::string extent_text(const glm::dvec3& e) {
 }
 
 }  // namespace
-
-std::array<Matrix, kFaceCount> shaped_exit_operators(const Dictionary& dict, int shape, const Matrix& Limp) {
-  // Express the shaped implicit lights in the cube's (least squares over the samples) and
-  // let the cube's exit operators carry them through the interface.
-  const ShapeOperators& cube = dict.shapes[std::size_t(shape)];
-  std::array<Matrix, kFaceCount> out{};
-  bool any_interface = false;
-  for (const Matrix& m : cube.Rb_rlf) any_interface = any_interface || !m.empty();
-  if (!any_interface) return out;
-  const MatrixXd C = to_eigen(cube.Limp).colPivHouseholderQr().solve(to_eigen(Limp));
-  for (int f = 0; f < kFaceCount; ++f)
-    if (!cube.Rb_rlf[std::size_t(f)].empty())
-      out[std::size_t(f)] = to_float(MatrixXd(to_eigen(cube.Rb_rlf[std::size_t(f)]) * C));
-  return out;
-}
 
 glm::dvec3 block_box_extent(const LevelBlock& block) {
   // Corner index x + 2y + 4z in world axes; the four edges along axis a join corners c and
@@ -95,7 +79,6 @@ Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape,
     out.extent = glm::vec3(extent);
     out.operators = to_operators(bake);
     if (!with_sh) out.operators.Ub_vec = cube.Ub_vec, out.operators.Ubvol = cube.Ubvol;
-    out.operators.Rb_rlf = shaped_exit_operators(dict, shape, out.operators.Limp);
     for (const Matrix* m : {&out.operators.Ub, &out.operators.Td_b, &out.operators.Limp})
       for (float v : m->data)
         if (!std::isfinite(v))
@@ -110,14 +93,11 @@ Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape,
 
 Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int shape,
                                                  const ProportionSteps& steps, int steps_per_octave) {
-  auto same = [&](const Key& k) {
-    return k.shape == shape && k.steps == steps && k.steps_per_octave == steps_per_octave &&
-           k.settings == dict.settings;
-  };
+  const Key key{dict.settings, shape, steps_per_octave, steps};
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     for (const Entry& e : entries_)
-      if (same(e.key)) {
+      if (e.key == key) {
         ++hits_;
         return e.operators;
       }
@@ -125,7 +105,7 @@ Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int sha
   Result<ShapedOperators> found = load_or_bake(dict, shape, steps, steps_per_octave);
   if (!found.ok()) return found;
   const std::lock_guard<std::mutex> lock(mutex_);
-  entries_.push_back({Key{dict.settings, shape, steps_per_octave, steps}, found.value()});
+  entries_.push_back({key, found.value()});
   return found;
 }
 
@@ -152,7 +132,6 @@ Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict
         saved->shaped[0].extent == extent && std::uint32_t(saved->res) == dict.settings.res &&
         saved->kb == dict.settings.kb && saved->shaped[0].operators.Ubvol.rows == dict.shapes[0].Ubvol.rows) {
       ShapedOperators out = std::move(saved->shaped[0]);
-      out.operators.Rb_rlf = shaped_exit_operators(dict, shape, out.operators.Limp);
       const std::lock_guard<std::mutex> lock(mutex_);
       ++disk_loads_;
       return out;
@@ -183,14 +162,10 @@ Result<ShapedInterfaces> ShapedOperatorCache::interfaces(const Dictionary& dict,
                                                          const ShapedOperators& ops,
                                                          const ProportionSteps& steps, int steps_per_octave) {
   const Key key{dict.settings, ops.shape, steps_per_octave, steps};
-  auto same = [&](const Key& k) {
-    return k.shape == key.shape && k.steps == steps && k.steps_per_octave == steps_per_octave &&
-           k.settings == dict.settings;
-  };
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     for (const InterfaceEntry& e : interface_entries_)
-      if (same(e.key)) {
+      if (e.key == key) {
         ++hits_;
         return e.interfaces;
       }

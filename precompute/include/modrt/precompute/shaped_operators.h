@@ -36,13 +36,10 @@ ProportionSteps quantise_proportions(const glm::dvec3& extent, int steps_per_oct
 glm::dvec3 proportions_extent(const ProportionSteps& steps, int steps_per_octave);
 
 // bake_box_shape of dictionary shape `shape` for `extent` at the dictionary's settings,
-// converted to the run-time operators. Rb_rlf (b -> the reduced lightfield leaving through
-// each missing side face) maps the shaped b onto the cube's: Rb_rlf_cube C with C the least
-// squares fit Limp_cube C = Limp_shaped (the same surface radiance). Errors name the shape
-// and the extent.
+// converted to the run-time operators. Rb_rlf stays empty: a connected block's comes from
+// its traced interfaces (ShapedOperatorCache::interfaces, the level build fills it in).
+// Errors name the shape and the extent.
 Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape, const glm::dvec3& extent);
-// That Rb_rlf for shaped implicit lights Limp (n x kb) of dictionary shape `shape`.
-std::array<Matrix, kFaceCount> shaped_exit_operators(const Dictionary& dict, int shape, const Matrix& Limp);
 
 // Shaped operators by (dictionary settings, shape, proportion steps); thread-safe. Keep one
 // alive across level builds (an editor moving a wall, the importer re-running) and a rebuild
@@ -74,6 +71,7 @@ class ShapedOperatorCache {
     DictionarySettings settings;
     int shape, steps_per_octave;
     ProportionSteps steps;
+    bool operator==(const Key&) const = default;
   };
   struct Entry {
     Key key;
