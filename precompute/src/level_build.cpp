@@ -266,32 +266,15 @@ Status validate_level_build_settings(const LevelBuildSettings& settings) {
   return Status::success();
 }
 
-Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
-                          const LevelBuildSettings& settings) {
-  if (Status s = validate_level_build_settings(settings); !s.ok()) return s;
-  if (const std::uint64_t need = estimate_level_bytes(description, dict, settings);
-      need > settings.memory_budget_bytes) {
-    char text[256];
-    std::snprintf(
-        text, sizeof text,
-        "build_level: %zu blocks at res %u would need up to %.1f GiB (run-time signals and Tb->r "
-        "records within dmax %d), over the memory budget of %.1f GiB: split the level, lower res or "
-        "dmax, or raise LevelBuildSettings::memory_budget_bytes",
-        description.blocks.size(), dict.settings.res, double(need) / double(1u << 30), settings.dmax,
-        double(settings.memory_budget_bytes) / double(1u << 30));
-    return Status::error(ErrorCode::resource_limit, text);
-  }
+Result<Level> build_level_layout(const LevelDescription& description, int res) {
+  if (res < 1 || res > int(kMaxSettingsRes))
+    return Status::error(ErrorCode::invalid_argument, "build_level_layout: res = " + std::to_string(res) +
+                                                          ": must be in [1, " +
+                                                          std::to_string(kMaxSettingsRes) + "]");
   Result<LevelConnectivity> connectivity = validate_level(description);
   if (!connectivity.ok()) return connectivity.status();
-  if (dict.interfaces.empty())
-    return Status::error(
-        ErrorCode::invalid_argument,
-        "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
-
   Level level;
-  level.res = int(dict.settings.res);
-  level.kb = dict.settings.kb;
-  level.kr = dict.interfaces.Ur.cols;
+  level.res = res;
   const std::size_t count = description.blocks.size();
   level.blocks.resize(count);
   std::uint32_t offset = 0;
@@ -317,6 +300,35 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     offset += b.sample_count;
   }
   level.sample_count = offset;
+  build_atlas(level);
+  return level;
+}
+
+Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
+                          const LevelBuildSettings& settings) {
+  if (Status s = validate_level_build_settings(settings); !s.ok()) return s;
+  if (const std::uint64_t need = estimate_level_bytes(description, dict, settings);
+      need > settings.memory_budget_bytes) {
+    char text[256];
+    std::snprintf(
+        text, sizeof text,
+        "build_level: %zu blocks at res %u would need up to %.1f GiB (run-time signals and Tb->r "
+        "records within dmax %d), over the memory budget of %.1f GiB: split the level, lower res or "
+        "dmax, or raise LevelBuildSettings::memory_budget_bytes",
+        description.blocks.size(), dict.settings.res, double(need) / double(1u << 30), settings.dmax,
+        double(settings.memory_budget_bytes) / double(1u << 30));
+    return Status::error(ErrorCode::resource_limit, text);
+  }
+  if (dict.interfaces.empty())
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "build_level: the dictionary has no interface operators (baked with lightfield_spatial = 0)");
+  Result<Level> laid_out = build_level_layout(description, int(dict.settings.res));
+  if (!laid_out.ok()) return laid_out.status();
+  Level level = std::move(laid_out.value());
+  level.kb = dict.settings.kb;
+  level.kr = dict.interfaces.Ur.cols;
+  const std::size_t count = description.blocks.size();
   std::vector<ShapedInterfaces> shaped_interfaces;
   if (settings.shaped_operators) {
     Result<std::vector<ShapedInterfaces>> assigned = assign_shaped_operators(level, dict, settings);
@@ -421,7 +433,6 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
                                to_float(response(level.blocks[rs.block], rs.entry_face) * A)});
     }
   }
-  build_atlas(level);
   if (!dict.interfaces.Urvol.empty())
     for (int f : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ})
       level.probe_response[std::size_t(f)] =

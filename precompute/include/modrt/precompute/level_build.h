@@ -50,6 +50,13 @@ Status validate_level_build_settings(const LevelBuildSettings& settings);
 std::uint64_t estimate_level_bytes(const LevelDescription& description, const Dictionary& dict,
                                    const LevelBuildSettings& settings = {});
 
+// The level's geometry without operators: blocks (shape, orientation, corners, neighbours,
+// albedo, samples) and the padded lightmap atlas at `res` texels per face side, exactly as
+// build_level lays them out. What the proxy mapping (modrt/mesh_lightmap_uv.h) needs, so a
+// scene importer can map meshes and write lightmap coordinates without a dictionary. Fails
+// when the level does not validate or res is outside [1, kMaxSettingsRes].
+Result<Level> build_level_layout(const LevelDescription& description, int res);
+
 // Fails when the level does not validate or the dictionary has no interface operators.
 Result<Level> build_level(const LevelDescription& description, const Dictionary& dict,
                           const LevelBuildSettings& settings = {});

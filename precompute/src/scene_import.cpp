@@ -1,0 +1,558 @@
+// SPDX-License-Identifier: MIT
+#include "modrt/precompute/scene_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <array>
+#include <numeric>
+#include <string>
+
+#include <glm/geometric.hpp>
+
+#include "import_plan.h"
+#include "modrt/mesh_lightmap_uv.h"
+#include "modrt/precompute/level_build.h"
+
+namespace modrt::precompute {
+namespace {
+
+using import_detail::PlanGrid;
+using import_detail::TriangleSoup;
+
+std::string fmt(double v, int digits = 2) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", digits, v);
+  return text;
+}
+
+std::string object_label(std::span<const ImportObject> objects, std::size_t o) {
+  return "object " + std::to_string(o) + (objects[o].name.empty() ? std::string() : " ('" + objects[o].name + "')");
+}
+
+Status check_objects(std::span<const ImportObject> objects, const ImportSettings& settings, std::size_t& triangles) {
+  triangles = 0;
+  for (std::size_t o = 0; o < objects.size(); ++o) {
+    const ImportObject& ob = objects[o];
+    const std::string what = object_label(objects, o);
+    if (ob.indices.size() % 3 != 0)
+      return Status::error(ErrorCode::invalid_argument,
+                           what + ": " + std::to_string(ob.indices.size()) + " indices, not a multiple of 3");
+    for (std::size_t v = 0; v < ob.positions.size(); ++v)
+      if (!std::isfinite(ob.positions[v].x) || !std::isfinite(ob.positions[v].y) || !std::isfinite(ob.positions[v].z) ||
+          std::abs(ob.positions[v].x) > 1e7 || std::abs(ob.positions[v].y) > 1e7 || std::abs(ob.positions[v].z) > 1e7)
+        return Status::error(ErrorCode::non_finite, what + ": position " + std::to_string(v) +
+                                                        " is not finite or beyond 1e7 m");
+    for (std::size_t i = 0; i < ob.indices.size(); ++i)
+      if (ob.indices[i] >= ob.positions.size())
+        return Status::error(ErrorCode::invalid_argument, what + ": index " + std::to_string(i) + " = " +
+                                                              std::to_string(ob.indices[i]) + ", the object has " +
+                                                              std::to_string(ob.positions.size()) + " positions");
+    const std::size_t tris = ob.indices.size() / 3;
+    if (ob.triangle_albedo.size() != 1 && ob.triangle_albedo.size() != tris)
+      return Status::error(ErrorCode::invalid_argument,
+                           what + ": " + std::to_string(ob.triangle_albedo.size()) + " albedo values for " +
+                               std::to_string(tris) + " triangles (give one, or one per triangle)");
+    for (std::size_t t = 0; t < ob.triangle_albedo.size(); ++t)
+      for (int c = 0; c < 3; ++c)
+        if (!(ob.triangle_albedo[t][c] >= 0.0 && ob.triangle_albedo[t][c] <= 1.0))
+          return Status::error(ErrorCode::invalid_argument,
+                               what + ": albedo " + std::to_string(t) + " is outside [0, 1]");
+    triangles += tris;
+    if (triangles > settings.max_triangles)
+      return Status::error(ErrorCode::resource_limit, "the scene has more than " +
+                                                          std::to_string(settings.max_triangles) +
+                                                          " triangles (ImportSettings::max_triangles)");
+  }
+  return Status::success();
+}
+
+TriangleSoup flatten(std::span<const ImportObject> objects) {
+  TriangleSoup soup;
+  soup.min = glm::dvec3(std::numeric_limits<double>::max());
+  soup.max = glm::dvec3(std::numeric_limits<double>::lowest());
+  for (std::size_t o = 0; o < objects.size(); ++o)
+    for (std::size_t t = 0; 3 * t < objects[o].indices.size(); ++t) {
+      const glm::dvec3& a = objects[o].positions[objects[o].indices[3 * t]];
+      const glm::dvec3& b = objects[o].positions[objects[o].indices[3 * t + 1]];
+      const glm::dvec3& c = objects[o].positions[objects[o].indices[3 * t + 2]];
+      soup.a.push_back(a);
+      soup.b.push_back(b);
+      soup.c.push_back(c);
+      soup.object.push_back(std::uint32_t(o));
+      soup.local.push_back(std::uint32_t(t));
+      soup.min = glm::min(soup.min, glm::min(a, glm::min(b, c)));
+      soup.max = glm::max(soup.max, glm::max(a, glm::max(b, c)));
+    }
+  return soup;
+}
+
+// ---- step 4: the block grid ----
+
+struct Line {
+  double at;
+  int priority;   // 2: a wall (room boundary), 1: a jamb, 0: a split
+  double weight;  // wall length along it (m), for ties
+};
+
+// Room boundaries along one axis: raster cell edges where the label changes for a run of at
+// least min_run, strongest first, one per two cells.
+std::vector<Line> boundary_lines(const ImportPlan& plan, int axis, double min_run) {
+  const int n = axis == 0 ? plan.width : plan.height;
+  std::vector<double> run(std::size_t(n + 1), 0.0);
+  for (int k = 0; k < plan.height; ++k)
+    for (int i = 0; i < plan.width; ++i) {
+      const int l = plan.label[std::size_t(k) * std::size_t(plan.width) + std::size_t(i)];
+      const int ni = axis == 0 ? i + 1 : i, nk = axis == 0 ? k : k + 1;
+      if (ni >= plan.width || nk >= plan.height) continue;
+      const int m = plan.label[std::size_t(nk) * std::size_t(plan.width) + std::size_t(ni)];
+      if (l != m && (l >= 0 || m >= 0)) run[std::size_t(axis == 0 ? i + 1 : k + 1)] += plan.cell;
+    }
+  std::vector<int> order(std::size_t(n + 1));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return run[std::size_t(a)] > run[std::size_t(b)]; });
+  std::vector<int> taken;
+  std::vector<Line> lines;
+  for (int e : order) {
+    if (run[std::size_t(e)] < min_run) break;
+    if (std::any_of(taken.begin(), taken.end(), [&](int t) { return std::abs(t - e) <= 2; })) continue;
+    taken.push_back(e);
+    lines.push_back({(axis == 0 ? plan.origin.x : plan.origin.y) + e * plan.cell, 2, run[std::size_t(e)]});
+  }
+  return lines;
+}
+
+// Merges lines closer than min_gap (the weaker goes), then splits long intervals into pieces
+// near `target` (never shorter than min_gap).
+std::vector<double> grid_lines(std::vector<Line> lines, double min_gap, double target) {
+  auto weaker = [](const Line& a, const Line& b) {
+    return a.priority != b.priority ? a.priority < b.priority : a.weight < b.weight;
+  };
+  std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.at < b.at; });
+  for (bool changed = true; changed && lines.size() > 1;) {
+    changed = false;
+    // The closest pair first, so that a cluster keeps its strongest line.
+    std::size_t best = 0;
+    double gap = std::numeric_limits<double>::max();
+    for (std::size_t i = 0; i + 1 < lines.size(); ++i)
+      if (lines[i + 1].at - lines[i].at < gap) {
+        gap = lines[i + 1].at - lines[i].at;
+        best = i;
+      }
+    if (gap < min_gap) {
+      lines.erase(lines.begin() + std::ptrdiff_t(weaker(lines[best], lines[best + 1]) ? best : best + 1));
+      changed = true;
+    }
+  }
+  std::vector<double> out;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    out.push_back(lines[i].at);
+    if (i + 1 == lines.size()) break;
+    const double len = lines[i + 1].at - lines[i].at;
+    const int pieces =
+        std::max(1, std::min(int(std::lround(len / target)), int(std::floor(len / min_gap + 1e-9))));
+    for (int p = 1; p < pieces; ++p) out.push_back(lines[i].at + len * p / pieces);
+  }
+  return out;
+}
+
+// Fraction of the face between plan points along `axis` ... the opening covers.
+double opening_coverage(const ImportedOpening& o, int face_axis, double plane, double s0, double s1, double y0,
+                        double y1, double tolerance) {
+  if (o.normal_axis != face_axis || std::abs(o.position - plane) > tolerance) return 0.0;
+  const double w = std::max(0.0, std::min(s1, o.span_max) - std::max(s0, o.span_min));
+  const double h = std::max(0.0, std::min(y1, o.head) - std::max(y0, o.sill));
+  return (w * h) / ((s1 - s0) * (y1 - y0));
+}
+
+// Whether the object is a closed surface (every edge, vertices welded by position, borders
+// exactly two triangles, once in each direction), and then its signed volume: positive when
+// its triangles face out of it.
+bool closed_volume(const ImportObject& ob, double& volume) {
+  std::map<std::array<double, 3>, std::uint32_t> weld;
+  std::vector<std::uint32_t> id(ob.positions.size());
+  for (std::size_t v = 0; v < ob.positions.size(); ++v)
+    id[v] = weld.try_emplace({ob.positions[v].x, ob.positions[v].y, ob.positions[v].z}, std::uint32_t(weld.size()))
+                .first->second;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;  // directed edge -> count
+  volume = 0.0;
+  for (std::size_t t = 0; 3 * t < ob.indices.size(); ++t) {
+    const std::uint32_t v[3] = {id[ob.indices[3 * t]], id[ob.indices[3 * t + 1]], id[ob.indices[3 * t + 2]]};
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) continue;
+    for (int e = 0; e < 3; ++e) ++edges[{v[e], v[(e + 1) % 3]}];
+    const glm::dvec3& a = ob.positions[ob.indices[3 * t]];
+    volume += glm::dot(a, glm::cross(ob.positions[ob.indices[3 * t + 1]], ob.positions[ob.indices[3 * t + 2]])) / 6.0;
+  }
+  if (edges.empty()) return false;
+  for (const auto& [e, n] : edges) {
+    const auto back = edges.find({e.second, e.first});
+    if (n != 1 || back == edges.end() || back->second != 1) return false;
+  }
+  return true;
+}
+
+int find_root(std::vector<int>& parent, int i) {
+  while (parent[std::size_t(i)] != i) i = parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
+  return i;
+}
+
+}  // namespace
+
+Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::span<const LightDescription> lights,
+                                 const ImportSettings& settings) try {
+  SceneImport out;
+  std::size_t triangle_count = 0;
+  if (Status s = check_objects(objects, settings, triangle_count); !s.ok()) return s;
+  out.triangles = triangle_count;
+  if (triangle_count == 0) return Status::error(ErrorCode::invalid_argument, "import_scene: the scene has no triangles");
+  const TriangleSoup soup = flatten(objects);
+
+  // Step 1: the plan.
+  const double extent = std::max(soup.max.x - soup.min.x, soup.max.z - soup.min.z);
+  const double cell = settings.plan_cell > 0.0 ? settings.plan_cell : std::clamp(extent / 400.0, 0.02, 0.25);
+  PlanGrid grid;
+  grid.cell = cell;
+  grid.origin = glm::dvec2(soup.min.x, soup.min.z) - 3.0 * cell;
+  grid.width = int(std::ceil((soup.max.x - soup.min.x) / cell)) + 6;
+  grid.height = int(std::ceil((soup.max.z - soup.min.z) / cell)) + 6;
+  if (grid.width > settings.max_plan_side || grid.height > settings.max_plan_side)
+    return Status::error(ErrorCode::resource_limit,
+                         "import_scene: the plan raster would be " + std::to_string(grid.width) + " x " +
+                             std::to_string(grid.height) + " cells of " + fmt(cell, 3) + " m (limit " +
+                             std::to_string(settings.max_plan_side) + " per side): raise plan_cell");
+  ImportPlan& plan = out.plan;
+  plan.origin = grid.origin;
+  plan.cell = cell;
+  plan.width = grid.width;
+  plan.height = grid.height;
+  plan.cut_height = import_detail::choose_cut_height(soup);
+  const int room_count = import_detail::classify_plan(soup, grid, settings, plan);
+  if (room_count == 0)
+    return Status::error(ErrorCode::invalid_argument,
+                         "import_scene: no enclosed room found in the plan cut at y = " + fmt(plan.cut_height) +
+                             " m (the walls must close each room at that height; rooms narrower than " +
+                             fmt(settings.min_room_width) + " m are not rooms)");
+
+  // Steps 2 and 3: heights and openings.
+  import_detail::measure_rooms(soup, plan, room_count, out.rooms, out.warnings);
+  std::vector<double> heights;
+  for (const ImportedRoom& r : out.rooms) heights.push_back(r.measured_ceiling - r.measured_floor);
+  std::sort(heights.begin(), heights.end());
+  const double storey = heights[heights.size() / 2];
+  if (!(storey > 0.05))
+    return Status::error(ErrorCode::invalid_argument,
+                         "import_scene: the rooms' floor-to-ceiling height is " + fmt(storey) + " m");
+  out.openings = import_detail::find_openings(soup, plan, out.rooms, storey / 24.0, out.warnings);
+
+  // Step 4: grid lines along walls and jambs, merged and split.
+  const double min_gap = storey / settings.max_block_aspect;
+  std::array<std::vector<Line>, 2> lines = {boundary_lines(plan, 0, min_gap), boundary_lines(plan, 2, min_gap)};
+  for (const ImportedOpening& o : out.openings) {
+    std::vector<Line>& along = lines[o.normal_axis == 0 ? 1 : 0];
+    along.push_back({o.span_min, 1, o.span_max - o.span_min});
+    along.push_back({o.span_max, 1, o.span_max - o.span_min});
+  }
+  out.x_lines = grid_lines(lines[0], min_gap, storey);
+  out.z_lines = grid_lines(lines[1], min_gap, storey);
+  if (out.x_lines.size() < 2 || out.z_lines.size() < 2)
+    return Status::error(ErrorCode::invalid_argument, "import_scene: the rooms' walls give no block grid");
+  const int nx = int(out.x_lines.size()) - 1, nz = int(out.z_lines.size()) - 1;
+  // Room of each grid cell: the region covering most of it.
+  std::vector<int> cell_room(std::size_t(nx) * std::size_t(nz), -1);
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      std::vector<int> count(std::size_t(room_count), 0);
+      int total = 0;
+      int i0, i1, k0, k1;
+      grid.locate({out.x_lines[std::size_t(i)] + 0.5 * cell, out.z_lines[std::size_t(j)] + 0.5 * cell}, i0, k0);
+      grid.locate({out.x_lines[std::size_t(i + 1)] - 0.5 * cell, out.z_lines[std::size_t(j + 1)] - 0.5 * cell}, i1, k1);
+      for (int k = k0; k <= k1; ++k)
+        for (int ii = i0; ii <= i1; ++ii, ++total) {
+          const int l = plan.label[grid.index(ii, k)];
+          if (l >= 0) ++count[std::size_t(l)];
+        }
+      const auto best = std::max_element(count.begin(), count.end());
+      if (total > 0 && 2 * *best > total) cell_room[std::size_t(j) * std::size_t(nx) + std::size_t(i)] = int(best - count.begin());
+    }
+  auto room_at = [&](int i, int j) {
+    return i < 0 || j < 0 || i >= nx || j >= nz ? -1 : cell_room[std::size_t(j) * std::size_t(nx) + std::size_t(i)];
+  };
+
+  // Side faces: missing within a room and where an opening covers enough of the face.
+  // open[(j * nx + i) * 2 + d]: the face on the +X (d = 0) / +Z (d = 1) side of cell (i, j).
+  std::vector<std::uint8_t> open_face(std::size_t(nx) * std::size_t(nz) * 2, 0);
+  std::vector<std::uint8_t> open_low(std::size_t(nx) * std::size_t(nz) * 2, 0);  // the -X / -Z side, at the border
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = room_at(i, j);
+      if (a < 0) continue;
+      for (int d = 0; d < 2; ++d)
+        for (int side : {1, -1}) {
+          const int ni = d == 0 ? i + side : i, nj = d == 0 ? j : j + side;
+          const int b = room_at(ni, nj);
+          if (side < 0 && b >= 0) continue;  // decided from the other cell
+          const std::size_t slot = (std::size_t(j) * std::size_t(nx) + std::size_t(i)) * 2 + std::size_t(d);
+          std::uint8_t& flag = side > 0 ? open_face[slot] : open_low[slot];
+          if (b == a) {
+            flag = 1;
+            continue;
+          }
+          const double plane = d == 0 ? out.x_lines[std::size_t(side > 0 ? i + 1 : i)]
+                                      : out.z_lines[std::size_t(side > 0 ? j + 1 : j)];
+          const double s0 = d == 0 ? out.z_lines[std::size_t(j)] : out.x_lines[std::size_t(i)];
+          const double s1 = d == 0 ? out.z_lines[std::size_t(j + 1)] : out.x_lines[std::size_t(i + 1)];
+          const ImportedRoom& ra = out.rooms[std::size_t(a)];
+          double coverage = 0.0;
+          for (const ImportedOpening& o : out.openings) {
+            const bool joins = (o.room_a == a && o.room_b == b) || (o.room_a == b && o.room_b == a);
+            if (!joins) continue;
+            coverage += opening_coverage(o, d == 0 ? 0 : 2, plane, s0, s1, ra.measured_floor, ra.measured_ceiling,
+                                         settings.max_wall_thickness);
+          }
+          for (ImportedOpening& o : out.openings) {
+            const bool joins = (o.room_a == a && o.room_b == b) || (o.room_a == b && o.room_b == a);
+            if (!joins) continue;
+            const double c = opening_coverage(o, d == 0 ? 0 : 2, plane, s0, s1, ra.measured_floor,
+                                              ra.measured_ceiling, settings.max_wall_thickness);
+            if (c > 0.0) {
+              o.coverage = std::max(o.coverage, coverage);
+              if (coverage >= settings.min_opening_fraction) o.removes_face = true;
+            }
+          }
+          if (coverage >= settings.min_opening_fraction) flag = 1;
+        }
+    }
+  for (const ImportedOpening& o : out.openings)
+    if (!o.removes_face)
+      out.warnings.push_back(std::string(o.kind == OpeningKind::doorway ? "doorway" : "exterior opening") +
+                             " of room " + std::to_string(o.room_a) +
+                             (o.room_b >= 0 ? " to room " + std::to_string(o.room_b) : std::string(" to the outside")) +
+                             " (" + fmt(o.span_max - o.span_min) + " x " + fmt(o.head - o.sill) +
+                             " m) covers only " + fmt(100.0 * o.coverage, 0) +
+                             " % of its block face: the face stays a wall");
+
+  // Rooms joined through missing faces share one floor and ceiling (their faces must match).
+  std::vector<int> parent(static_cast<std::size_t>(room_count));
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i)
+      for (int d = 0; d < 2; ++d) {
+        const int a = room_at(i, j), b = d == 0 ? room_at(i + 1, j) : room_at(i, j + 1);
+        if (a >= 0 && b >= 0 && a != b &&
+            open_face[(std::size_t(j) * std::size_t(nx) + std::size_t(i)) * 2 + std::size_t(d)])
+          parent[std::size_t(find_root(parent, a))] = find_root(parent, b);
+      }
+  std::vector<double> group_floor(std::size_t(room_count), std::numeric_limits<double>::max()),
+      group_ceiling(std::size_t(room_count), std::numeric_limits<double>::lowest());
+  for (int r = 0; r < room_count; ++r) {
+    const int g = find_root(parent, r);
+    group_floor[std::size_t(g)] = std::min(group_floor[std::size_t(g)], out.rooms[std::size_t(r)].measured_floor);
+    group_ceiling[std::size_t(g)] = std::max(group_ceiling[std::size_t(g)], out.rooms[std::size_t(r)].measured_ceiling);
+  }
+  for (int r = 0; r < room_count; ++r) {
+    ImportedRoom& room = out.rooms[std::size_t(r)];
+    const int g = find_root(parent, r);
+    room.floor = group_floor[std::size_t(g)];
+    room.ceiling = group_ceiling[std::size_t(g)];
+    if (room.floor < room.measured_floor - 0.02 * storey || room.ceiling > room.measured_ceiling + 0.02 * storey)
+      out.warnings.push_back("room " + std::to_string(r) + " (floor " + fmt(room.measured_floor) + ", ceiling " +
+                             fmt(room.measured_ceiling) + " m) shares the floor and ceiling " + fmt(room.floor) +
+                             " / " + fmt(room.ceiling) + " m of the rooms it opens into");
+  }
+
+  // The level: one warped box block per room cell.
+  LevelDescription& level = out.level;
+  level.name = "imported";
+  level.cell_size = storey;
+  const int ci0 = int(std::lround(out.x_lines.front() / storey)), cj0 = int(std::lround(out.z_lines.front() / storey));
+  std::vector<int> block_of(cell_room.size(), -1);
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int r = room_at(i, j);
+      if (r < 0) continue;
+      const ImportedRoom& room = out.rooms[std::size_t(r)];
+      BlockDescription b;
+      b.cell = glm::ivec3(ci0 + i, int(std::lround(room.floor / storey)), cj0 + j);
+      b.warped = true;
+      for (int c = 0; c < 8; ++c)
+        b.corners[std::size_t(c)] = glm::dvec3(out.x_lines[std::size_t(i + (c & 1))], (c & 2) ? room.ceiling : room.floor,
+                                               out.z_lines[std::size_t(j + ((c >> 2) & 1))]);
+      b.faces = kAllFaces;
+      const std::size_t here = (std::size_t(j) * std::size_t(nx) + std::size_t(i)) * 2;
+      if (open_face[here]) b.faces &= FaceMask(~(1u << kFacePosX));
+      if (open_face[here + 1]) b.faces &= FaceMask(~(1u << kFacePosZ));
+      const int west = room_at(i - 1, j), south = room_at(i, j - 1);
+      const bool open_west = west >= 0 ? bool(open_face[(std::size_t(j) * std::size_t(nx) + std::size_t(i - 1)) * 2])
+                                       : bool(open_low[here]);
+      const bool open_south = south >= 0
+                                  ? bool(open_face[(std::size_t(j - 1) * std::size_t(nx) + std::size_t(i)) * 2 + 1])
+                                  : bool(open_low[here + 1]);
+      if (open_west) b.faces &= FaceMask(~(1u << kFaceNegX));
+      if (open_south) b.faces &= FaceMask(~(1u << kFaceNegZ));
+      for (glm::dvec3& a : b.albedo) a = glm::dvec3(settings.default_albedo);
+      b.name = "room " + std::to_string(r) + " cell " + std::to_string(i) + "," + std::to_string(j);
+      block_of[std::size_t(j) * std::size_t(nx) + std::size_t(i)] = int(level.blocks.size());
+      out.block_room.push_back(r);
+      ++out.rooms[std::size_t(r)].blocks;
+      level.blocks.push_back(std::move(b));
+    }
+  for (int r = 0; r < room_count; ++r)
+    if (out.rooms[std::size_t(r)].blocks == 0)
+      out.warnings.push_back("room " + std::to_string(r) + " (" + fmt(out.rooms[std::size_t(r)].area) +
+                             " m^2) is too small for a block of its own; its light comes from its neighbours");
+  level.lights.assign(lights.begin(), lights.end());
+
+  // Step 5: facing. Air is a room's own plan cell between its floor and ceiling, or an
+  // opening's passage between its sill and head.
+  auto air = [&](const glm::dvec3& p) {
+    int i, k;
+    grid.locate({p.x, p.z}, i, k);
+    const std::size_t s = grid.index(i, k);
+    const int l = plan.label[s];
+    if (l < 0) return false;
+    const ImportedRoom& room = out.rooms[std::size_t(l)];
+    if (p.y <= room.measured_floor || p.y >= room.measured_ceiling) return false;
+    if (!plan.wall[s]) return true;
+    for (const ImportedOpening& o : out.openings) {
+      const double along = o.normal_axis == 0 ? p.z : p.x, across = o.normal_axis == 0 ? p.x : p.z;
+      if (along > o.span_min && along < o.span_max && std::abs(across - o.position) < settings.max_wall_thickness &&
+          p.y > o.sill && p.y < o.head)
+        return true;
+    }
+    return false;
+  };
+  // Artists invert whole objects (Blender's recalculated normals, a mirrored export), and the
+  // faces that border no room (a wall's top under the ceiling slab, a sofa's underside on
+  // the floor) cannot be decided on their own, nor correctly for furniture, whose inside the
+  // plan sees as air. So a closed object (a box wall, a piece of furniture) faces out of its
+  // own volume (the sign of its volume decides), and any other object (a room shell, a
+  // single-sided floor) follows the side that at least 3/4 of its decided area faces; without
+  // such a majority each decided triangle keeps its own answer.
+  const double eps = std::max(2.0 * cell, 0.02);
+  out.flipped.resize(objects.size());
+  for (std::size_t o = 0; o < objects.size(); ++o) out.flipped[o].assign(objects[o].indices.size() / 3, 0);
+  std::vector<double> flip_area(objects.size(), 0.0), keep_area(objects.size(), 0.0);
+  std::vector<std::int8_t> decided(soup.size(), 0);  // +1 keep, -1 flip, 0 undecided
+  for (std::size_t t = 0; t < soup.size(); ++t) {
+    const glm::dvec3 n = glm::cross(soup.b[t] - soup.a[t], soup.c[t] - soup.a[t]);
+    const double len = glm::length(n);
+    if (!(len > 0.0)) continue;
+    const glm::dvec3 p = (soup.a[t] + soup.b[t] + soup.c[t]) / 3.0, u = n / len;
+    const bool front = air(p + eps * u), back = air(p - eps * u);
+    if (front == back) continue;
+    decided[t] = front ? 1 : -1;
+    (front ? keep_area : flip_area)[soup.object[t]] += 0.5 * len;
+  }
+  std::vector<std::int8_t> closed_sign(objects.size(), 0);  // +1 / -1: closed, facing out / in
+  for (std::size_t o = 0; o < objects.size(); ++o) {
+    double volume = 0.0;
+    if (closed_volume(objects[o], volume) && volume != 0.0) closed_sign[o] = volume > 0.0 ? 1 : -1;
+  }
+  for (std::size_t t = 0; t < soup.size(); ++t) {
+    const std::uint32_t o = soup.object[t];
+    if (closed_sign[o] != 0) {
+      if (closed_sign[o] < 0) {
+        out.flipped[o][soup.local[t]] = 1;
+        ++out.triangles_flipped;
+      }
+      continue;
+    }
+    const double total = flip_area[o] + keep_area[o];
+    bool flip = decided[t] < 0;
+    if (total > 0.0 && flip_area[o] >= 0.75 * total) flip = true;
+    if (total > 0.0 && keep_area[o] >= 0.75 * total) flip = false;
+    if (flip) {
+      out.flipped[o][soup.local[t]] = 1;
+      ++out.triangles_flipped;
+    }
+  }
+
+  // Step 6: map every triangle onto the layout; roles and per-face albedo.
+  Result<Level> layout = build_level_layout(level, settings.layout_res);
+  if (!layout.ok())
+    return Status::error(layout.status().code(), "import_scene: the generated level does not validate (a bug): " +
+                                                     layout.status().message());
+  std::vector<glm::dvec3> albedo_sum(level.blocks.size() * kFaceCount, glm::dvec3(0.0));
+  std::vector<double> area_sum(level.blocks.size() * kFaceCount, 0.0);
+  out.object_role.assign(objects.size(), ObjectRole::structure);
+  out.object_far_fraction.assign(objects.size(), 0.0);
+  struct Piece {
+    std::uint32_t block;
+    int world_face;
+    double area;
+    bool far;
+    std::uint32_t triangle;
+  };
+  for (std::size_t o = 0; o < objects.size(); ++o) {
+    const ImportObject& ob = objects[o];
+    const std::size_t tris = ob.indices.size() / 3;
+    std::vector<glm::vec3> pos, nrm;
+    std::vector<std::uint32_t> idx;
+    for (std::size_t t = 0; t < tris; ++t) {
+      glm::dvec3 v[3] = {ob.positions[ob.indices[3 * t]], ob.positions[ob.indices[3 * t + 1]],
+                         ob.positions[ob.indices[3 * t + 2]]};
+      if (out.flipped[o][t]) std::swap(v[1], v[2]);
+      glm::dvec3 n = glm::cross(v[1] - v[0], v[2] - v[0]);
+      const double len = glm::length(n);
+      n = len > 0.0 ? n / len : glm::dvec3(0.0, 1.0, 0.0);
+      for (const glm::dvec3& p : v) {
+        idx.push_back(std::uint32_t(pos.size()));
+        pos.push_back(glm::vec3(p));
+        nrm.push_back(glm::vec3(n));
+      }
+    }
+    if (pos.empty()) continue;
+    MeshLightmapInput input{StridedVec3::tight(pos), StridedVec3::tight(nrm), pos.size(), idx};
+    std::vector<Piece> pieces;
+    double total = 0.0, outside = 0.0, far = 0.0;
+    Result<MeshLightmapStats> stats = map_mesh_lightmap(layout.value(), input, [&](const std::array<MappedCorner, 3>& c) {
+      const glm::dvec3 a(c[0].position), b(c[1].position), d(c[2].position);
+      const double area = 0.5 * glm::length(glm::cross(b - a, d - a));
+      total += area;
+      if (c[0].outside) {
+        outside += area;
+        return;
+      }
+      const LevelBlock& blk = layout->blocks[c[0].block];
+      const int wf = rotate_face(c[0].face, blk.quarter_turns);
+      const glm::dvec3 centre = (a + b + d) / 3.0, lo = blk.corners[0], hi = blk.corners[7];
+      const int axis = wf / 2;
+      const double plane = (wf & 1) ? hi[axis] : lo[axis];
+      const bool is_far = std::abs(centre[axis] - plane) > settings.clutter_distance;
+      if (is_far) far += area;
+      pieces.push_back({c[0].block, wf, area, is_far, c[0].triangle});
+    });
+    if (!stats.ok())
+      return Status::error(stats.status().code(), object_label(objects, o) + ": " + stats.status().message());
+    out.triangles_outside += stats->triangles_outside;
+    const double inside = total - outside;
+    out.object_far_fraction[o] = inside > 0.0 ? far / inside : 0.0;
+    if (total > 0.0 && outside >= 0.9 * total)
+      out.object_role[o] = ObjectRole::outside;
+    else if (out.object_far_fraction[o] >= settings.clutter_fraction)
+      out.object_role[o] = ObjectRole::clutter;
+    if (out.object_role[o] != ObjectRole::structure) continue;
+    for (const Piece& p : pieces) {
+      if (p.far) continue;
+      const glm::dvec3 al = ob.triangle_albedo.size() == 1 ? ob.triangle_albedo[0] : ob.triangle_albedo[p.triangle];
+      const std::size_t slot = std::size_t(p.block) * kFaceCount + std::size_t(p.world_face);
+      albedo_sum[slot] += p.area * al;
+      area_sum[slot] += p.area;
+    }
+  }
+  for (std::size_t b = 0; b < level.blocks.size(); ++b)
+    for (int f = 0; f < kFaceCount; ++f) {
+      const std::size_t slot = b * kFaceCount + std::size_t(f);
+      if (area_sum[slot] > 0.0)
+        level.blocks[b].albedo[std::size_t(f)] = glm::clamp(albedo_sum[slot] / area_sum[slot], 0.0, 1.0);
+    }
+  return out;
+} catch (const std::bad_alloc&) {
+  return Status::error(ErrorCode::resource_limit, "import_scene: out of memory");
+} catch (const std::exception& e) {
+  return Status::error(ErrorCode::internal_error, std::string("import_scene: ") + e.what());
+}
+
+}  // namespace modrt::precompute
