@@ -44,7 +44,8 @@ bool cut_segment(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, 
 }
 
 // Marks every cell the segment p-q passes through (Amanatides & Woo traversal).
-void mark_segment(const PlanGrid& grid, const glm::dvec2& p, const glm::dvec2& q, std::vector<std::uint8_t>& out) {
+void mark_segment(const PlanGrid& grid, const glm::dvec2& p, const glm::dvec2& q,
+                  std::vector<std::uint8_t>& out) {
   const glm::dvec2 a = (p - grid.origin) / grid.cell, b = (q - grid.origin) / grid.cell;
   int i = int(std::floor(a.x)), k = int(std::floor(a.y));
   const int i_end = int(std::floor(b.x)), k_end = int(std::floor(b.y));
@@ -196,7 +197,8 @@ int classify_plan(const TriangleSoup& tris, const PlanGrid& grid, const ImportSe
   }
   plan.label.assign(grid.count(), kPlanSolid);
   for (std::size_t s = 0; s < grid.count(); ++s)
-    if (comp[s] >= 0 && room_of[std::size_t(comp[s])] >= kPlanOutside) plan.label[s] = room_of[std::size_t(comp[s])];
+    if (comp[s] >= 0 && room_of[std::size_t(comp[s])] >= kPlanOutside)
+      plan.label[s] = room_of[std::size_t(comp[s])];
   // What a single room encloses (a column, a lamp, furniture cut by the plane) is that room's.
   std::vector<std::uint8_t> rest(grid.count());
   for (std::size_t s = 0; s < grid.count(); ++s) rest[s] = plan.label[s] == kPlanSolid;
@@ -266,12 +268,14 @@ VerticalRays::VerticalRays(const TriangleSoup& tris, double bucket) : tris_(tris
     const int k0 = std::clamp(int((z0 - origin_.y) / bucket), 0, height_ - 1),
               k1 = std::clamp(int((z1 - origin_.y) / bucket), 0, height_ - 1);
     for (int k = k0; k <= k1; ++k)
-      for (int i = i0; i <= i1; ++i) cells_[std::size_t(k) * std::size_t(width_) + std::size_t(i)].push_back(std::uint32_t(t));
+      for (int i = i0; i <= i1; ++i)
+        cells_[std::size_t(k) * std::size_t(width_) + std::size_t(i)].push_back(std::uint32_t(t));
   }
 }
 
 bool VerticalRays::cast(const glm::dvec3& o, bool down, double& hit_y) const {
-  const int i = int(std::floor((o.x - origin_.x) / bucket_)), k = int(std::floor((o.z - origin_.y) / bucket_));
+  const int i = int(std::floor((o.x - origin_.x) / bucket_)),
+            k = int(std::floor((o.z - origin_.y) / bucket_));
   if (i < 0 || k < 0 || i >= width_ || k >= height_) return false;
   bool hit = false;
   for (std::uint32_t t : cells_[std::size_t(k) * std::size_t(width_) + std::size_t(i)]) {
@@ -315,8 +319,8 @@ bool dominant_level(std::vector<double> hits, std::size_t rays, bool lowest, dou
 
 }  // namespace
 
-void measure_rooms(const TriangleSoup& tris, const ImportPlan& plan, int room_count, std::vector<ImportedRoom>& rooms,
-                   std::vector<std::string>& warnings) {
+void measure_rooms(const TriangleSoup& tris, const ImportPlan& plan, int room_count,
+                   std::vector<ImportedRoom>& rooms, std::vector<std::string>& warnings) {
   PlanGrid grid{plan.origin, plan.cell, plan.width, plan.height};
   rooms.assign(std::size_t(room_count), ImportedRoom{});
   std::vector<std::vector<std::size_t>> cells(static_cast<std::size_t>(room_count));
@@ -342,19 +346,22 @@ void measure_rooms(const TriangleSoup& tris, const ImportPlan& plan, int room_co
     std::vector<double> down, up;
     std::size_t cast = 0;
     for (std::size_t n = 0; n < inner.size(); n += stride, ++cast) {
-      const glm::dvec2 c = grid.centre(int(inner[n] % std::size_t(grid.width)), int(inner[n] / std::size_t(grid.width)));
+      const glm::dvec2 c =
+          grid.centre(int(inner[n] % std::size_t(grid.width)), int(inner[n] / std::size_t(grid.width)));
       double y;
       if (rays.cast({c.x, plan.cut_height, c.y}, true, y)) down.push_back(y);
       if (rays.cast({c.x, plan.cut_height, c.y}, false, y)) up.push_back(y);
     }
     if (!dominant_level(down, cast, true, room.measured_floor)) {
       room.measured_floor = tris.min.y;
-      warnings.push_back("room " + std::to_string(r) + ": no floor under most of it; the scene's lowest point is used");
+      warnings.push_back("room " + std::to_string(r) +
+                         ": no floor under most of it; the scene's lowest point is used");
     }
     if (!dominant_level(up, cast, false, room.measured_ceiling)) {
       room.measured_ceiling = tris.max.y;
-      warnings.push_back("room " + std::to_string(r) +
-                         ": no ceiling over most of it (open to the sky?); the scene's highest point is used");
+      warnings.push_back(
+          "room " + std::to_string(r) +
+          ": no ceiling over most of it (open to the sky?); the scene's highest point is used");
     }
     room.floor = room.measured_floor;
     room.ceiling = room.measured_ceiling;

@@ -2,11 +2,11 @@
 #include "modrt/precompute/scene_import.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <map>
-#include <array>
 #include <numeric>
 #include <string>
 
@@ -29,10 +29,12 @@ std::string fmt(double v, int digits = 2) {
 }
 
 std::string object_label(std::span<const ImportObject> objects, std::size_t o) {
-  return "object " + std::to_string(o) + (objects[o].name.empty() ? std::string() : " ('" + objects[o].name + "')");
+  return "object " + std::to_string(o) +
+         (objects[o].name.empty() ? std::string() : " ('" + objects[o].name + "')");
 }
 
-Status check_objects(std::span<const ImportObject> objects, const ImportSettings& settings, std::size_t& triangles) {
+Status check_objects(std::span<const ImportObject> objects, const ImportSettings& settings,
+                     std::size_t& triangles) {
   triangles = 0;
   for (std::size_t o = 0; o < objects.size(); ++o) {
     const ImportObject& ob = objects[o];
@@ -41,15 +43,16 @@ Status check_objects(std::span<const ImportObject> objects, const ImportSettings
       return Status::error(ErrorCode::invalid_argument,
                            what + ": " + std::to_string(ob.indices.size()) + " indices, not a multiple of 3");
     for (std::size_t v = 0; v < ob.positions.size(); ++v)
-      if (!std::isfinite(ob.positions[v].x) || !std::isfinite(ob.positions[v].y) || !std::isfinite(ob.positions[v].z) ||
-          std::abs(ob.positions[v].x) > 1e7 || std::abs(ob.positions[v].y) > 1e7 || std::abs(ob.positions[v].z) > 1e7)
-        return Status::error(ErrorCode::non_finite, what + ": position " + std::to_string(v) +
-                                                        " is not finite or beyond 1e7 m");
+      if (!std::isfinite(ob.positions[v].x) || !std::isfinite(ob.positions[v].y) ||
+          !std::isfinite(ob.positions[v].z) || std::abs(ob.positions[v].x) > 1e7 ||
+          std::abs(ob.positions[v].y) > 1e7 || std::abs(ob.positions[v].z) > 1e7)
+        return Status::error(ErrorCode::non_finite,
+                             what + ": position " + std::to_string(v) + " is not finite or beyond 1e7 m");
     for (std::size_t i = 0; i < ob.indices.size(); ++i)
       if (ob.indices[i] >= ob.positions.size())
-        return Status::error(ErrorCode::invalid_argument, what + ": index " + std::to_string(i) + " = " +
-                                                              std::to_string(ob.indices[i]) + ", the object has " +
-                                                              std::to_string(ob.positions.size()) + " positions");
+        return Status::error(ErrorCode::invalid_argument,
+                             what + ": index " + std::to_string(i) + " = " + std::to_string(ob.indices[i]) +
+                                 ", the object has " + std::to_string(ob.positions.size()) + " positions");
     const std::size_t tris = ob.indices.size() / 3;
     if (ob.triangle_albedo.size() != 1 && ob.triangle_albedo.size() != tris)
       return Status::error(ErrorCode::invalid_argument,
@@ -93,74 +96,168 @@ TriangleSoup flatten(std::span<const ImportObject> objects) {
 
 struct Line {
   double at;
-  int priority;   // 2: a wall (room boundary), 1: a jamb, 0: a split
+  int priority;   // 2: a wall (room boundary), 1: a jamb
   double weight;  // wall length along it (m), for ties
+  double e0, e1;  // where it is needed, along the other axis (m)
 };
 
 // Room boundaries along one axis: raster cell edges where the label changes for a run of at
-// least min_run, strongest first, one per two cells.
+// least min_run, strongest first, one per two cells, each needed where its changes are.
 std::vector<Line> boundary_lines(const ImportPlan& plan, int axis, double min_run) {
   const int n = axis == 0 ? plan.width : plan.height;
   std::vector<double> run(std::size_t(n + 1), 0.0);
+  std::vector<int> lo(std::size_t(n + 1), std::numeric_limits<int>::max()), hi(std::size_t(n + 1), -1);
   for (int k = 0; k < plan.height; ++k)
     for (int i = 0; i < plan.width; ++i) {
       const int l = plan.label[std::size_t(k) * std::size_t(plan.width) + std::size_t(i)];
       const int ni = axis == 0 ? i + 1 : i, nk = axis == 0 ? k : k + 1;
       if (ni >= plan.width || nk >= plan.height) continue;
       const int m = plan.label[std::size_t(nk) * std::size_t(plan.width) + std::size_t(ni)];
-      if (l != m && (l >= 0 || m >= 0)) run[std::size_t(axis == 0 ? i + 1 : k + 1)] += plan.cell;
+      if (l == m || (l < 0 && m < 0)) continue;
+      const std::size_t e = std::size_t(axis == 0 ? i + 1 : k + 1);
+      const int along = axis == 0 ? k : i;
+      run[e] += plan.cell;
+      lo[e] = std::min(lo[e], along);
+      hi[e] = std::max(hi[e], along);
     }
   std::vector<int> order(std::size_t(n + 1));
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return run[std::size_t(a)] > run[std::size_t(b)]; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return run[std::size_t(a)] > run[std::size_t(b)]; });
   std::vector<int> taken;
   std::vector<Line> lines;
+  const double other_origin = axis == 0 ? plan.origin.y : plan.origin.x;
   for (int e : order) {
     if (run[std::size_t(e)] < min_run) break;
     if (std::any_of(taken.begin(), taken.end(), [&](int t) { return std::abs(t - e) <= 2; })) continue;
     taken.push_back(e);
-    lines.push_back({(axis == 0 ? plan.origin.x : plan.origin.y) + e * plan.cell, 2, run[std::size_t(e)]});
+    lines.push_back({(axis == 0 ? plan.origin.x : plan.origin.y) + e * plan.cell, 2, run[std::size_t(e)],
+                     other_origin + lo[std::size_t(e)] * plan.cell,
+                     other_origin + (hi[std::size_t(e)] + 1) * plan.cell});
   }
   return lines;
 }
 
-// Merges lines closer than min_gap (the weaker goes), then splits long intervals into pieces
-// near `target` (never shorter than min_gap).
-std::vector<double> grid_lines(std::vector<Line> lines, double min_gap, double target) {
-  auto weaker = [](const Line& a, const Line& b) {
-    return a.priority != b.priority ? a.priority < b.priority : a.weight < b.weight;
-  };
-  std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.at < b.at; });
-  for (bool changed = true; changed && lines.size() > 1;) {
-    changed = false;
-    // The closest pair first, so that a cluster keeps its strongest line.
-    std::size_t best = 0;
-    double gap = std::numeric_limits<double>::max();
-    for (std::size_t i = 0; i + 1 < lines.size(); ++i)
-      if (lines[i + 1].at - lines[i].at < gap) {
-        gap = lines[i + 1].at - lines[i].at;
-        best = i;
-      }
-    if (gap < min_gap) {
-      lines.erase(lines.begin() + std::ptrdiff_t(weaker(lines[best], lines[best + 1]) ? best : best + 1));
-      changed = true;
-    }
+// A grid line: fixed at its anchors (walls and jambs, each where it is needed) and straight in
+// between, so that features of different walls that are too close for two lines (a doorway's
+// jamb and a window's across the room) share one line that bends between them; or a split
+// line at fraction t between two others.
+struct GridLine {
+  std::vector<Line> anchors;
+  int lower = -1, upper = -1;  // a split line: between these lines, at fraction t
+  double t = 0.0;
+  double nominal = 0.0;
+};
+
+double anchored_position(const GridLine& g, double s, double tolerance) {
+  const Line* left = nullptr;
+  const Line* right = nullptr;
+  for (const Line& a : g.anchors) {
+    if (s >= a.e0 - tolerance && s <= a.e1 + tolerance) return a.at;
+    if (a.e1 < s && (!left || a.e1 > left->e1)) left = &a;
+    if (a.e0 > s && (!right || a.e0 < right->e0)) right = &a;
   }
-  std::vector<double> out;
+  if (left && right) {
+    const double w = (s - left->e1) / (right->e0 - left->e1);
+    return left->at + w * (right->at - left->at);
+  }
+  return left ? left->at : right->at;
+}
+
+double line_position(const std::vector<GridLine>& lines, std::size_t i, double s, double tolerance) {
+  const GridLine& g = lines[i];
+  if (g.lower < 0) return anchored_position(g, s, tolerance);
+  const double a = anchored_position(lines[std::size_t(g.lower)], s, tolerance);
+  const double b = anchored_position(lines[std::size_t(g.upper)], s, tolerance);
+  return a + g.t * (b - a);
+}
+
+// Candidates strongest first: each joins the line within min_gap of it when their needs do
+// not overlap (the line bends), is dropped when they do (a jamb too close to a wall: the
+// opening widens to the wall), or starts a line. Then intervals are split into pieces near
+// `target`, never shorter than min_gap.
+std::vector<GridLine> grid_lines(std::vector<Line> candidates, double min_gap, double target,
+                                 double tolerance, bool bend) {
+  std::stable_sort(candidates.begin(), candidates.end(), [](const Line& a, const Line& b) {
+    return a.priority != b.priority ? a.priority > b.priority : a.weight > b.weight;
+  });
+  std::vector<GridLine> lines;
+  for (const Line& c : candidates) {
+    const double mid = 0.5 * (c.e0 + c.e1);
+    std::vector<std::size_t> near;
+    for (std::size_t i = 0; i < lines.size(); ++i)
+      if (std::abs(anchored_position(lines[i], mid, tolerance) - c.at) < min_gap ||
+          std::abs(lines[i].nominal - c.at) < min_gap)
+        near.push_back(i);
+    if (near.empty()) {
+      lines.push_back({{c}, -1, -1, 0.0, c.at});
+      continue;
+    }
+    if (!bend || near.size() > 1) continue;
+    GridLine& g = lines[near[0]];
+    const bool overlaps = std::any_of(g.anchors.begin(), g.anchors.end(), [&](const Line& a) {
+      return c.e0 <= a.e1 + 2.0 * tolerance && a.e0 <= c.e1 + 2.0 * tolerance;
+    });
+    if (overlaps) continue;
+    GridLine bent = g;
+    bent.anchors.push_back(c);
+    double sum = 0.0;
+    for (const Line& a : bent.anchors) sum += a.at;
+    bent.nominal = sum / double(bent.anchors.size());
+    // The bend keeps the line at least min_gap / 2 from every other line, on the same side,
+    // wherever either of them is anchored.
+    bool fits = true;
+    for (std::size_t h = 0; h < lines.size() && fits; ++h) {
+      if (h == near[0]) continue;
+      const double side = lines[h].nominal - bent.nominal;
+      std::vector<double> at;
+      for (const GridLine* l : {&bent, &lines[h]})
+        for (const Line& a : l->anchors) {
+          at.push_back(a.e0);
+          at.push_back(a.e1);
+          at.push_back(0.5 * (a.e0 + a.e1));
+        }
+      for (double s : at) {
+        const double d = anchored_position(lines[h], s, tolerance) - anchored_position(bent, s, tolerance);
+        if (std::abs(d) < 0.5 * min_gap || (d > 0.0) != (side > 0.0)) {
+          fits = false;
+          break;
+        }
+      }
+    }
+    if (fits) g = std::move(bent);
+  }
+  std::sort(lines.begin(), lines.end(),
+            [](const GridLine& a, const GridLine& b) { return a.nominal < b.nominal; });
+  std::vector<GridLine> out;
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    out.push_back(lines[i].at);
+    out.push_back(lines[i]);
     if (i + 1 == lines.size()) break;
-    const double len = lines[i + 1].at - lines[i].at;
+    const double len = lines[i + 1].nominal - lines[i].nominal;
     const int pieces =
         std::max(1, std::min(int(std::lround(len / target)), int(std::floor(len / min_gap + 1e-9))));
-    for (int p = 1; p < pieces; ++p) out.push_back(lines[i].at + len * p / pieces);
+    const int lower = int(out.size()) - 1;
+    for (int p = 1; p < pieces; ++p) {
+      GridLine split;
+      split.t = double(p) / pieces;
+      split.nominal = lines[i].nominal + len * split.t;
+      split.lower = lower;  // fixed up below, once the upper line's index is known
+      split.upper = -(int(i) + 2);
+      out.push_back(split);
+    }
   }
+  // Split lines refer to the anchored lines around them by their index in `out`.
+  std::vector<int> anchored_index;
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (out[i].lower < 0) anchored_index.push_back(int(i));
+  for (GridLine& g : out)
+    if (g.lower >= 0) g.upper = anchored_index[std::size_t(-g.upper - 2 + 1)];
   return out;
 }
 
 // Fraction of the face between plan points along `axis` ... the opening covers.
-double opening_coverage(const ImportedOpening& o, int face_axis, double plane, double s0, double s1, double y0,
-                        double y1, double tolerance) {
+double opening_coverage(const ImportedOpening& o, int face_axis, double plane, double s0, double s1,
+                        double y0, double y1, double tolerance) {
   if (o.normal_axis != face_axis || std::abs(o.position - plane) > tolerance) return 0.0;
   const double w = std::max(0.0, std::min(s1, o.span_max) - std::max(s0, o.span_min));
   const double h = std::max(0.0, std::min(y1, o.head) - std::max(y0, o.sill));
@@ -174,7 +271,8 @@ bool closed_volume(const ImportObject& ob, double& volume) {
   std::map<std::array<double, 3>, std::uint32_t> weld;
   std::vector<std::uint32_t> id(ob.positions.size());
   for (std::size_t v = 0; v < ob.positions.size(); ++v)
-    id[v] = weld.try_emplace({ob.positions[v].x, ob.positions[v].y, ob.positions[v].z}, std::uint32_t(weld.size()))
+    id[v] = weld.try_emplace({ob.positions[v].x, ob.positions[v].y, ob.positions[v].z},
+                             std::uint32_t(weld.size()))
                 .first->second;
   std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;  // directed edge -> count
   volume = 0.0;
@@ -183,7 +281,9 @@ bool closed_volume(const ImportObject& ob, double& volume) {
     if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) continue;
     for (int e = 0; e < 3; ++e) ++edges[{v[e], v[(e + 1) % 3]}];
     const glm::dvec3& a = ob.positions[ob.indices[3 * t]];
-    volume += glm::dot(a, glm::cross(ob.positions[ob.indices[3 * t + 1]], ob.positions[ob.indices[3 * t + 2]])) / 6.0;
+    volume +=
+        glm::dot(a, glm::cross(ob.positions[ob.indices[3 * t + 1]], ob.positions[ob.indices[3 * t + 2]])) /
+        6.0;
   }
   if (edges.empty()) return false;
   for (const auto& [e, n] : edges) {
@@ -193,20 +293,126 @@ bool closed_volume(const ImportObject& ob, double& volume) {
   return true;
 }
 
+struct BlockGrid {
+  int nx = 0, nz = 0;              // cells along x and z
+  std::vector<glm::dvec2> vertex;  // (nx + 1) x (nz + 1) plan corners, row j = z index
+  std::vector<double> x_nominal, z_nominal;
+  std::vector<int> cell_room;  // room covering most of each cell, or -1
+};
+
+bool inside_triangle(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
+  auto cross = [](const glm::dvec2& u, const glm::dvec2& v) { return u.x * v.y - u.y * v.x; };
+  const double d0 = cross(b - a, p - a), d1 = cross(c - b, p - b), d2 = cross(a - c, p - c);
+  return (d0 >= 0 && d1 >= 0 && d2 >= 0) || (d0 <= 0 && d1 <= 0 && d2 <= 0);
+}
+
+Result<BlockGrid> make_block_grid(const ImportPlan& plan, const std::vector<ImportedOpening>& openings,
+                                  int room_count, double storey, const ImportSettings& settings, bool bend) {
+  const double min_gap = storey / settings.max_block_aspect;
+  const double tolerance = settings.max_wall_thickness;
+  std::array<std::vector<Line>, 2> candidates = {boundary_lines(plan, 0, min_gap),
+                                                 boundary_lines(plan, 2, min_gap)};
+  for (const ImportedOpening& o : openings) {
+    std::vector<Line>& along = candidates[o.normal_axis == 0 ? 1 : 0];
+    along.push_back({o.span_min, 1, o.span_max - o.span_min, o.position, o.position});
+    along.push_back({o.span_max, 1, o.span_max - o.span_min, o.position, o.position});
+  }
+  const std::vector<GridLine> xl = grid_lines(candidates[0], min_gap, storey, tolerance, bend);
+  const std::vector<GridLine> zl = grid_lines(candidates[1], min_gap, storey, tolerance, bend);
+  if (xl.size() < 2 || zl.size() < 2)
+    return Status::error(ErrorCode::invalid_argument, "import_scene: the rooms' walls give no block grid");
+  BlockGrid g;
+  g.nx = int(xl.size()) - 1;
+  g.nz = int(zl.size()) - 1;
+  for (const GridLine& l : xl) g.x_nominal.push_back(l.nominal);
+  for (const GridLine& l : zl) g.z_nominal.push_back(l.nominal);
+  for (int j = 0; j <= g.nz; ++j)
+    for (int i = 0; i <= g.nx; ++i)
+      g.vertex.push_back({line_position(xl, std::size_t(i), g.z_nominal[std::size_t(j)], tolerance),
+                          line_position(zl, std::size_t(j), g.x_nominal[std::size_t(i)], tolerance)});
+  auto v = [&](int i, int j) { return g.vertex[std::size_t(j) * std::size_t(g.nx + 1) + std::size_t(i)]; };
+  // Every cell a convex quad no thinner than a quarter of min_gap (a bend must not fold it).
+  for (int j = 0; j < g.nz; ++j)
+    for (int i = 0; i < g.nx; ++i) {
+      const glm::dvec2 q[4] = {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)};
+      for (int e = 0; e < 4; ++e) {
+        const glm::dvec2 a = q[e], b = q[(e + 1) % 4], c = q[(e + 2) % 4];
+        const double turn = (b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x);
+        if (!(turn < 0.0) && !(turn > 0.0))
+          return Status::error(ErrorCode::invalid_argument, "degenerate cell");
+        if (glm::length(b - a) < 0.25 * min_gap)
+          return Status::error(ErrorCode::invalid_argument, "thin cell");
+      }
+      const double t0 = (q[1].x - q[0].x) * (q[2].y - q[1].y) - (q[1].y - q[0].y) * (q[2].x - q[1].x);
+      for (int e = 1; e < 4; ++e) {
+        const glm::dvec2 a = q[e], b = q[(e + 1) % 4], c = q[(e + 2) % 4];
+        const double turn = (b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x);
+        if ((turn > 0.0) != (t0 > 0.0)) return Status::error(ErrorCode::invalid_argument, "concave cell");
+      }
+    }
+  // Room of each cell: the region covering most of its plan cells.
+  const PlanGrid grid{plan.origin, plan.cell, plan.width, plan.height};
+  g.cell_room.assign(std::size_t(g.nx) * std::size_t(g.nz), -1);
+  for (int j = 0; j < g.nz; ++j)
+    for (int i = 0; i < g.nx; ++i) {
+      const glm::dvec2 q[4] = {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)};
+      glm::dvec2 lo = q[0], hi = q[0];
+      for (const glm::dvec2& p : q) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+      int i0, i1, k0, k1;
+      grid.locate(lo, i0, k0);
+      grid.locate(hi, i1, k1);
+      std::vector<int> count(std::size_t(room_count), 0);
+      int total = 0;
+      for (int k = k0; k <= k1; ++k)
+        for (int ii = i0; ii <= i1; ++ii) {
+          const glm::dvec2 c = grid.centre(ii, k);
+          if (!inside_triangle(c, q[0], q[1], q[2]) && !inside_triangle(c, q[0], q[2], q[3])) continue;
+          ++total;
+          const int l = plan.label[grid.index(ii, k)];
+          if (l >= 0) ++count[std::size_t(l)];
+        }
+      const auto best = std::max_element(count.begin(), count.end());
+      if (total > 0 && 2 * *best > total)
+        g.cell_room[std::size_t(j) * std::size_t(g.nx) + std::size_t(i)] = int(best - count.begin());
+    }
+  return g;
+}
+
+// Distance from p to the plane of face `face` of a block with these corners (its four corners'
+// best plane: the cross product of its diagonals).
+double face_distance(const std::array<glm::dvec3, 8>& corners, int face, const glm::dvec3& p) {
+  const int axis = face / 2, bit = axis == 0 ? 1 : axis == 1 ? 2 : 4, side = face & 1;
+  int k[4], n = 0;
+  for (int c = 0; c < 8; ++c)
+    if (((c & bit) != 0) == (side != 0)) k[n++] = c;
+  const glm::dvec3 normal = glm::cross(corners[std::size_t(k[3])] - corners[std::size_t(k[0])],
+                                       corners[std::size_t(k[2])] - corners[std::size_t(k[1])]);
+  const double len = glm::length(normal);
+  const glm::dvec3 centre = 0.25 * (corners[std::size_t(k[0])] + corners[std::size_t(k[1])] +
+                                    corners[std::size_t(k[2])] + corners[std::size_t(k[3])]);
+  return len > 0.0 ? std::abs(glm::dot(p - centre, normal / len)) : glm::length(p - centre);
+}
+
 int find_root(std::vector<int>& parent, int i) {
-  while (parent[std::size_t(i)] != i) i = parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
+  while (parent[std::size_t(i)] != i)
+    i = parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
   return i;
 }
 
 }  // namespace
 
-Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::span<const LightDescription> lights,
+Result<SceneImport> import_scene(std::span<const ImportObject> objects,
+                                 std::span<const LightDescription> lights,
                                  const ImportSettings& settings) try {
   SceneImport out;
   std::size_t triangle_count = 0;
   if (Status s = check_objects(objects, settings, triangle_count); !s.ok()) return s;
   out.triangles = triangle_count;
-  if (triangle_count == 0) return Status::error(ErrorCode::invalid_argument, "import_scene: the scene has no triangles");
+  if (triangle_count == 0)
+    return Status::error(ErrorCode::invalid_argument, "import_scene: the scene has no triangles");
   const TriangleSoup soup = flatten(objects);
 
   // Step 1: the plan.
@@ -230,10 +436,11 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
   plan.cut_height = import_detail::choose_cut_height(soup);
   const int room_count = import_detail::classify_plan(soup, grid, settings, plan);
   if (room_count == 0)
-    return Status::error(ErrorCode::invalid_argument,
-                         "import_scene: no enclosed room found in the plan cut at y = " + fmt(plan.cut_height) +
-                             " m (the walls must close each room at that height; rooms narrower than " +
-                             fmt(settings.min_room_width) + " m are not rooms)");
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "import_scene: no enclosed room found in the plan cut at y = " + fmt(plan.cut_height) +
+            " m (the walls must close each room at that height; rooms narrower than " +
+            fmt(settings.min_room_width) + " m are not rooms)");
 
   // Steps 2 and 3: heights and openings.
   import_detail::measure_rooms(soup, plan, room_count, out.rooms, out.warnings);
@@ -246,44 +453,33 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
                          "import_scene: the rooms' floor-to-ceiling height is " + fmt(storey) + " m");
   out.openings = import_detail::find_openings(soup, plan, out.rooms, storey / 24.0, out.warnings);
 
-  // Step 4: grid lines along walls and jambs, merged and split.
-  const double min_gap = storey / settings.max_block_aspect;
-  std::array<std::vector<Line>, 2> lines = {boundary_lines(plan, 0, min_gap), boundary_lines(plan, 2, min_gap)};
-  for (const ImportedOpening& o : out.openings) {
-    std::vector<Line>& along = lines[o.normal_axis == 0 ? 1 : 0];
-    along.push_back({o.span_min, 1, o.span_max - o.span_min});
-    along.push_back({o.span_max, 1, o.span_max - o.span_min});
+  // Step 4: the block grid, its lines bending between features of different walls; straight
+  // lines (the weaker feature dropped) where a bend would make a cell too thin or not convex.
+  Result<BlockGrid> made = make_block_grid(plan, out.openings, room_count, storey, settings, true);
+  if (!made.ok()) {
+    out.warnings.push_back("the block grid's lines could not bend between openings (" +
+                           made.status().message() +
+                           "); straight lines, where the weaker of two close features is dropped");
+    made = make_block_grid(plan, out.openings, room_count, storey, settings, false);
   }
-  out.x_lines = grid_lines(lines[0], min_gap, storey);
-  out.z_lines = grid_lines(lines[1], min_gap, storey);
-  if (out.x_lines.size() < 2 || out.z_lines.size() < 2)
-    return Status::error(ErrorCode::invalid_argument, "import_scene: the rooms' walls give no block grid");
-  const int nx = int(out.x_lines.size()) - 1, nz = int(out.z_lines.size()) - 1;
-  // Room of each grid cell: the region covering most of it.
-  std::vector<int> cell_room(std::size_t(nx) * std::size_t(nz), -1);
-  for (int j = 0; j < nz; ++j)
-    for (int i = 0; i < nx; ++i) {
-      std::vector<int> count(std::size_t(room_count), 0);
-      int total = 0;
-      int i0, i1, k0, k1;
-      grid.locate({out.x_lines[std::size_t(i)] + 0.5 * cell, out.z_lines[std::size_t(j)] + 0.5 * cell}, i0, k0);
-      grid.locate({out.x_lines[std::size_t(i + 1)] - 0.5 * cell, out.z_lines[std::size_t(j + 1)] - 0.5 * cell}, i1, k1);
-      for (int k = k0; k <= k1; ++k)
-        for (int ii = i0; ii <= i1; ++ii, ++total) {
-          const int l = plan.label[grid.index(ii, k)];
-          if (l >= 0) ++count[std::size_t(l)];
-        }
-      const auto best = std::max_element(count.begin(), count.end());
-      if (total > 0 && 2 * *best > total) cell_room[std::size_t(j) * std::size_t(nx) + std::size_t(i)] = int(best - count.begin());
-    }
+  if (!made.ok()) return made.status();
+  const BlockGrid& bg = made.value();
+  out.x_lines = bg.x_nominal;
+  out.z_lines = bg.z_nominal;
+  const int nx = bg.nx, nz = bg.nz;
+  const std::vector<int>& cell_room = bg.cell_room;
+  auto vtx = [&](int i, int j) { return bg.vertex[std::size_t(j) * std::size_t(nx + 1) + std::size_t(i)]; };
   auto room_at = [&](int i, int j) {
-    return i < 0 || j < 0 || i >= nx || j >= nz ? -1 : cell_room[std::size_t(j) * std::size_t(nx) + std::size_t(i)];
+    return i < 0 || j < 0 || i >= nx || j >= nz
+               ? -1
+               : cell_room[std::size_t(j) * std::size_t(nx) + std::size_t(i)];
   };
 
   // Side faces: missing within a room and where an opening covers enough of the face.
   // open[(j * nx + i) * 2 + d]: the face on the +X (d = 0) / +Z (d = 1) side of cell (i, j).
   std::vector<std::uint8_t> open_face(std::size_t(nx) * std::size_t(nz) * 2, 0);
-  std::vector<std::uint8_t> open_low(std::size_t(nx) * std::size_t(nz) * 2, 0);  // the -X / -Z side, at the border
+  std::vector<std::uint8_t> open_low(std::size_t(nx) * std::size_t(nz) * 2,
+                                     0);  // the -X / -Z side, at the border
   for (int j = 0; j < nz; ++j)
     for (int i = 0; i < nx; ++i) {
       const int a = room_at(i, j);
@@ -299,17 +495,19 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
             flag = 1;
             continue;
           }
-          const double plane = d == 0 ? out.x_lines[std::size_t(side > 0 ? i + 1 : i)]
-                                      : out.z_lines[std::size_t(side > 0 ? j + 1 : j)];
-          const double s0 = d == 0 ? out.z_lines[std::size_t(j)] : out.x_lines[std::size_t(i)];
-          const double s1 = d == 0 ? out.z_lines[std::size_t(j + 1)] : out.x_lines[std::size_t(i + 1)];
+          // The face's two plan corners (a vertical quad).
+          const int fi = d == 0 ? (side > 0 ? i + 1 : i) : i, fj = d == 0 ? j : (side > 0 ? j + 1 : j);
+          const glm::dvec2 c0 = vtx(fi, fj), c1 = d == 0 ? vtx(fi, fj + 1) : vtx(fi + 1, fj);
+          const double plane = d == 0 ? 0.5 * (c0.x + c1.x) : 0.5 * (c0.y + c1.y);
+          const double s0 = d == 0 ? c0.y : c0.x;
+          const double s1 = d == 0 ? c1.y : c1.x;
           const ImportedRoom& ra = out.rooms[std::size_t(a)];
           double coverage = 0.0;
           for (const ImportedOpening& o : out.openings) {
             const bool joins = (o.room_a == a && o.room_b == b) || (o.room_a == b && o.room_b == a);
             if (!joins) continue;
-            coverage += opening_coverage(o, d == 0 ? 0 : 2, plane, s0, s1, ra.measured_floor, ra.measured_ceiling,
-                                         settings.max_wall_thickness);
+            coverage += opening_coverage(o, d == 0 ? 0 : 2, plane, s0, s1, ra.measured_floor,
+                                         ra.measured_ceiling, settings.max_wall_thickness);
           }
           for (ImportedOpening& o : out.openings) {
             const bool joins = (o.room_a == a && o.room_b == b) || (o.room_a == b && o.room_b == a);
@@ -326,12 +524,12 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
     }
   for (const ImportedOpening& o : out.openings)
     if (!o.removes_face)
-      out.warnings.push_back(std::string(o.kind == OpeningKind::doorway ? "doorway" : "exterior opening") +
-                             " of room " + std::to_string(o.room_a) +
-                             (o.room_b >= 0 ? " to room " + std::to_string(o.room_b) : std::string(" to the outside")) +
-                             " (" + fmt(o.span_max - o.span_min) + " x " + fmt(o.head - o.sill) +
-                             " m) covers only " + fmt(100.0 * o.coverage, 0) +
-                             " % of its block face: the face stays a wall");
+      out.warnings.push_back(
+          std::string(o.kind == OpeningKind::doorway ? "doorway" : "exterior opening") + " of room " +
+          std::to_string(o.room_a) +
+          (o.room_b >= 0 ? " to room " + std::to_string(o.room_b) : std::string(" to the outside")) + " (" +
+          fmt(o.span_max - o.span_min) + " x " + fmt(o.head - o.sill) + " m) covers only " +
+          fmt(100.0 * o.coverage, 0) + " % of its block face: the face stays a wall");
 
   // Rooms joined through missing faces share one floor and ceiling (their faces must match).
   std::vector<int> parent(static_cast<std::size_t>(room_count));
@@ -348,25 +546,28 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
       group_ceiling(std::size_t(room_count), std::numeric_limits<double>::lowest());
   for (int r = 0; r < room_count; ++r) {
     const int g = find_root(parent, r);
-    group_floor[std::size_t(g)] = std::min(group_floor[std::size_t(g)], out.rooms[std::size_t(r)].measured_floor);
-    group_ceiling[std::size_t(g)] = std::max(group_ceiling[std::size_t(g)], out.rooms[std::size_t(r)].measured_ceiling);
+    group_floor[std::size_t(g)] =
+        std::min(group_floor[std::size_t(g)], out.rooms[std::size_t(r)].measured_floor);
+    group_ceiling[std::size_t(g)] =
+        std::max(group_ceiling[std::size_t(g)], out.rooms[std::size_t(r)].measured_ceiling);
   }
   for (int r = 0; r < room_count; ++r) {
     ImportedRoom& room = out.rooms[std::size_t(r)];
     const int g = find_root(parent, r);
     room.floor = group_floor[std::size_t(g)];
     room.ceiling = group_ceiling[std::size_t(g)];
-    if (room.floor < room.measured_floor - 0.02 * storey || room.ceiling > room.measured_ceiling + 0.02 * storey)
-      out.warnings.push_back("room " + std::to_string(r) + " (floor " + fmt(room.measured_floor) + ", ceiling " +
-                             fmt(room.measured_ceiling) + " m) shares the floor and ceiling " + fmt(room.floor) +
-                             " / " + fmt(room.ceiling) + " m of the rooms it opens into");
+    if (room.floor < room.measured_floor - 0.02 * storey ||
+        room.ceiling > room.measured_ceiling + 0.02 * storey)
+      out.warnings.push_back("room " + std::to_string(r) + " (floor " + fmt(room.measured_floor) +
+                             ", ceiling " + fmt(room.measured_ceiling) + " m) shares the floor and ceiling " +
+                             fmt(room.floor) + " / " + fmt(room.ceiling) + " m of the rooms it opens into");
   }
 
   // The level: one warped box block per room cell.
   LevelDescription& level = out.level;
   level.name = "imported";
   level.cell_size = storey;
-  const int ci0 = int(std::lround(out.x_lines.front() / storey)), cj0 = int(std::lround(out.z_lines.front() / storey));
+  const int ci0 = int(std::lround(vtx(0, 0).x / storey)), cj0 = int(std::lround(vtx(0, 0).y / storey));
   std::vector<int> block_of(cell_room.size(), -1);
   for (int j = 0; j < nz; ++j)
     for (int i = 0; i < nx; ++i) {
@@ -376,19 +577,21 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
       BlockDescription b;
       b.cell = glm::ivec3(ci0 + i, int(std::lround(room.floor / storey)), cj0 + j);
       b.warped = true;
-      for (int c = 0; c < 8; ++c)
-        b.corners[std::size_t(c)] = glm::dvec3(out.x_lines[std::size_t(i + (c & 1))], (c & 2) ? room.ceiling : room.floor,
-                                               out.z_lines[std::size_t(j + ((c >> 2) & 1))]);
+      for (int c = 0; c < 8; ++c) {
+        const glm::dvec2 v = vtx(i + (c & 1), j + ((c >> 2) & 1));
+        b.corners[std::size_t(c)] = glm::dvec3(v.x, (c & 2) ? room.ceiling : room.floor, v.y);
+      }
       b.faces = kAllFaces;
       const std::size_t here = (std::size_t(j) * std::size_t(nx) + std::size_t(i)) * 2;
       if (open_face[here]) b.faces &= FaceMask(~(1u << kFacePosX));
       if (open_face[here + 1]) b.faces &= FaceMask(~(1u << kFacePosZ));
       const int west = room_at(i - 1, j), south = room_at(i, j - 1);
-      const bool open_west = west >= 0 ? bool(open_face[(std::size_t(j) * std::size_t(nx) + std::size_t(i - 1)) * 2])
-                                       : bool(open_low[here]);
-      const bool open_south = south >= 0
-                                  ? bool(open_face[(std::size_t(j - 1) * std::size_t(nx) + std::size_t(i)) * 2 + 1])
-                                  : bool(open_low[here + 1]);
+      const bool open_west =
+          west >= 0 ? bool(open_face[(std::size_t(j) * std::size_t(nx) + std::size_t(i - 1)) * 2])
+                    : bool(open_low[here]);
+      const bool open_south =
+          south >= 0 ? bool(open_face[(std::size_t(j - 1) * std::size_t(nx) + std::size_t(i)) * 2 + 1])
+                     : bool(open_low[here + 1]);
       if (open_west) b.faces &= FaceMask(~(1u << kFaceNegX));
       if (open_south) b.faces &= FaceMask(~(1u << kFaceNegZ));
       for (glm::dvec3& a : b.albedo) a = glm::dvec3(settings.default_albedo);
@@ -400,8 +603,9 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
     }
   for (int r = 0; r < room_count; ++r)
     if (out.rooms[std::size_t(r)].blocks == 0)
-      out.warnings.push_back("room " + std::to_string(r) + " (" + fmt(out.rooms[std::size_t(r)].area) +
-                             " m^2) is too small for a block of its own; its light comes from its neighbours");
+      out.warnings.push_back(
+          "room " + std::to_string(r) + " (" + fmt(out.rooms[std::size_t(r)].area) +
+          " m^2) is too small for a block of its own; its light comes from its neighbours");
   level.lights.assign(lights.begin(), lights.end());
 
   // Step 5: facing. Air is a room's own plan cell between its floor and ceiling, or an
@@ -417,8 +621,8 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
     if (!plan.wall[s]) return true;
     for (const ImportedOpening& o : out.openings) {
       const double along = o.normal_axis == 0 ? p.z : p.x, across = o.normal_axis == 0 ? p.x : p.z;
-      if (along > o.span_min && along < o.span_max && std::abs(across - o.position) < settings.max_wall_thickness &&
-          p.y > o.sill && p.y < o.head)
+      if (along > o.span_min && along < o.span_max &&
+          std::abs(across - o.position) < settings.max_wall_thickness && p.y > o.sill && p.y < o.head)
         return true;
     }
     return false;
@@ -472,8 +676,9 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
   // Step 6: map every triangle onto the layout; roles and per-face albedo.
   Result<Level> layout = build_level_layout(level, settings.layout_res);
   if (!layout.ok())
-    return Status::error(layout.status().code(), "import_scene: the generated level does not validate (a bug): " +
-                                                     layout.status().message());
+    return Status::error(
+        layout.status().code(),
+        "import_scene: the generated level does not validate (a bug): " + layout.status().message());
   std::vector<glm::dvec3> albedo_sum(level.blocks.size() * kFaceCount, glm::dvec3(0.0));
   std::vector<double> area_sum(level.blocks.size() * kFaceCount, 0.0);
   out.object_role.assign(objects.size(), ObjectRole::structure);
@@ -507,23 +712,22 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
     MeshLightmapInput input{StridedVec3::tight(pos), StridedVec3::tight(nrm), pos.size(), idx};
     std::vector<Piece> pieces;
     double total = 0.0, outside = 0.0, far = 0.0;
-    Result<MeshLightmapStats> stats = map_mesh_lightmap(layout.value(), input, [&](const std::array<MappedCorner, 3>& c) {
-      const glm::dvec3 a(c[0].position), b(c[1].position), d(c[2].position);
-      const double area = 0.5 * glm::length(glm::cross(b - a, d - a));
-      total += area;
-      if (c[0].outside) {
-        outside += area;
-        return;
-      }
-      const LevelBlock& blk = layout->blocks[c[0].block];
-      const int wf = rotate_face(c[0].face, blk.quarter_turns);
-      const glm::dvec3 centre = (a + b + d) / 3.0, lo = blk.corners[0], hi = blk.corners[7];
-      const int axis = wf / 2;
-      const double plane = (wf & 1) ? hi[axis] : lo[axis];
-      const bool is_far = std::abs(centre[axis] - plane) > settings.clutter_distance;
-      if (is_far) far += area;
-      pieces.push_back({c[0].block, wf, area, is_far, c[0].triangle});
-    });
+    Result<MeshLightmapStats> stats =
+        map_mesh_lightmap(layout.value(), input, [&](const std::array<MappedCorner, 3>& c) {
+          const glm::dvec3 a(c[0].position), b(c[1].position), d(c[2].position);
+          const double area = 0.5 * glm::length(glm::cross(b - a, d - a));
+          total += area;
+          if (c[0].outside) {
+            outside += area;
+            return;
+          }
+          const LevelBlock& blk = layout->blocks[c[0].block];
+          const int wf = rotate_face(c[0].face, blk.quarter_turns);
+          const glm::dvec3 centre = (a + b + d) / 3.0;
+          const bool is_far = face_distance(blk.corners, wf, centre) > settings.clutter_distance;
+          if (is_far) far += area;
+          pieces.push_back({c[0].block, wf, area, is_far, c[0].triangle});
+        });
     if (!stats.ok())
       return Status::error(stats.status().code(), object_label(objects, o) + ": " + stats.status().message());
     out.triangles_outside += stats->triangles_outside;
@@ -536,7 +740,8 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::spa
     if (out.object_role[o] != ObjectRole::structure) continue;
     for (const Piece& p : pieces) {
       if (p.far) continue;
-      const glm::dvec3 al = ob.triangle_albedo.size() == 1 ? ob.triangle_albedo[0] : ob.triangle_albedo[p.triangle];
+      const glm::dvec3 al =
+          ob.triangle_albedo.size() == 1 ? ob.triangle_albedo[0] : ob.triangle_albedo[p.triangle];
       const std::size_t slot = std::size_t(p.block) * kFaceCount + std::size_t(p.world_face);
       albedo_sum[slot] += p.area * al;
       area_sum[slot] += p.area;

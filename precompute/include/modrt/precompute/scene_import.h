@@ -54,43 +54,43 @@ namespace modrt::precompute {
 struct ImportObject {
   std::string name;
   std::vector<glm::dvec3> positions;
-  std::vector<std::uint32_t> indices;         // three per triangle
-  std::vector<glm::dvec3> triangle_albedo;    // linear RGB in [0, 1] per triangle, or one for all
+  std::vector<std::uint32_t> indices;       // three per triangle
+  std::vector<glm::dvec3> triangle_albedo;  // linear RGB in [0, 1] per triangle, or one for all
 };
 
 struct ImportSettings {
-  double plan_cell = 0.0;           // plan raster cell (m); 0: largest horizontal extent / 400, in [0.02, 0.25]
-  double min_room_width = 0.7;      // narrower empty regions are not rooms (m)
+  double plan_cell = 0.0;       // plan raster cell (m); 0: largest horizontal extent / 400, in [0.02, 0.25]
+  double min_room_width = 0.7;  // narrower empty regions are not rooms (m)
   double max_wall_thickness = 0.6;  // solid farther than this from every room is no room's (m)
   // Longest over shortest edge of a block: grid lines closer than storey height / this are
-  // merged. 3 keeps a 1 m doorway in a 2.5 m storey a block of its own.
-  double max_block_aspect = 3.0;
+  // merged. 3.5 keeps a 1 m doorway 0.75 m from a corner of a 2.5 m storey a block of its own.
+  double max_block_aspect = 3.5;
   double min_opening_fraction = 0.5;  // an opening covering this much of a face removes the face
   double clutter_distance = 0.3;      // m: geometry farther from its face than this is furniture
   double clutter_fraction = 0.5;      // an object with more of its area that far is clutter
   double default_albedo = 0.7;        // faces no geometry maps onto
   int layout_res = 8;                 // texels per face side for the mapping layout
   std::size_t max_triangles = 20'000'000;
-  int max_plan_side = 4096;           // plan raster cells per side
+  int max_plan_side = 4096;  // plan raster cells per side
 };
 
 enum class OpeningKind { doorway, exterior };
 
 struct ImportedOpening {
   OpeningKind kind = OpeningKind::doorway;
-  int room_a = -1, room_b = -1;  // room_b = -1: to the outside
-  int normal_axis = 0;           // 0: the wall is a plane x = position; 2: z = position
-  double position = 0.0;         // the wall plane (m)
+  int room_a = -1, room_b = -1;           // room_b = -1: to the outside
+  int normal_axis = 0;                    // 0: the wall is a plane x = position; 2: z = position
+  double position = 0.0;                  // the wall plane (m)
   double span_min = 0.0, span_max = 0.0;  // jambs along the wall (m)
   double sill = 0.0, head = 0.0;          // m
-  bool removes_face = false;  // covers enough of its block faces to make them missing
-  double coverage = 0.0;      // the largest fraction of one block face it covers
+  bool removes_face = false;              // covers enough of its block faces to make them missing
+  double coverage = 0.0;                  // the largest fraction of one block face it covers
 };
 
 struct ImportedRoom {
   double floor = 0.0, ceiling = 0.0;  // m, as built (shared across joined rooms)
   double measured_floor = 0.0, measured_ceiling = 0.0;
-  double area = 0.0;  // plan area (m^2), to the wall mid-planes
+  double area = 0.0;              // plan area (m^2), to the wall mid-planes
   glm::dvec2 min{0.0}, max{0.0};  // plan bounds (x, z)
   int blocks = 0;
 };
@@ -118,9 +118,9 @@ struct SceneImport {
   std::vector<double> x_lines, z_lines;  // the block grid
   std::vector<int> block_room;           // room of each level block
   ImportPlan plan;
-  std::vector<ObjectRole> object_role;                  // per input object
-  std::vector<std::vector<std::uint8_t>> flipped;       // per object, per triangle: faces solid
-  std::vector<double> object_far_fraction;              // area fraction beyond clutter_distance
+  std::vector<ObjectRole> object_role;             // per input object
+  std::vector<std::vector<std::uint8_t>> flipped;  // per object, per triangle: faces solid
+  std::vector<double> object_far_fraction;         // area fraction beyond clutter_distance
   std::size_t triangles = 0, triangles_flipped = 0, triangles_outside = 0;
   std::vector<std::string> warnings;
 };
@@ -129,7 +129,8 @@ struct SceneImport {
 // message naming the object and index for bad input (non-finite position, index out of
 // range, albedo outside [0, 1] or of the wrong count), invalid_argument when the scene has
 // no room (nothing enclosed), resource_limit past max_triangles or max_plan_side. Never throws.
-Result<SceneImport> import_scene(std::span<const ImportObject> objects, std::span<const LightDescription> lights,
+Result<SceneImport> import_scene(std::span<const ImportObject> objects,
+                                 std::span<const LightDescription> lights,
                                  const ImportSettings& settings = {});
 
 }  // namespace modrt::precompute
