@@ -50,6 +50,8 @@ struct Mesh {
   // vertex, in [0, 1]^2) instead of being mapped onto the proxies.
   int clutter = -1;
   std::vector<glm::vec2> lightmap_uv;
+  // Where it came from in a glTF file (node and primitive), -1 for meshes made by the demo.
+  int source_node = -1, source_primitive = -1;
 };
 
 // A point or spot light moves along a closed path of key positions (Catmull-Rom, one loop

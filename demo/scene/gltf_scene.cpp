@@ -35,6 +35,7 @@
 #include "modrt/precompute/level_json.h"
 #include "modrt/reference_runtime.h"
 #include "proxy_mapping.h"
+#include "scene_import_glue.h"
 
 namespace modrt::demo {
 namespace fs = std::filesystem;
@@ -1157,6 +1158,8 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic,
         }
       }
     }
+    mesh.source_node = node_index;
+    mesh.source_primitive = int(pi);
     scene_.meshes.push_back(std::move(mesh));
   }
 }
@@ -1702,6 +1705,15 @@ DemoScene Loader::load(const std::string& path) {
                           level_file);
   } else if (!block_nodes.empty()) {
     scene_.level = level_from_extras(path, block_nodes);
+  }
+  if (scene_.level.blocks.empty() && level_file.empty() && block_nodes.empty() && options_.import_unmarked) {
+    // No modrt markup: the proxy blocks come from the scene's own geometry (docs/import.md).
+    Result<precompute::SceneImport> imported = import_scene_level(scene_, options_.import_settings);
+    if (!imported.ok())
+      fail(imported.status().code(), "no proxy blocks in the file, and importing them from its geometry failed: " +
+                                         imported.status().message());
+    for (const std::string& w : imported->warnings) warnings_.push_back("import: " + w);
+    if (options_.import_result) *options_.import_result = std::move(imported).value();
   }
   if (scene_.level.blocks.empty())
     fail(ErrorCode::format_error,

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "demo_scene.h"
+#include "modrt/precompute/scene_import.h"
 #include "modrt/status.h"
 #include "proxy_mapping.h"
 
@@ -50,6 +51,12 @@ struct GltfSceneOptions {
   // default light, no camera, orthographic camera, skins, ignored extensions, tinygltf's own
   // warnings) are appended here when set.
   std::vector<std::string>* warnings = nullptr;
+  // A file without proxy blocks (no level file, no sidecar, no marked nodes) gets them from its
+  // own geometry (scene_import_glue.h, docs/import.md); false: such a file is refused.
+  bool import_unmarked = true;
+  precompute::ImportSettings import_settings;
+  // When set and the blocks were imported, what the importer decided (rooms, openings, roles).
+  precompute::SceneImport* import_result = nullptr;
 };
 
 // Reads a glTF 2.0 scene. Errors name the file and the problem: missing or unreadable file,
