@@ -189,8 +189,8 @@ Status add_lightmap_coordinates(tinygltf::Model& model, const demo::DemoScene& s
   return Status::success();
 }
 
-// The plan seen from above: rooms in colours, walls dark, outside white, block outlines,
-// missing faces in green.
+// The plan seen from above: rooms in colours, walls dark, outside white; block faces in blue,
+// openings (missing faces through a wall) thick green, faces joining blocks of a room thin.
 std::vector<std::uint8_t> plan_picture(const precompute::SceneImport& imp, int& w, int& h) {
   const precompute::ImportPlan& p = imp.plan;
   const int scale = std::max(1, 1200 / std::max(p.width, p.height));
@@ -229,17 +229,29 @@ std::vector<std::uint8_t> plan_picture(const precompute::SceneImport& imp, int& 
         for (int dx = -thick; dx <= thick; ++dx) put(int(q.x) + dx, int(q.y) + dy, c);
     }
   };
-  for (const BlockDescription& b : imp.level.blocks) {
-    const auto& c = b.corners;
-    const int side_corners[4][2] = {{0, 4}, {1, 5}, {0, 1}, {4, 5}};  // -X, +X, -Z, +Z at the floor
-    const int faces[4] = {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ};
-    for (int e = 0; e < 4; ++e) {
-      const glm::dvec3 a = c[std::size_t(side_corners[e][0])], d = c[std::size_t(side_corners[e][1])];
-      const bool present = face_present(b.faces, faces[e]);
-      line(to_px(a.x, a.z), to_px(d.x, d.z),
-           present ? glm::vec3(0.1f, 0.1f, 0.6f) : glm::vec3(0.1f, 0.75f, 0.2f), present ? 1 : 0);
+  // Present faces first, then the missing ones over them (a doorway shows on its wall).
+  for (int pass = 0; pass < 2; ++pass)
+    for (const BlockDescription& b : imp.level.blocks) {
+      const auto& c = b.corners;
+      const int side_corners[4][2] = {{0, 4}, {1, 5}, {0, 1}, {4, 5}};  // -X, +X, -Z, +Z at the floor
+      const int faces[4] = {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ};
+      for (int e = 0; e < 4; ++e) {
+        const bool present = face_present(b.faces, faces[e]);
+        if (present != (pass == 0)) continue;
+        const glm::dvec3 a = c[std::size_t(side_corners[e][0])], d = c[std::size_t(side_corners[e][1])];
+        // A missing face through a wall (its middle on a wall cell) is an opening.
+        const glm::dvec2 mid = glm::floor(to_px(0.5 * (a.x + d.x), 0.5 * (a.z + d.z)) / double(scale));
+        const bool opening = !present && mid.x >= 0 && mid.y >= 0 && mid.x < p.width && mid.y < p.height &&
+                             p.wall[std::size_t(mid.y) * std::size_t(p.width) + std::size_t(mid.x)];
+        line(to_px(a.x, a.z), to_px(d.x, d.z),
+             present   ? glm::vec3(0.1f, 0.1f, 0.6f)
+             : opening ? glm::vec3(0.0f, 0.75f, 0.1f)
+                       : glm::vec3(0.55f, 0.8f, 0.55f),
+             present   ? 1
+             : opening ? 3
+                       : 0);
+      }
     }
-  }
   return rgb;
 }
 
@@ -260,7 +272,8 @@ Status write_report(const std::string& dir, const std::string& input, const prec
   std::string md = "# modrt-import report: " + input + "\n\n";
   md += "![plan](plan.png)\n\nPlan cut at y = " + fixed(imp.plan.cut_height) + " m, raster cell " +
         fixed(imp.plan.cell, 3) +
-        " m (rooms in colour, walls dark; block faces blue, missing faces green).\n\n";
+        " m (rooms in colour, walls dark; block faces blue, openings thick green, faces joining blocks of "
+        "one room thin green).\n\n";
   md += "- import time: " + fixed(seconds * 1000.0, 0) + " ms\n- rooms: " + std::to_string(imp.rooms.size()) +
         "\n- openings: " + std::to_string(imp.openings.size()) +
         "\n- blocks: " + std::to_string(imp.level.blocks.size());

@@ -34,6 +34,10 @@ packages=(
   # GL ES / EGL / OSMesa (software rendering, headless)
   libegl-dev libgles-dev libosmesa6-dev libegl-mesa0 libgl1-mesa-dri
 )
+# Node.js runs the Khronos glTF validator in the tests (import_scenes); Debian's when none is on PATH.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 cross_packages=(g++-aarch64-linux-gnu qemu-user)
 if ((with_cross)); then
   packages+=("${cross_packages[@]}")
@@ -49,6 +53,19 @@ if ! command -v dpkg-query >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>
   echo "install-deps: install these packages by other means: ${packages[*]}" >&2
   exit 1
 fi
+
+# The Khronos glTF validator (npm package, pinned), into the user's cache folder; the tests
+# find it there (tests/import_scenes.sh). Run at exit, after any apt-get.
+install_gltf_validator() {
+  local prefix="${XDG_CACHE_HOME:-$HOME/.cache}/modrt/npm"
+  if [[ -f "$prefix/node_modules/gltf-validator/package.json" ]]; then return 0; fi
+  command -v npm >/dev/null 2>&1 || return 0
+  echo "install-deps: installing the Khronos glTF validator into $prefix"
+  mkdir -p "$prefix"
+  npm install --no-audit --no-fund --prefix "$prefix" gltf-validator@2.0.0-dev.3.10 >/dev/null ||
+    echo "install-deps: npm could not install gltf-validator (the import_scenes test needs it)" >&2
+}
+trap 'status=$?; if ((status == 0)); then install_gltf_validator; fi' EXIT
 
 missing=()
 for pkg in "${packages[@]}"; do
