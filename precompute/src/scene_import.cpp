@@ -193,12 +193,23 @@ std::vector<GridLine> grid_lines(std::vector<Line> candidates, double min_gap, d
       lines.push_back({{c}, -1, -1, 0.0, c.at});
       continue;
     }
-    if (!bend || near.size() > 1) continue;
-    GridLine& g = lines[near[0]];
-    const bool overlaps = std::any_of(g.anchors.begin(), g.anchors.end(), [&](const Line& a) {
-      return c.e0 <= a.e1 + 2.0 * tolerance && a.e0 <= c.e1 + 2.0 * tolerance;
-    });
-    if (overlaps) continue;
+    if (!bend) continue;
+    // The nearest line whose anchors are needed elsewhere takes it (the bend is checked below).
+    std::size_t pick = lines.size();
+    double pick_distance = std::numeric_limits<double>::max();
+    for (std::size_t i : near) {
+      const bool overlaps = std::any_of(lines[i].anchors.begin(), lines[i].anchors.end(), [&](const Line& a) {
+        return c.e0 <= a.e1 + 2.0 * tolerance && a.e0 <= c.e1 + 2.0 * tolerance;
+      });
+      const double d = std::abs(anchored_position(lines[i], mid, tolerance) - c.at);
+      if (!overlaps && d < pick_distance) {
+        pick = i;
+        pick_distance = d;
+      }
+    }
+    if (pick == lines.size()) continue;
+    near = {pick};
+    GridLine& g = lines[pick];
     GridLine bent = g;
     bent.anchors.push_back(c);
     double sum = 0.0;
@@ -264,9 +275,9 @@ double opening_coverage(const ImportedOpening& o, int face_axis, double plane, d
   return (w * h) / ((s1 - s0) * (y1 - y0));
 }
 
-// Whether the object is a closed surface (every edge, vertices welded by position, borders
-// exactly two triangles, once in each direction), and then its signed volume: positive when
-// its triangles face out of it.
+// Whether the object is closed (vertices welded by position, every edge used as often in one
+// direction as in the other), and then its signed volume: positive when its triangles face
+// out of it.
 bool closed_volume(const ImportObject& ob, double& volume) {
   std::map<std::array<double, 3>, std::uint32_t> weld;
   std::vector<std::uint32_t> id(ob.positions.size());
@@ -286,9 +297,11 @@ bool closed_volume(const ImportObject& ob, double& volume) {
         6.0;
   }
   if (edges.empty()) return false;
+  // Every edge crossed as often in each direction: a closed surface, or several (furniture
+  // made of intersecting closed boxes, whose edges may coincide), so the volume is defined.
   for (const auto& [e, n] : edges) {
     const auto back = edges.find({e.second, e.first});
-    if (n != 1 || back == edges.end() || back->second != 1) return false;
+    if (back == edges.end() || back->second != n) return false;
   }
   return true;
 }
