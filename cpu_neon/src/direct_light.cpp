@@ -90,7 +90,7 @@ int hull_from(const glm::dvec3& eye, const glm::dvec3& axis, const glm::dvec3* p
 // One branch-free loop for every light type (direct_light.h, Prepared), so that it vectorises;
 // the scalar twin is the same source with vectorisation off, the SIMD variants the same source
 // compiled for their ISA. -ffp-contract=off (CMakeLists.txt) and IEEE sqrt/div make lanes round
-// like the scalar code.
+// like the scalar code. The spot factor s is light_policy.h's spot_factor, in float.
 #define MODRT_DIRECT_LIGHT_LOOP                                                                       \
   do {                                                                                                \
     for (std::size_t i = 0; i < n; ++i) {                                                             \
@@ -213,7 +213,7 @@ Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, P
                          fmt(light.direction) + " has length " + fmt(length) + " (must be > 1e-6)");
     dir /= length;
   }
-  double cos_outer = -2.0, inv_range = 1.0;
+  SpotFalloff cone;  // light_policy.h; the defaults give s = 1 (point, directional)
   if (light.type == LightType::spot) {
     const double inner = light.inner_angle, outer = light.outer_angle;
     if (!(outer > 0.0 && outer <= double(float(kPi))))  // float(pi) rounds up
@@ -221,8 +221,7 @@ Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, P
     if (!(inner >= 0.0 && inner <= outer))
       return light_error(index, "inner_angle",
                          fmt(inner) + " must be in [0, outer_angle = " + fmt(outer) + "]");
-    cos_outer = std::cos(outer);
-    inv_range = 1.0 / std::max(std::cos(inner) - cos_outer, 1e-4);
+    cone = spot_falloff(inner, outer);
   }
   const double r2 = positioned ? light_falloff_d2(0.0, double(light.radius), 0.0) : 1.0;
   const double c_max = std::max({1.0, double(light.color.x), double(light.color.y), double(light.color.z)});
@@ -241,8 +240,8 @@ Status CpuDirectLight::prepare_light(std::size_t index, const CpuLight& light, P
   }
   if (light.type == LightType::spot)
     p.axis[0] = float(dir.x), p.axis[1] = float(dir.y), p.axis[2] = float(dir.z);
-  p.cos_outer = float(cos_outer);
-  p.inv_range = float(inv_range);
+  p.cos_outer = float(cone.cos_outer);
+  p.inv_range = float(cone.inv_range);
   p.k = float(double(light.intensity) / kPi);
   p.r2 = float(r2);
   p.color[0] = light.color.x, p.color[1] = light.color.y, p.color[2] = light.color.z;
@@ -719,12 +718,12 @@ void CpuDirectLight::update_bounds(std::size_t l) {
   const double margin = margin_ + kPlaneMargin * std::max({std::abs(L.x), std::abs(L.y), std::abs(L.z)});
   const bool spot = light.type == LightType::spot;
   glm::dvec3 axis(0.0);
-  double outer = kPi, cos_outer = -1.0, inv_range = 1.0;
+  double outer = kPi;
+  SpotFalloff cone;
   if (spot) {
     axis = glm::normalize(glm::dvec3(light.direction));
     outer = light.outer_angle;
-    cos_outer = std::cos(outer);
-    inv_range = 1.0 / std::max(std::cos(double(light.inner_angle)) - cos_outer, 1e-4);
+    cone = spot_falloff(double(light.inner_angle), outer);
   }
   const double threshold = double(options_.influence_epsilon) / (kPi * h_ * h_);
   // The walk also decides shadows (evaluate_block), so it runs with influence off too.
@@ -746,8 +745,7 @@ void CpuDirectLight::update_bounds(std::size_t l) {
           const double alpha = std::asin(std::min(1.0, f.radius / dist));
           const double psi = phi - alpha - kAngleMargin;  // least angle to the axis over the sphere
           if (psi > outer) continue;
-          const double t = std::clamp((std::cos(std::max(psi, 0.0)) - cos_outer) * inv_range, 0.0, 1.0);
-          s = t * t * (3.0 - 2.0 * t);
+          s = spot_factor(cone, std::cos(std::max(psi, 0.0)));
           // The kernel ramps from a float cos_outer: a sphere just inside the cone keeps s > 0.
           s = std::max(s, 1e-12);
         }

@@ -25,16 +25,20 @@ inline bool traceable_ray(const glm::dvec3& origin, const glm::dvec3& dir, doubl
 }
 
 // Closest hit along origin + t dir, t in (t_near, inf); geomID is RTC_INVALID_GEOMETRY_ID
-// on a miss (and for a ray that cannot be traced).
+// on a miss (and for a ray that cannot be traced). `context`, when given, is the initialised
+// context the filter functions receive (a caller's extension of RTCIntersectContext).
 inline RTCRayHit embree_intersect(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& dir,
-                                  double t_near) {
+                                  double t_near, RTCIntersectContext* context = nullptr) {
   RTCRayHit rh{};
   rh.ray.tfar = 1e30f;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   if (!traceable_ray(origin, dir, t_near, 1e30)) return rh;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  RTCIntersectContext local;
+  if (!context) {
+    rtcInitIntersectContext(&local);
+    context = &local;
+  }
   rh.ray.org_x = float(origin.x);
   rh.ray.org_y = float(origin.y);
   rh.ray.org_z = float(origin.z);
@@ -43,19 +47,22 @@ inline RTCRayHit embree_intersect(RTCScene scene, const glm::dvec3& origin, cons
   rh.ray.dir_z = float(dir.z);
   rh.ray.tnear = float(t_near);
   rh.ray.mask = 0xFFFFFFFFu;
-  rtcIntersect1(scene, &context, &rh);
+  rtcIntersect1(scene, context, &rh);
   return rh;
 }
 
 // True when anything blocks the open segment origin -> target (and for a segment that cannot be
-// traced).
-inline bool embree_occluded(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& target,
-                            double t_near) {
+// traced); t_near is a fraction of the segment. `context` as for embree_intersect.
+inline bool embree_occluded(RTCScene scene, const glm::dvec3& origin, const glm::dvec3& target, double t_near,
+                            RTCIntersectContext* context = nullptr) {
   const glm::dvec3 d = target - origin;
   constexpr double kTFar = 1.0 - 1e-6;  // stop just short of the target point itself
   if (!traceable(target) || !traceable_ray(origin, d, t_near, kTFar)) return true;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  RTCIntersectContext local;
+  if (!context) {
+    rtcInitIntersectContext(&local);
+    context = &local;
+  }
   RTCRay ray{};
   ray.org_x = float(origin.x);
   ray.org_y = float(origin.y);
@@ -66,7 +73,7 @@ inline bool embree_occluded(RTCScene scene, const glm::dvec3& origin, const glm:
   ray.tnear = float(t_near);
   ray.tfar = float(kTFar);
   ray.mask = 0xFFFFFFFFu;
-  rtcOccluded1(scene, &context, &ray);
+  rtcOccluded1(scene, context, &ray);
   return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }
 

@@ -14,6 +14,7 @@
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/sampling.h"
+#include "path_kernel.h"
 
 namespace modrt::precompute {
 
@@ -66,49 +67,29 @@ std::vector<glm::dvec3> level_light_centres(const LevelDescription& description)
 
 namespace {
 
-// A surface point found by a ray: its hit record, position and the face normal (sign as
-// the geometry gives it; callers orient it).
-struct SurfacePoint {
-  LevelHit hit;
-  glm::dvec3 position, normal;
-};
+// The level's walls (and clutter) as the estimator's geometry (path_kernel.h).
+struct LevelPathGeometry {
+  using Hit = LevelHit;
+  using Vertex = detail::PathVertex<LevelHit>;
+  const LevelScene& scene;
+  const DirectRadiance& direct_radiance;
+  const SurfaceAlbedo& surface_albedo;
 
-// Whether `source` sees y: the same test decides which points a light-vertex ray can
-// produce and, for path vertices, whether that technique could have produced them, so the
-// MIS weights are consistent. The target is pulled back a little from the surface so the
-// float ray does not hit the surface it ends on.
-bool sees(const LevelScene& scene, const glm::dvec3& source, const glm::dvec3& y) {
-  return !scene.occluded(source, source + (y - source) * (1.0 - 1e-4));
-}
-
-// Area density (per unit area at y) with which one light-vertex sample produces y: the
-// mean over sources of cos_y / (4 pi d^2), for the sources that see y. `ny` is y's normal
-// (either sign).
-double light_vertex_density(const LevelScene& scene, std::span<const glm::dvec3> sources, const glm::dvec3& y,
-                            const glm::dvec3& ny) {
-  double density = 0.0;
-  for (const glm::dvec3& c : sources) {
-    const glm::dvec3 w = c - y;
-    const double d2 = glm::dot(w, w);
-    if (d2 <= 1e-300) continue;
-    const double cos_y = std::abs(glm::dot(ny, w)) / std::sqrt(d2);
-    if (cos_y <= 0.0 || !sees(scene, c, y)) continue;
-    density += cos_y / (4.0 * std::numbers::pi * d2);
+  bool trace(const Vertex& from, const glm::dvec3& dir, Vertex& to) const {
+    to.hit = scene.intersect(from.position, dir);
+    if (to.hit.block < 0) return false;
+    to.position = from.position + to.hit.t * dir;
+    to.normal = scene.hit_normal(to.hit);
+    return true;
   }
-  return density / double(std::max<std::size_t>(sources.size(), 1));
-}
-
-// Area density with which the cosine-weighted direction from (x, nx) first hits y:
-// cos_x cos_y / (pi d^2).
-double cosine_density(const glm::dvec3& x, const glm::dvec3& nx, const glm::dvec3& y, const glm::dvec3& ny) {
-  const glm::dvec3 w = y - x;
-  const double d2 = glm::dot(w, w);
-  if (d2 <= 1e-300) return 0.0;
-  const double d = std::sqrt(d2);
-  const double cos_x = glm::dot(nx, w) / d;
-  if (cos_x <= 0.0) return 0.0;
-  return cos_x * std::abs(glm::dot(ny, w)) / d / (std::numbers::pi * d2);
-}
+  // The target is pulled back a little from the surface so the float ray does not hit the
+  // surface it ends on.
+  bool sees(const Vertex& from, const Vertex& to) const {
+    return !scene.occluded(from.position, from.position + (to.position - from.position) * (1.0 - 1e-4));
+  }
+  glm::dvec3 direct(const Vertex& y) const { return direct_radiance(y.hit, y.position, y.normal); }
+  glm::dvec3 albedo(const Vertex& y) const { return surface_albedo(y.hit); }
+};
 
 }  // namespace
 
@@ -131,85 +112,17 @@ Status validate_path_tracer_settings(const PathTracerSettings& s) {
 IndirectEstimate trace_indirect(const LevelScene& scene, std::span<const glm::dvec3> positions,
                                 std::span<const glm::dvec3> normals, const DirectRadiance& direct,
                                 const SurfaceAlbedo& albedo, const PathTracerSettings& settings) {
-  const std::size_t count = positions.size();
-  IndirectEstimate out;
-  out.value.assign(3 * count, 0.0f);
-  out.standard_error.assign(3 * count, 0.0f);
-  const std::span<const glm::dvec3> sources = settings.light_vertex_sources;
   if (Status s = validate_path_tracer_settings(settings); !s.ok()) throw std::invalid_argument(s.message());
-  const int paths = settings.paths;
-  auto surface_point = [&](const glm::dvec3& origin, const glm::dvec3& dir) {
-    SurfacePoint p;
-    p.hit = scene.intersect(origin, dir);
-    if (p.hit.block < 0) return p;
-    p.position = origin + p.hit.t * dir;
-    p.normal = scene.hit_normal(p.hit);
-    return p;
-  };
-  // MIS weight of a point y seen from (x, nx), for either technique (balance heuristic,
-  // one sample each): f / (p_cos + p_light) = radiance * p_cos / (p_cos + p_light).
-  auto cosine_weight = [&](const glm::dvec3& x, const glm::dvec3& nx, const SurfacePoint& y) {
-    if (sources.empty()) return 1.0;
-    const double pc = cosine_density(x, nx, y.position, y.normal);
-    const double pl = light_vertex_density(scene, sources, y.position, y.normal);
-    return pc + pl > 0.0 ? pc / (pc + pl) : 1.0;
-  };
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, count, 4), [&](const tbb::blocked_range<std::size_t>& range) {
-        std::vector<glm::dvec2> strata, light_strata;
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          Rng rng(settings.seed, i);
-          stratified_square(paths, rng, strata);
-          if (!sources.empty()) stratified_square(paths, rng, light_strata);
-          glm::dvec3 sum(0.0), sum2(0.0);
-          for (int p = 0; p < paths; ++p) {
-            // One path: the radiance arriving at point i along a cosine-distributed direction.
-            glm::dvec3 x = positions[i], n = normals[i], throughput(1.0), radiance(0.0);
-            glm::dvec2 u = strata[std::size_t(p)];
-            for (int segment = 0; segment < settings.bounces; ++segment) {
-              if (!sources.empty()) {
-                // Light-vertex sample: y = first hit of a ray from a source, joined to x. The
-                // source must light the side of y that faces x.
-                const std::size_t source =
-                    std::min(sources.size() - 1, std::size_t(rng.next_double() * double(sources.size())));
-                const glm::dvec2 s = segment == 0 ? light_strata[std::size_t(p)] : rng.next_dvec2();
-                const glm::dvec3& c = sources[source];
-                SurfacePoint y = surface_point(c, uniform_sphere(s));
-                if (y.hit.block >= 0 && sees(scene, c, y.position)) {
-                  if (glm::dot(y.normal, x - y.position) < 0.0) y.normal = -y.normal;
-                  if (glm::dot(y.normal, c - y.position) > 0.0 && glm::dot(n, y.position - x) > 0.0 &&
-                      sees(scene, x, y.position))
-                    radiance += cosine_weight(x, n, y) * throughput * direct(y.hit, y.position, y.normal);
-                }
-              }
-              glm::dvec3 t, b;
-              tangent_frame(n, t, b);
-              const glm::dvec3 dir = to_world(cosine_hemisphere(u), t, b, n);
-              SurfacePoint y = surface_point(x, dir);
-              if (y.hit.block < 0) break;  // left the level
-              if (glm::dot(y.normal, dir) > 0.0) y.normal = -y.normal;
-              // Cosine-weighted sampling: the estimator of E/pi is the radiance itself (times
-              // its MIS weight when light vertices share the estimate).
-              radiance += cosine_weight(x, n, y) * throughput * direct(y.hit, y.position, y.normal);
-              throughput *= albedo(y.hit);
-              if (throughput.x + throughput.y + throughput.z <= 0.0) break;
-              x = y.position;
-              n = y.normal;
-              u = {rng.next_double(), rng.next_double()};
-            }
-            sum += radiance;
-            sum2 += radiance * radiance;
-          }
-          const double N = paths;
-          for (int c = 0; c < 3; ++c) {
-            const double mean = sum[c] / N;
-            const double var = std::max(0.0, sum2[c] / N - mean * mean) * N / std::max(1.0, N - 1.0);
-            out.value[3 * i + std::size_t(c)] = float(mean);
-            out.standard_error[3 * i + std::size_t(c)] = float(std::sqrt(var / N));
-          }
-        }
-      });
-  return out;
+  const LevelPathGeometry geometry{scene, direct, albedo};
+  return detail::trace_paths(
+      geometry, positions.size(),
+      [&](std::size_t i) {
+        detail::PathVertex<LevelHit> v;
+        v.position = positions[i];
+        v.normal = normals[i];
+        return v;
+      },
+      settings);
 }
 
 CameraHits camera_hits(const LevelScene& scene, const glm::dvec3& eye, const glm::dvec3& target,
@@ -221,17 +134,11 @@ CameraHits camera_hits(const LevelScene& scene, const glm::dvec3& eye, const glm
   cam.hit.resize(count);
   cam.position.resize(count);
   cam.normal.resize(count);
-  const glm::dvec3 forward = glm::normalize(target - eye);
-  const glm::dvec3 right = glm::normalize(glm::cross(forward, up));
-  const glm::dvec3 true_up = glm::cross(right, forward);
-  const double half = std::tan(vertical_fov_degrees * std::numbers::pi / 360.0);
-  const double aspect = double(width) / double(height);
+  const detail::PinholeCamera camera(eye, target, up, vertical_fov_degrees, width, height);
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     for (int py = rows.begin(); py != rows.end(); ++py)
       for (int px = 0; px < width; ++px) {
-        const double sx = (2.0 * (px + 0.5) / width - 1.0) * half * aspect;
-        const double sy = (1.0 - 2.0 * (py + 0.5) / height) * half;
-        const glm::dvec3 dir = glm::normalize(forward + sx * right + sy * true_up);
+        const glm::dvec3 dir = camera.direction(px, py);
         const std::size_t k = std::size_t(py) * std::size_t(width) + std::size_t(px);
         cam.hit[k] = scene.intersect(eye, dir);
         if (cam.hit[k].block < 0) continue;

@@ -58,6 +58,29 @@ inline bool light_brightness_allowed(double intensity, const glm::dvec3& color) 
   return intensity >= 0.0 && intensity * std::max({1.0, color.x, color.y, color.z}) <= kMaxLightIntensity;
 }
 
+// ---- spot cones (glTF KHR_lights_punctual) ----
+// A spot light is the point model times s(cos a), a the angle between the spot's axis and the
+// direction from the light to the lit point: s is smoothstep from cos(outer) (0) to cos(inner)
+// (1), t = (cos a - cos outer) / max(cos inner - cos outer, 1e-4) clamped to [0, 1],
+// s = t^2 (3 - 2t); inner and outer are half-angles in radians, 0 <= inner <= outer <= pi.
+// The CPU evaluator's influence bounds and the path tracers use these functions; its SIMD
+// kernel (cpu_neon direct_light.cpp) and the GLSL pass (gles light.glsl) are their float twins.
+struct SpotFalloff {
+  double cos_outer = -2.0;  // below every cosine: s = 1 everywhere (a point light)
+  double inv_range = 1.0;   // 1 / max(cos inner - cos outer, 1e-4)
+};
+
+inline SpotFalloff spot_falloff(double inner_angle, double outer_angle) {
+  const double cos_outer = std::cos(outer_angle);
+  return {cos_outer, 1.0 / std::max(std::cos(inner_angle) - cos_outer, 1e-4)};
+}
+
+// s(cos a) of a spot cone.
+inline double spot_factor(const SpotFalloff& spot, double cos_angle) {
+  const double t = std::clamp((cos_angle - spot.cos_outer) * spot.inv_range, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+
 // ---- the point-light singularity (issue 18, item 7) ----
 // A texel does not record the irradiance at its centre but the mean over its footprint; model
 // the footprint as a disc of the texel's area A (radius rho, A = pi rho^2). A point light of
