@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // modrt-demo: the offscreen demo (README's main command). Renders the built-in default scene
-// (scene/default_scene.h) with OpenGL ES 3 through EGL (or OSMesa): a point light moving
-// through a warped 11-block maze, its shadow cube map giving direct light to the camera image
+// (scene/default_scene.h) or a glTF scene with OpenGL ES 3 through EGL (or OSMesa): a point light
+// moving through a warped 11-block maze (a glTF scene's point and spot lights, up to four, with
+// their animations), a shadow cube map per light giving direct light to the camera image
 // and to the MRT proxy samples (ld), indirect light from the lightmaps the chosen backend
 // computes (GLES passes or the SIMD CPU runtime), vector irradiance on normal-mapped
 // surfaces, a dynamic sphere lit by the probe volume. Writes PNG (tone-mapped) and EXR
@@ -92,6 +93,12 @@ int main(int argc, char** argv) {
   // The built-in scene has its own level: --level alone would be silently ignored.
   app.add_option("--level", level_file, "With --scene: the level JSON giving the proxy blocks")
       ->needs(scene_option);
+  float animation_fps = GltfSceneOptions{}.animation_fps;
+  app.add_option("--animation-fps", animation_fps,
+                 "With --scene: demo frames per second of the glTF animations (key time t is frame t x this)")
+      ->check(FiniteRange(1e-3, 1e6))
+      ->needs(scene_option)
+      ->capture_default_str();
   app.add_flag("!--no-exr", exr, "Do not write the linear EXR files");
   int drt_rays = DemoRunOptions{}.drt_rays;
   app.add_option("--drt-rays", drt_rays, "Rays per scene sample and clutter texel of the DRT operator build")
@@ -153,6 +160,7 @@ int main(int argc, char** argv) {
   } else {
     GltfSceneOptions gltf;
     gltf.level_path = level_file;
+    gltf.animation_fps = animation_fps;
     gltf.warnings = &warnings;
     scene = load_gltf_scene(scene_file, gltf);
   }
@@ -289,7 +297,8 @@ int main(int argc, char** argv) {
   const bool gles_backend = options.backend == DemoBackend::gles;
   std::printf("per-stage time per frame (mean of %d frames, ms; wall clock, glFinish after each stage):\n",
               frames);
-  std::printf("  shadows (cube shadow map, 6 faces)        %8.3f\n", total.shadows / n);
+  std::printf("  shadows (%zu cube shadow map%s, 6 faces each) %8.3f\n", scene->lights.size(),
+              scene->lights.size() == 1 ? "" : "s", total.shadows / n);
   std::printf("  direct (ld at the proxy samples, %s)     %8.3f\n",
               options.direct == DemoDirect::cpu ? "CPU evaluator"
               : gles_backend                    ? "GL pass, stays on the GPU"

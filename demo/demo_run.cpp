@@ -2,6 +2,7 @@
 #include "demo_run.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -40,6 +41,43 @@ glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t) {
                  (-p0 + 3.0f * p1 - 3.0f * p2 + p3) * u * u * u);
 }
 
+glm::vec3 track_point(const KeyTrack& track, double frame) {
+  const std::vector<float>& times = track.times;
+  const bool cubic = track.interpolation == KeyTrack::Interpolation::cubic;
+  const std::size_t per_key = cubic ? 3 : 1;
+  if (times.empty() || track.values.size() != per_key * times.size()) return glm::vec3(0.0f);
+  const auto value = [&](std::size_t k) { return track.values[per_key * k + (cubic ? 1 : 0)]; };
+  double t = frame;
+  if (track.period > 0.0f && std::isfinite(track.period))
+    t -= std::floor(t / double(track.period)) * double(track.period);
+  if (t <= double(times.front())) return value(0);
+  if (t >= double(times.back())) return value(times.size() - 1);
+  const std::size_t k =
+      std::size_t(std::upper_bound(times.begin(), times.end(), float(t)) - times.begin()) - 1;
+  if (k + 1 >= times.size()) return value(times.size() - 1);  // t rounds to the last key in float
+  const double dt = double(times[k + 1]) - double(times[k]);
+  const float u = float(std::clamp((t - double(times[k])) / dt, 0.0, 1.0));
+  switch (track.interpolation) {
+    case KeyTrack::Interpolation::step: return value(k);
+    case KeyTrack::Interpolation::linear: return glm::mix(value(k), value(k + 1), u);
+    case KeyTrack::Interpolation::cubic: break;
+  }
+  const float u2 = u * u, u3 = u2 * u;
+  const glm::vec3 out_tangent = track.values[3 * k + 2], in_tangent = track.values[3 * (k + 1)];
+  return (2.0f * u3 - 3.0f * u2 + 1.0f) * value(k) + float(dt) * (u3 - 2.0f * u2 + u) * out_tangent +
+         (-2.0f * u3 + 3.0f * u2) * value(k + 1) + float(dt) * (u3 - u2) * in_tangent;
+}
+
+glm::vec3 light_position(const DemoLight& light, int frame) {
+  if (!light.track.times.empty()) return track_point(light.track, double(frame));
+  return path_point(light.path, double(frame) / double(std::max(light.period, 1)));
+}
+
+glm::vec3 dynamic_offset(const DemoScene& scene, int frame) {
+  if (!scene.dynamic_track.times.empty()) return track_point(scene.dynamic_track, double(frame));
+  return path_point(scene.dynamic_path, double(frame) / double(std::max(scene.dynamic_period, 1)));
+}
+
 DemoRun::~DemoRun() = default;
 
 std::uint32_t DemoRun::frame_steps() const {
@@ -58,6 +96,12 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
         ErrorCode::invalid_argument,
         "demo: the scene has no light (load_gltf_scene adds a default one; a scene built in code "
         "must have one)");
+  if (scene.lights.size() > kMaxDemoLights)
+    return Status::error(ErrorCode::invalid_argument,
+                         "demo: the scene has " + std::to_string(scene.lights.size()) +
+                             " lights; the demo renders at most " + std::to_string(kMaxDemoLights) +
+                             " (kMaxDemoLights, a shadow cube map each; load_gltf_scene keeps the first " +
+                             std::to_string(kMaxDemoLights) + " and names the others in a warning)");
   std::unique_ptr<DemoRun> run(new DemoRun());
   run->scene_ = &scene;
   run->dict_ = &dict;
@@ -182,7 +226,8 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
 // cone of lighting.glsl applied per texel. The renderer draws the clutter's direct light
 // itself, as for every mesh, so the clutter lightmap gets none (clutter_direct empty).
 std::span<const float> DemoRun::ld() {
-  if (gpu_direct_ && backend_->kind() == BackendKind::gles && !gpu_direct_->read_ld(ld_).ok())
+  if (gpu_direct_ && backend_->kind() == BackendKind::gles &&
+      !(scene_->lights.size() > 1 ? renderer_->read_summed_ld(ld_) : gpu_direct_->read_ld(ld_)).ok())
     std::fill(ld_.begin(), ld_.end(), 0.0f);  // a GL error: nothing to show
   return ld_;
 }
@@ -196,32 +241,37 @@ std::span<const float> DemoRun::clutter_lightmap() {
 
 Status DemoRun::clutter_light(const FrameState& state) {
   const Clock::time_point t = Clock::now();
-  const DemoLight& light = scene_->lights.front();
-  LightDescription l;
-  l.position = glm::dvec3(state.light_position);
-  l.radius = light.radius;
-  l.color = glm::dvec3(light.color);
-  l.intensity = light.intensity;
-  const std::vector<float> e = precompute::clutter_direct_light(*clutter_scene_, std::span(&l, 1), 1);
-  if (e.size() != clutter_ld_.size())
-    return Status::error(ErrorCode::internal_error, "demo: clutter direct light has the wrong size");
-  const bool spot = light.outer_cone < 3.14159f;
-  const double cos_outer = std::cos(double(light.outer_cone)),
-               cos_inner =
-                   std::max(std::cos(double(std::min(light.inner_cone, light.outer_cone))), cos_outer + 1e-4);
-  const glm::dvec3 axis = glm::length(light.direction) > 0.0f ? glm::normalize(glm::dvec3(light.direction))
-                                                              : glm::dvec3(0.0, -1.0, 0.0);
-  for (std::size_t i = 0; i < clutter_position_.size(); ++i) {
-    double cone = 1.0;
-    if (spot) {
-      const double c = glm::dot(glm::normalize(clutter_position_[i] - l.position), axis);
-      const double x = std::clamp((c - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0);
-      cone = x * x * (3.0 - 2.0 * x);  // GLSL smoothstep
+  // One light at a time (the spot cone is applied per light), summed in light order.
+  std::vector<double> sum(clutter_ld_.size(), 0.0);
+  for (std::size_t li = 0; li < state.lights.size(); ++li) {
+    const DemoLight& light = scene_->lights[li];
+    LightDescription l;
+    l.position = glm::dvec3(state.lights[li].position);
+    l.radius = light.radius;
+    l.color = glm::dvec3(light.color);
+    l.intensity = light.intensity;
+    const std::vector<float> e = precompute::clutter_direct_light(*clutter_scene_, std::span(&l, 1), 1);
+    if (e.size() != clutter_ld_.size())
+      return Status::error(ErrorCode::internal_error, "demo: clutter direct light has the wrong size");
+    const bool spot = light.outer_cone < 3.14159f;
+    const double cos_outer = std::cos(double(light.outer_cone)),
+                 cos_inner = std::max(std::cos(double(std::min(light.inner_cone, light.outer_cone))),
+                                      cos_outer + 1e-4);
+    const glm::dvec3 axis = glm::length(light.direction) > 0.0f ? glm::normalize(glm::dvec3(light.direction))
+                                                                : glm::dvec3(0.0, -1.0, 0.0);
+    for (std::size_t i = 0; i < clutter_position_.size(); ++i) {
+      double cone = 1.0;
+      if (spot) {
+        const double c = glm::dot(glm::normalize(clutter_position_[i] - l.position), axis);
+        const double x = std::clamp((c - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0);
+        cone = x * x * (3.0 - 2.0 * x);  // GLSL smoothstep
+      }
+      for (std::size_t c = 0; c < 3; ++c) sum[3 * i + c] += cone * double(e[3 * i + c]);
     }
-    for (std::size_t c = 0; c < 3; ++c) {
-      const float v = float(cone * double(e[3 * i + c]));
-      clutter_ld_[3 * i + c] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
-    }
+  }
+  for (std::size_t i = 0; i < sum.size(); ++i) {
+    const float v = float(sum[i]);
+    clutter_ld_[i] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
   }
   Status s = pipeline_->set_clutter_light(clutter_ld_, {});
   times_.clutter_direct += ms_since(t);
@@ -231,17 +281,18 @@ Status DemoRun::clutter_light(const FrameState& state) {
 Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::uint8_t> srgb8) {
   const DemoScene& scene = *scene_;
   const platform::GlFunctions& gl = context_->gl();
-  const DemoLight& light = scene.lights.front();
   FrameState state;
   state.camera = scene.camera;
-  state.light_position = path_point(light.path, double(frame) / double(std::max(light.period, 1)));
-  state.light_rgb = light.color * light.intensity;
-  state.light_radius = light.radius;
-  state.spot_direction = light.direction;
-  state.spot_inner = light.inner_cone;
-  state.spot_outer = light.outer_cone;
-  state.dynamic_offset =
-      path_point(scene.dynamic_path, double(frame) / double(std::max(scene.dynamic_period, 1)));
+  for (const DemoLight& light : scene.lights) {
+    gles::GpuLight& l = state.lights.emplace_back();
+    l.position = light_position(light, frame);
+    l.rgb = light.color * light.intensity;
+    l.radius = light.radius;
+    l.spot_direction = light.direction;
+    l.spot_inner = light.inner_cone;
+    l.spot_outer = light.outer_cone;
+  }
+  state.dynamic_offset = dynamic_offset(scene, frame);
   state.output = options_.output;
   state.exposure = options_.exposure;
 
@@ -251,24 +302,34 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   times_.shadows += ms_since(t);
   t = Clock::now();
   if (s.ok() && cpu_direct_) {
-    cpu::CpuLight l;
-    l.type = light.outer_cone >= 3.14159f ? cpu::LightType::point : cpu::LightType::spot;
-    l.position = state.light_position;
-    l.direction = light.direction;
-    l.color = light.color;
-    l.intensity = light.intensity;
-    l.radius = light.radius;
-    l.inner_angle = std::min(light.inner_cone, light.outer_cone);
-    l.outer_angle = std::min(light.outer_cone, 3.14159265f);
-    s = cpu_direct_->evaluate(std::span(&l, 1), ld_);
+    std::array<cpu::CpuLight, kMaxDemoLights> lights;
+    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
+      const DemoLight& light = scene.lights[i];
+      cpu::CpuLight& l = lights[i];
+      l.type = light.outer_cone >= 3.14159f ? cpu::LightType::point : cpu::LightType::spot;
+      l.position = state.lights[i].position;
+      l.direction = light.direction;
+      l.color = light.color;
+      l.intensity = light.intensity;
+      l.radius = light.radius;
+      l.inner_angle = std::min(light.inner_cone, light.outer_cone);
+      l.outer_angle = std::min(light.outer_cone, 3.14159265f);
+    }
+    s = cpu_direct_->evaluate(std::span(lights.data(), scene.lights.size()), ld_);
   }
-  // The GPU pass: a GLES backend reads its texture where it is (nothing read back); the CPU
-  // backend needs ld in memory.
+  // The GPU pass, one light at a time with its shadow map, summed on the GPU when there are
+  // several: a GLES backend reads the texture where it is (nothing read back); the CPU backend
+  // needs ld in memory.
   const bool ld_on_gpu = gpu_direct_ && backend_->kind() == BackendKind::gles;
+  const bool several = scene.lights.size() > 1;
   if (s.ok() && gpu_direct_) {
-    s = gpu_direct_->render(SceneRenderer::gpu_light(state), renderer_->shadow_cube());
-    if (s.ok() && !ld_on_gpu) s = gpu_direct_->read_ld(ld_);
+    for (std::size_t i = 0; i < state.lights.size() && s.ok(); ++i) {
+      s = gpu_direct_->render(state.lights[i], renderer_->shadow_cube(i));
+      if (s.ok() && several) s = renderer_->add_ld(gpu_direct_->ld_texture(), gpu_direct_->layout(), i == 0);
+    }
+    if (s.ok() && !ld_on_gpu) s = several ? renderer_->read_summed_ld(ld_) : gpu_direct_->read_ld(ld_);
   }
+  const GLuint ld_texture = !gpu_direct_ ? 0 : several ? renderer_->summed_ld() : gpu_direct_->ld_texture();
   if (s.ok() && drt_) s = clutter_light(state);
   times_.direct += ms_since(t);
   // Indirect: the converged solve, or one update and feedback steps; with the camera
@@ -281,9 +342,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     if (s.ok()) visible_blocks_ = seen->visible;
   }
   const std::uint32_t steps = frame_steps();
-  if (s.ok())
-    s = ld_on_gpu ? pipeline_->run_from_texture(gpu_direct_->ld_texture(), steps)
-                  : pipeline_->run(ld_, steps);
+  if (s.ok()) s = ld_on_gpu ? pipeline_->run_from_texture(ld_texture, steps) : pipeline_->run(ld_, steps);
   // The atlas on the GPU: the backend renders it there (GLES), else it is read and uploaded.
   const GLuint gpu_atlas = backend_->output_texture(BackendOutput::atlas);
   if (s.ok() && gpu_atlas) {  // GPU stage times, summed over the frame's update and feedback steps

@@ -86,6 +86,9 @@ class DemoRun {
  public:
   // Builds the level against `dict`, maps the meshes onto it and creates the renderer and
   // the backend in `context` (current on this thread). `scene` and `dict` must outlive the run.
+  // Every light of the scene (1 to kMaxDemoLights point or spot lights) lights every frame: a
+  // shadow cube map each, their ld summed, all of them in the camera image and the clutter's
+  // direct light.
   static Result<std::unique_ptr<DemoRun>> create(const DemoScene& scene, const Dictionary& dict,
                                                  platform::GlContext& context, const DemoRunOptions& options);
   ~DemoRun();
@@ -115,8 +118,9 @@ class DemoRun {
   bool vector_irradiance() const { return vector_; }
   int width() const { return options_.renderer.width; }
   int height() const { return options_.renderer.height; }
-  // The last frame's ld (3 per sample). With the GLES backend and the GPU pass it stays on the
-  // GPU during the frame; this reads it back (for tests and tools, not per frame).
+  // The last frame's ld (3 per sample), every light's summed. With the GLES backend and the GPU
+  // pass it stays on the GPU during the frame; this reads it back (for tests and tools, not per
+  // frame).
   std::span<const float> ld();
   // DRT (empty without clutter): the build, the clutter's ld and clutter lightmap of the
   // last frame (3 per clutter texel).
@@ -162,5 +166,15 @@ class DemoRun {
 
 // Catmull-Rom through the closed loop of keys, t in [0, 1) once around.
 glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t);
+// A KeyTrack at `frame` (demo frames, wrapped into [0, period) when period > 0): the first key's
+// value before it, the last key's after it, and between keys k and k + 1 with s = (frame -
+// times[k]) / (times[k + 1] - times[k]): STEP key k's value, LINEAR the mix of the two, CUBICSPLINE
+// glTF's Hermite spline through the values with the out-tangent of k and the in-tangent of k + 1
+// times (times[k + 1] - times[k]). An empty track gives (0, 0, 0).
+glm::vec3 track_point(const KeyTrack& track, double frame);
+// Where a light is at `frame`: its track when it has keys, else its path (one loop per period).
+glm::vec3 light_position(const DemoLight& light, int frame);
+// The dynamic meshes' offset at `frame`: DemoScene::dynamic_track, else dynamic_path.
+glm::vec3 dynamic_offset(const DemoScene& scene, int frame);
 
 }  // namespace modrt::demo

@@ -18,6 +18,9 @@
 #include <string>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/matrix.hpp>
+
 #include "compare_support.h"
 #include "delta_e.h"
 #include "demo_run.h"
@@ -679,6 +682,303 @@ TEST(DemoRender, FirstFrameMatchesGoldenImage) {
   std::vector<std::uint8_t> dark(image);
   for (std::uint8_t& v : dark) v = std::uint8_t(v / 2);
   EXPECT_GT(delta_e(dark, golden).mean, 5.0);
+}
+
+// ---- glTF as artists export it: several lights, double-sided materials, animations ----
+
+// The default scene's first light held still at `at` (a point light), or a copy of it moved.
+DemoLight still_light(const DemoScene& s, const glm::vec3& at) {
+  DemoLight l = s.lights.front();
+  l.path = {at};
+  return l;
+}
+
+// The relative L2 distance between the linear image `sum` and a + b, leaving out the light
+// markers (drawn, not summed, in exactly rgb x 20): `markers` counts the pixels left out. Not 0:
+// the shader clamps indirect light at 0 (the SVD truncation leaves slightly negative values), so
+// a sum of lights is linear to about 1e-5 only.
+double rel_l2_of_sum(const std::vector<float>& sum, const std::vector<float>& a, const std::vector<float>& b,
+                     const std::vector<glm::vec3>& marker_rgb, std::size_t* markers) {
+  *markers = 0;
+  const auto is_marker = [&](const std::vector<float>& image, std::size_t p) {
+    for (const glm::vec3& m : marker_rgb)
+      if (image[3 * p] == 20.0f * m.x && image[3 * p + 1] == 20.0f * m.y && image[3 * p + 2] == 20.0f * m.z)
+        return true;
+    return false;
+  };
+  double num = 0.0, den = 0.0;
+  for (std::size_t p = 0; p < sum.size() / 3; ++p) {
+    if (is_marker(sum, p) || is_marker(a, p) || is_marker(b, p)) {
+      ++*markers;
+      continue;
+    }
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double want = double(a[3 * p + c]) + b[3 * p + c], d = double(sum[3 * p + c]) - want;
+      num += d * d, den += want * want;
+    }
+  }
+  return std::sqrt(num / den);
+}
+
+// The demo used to render only lights.front(). Every light now lights every frame: with two lights
+// (a point light and a coloured spot in another block) ld is the sum of each light's ld, the GL
+// pass's summed on the GPU (the GLES backend reads that texture, the CPU backend its readback) and
+// CpuDirectLight's; the clutter's direct light is the sum too; and, the transport being linear
+// (two fixed feedback steps), so is the image but for the light markers.
+TEST(DemoRender, EveryLightLightsTheFrame) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  struct Variant {
+    const char* name;
+    DemoBackend backend;
+    DemoDirect direct;
+    bool clutter;
+  };
+  for (const Variant& v : {Variant{"GLES backend, GL ld, the default scene with its clutter",
+                                   DemoBackend::gles, DemoDirect::gpu, true},
+                           Variant{"CPU backend, GL ld", DemoBackend::cpu, DemoDirect::gpu, false},
+                           Variant{"CPU backend, CPU ld", DemoBackend::cpu, DemoDirect::cpu, false}}) {
+    SCOPED_TRACE(v.name);
+    const DemoScene base = v.clutter ? scene() : unwarped_walls();
+    const DemoLight a = still_light(base, base.lights.front().path.front());
+    DemoLight b = still_light(base, glm::vec3(trilinear(block_corners(base.level, base.level.blocks[1]),
+                                                        glm::dvec3(0.5, 0.8, 0.5))));
+    b.color = glm::vec3(0.2f, 0.5f, 1.0f);
+    b.direction = glm::vec3(0.2f, -1.0f, 0.1f);
+    b.inner_cone = 0.5f, b.outer_cone = 0.9f;
+    std::vector<std::vector<float>> ld, clutter_ld, image;
+    for (const std::vector<DemoLight>& lights :
+         {std::vector<DemoLight>{a}, std::vector<DemoLight>{b}, std::vector<DemoLight>{a, b}}) {
+      DemoScene s = base;
+      s.lights = lights;
+      DemoRunOptions options;
+      options.backend = v.backend;
+      options.direct = v.direct;
+      options.bounces = 2;  // linear in ld, exactly
+      options.drt_rays = 64;
+      options.renderer.width = 64, options.renderer.height = 36;
+      Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
+      ASSERT_TRUE(run.ok()) << run.status().to_string();
+      image.emplace_back(3 * 64 * 36);
+      std::vector<std::uint8_t> srgb(image.back().size());
+      const Status st = run.value()->render(0, image.back(), srgb);
+      ASSERT_TRUE(st.ok()) << st.to_string();
+      ld.emplace_back(run.value()->ld().begin(), run.value()->ld().end());
+      clutter_ld.emplace_back(run.value()->clutter_ld().begin(), run.value()->clutter_ld().end());
+    }
+    double sum_a = 0, sum_b = 0, worst = 0;
+    for (std::size_t i = 0; i < ld[2].size(); ++i) {
+      sum_a += ld[0][i], sum_b += ld[1][i];
+      const double want = double(ld[0][i]) + ld[1][i];
+      worst = std::max(worst, std::abs(ld[2][i] - want) / (want + 1e-9));
+    }
+    EXPECT_GT(sum_a, 0.0);
+    EXPECT_GT(sum_b, 0.02 * sum_a);  // the second light adds light of its own
+    EXPECT_LT(worst, 1e-5);
+    for (std::size_t i = 0; i < clutter_ld[2].size(); ++i)
+      EXPECT_NEAR(clutter_ld[2][i], clutter_ld[0][i] + clutter_ld[1][i],
+                  1e-5f * (clutter_ld[0][i] + clutter_ld[1][i]) + 1e-9f);
+    if (v.clutter) {
+      EXPECT_GT(*std::max_element(clutter_ld[2].begin(), clutter_ld[2].end()), 0.0f);
+    }
+    std::size_t markers = 0;
+    const double image_error =
+        rel_l2_of_sum(image[2], image[0], image[1], {a.color * a.intensity, b.color * b.intensity}, &markers);
+    EXPECT_LT(image_error, 2e-4);
+    EXPECT_LT(markers, image[2].size() / 3 / 10);
+    // Not the image of the first light alone: the comparison can fail.
+    std::size_t unused = 0;
+    EXPECT_GT(rel_l2_of_sum(image[2], image[0], std::vector<float>(image[1].size(), 0.0f), {}, &unused),
+              1e-2);
+    std::printf(
+        "  %s: ld of both = sum of each within %.1e (light 2 adds %.0f %%), image rel L2 %.1e (%zu light "
+        "marker pixels left out)\n",
+        v.name, worst, 100.0 * sum_b / sum_a, image_error, markers);
+  }
+}
+
+// kMaxDemoLights lights render; more are refused by name (load_gltf_scene drops them with a
+// warning before they get here).
+TEST(DemoRender, FourLightsRenderAndAFifthIsRefused) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  DemoScene s = unwarped_walls();
+  for (std::size_t i = 0; i < kMaxDemoLights; ++i) {
+    const glm::dvec3 at = trilinear(block_corners(s.level, s.level.blocks[i % s.level.blocks.size()]),
+                                    glm::dvec3(0.5, 0.7, 0.5));
+    s.lights.push_back(still_light(s, glm::vec3(at)));
+  }
+  s.lights.erase(s.lights.begin());
+  ASSERT_EQ(s.lights.size(), kMaxDemoLights);
+  DemoRunOptions options;
+  options.renderer.width = 32, options.renderer.height = 18;
+  Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  std::vector<float> linear(3 * 32 * 18);
+  std::vector<std::uint8_t> srgb(linear.size());
+  const Status st = run.value()->render(0, linear, srgb);
+  ASSERT_TRUE(st.ok()) << st.to_string();
+  s.lights.push_back(s.lights.front());
+  Result<std::unique_ptr<DemoRun>> five = DemoRun::create(s, dict(), *ctx, options);
+  ASSERT_FALSE(five.ok());
+  EXPECT_NE(five.status().message().find("5 lights; the demo renders at most 4"), std::string::npos)
+      << five.status().message();
+}
+
+// A light with a KeyTrack (a glTF animation) is where track_point puts it: the frame's ld equals,
+// bit for bit, the ld of a light held still at that point.
+TEST(DemoRender, AnimatedLightFollowsItsTrack) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  const DemoScene walls = unwarped_walls();
+  const glm::vec3 p0(trilinear(block_corners(walls.level, walls.level.blocks[0]), glm::dvec3(0.3, 0.6, 0.4)));
+  const glm::vec3 p1(trilinear(block_corners(walls.level, walls.level.blocks[0]), glm::dvec3(0.7, 0.8, 0.6)));
+  DemoScene animated = walls;
+  DemoLight& l = animated.lights.front();
+  l.track.times = {0.0f, 10.0f};
+  l.track.values = {p0, p1};
+  l.track.period = 20.0f;
+  const int frame = 7;
+  const glm::vec3 at = track_point(l.track, frame);
+  EXPECT_LT(glm::length(at - (0.3f * p0 + 0.7f * p1)), 1e-5f);
+  DemoScene still = walls;
+  still.lights.front() = still_light(walls, at);
+  std::vector<std::vector<float>> ld;
+  for (const DemoScene* sc : {&animated, &still}) {
+    DemoRunOptions options;
+    options.renderer.width = 32, options.renderer.height = 18;
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(*sc, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    std::vector<float> linear(3 * 32 * 18);
+    std::vector<std::uint8_t> srgb(linear.size());
+    ASSERT_TRUE(run.value()->render(sc == &still ? 0 : frame, linear, srgb).ok());
+    ld.emplace_back(run.value()->ld().begin(), run.value()->ld().end());
+  }
+  EXPECT_EQ(ld[0], ld[1]);
+  EXPECT_GT(*std::max_element(ld[0].begin(), ld[0].end()), 0.0f);
+}
+
+// A square of half-size h centred at `centre` with normal `n`, counter-clockwise seen from the
+// side n points to, in material `material`.
+Mesh quad_mesh(const std::string& name, const glm::vec3& centre, const glm::vec3& n, float h, int material) {
+  Mesh quad;
+  quad.name = name;
+  quad.material = material;
+  const glm::vec3 up = std::abs(n.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+  const glm::vec3 t1 = glm::normalize(glm::cross(up, n)), t2 = glm::cross(n, t1);
+  for (const glm::vec2 c : {glm::vec2(-1, -1), glm::vec2(1, -1), glm::vec2(1, 1), glm::vec2(-1, 1)}) {
+    quad.position.push_back(centre + h * (c.x * t1 + c.y * t2));
+    quad.normal.push_back(n);
+  }
+  quad.indices = {0, 1, 2, 0, 2, 3};
+  return quad;
+}
+
+// The back side of a double-sided static mesh is mapped onto the proxy face it faces: a
+// horizontal quad's top reads the floor's tile (inward normal +Y), its underside the ceiling's,
+// with its triangles wound counter-clockwise about the turned normal.
+TEST(ProxyMapping, BackSidesOfDoubleSidedMeshesMapOntoTheFacesTheyFace) {
+  DemoScene s;
+  s.level = scene().level;
+  s.materials = {Material{"one side", glm::vec3(0.5f)}, Material{"leaf", glm::vec3(0.5f)}};
+  s.materials[1].double_sided = true;
+  const glm::vec3 centre(trilinear(block_corners(s.level, s.level.blocks[0]), glm::dvec3(0.5, 0.4, 0.5)));
+  s.meshes.push_back(quad_mesh("single", centre + glm::vec3(0.0f, 0.05f, 0.0f), {0, 1, 0}, 0.05f, 0));
+  s.meshes.push_back(quad_mesh("table top", centre, {0, 1, 0}, 0.05f, 1));
+  Result<Level> level = precompute::build_level(s.level, dict());
+  ASSERT_TRUE(level.ok()) << level.status().to_string();
+  const Result<std::vector<MappedMesh>> front = map_to_proxies(s, level.value());
+  const Result<std::vector<MappedMesh>> back = map_back_sides(s, level.value());
+  ASSERT_TRUE(front.ok() && back.ok());
+  ASSERT_EQ(back->size(), 1u);  // the single-sided quad has no back side
+  const MappedMesh& b = back->front();
+  EXPECT_EQ(b.mesh, 1);
+  ASSERT_EQ(b.vertices.size(), 6u);
+  const MappedMesh& f = front->at(1);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(b.vertices[i].normal, glm::vec3(0, -1, 0));
+    EXPECT_GT(
+        glm::dot(glm::normalize(glm::cross(b.vertices[i].face_u, b.vertices[i].face_v)), glm::vec3(0, -1, 0)),
+        0.9f);
+    EXPECT_GT(
+        glm::dot(glm::normalize(glm::cross(f.vertices[i].face_u, f.vertices[i].face_v)), glm::vec3(0, 1, 0)),
+        0.9f);
+  }
+  for (std::size_t t = 0; t < 6; t += 3) {
+    const glm::vec3 n = glm::cross(b.vertices[t + 1].position - b.vertices[t].position,
+                                   b.vertices[t + 2].position - b.vertices[t].position);
+    EXPECT_LT(n.y, 0.0f) << "back triangle " << t / 3 << " is not counter-clockwise about -Y";
+  }
+  EXPECT_GT(glm::length(b.vertices[0].lightmap - f.vertices[0].lightmap), 2.0f);  // another tile
+}
+
+// glTF doubleSided: a quad seen from its back is culled when single-sided (the image is the
+// same whatever its colour) and lit when double-sided, shaded with the turned normal (light.glsl's
+// point light at the hit point, 1 %), whether static (its back side mapped and drawn culled)
+// or dynamic (drawn without culling, the normal turned in the shader).
+TEST(DemoRender, DoubleSidedQuadIsLitFromBehind) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  constexpr int kWidth = 32, kHeight = 18;
+  const DemoScene walls = unwarped_walls();
+  const DemoCamera& cam = walls.camera;
+  const glm::vec3 forward = glm::normalize(cam.target - cam.position);
+  const glm::vec3 centre = cam.position + 0.25f * forward;
+  const glm::vec3 light_at = cam.position + glm::vec3(0.0f, 0.1f, 0.0f);
+  // Where the centre pixel's ray meets the quad's plane (the renderer's projection).
+  const glm::mat4 inverse =
+      glm::inverse(glm::perspective(cam.yfov, float(kWidth) / float(kHeight), cam.znear, cam.zfar) *
+                   glm::lookAt(cam.position, cam.target, cam.up));
+  const glm::vec2 ndc(2.0f * (kWidth / 2 + 0.5f) / kWidth - 1.0f,
+                      2.0f * (kHeight / 2 + 0.5f) / kHeight - 1.0f);
+  const glm::vec4 far_h = inverse * glm::vec4(ndc, 1.0f, 1.0f);
+  const glm::vec3 ray = glm::normalize(glm::vec3(far_h) / far_h.w - cam.position);
+  const glm::vec3 hit =
+      cam.position + ray * (glm::dot(centre - cam.position, forward) / glm::dot(ray, forward));
+  const DemoLight light = still_light(walls, light_at);
+  const glm::vec3 to_light = light_at - hit;
+  const float d2 = glm::dot(to_light, to_light);
+  // The back side's normal is -forward; red albedo 1.
+  const float expected = light.color.r * light.intensity * glm::dot(-forward, to_light / std::sqrt(d2)) /
+                         std::max(d2, light.radius * light.radius) / 3.14159265f;
+  const std::size_t centre_pixel = 3 * (std::size_t(kHeight / 2) * kWidth + kWidth / 2);
+  for (const bool dynamic : {false, true}) {
+    SCOPED_TRACE(dynamic ? "dynamic quad" : "static quad");
+    std::vector<std::vector<float>> images;
+    for (const auto& [double_sided, colour] :
+         std::vector<std::pair<bool, glm::vec3>>{{false, {1, 0, 0}}, {false, {0, 1, 0}}, {true, {1, 0, 0}}}) {
+      DemoScene s = walls;
+      s.lights = {light};
+      s.materials.push_back(Material{"quad", colour});
+      s.materials.back().double_sided = double_sided;
+      Mesh quad =
+          quad_mesh("quad", dynamic ? glm::vec3(0.0f) : centre, forward, 0.05f, int(s.materials.size()) - 1);
+      quad.dynamic = dynamic;
+      s.meshes.push_back(quad);
+      if (dynamic) s.dynamic_path = {centre};
+      DemoRunOptions options;
+      options.output = OutputMode::direct;
+      options.renderer.width = kWidth, options.renderer.height = kHeight;
+      Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
+      ASSERT_TRUE(run.ok()) << run.status().to_string();
+      images.emplace_back(3 * kWidth * kHeight);
+      std::vector<std::uint8_t> srgb(images.back().size());
+      const Status st = run.value()->render(0, images.back(), srgb);
+      ASSERT_TRUE(st.ok()) << st.to_string();
+    }
+    // Single-sided, seen from behind: absent, so its colour changes nothing.
+    EXPECT_EQ(images[0], images[1]);
+    // Double-sided: the red quad, lit on its back side.
+    const float* px = images[2].data() + centre_pixel;
+    EXPECT_NEAR(px[0], expected, 0.01f * expected);
+    EXPECT_EQ(px[1], 0.0f);
+    EXPECT_EQ(px[2], 0.0f);
+    EXPECT_NE(images[0][centre_pixel], px[0]);
+    std::printf(
+        "  %s: back side E/pi %.5f (expected %.5f); single-sided shows the wall behind (%.5f %.5f %.5f)\n",
+        dynamic ? "dynamic" : "static ", px[0], expected, images[0][centre_pixel],
+        images[0][centre_pixel + 1], images[0][centre_pixel + 2]);
+  }
 }
 
 // ---- issue 18 ----

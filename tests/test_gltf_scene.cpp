@@ -17,10 +17,12 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/geometric.hpp>
 
+#include "demo_run.h"
 #include "modrt/precompute/clutter_mesh.h"
 #include "modrt/precompute/drt_build.h"
 #include "modrt/precompute/level_build.h"
@@ -652,7 +654,12 @@ TEST(GltfScene, ErrorsNameTheFileAndTheProblem) {
 
   Synthetic no_blocks;
   no_blocks.scene_nodes = "[0]";
-  expect_error(load_text("noblocks.gltf", no_blocks.text()), "noblocks.gltf", {"no proxy blocks found"});
+  GltfSceneOptions no_import;  // by default a file without blocks gets them from its geometry
+  no_import.import_unmarked = false;
+  expect_error(load_text("noblocks.gltf", no_blocks.text(), no_import), "noblocks.gltf",
+               {"no proxy blocks found"});
+  expect_error(load_text("noblocks.gltf", no_blocks.text()), "noblocks.gltf",
+               {"no proxy blocks in the file, and importing them from its geometry failed"});
 
   // A sidecar level file with an error: the level loader's message comes through.
   write_text(temp_dir() / "sidecar.level.json",
@@ -1130,6 +1137,396 @@ TEST(GltfScene, RelativeUrisArePercentDecodedOnly) {
   // A missing file still says so, with the decoded name.
   const std::string missing = with_external_buffer(syn, "no+such.bin", temp_dir() / "unused.bin");
   expect_error(load_text("uri_missing.gltf", missing), "uri_missing.gltf", {"no+such.bin"});
+}
+
+// ---- glTF as artists export it (Blender 3.4) ----
+
+// Blender writes boolean custom properties as 1 and 0: every extras boolean takes them (only
+// exactly 0 and 1), and still refuses anything else naming the field.
+TEST(GltfScene, ExtrasBooleansMayBeOneAndZero) {
+  // A unit cube mesh, so that "modrt_block": 1 takes the block from the mesh's bounds.
+  Synthetic syn;
+  syn.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+  syn.indices = {0, 1, 2, 1, 3, 2};
+  syn.nodes = R"([{"name":"hall","mesh":0,"extras":{"modrt_block":1}},)"
+              R"({"name":"annex","extras":{"modrt_block":{"cell":[1,0,0],"draw":0}}},)"
+              R"({"name":"not a block","mesh":0,"scale":[0.1,0.1,0.1],"translation":[0.2,0.2,0.2],)"
+              R"("extras":{"modrt_block":0,"modrt_clutter":0}},)"
+              R"({"name":"ball","mesh":0,"scale":[0.1,0.1,0.1],"translation":[0.5,0.5,0.5],)"
+              R"("extras":{"modrt_dynamic":1}},)"
+              R"({"name":"drawn","mesh":0,"translation":[0,0,1],"extras":{"modrt_block":{"draw":1}}}])";
+  syn.scene_nodes = R"([0,1,2,3,4],"extras":{"modrt_level":{"proxy_walls":0}})";
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  const Result<DemoScene> r = load_text("blender_bools.gltf", syn.text(), options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->level.blocks.size(), 3u);
+  EXPECT_EQ(r->level.blocks[0].name, "hall");
+  EXPECT_EQ(r->level.blocks[0].cell, glm::ivec3(0, 0, 0));
+  EXPECT_EQ(r->level.blocks[1].name, "annex");
+  EXPECT_EQ(r->level.blocks[2].name, "drawn");
+  // proxy_walls 0: no walls; drawn: the block "drawn" (draw 1), "not a block" and the ball.
+  std::vector<std::string> names;
+  for (const Mesh& m : r->meshes) names.push_back(m.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"not a block", "ball", "drawn"}));
+  EXPECT_FALSE(r->meshes[0].dynamic);
+  EXPECT_EQ(r->meshes[0].clutter, -1);
+  EXPECT_TRUE(r->meshes[1].dynamic);
+  // The same file with true and false loads the same scene.
+  std::string text = syn.text();
+  for (const auto& [from, to] :
+       std::vector<std::pair<std::string, std::string>>{{R"("modrt_block":1)", R"("modrt_block":true)"},
+                                                        {R"("draw":0)", R"("draw":false)"},
+                                                        {R"("modrt_block":0)", R"("modrt_block":false)"},
+                                                        {R"("modrt_clutter":0)", R"("modrt_clutter":false)"},
+                                                        {R"("modrt_dynamic":1)", R"("modrt_dynamic":true)"},
+                                                        {R"("draw":1)", R"("draw":true)"},
+                                                        {R"("proxy_walls":0)", R"("proxy_walls":false)"}}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
+  const Result<DemoScene> b = load_text("json_bools.gltf", text);
+  ASSERT_TRUE(b.ok()) << b.status().to_string();
+  ASSERT_EQ(b->meshes.size(), r->meshes.size());
+  for (std::size_t i = 0; i < b->meshes.size(); ++i) {
+    EXPECT_EQ(b->meshes[i].name, r->meshes[i].name);
+    EXPECT_EQ(b->meshes[i].position, r->meshes[i].position);
+  }
+  // modrt_clutter 1 is a clutter object with every field at its default.
+  ClutterBoxGltf one;
+  one.clutter = "1";
+  const Result<DemoScene> c = load_text("clutter_one.gltf", one.text());
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  ASSERT_EQ(c->clutter.size(), 1u);
+  EXPECT_EQ(c->clutter[0].mesh->atlas.res, precompute::kClutterMeshDefaultRes);
+  // Only exactly 0 and 1: 2, -1, 0.5 and strings are no booleans; each error names the node and field.
+  for (const auto& [from, to, words] :
+       std::vector<std::tuple<std::string, std::string, std::vector<const char*>>>{
+           {R"("modrt_dynamic":1)",
+            R"("modrt_dynamic":2)",
+            {"'ball'", "modrt_dynamic must be true or false (or 1 or 0)"}},
+           {R"("modrt_dynamic":1)", R"("modrt_dynamic":"1")", {"'ball'", "modrt_dynamic"}},
+           {R"("draw":0)",
+            R"("draw":0.5)",
+            {"'annex'", "modrt_block.draw must be true or false (or 1 or 0)"}},
+           {R"("draw":0)", R"("draw":-1)", {"'annex'", "modrt_block.draw"}},
+           {R"("modrt_block":1)",
+            R"("modrt_block":2)",
+            {"'hall'", "modrt_block must be an object (or true or 1)"}},
+           {R"("proxy_walls":0)", R"("proxy_walls":3)", {"proxy_walls must be true or false (or 1 or 0)"}}}) {
+    std::string bad = syn.text();
+    bad.replace(bad.find(from), from.size(), to);
+    const Result<DemoScene> e = load_text("bad_bool.gltf", bad);
+    ASSERT_FALSE(e.ok()) << to;
+    EXPECT_EQ(e.status().code(), ErrorCode::format_error) << to;
+    EXPECT_NE(e.status().message().find("bad_bool.gltf"), std::string::npos) << e.status().message();
+    for (const char* w : words)
+      EXPECT_NE(e.status().message().find(w), std::string::npos) << w << " not in: " << e.status().message();
+  }
+  ClutterBoxGltf two;
+  two.clutter = "2";
+  expect_error(load_text("clutter_two.gltf", two.text()), "clutter_two.gltf",
+               {"node 0 ('box')", "modrt_clutter must be an object (or true or 1)"});
+}
+
+TEST(GltfScene, DoubleSidedMaterialsAreMarked) {
+  Synthetic syn;
+  syn.primitive_extra = R"(,"material":1)";
+  syn.top_extra = R"(,"materials":[{"name":"one side"},{"name":"leaf","doubleSided":true}])";
+  const Result<DemoScene> r = load_text("double_sided.gltf", syn.text());
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_GE(r->materials.size(), 2u);
+  EXPECT_FALSE(r->materials[0].double_sided);
+  EXPECT_TRUE(r->materials[1].double_sided);
+  EXPECT_EQ(r->meshes[0].material, 1);
+  // The walls and primitives without a material stay single-sided.
+  for (const Mesh& m : r->meshes)
+    if (m.name != "tri") {
+      EXPECT_FALSE(r->materials[std::size_t(m.material)].double_sided) << m.name;
+    }
+  // Its back side is drawn too: the vertex buffer estimate counts a double-sided primitive twice.
+  GltfSceneOptions tight;
+  tight.proxy_walls = false;
+  tight.max_vertex_buffer_bytes = (kLightMarkerCorners + 3) * sizeof(MappedVertex);
+  Synthetic single = syn;
+  single.top_extra = R"(,"materials":[{"name":"one side"},{"name":"leaf"}])";
+  EXPECT_TRUE(load_text("one_sided_tight.gltf", single.text(), tight).ok());
+  expect_error(load_text("double_sided_tight.gltf", syn.text(), tight), "double_sided_tight.gltf",
+               {"vertex buffer"});
+}
+
+// Every point and spot light is kept up to kMaxDemoLights; the others, and every directional
+// light, are each named in one warning.
+TEST(GltfScene, LightsUpToTheLimitAndOneWarningPerKindDropped) {
+  Synthetic syn;
+  std::string nodes = R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}})";
+  std::string lights;
+  std::string scene_nodes = "[0,1";
+  for (int i = 0; i < 8; ++i) {
+    const bool directional = i == 2 || i == 5;
+    nodes += R"(,{"name":"n)" + std::to_string(i) + R"(","translation":[0.)" + std::to_string(i + 1) +
+             R"(,0.5,0.5],"extensions":{"KHR_lights_punctual":{"light":)" + std::to_string(i) + "}}}";
+    lights += std::string(i ? "," : "") + R"({"type":")" + (directional ? "directional" : "point") +
+              R"(","name":"l)" + std::to_string(i) + R"(","intensity":)" + std::to_string(10 + i) + "}";
+    scene_nodes += "," + std::to_string(i + 2);
+  }
+  syn.nodes = nodes + "]";
+  syn.scene_nodes = scene_nodes + "]";
+  syn.top_extra =
+      R"(,"extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[)" +
+      lights + "]}}";
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  options.light_intensity_scale = 1.0f;
+  const Result<DemoScene> r = load_text("many_lights.gltf", syn.text(), options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->lights.size(), kMaxDemoLights);
+  const float kept[4] = {10, 11, 13, 14};  // point lights 0, 1, 3, 4 in node order
+  for (std::size_t i = 0; i < kMaxDemoLights; ++i) EXPECT_EQ(r->lights[i].intensity, kept[i]);
+  int directional = 0, dropped = 0;
+  for (const std::string& w : warnings) {
+    if (w.find("directional") != std::string::npos) {
+      ++directional;
+      EXPECT_NE(w.find("light 2 ('l2')"), std::string::npos) << w;
+      EXPECT_NE(w.find("light 5 ('l5')"), std::string::npos) << w;
+      EXPECT_NE(w.find("node 4 ('n2')"), std::string::npos) << w;
+    }
+    if (w.find("dropped") != std::string::npos) {
+      ++dropped;
+      EXPECT_NE(w.find("6 point and spot lights"), std::string::npos) << w;
+      EXPECT_NE(w.find("first 4"), std::string::npos) << w;
+      EXPECT_NE(w.find("light 6 ('l6')"), std::string::npos) << w;
+      EXPECT_NE(w.find("light 7 ('l7')"), std::string::npos) << w;
+      EXPECT_EQ(w.find("light 4 ('l4')"), std::string::npos) << w;
+    }
+    EXPECT_EQ(w.find("renders the first one"), std::string::npos) << w;
+  }
+  EXPECT_EQ(directional, 1);
+  EXPECT_EQ(dropped, 1);
+}
+
+// A small embedded buffer of float accessors for hand-written glTF files.
+struct GltfBuffer {
+  std::vector<std::uint8_t> bytes;
+  std::string views, accessors;
+  int count = 0;
+  int add(const std::vector<float>& values, const char* type, int components) {
+    const std::size_t offset = bytes.size();
+    bytes.resize(offset + 4 * values.size());
+    std::memcpy(bytes.data() + offset, values.data(), 4 * values.size());
+    views += std::string(count ? "," : "") + R"({"buffer":0,"byteOffset":)" + std::to_string(offset) +
+             R"(,"byteLength":)" + std::to_string(4 * values.size()) + "}";
+    accessors += std::string(count ? "," : "") + R"({"bufferView":)" + std::to_string(count) +
+                 R"(,"componentType":5126,"count":)" +
+                 std::to_string(values.size() / std::size_t(components)) + R"(,"type":")" + type + R"("})";
+    return count++;
+  }
+  std::string json() const {
+    return R"("buffers":[{"byteLength":)" + std::to_string(bytes.size()) +
+           R"(,"uri":"data:application/octet-stream;base64,)" + base64(bytes) + R"("}],"bufferViews":[)" +
+           views + R"(],"accessors":[)" + accessors + "]";
+  }
+};
+
+// Two blocks; a point light 'lamp' under a translated parent 'rig' with a LINEAR translation, a
+// dynamic 'ball' with a STEP translation and a rotation, a spot 'torch' with a CUBICSPLINE
+// translation, a static 'crate' with a translation, a point light 'lamp2' with a scale.
+std::string animated_gltf(const std::string& extra_channel = "",
+                          const std::string& torch_interpolation = "CUBICSPLINE") {
+  GltfBuffer b;
+  const int tri = b.add({0.2f, 0.1f, 0.2f, 0.5f, 0.1f, 0.8f, 0.8f, 0.1f, 0.2f}, "VEC3", 3);
+  const int times_a = b.add({0.0f, 1.0f, 2.0f}, "SCALAR", 1);
+  const int keys_a = b.add({0.3f, 0.5f, 0.5f, 0.6f, 0.5f, 0.5f, 0.6f, 0.7f, 0.5f}, "VEC3", 3);
+  const int times_b = b.add({0.5f, 1.0f}, "SCALAR", 1);
+  const int keys_b = b.add({0.2f, 0.3f, 0.2f, 0.7f, 0.3f, 0.7f}, "VEC3", 3);
+  const int times_r = b.add({0.0f, 1.5f}, "SCALAR", 1);
+  const int rot_r = b.add({0, 0, 0, 1, 0, 0.70710678f, 0, 0.70710678f}, "VEC4", 4);
+  const int times_c = b.add({0.0f, 2.0f}, "SCALAR", 1);
+  const int keys_c =
+      b.add({0, 0, 0, 0.5f, 0.8f, 0.2f, 0.3f, 0, 0, 0, 0, 0.3f, 0.5f, 0.8f, 0.8f, 0, 0, 0}, "VEC3", 3);
+  const auto sampler = [](int input, int output, const std::string& interpolation) {
+    return R"({"input":)" + std::to_string(input) + R"(,"output":)" + std::to_string(output) +
+           R"(,"interpolation":")" + interpolation + R"("})";
+  };
+  const auto channel = [](int sampler_index, int node, const char* path) {
+    return R"({"sampler":)" + std::to_string(sampler_index) + R"(,"target":{"node":)" + std::to_string(node) +
+           R"(,"path":")" + path + R"("}})";
+  };
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1,2,4,5,6,7,8]}],"nodes":[)"
+         R"({"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0],"missing":["+X"]}}},)"
+         R"({"name":"rig","translation":[0.1,0.2,0],"children":[3]},)"
+         R"({"name":"lamp","translation":[0.3,0.5,0.5],"extensions":{"KHR_lights_punctual":{"light":0}}},)"
+         R"({"name":"ball","mesh":0,"translation":[0.5,0.3,0.5],"extras":{"modrt_dynamic":1}},)"
+         R"({"name":"torch","translation":[0.5,0.8,0.2],"extensions":{"KHR_lights_punctual":{"light":1}}},)"
+         R"({"name":"crate","mesh":0},)"
+         R"({"name":"lamp2","translation":[1.5,0.5,0.5],"extensions":{"KHR_lights_punctual":{"light":0}}},)"
+         R"({"name":"annex","extras":{"modrt_block":{"cell":[1,0,0],"missing":["-X"]}}}],)"
+         R"("meshes":[{"primitives":[{"attributes":{"POSITION":)" +
+         std::to_string(tri) + R"(}}]}],"animations":[)" + R"({"name":"LampAction","samplers":[)" +
+         sampler(times_a, keys_a, "LINEAR") + R"(],"channels":[)" + channel(0, 3, "translation") +
+         extra_channel + "]}," + R"({"name":"BallAction","samplers":[)" + sampler(times_b, keys_b, "STEP") +
+         "," + sampler(times_r, rot_r, "LINEAR") + R"(],"channels":[)" + channel(0, 4, "translation") + "," +
+         channel(1, 4, "rotation") + "]}," + R"({"name":"TorchAction","samplers":[)" +
+         sampler(times_c, keys_c, torch_interpolation) + "," + sampler(times_a, keys_a, "LINEAR") +
+         R"(],"channels":[)" + channel(0, 5, "translation") + "," + channel(1, 6, "translation") + "," +
+         channel(1, 7, "scale") + "]}]," +
+         R"("extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[)"
+         R"({"type":"point","name":"bulb","intensity":10},)"
+         R"({"type":"spot","name":"beam","intensity":10,"spot":{"outerConeAngle":0.6}}]}},)" +
+         b.json() + "}";
+}
+
+void expect_track_point(const KeyTrack& track, double frame, const glm::vec3& expected,
+                        const std::string& what) {
+  expect_near(track_point(track, frame), expected, 1e-5f, what + " at frame " + std::to_string(frame));
+}
+
+// The translations of light nodes and of the first dynamic node become KeyTracks (world space,
+// times in frames at animation_fps, looping over their animation's duration) that the demo
+// samples per frame (track_point, light_position); every other channel is named in one warning.
+TEST(GltfScene, LightAndDynamicTranslationAnimationsArePlayed) {
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  const Result<DemoScene> r = load_text("animated.gltf", animated_gltf(), options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_EQ(r->lights.size(), 3u);  // lamp, torch, lamp2 (depth-first node order)
+  // The lamp: LINEAR, keys carried by its parent 'rig' (+0.1, +0.2, 0), times 0, 1, 2 s at 24 fps.
+  const KeyTrack& lamp = r->lights[0].track;
+  EXPECT_EQ(lamp.interpolation, KeyTrack::Interpolation::linear);
+  EXPECT_EQ(lamp.times, (std::vector<float>{0.0f, 24.0f, 48.0f}));
+  EXPECT_FLOAT_EQ(lamp.period, 48.0f);
+  ASSERT_EQ(lamp.values.size(), 3u);
+  expect_near(lamp.values[0], {0.4f, 0.7f, 0.5f}, 1e-6f, "lamp key 0");
+  expect_near(lamp.values[2], {0.7f, 0.9f, 0.5f}, 1e-6f, "lamp key 2");
+  expect_near(r->lights[0].path.at(0), {0.4f, 0.7f, 0.5f}, 1e-6f, "lamp at rest");
+  expect_track_point(lamp, 12.0, {0.55f, 0.7f, 0.5f}, "lamp");
+  expect_track_point(lamp, 36.0, {0.7f, 0.8f, 0.5f}, "lamp");
+  expect_track_point(lamp, 48.0 + 12.0, {0.55f, 0.7f, 0.5f}, "lamp (looped)");
+  expect_near(light_position(r->lights[0], 12), {0.55f, 0.7f, 0.5f}, 1e-5f, "light_position");
+  // The ball: STEP at 0.5 and 1 s; its animation lasts 1.5 s (the rotation sampler's last key).
+  const KeyTrack& ball = r->dynamic_track;
+  EXPECT_EQ(ball.interpolation, KeyTrack::Interpolation::step);
+  EXPECT_FLOAT_EQ(ball.period, 36.0f);
+  expect_track_point(ball, 5.0, {0.2f, 0.3f, 0.2f}, "ball before its first key");
+  expect_track_point(ball, 18.0, {0.2f, 0.3f, 0.2f}, "ball");
+  expect_track_point(ball, 23.9, {0.2f, 0.3f, 0.2f}, "ball");
+  expect_track_point(ball, 30.0, {0.7f, 0.3f, 0.7f}, "ball after its last key");
+  expect_track_point(ball, 36.0 + 18.0, {0.2f, 0.3f, 0.2f}, "ball (looped)");
+  expect_near(dynamic_offset(r.value(), 30), {0.7f, 0.3f, 0.7f}, 1e-6f, "dynamic_offset");
+  // The dynamic mesh is stored relative to its node's rest position (0.5, 0.3, 0.5), the key of
+  // dynamic_path, so that the track's offsets place it: its vertices are the local ones.
+  const Mesh& ball_mesh = r->meshes[1];
+  ASSERT_TRUE(ball_mesh.dynamic);
+  expect_near(ball_mesh.position[0], {0.2f, 0.1f, 0.2f}, 1e-6f, "ball mesh, relative");
+  ASSERT_EQ(r->dynamic_path.size(), 1u);
+  expect_near(r->dynamic_path[0], {0.5f, 0.3f, 0.5f}, 1e-6f, "ball at rest");
+  // The torch: CUBICSPLINE (in-tangent, value, out-tangent per key; tangents per frame), glTF's
+  // Hermite spline: at s = 0.5 of a 2 s key interval with out-tangent (0.3, 0, 0) per second
+  // at the first key and in-tangent (0, 0, 0.3) at the second:
+  // x = 0.5 + 2 x 0.125 x 0.3, z = 0.5 (0.2 + 0.8) - 2 x 0.125 x 0.3.
+  const KeyTrack& torch = r->lights[1].track;
+  EXPECT_EQ(torch.interpolation, KeyTrack::Interpolation::cubic);
+  ASSERT_EQ(torch.values.size(), 6u);
+  expect_track_point(torch, 24.0, {0.575f, 0.8f, 0.425f}, "torch");
+  expect_track_point(torch, 0.0, {0.5f, 0.8f, 0.2f}, "torch");
+  // lamp2's scale moves nothing; the crate's translation and the ball's rotation are ignored, in
+  // exactly one warning that names them and nothing else.
+  EXPECT_TRUE(r->lights[2].track.times.empty());
+  int animation_warnings = 0;
+  for (const std::string& w : warnings) {
+    if (w.find("animation") == std::string::npos) continue;
+    ++animation_warnings;
+    EXPECT_NE(w.find("animation 1 ('BallAction') channel 1 (node 4 ('ball') rotation)"), std::string::npos)
+        << w;
+    EXPECT_NE(w.find("animation 2 ('TorchAction') channel 1 (node 6 ('crate') translation)"),
+              std::string::npos)
+        << w;
+    EXPECT_EQ(w.find("lamp2"), std::string::npos) << w;
+    EXPECT_EQ(w.find("'lamp'"), std::string::npos) << w;
+    EXPECT_EQ(w.find("'torch'"), std::string::npos) << w;
+  }
+  EXPECT_EQ(animation_warnings, 1);
+
+  // An animated parent: the lamp's own channel is not played (the demo would move it without its
+  // parent's motion), and the warning says why.
+  warnings.clear();
+  const Result<DemoScene> p =
+      load_text("animated_parent.gltf",
+                animated_gltf(R"(,{"sampler":0,"target":{"node":2,"path":"translation"}})"), options);
+  ASSERT_TRUE(p.ok()) << p.status().to_string();
+  EXPECT_TRUE(p->lights[0].track.times.empty());
+  std::erase_if(warnings, [](const std::string& w) { return w.find("animation") == std::string::npos; });
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("node 3 ('lamp') translation: a parent node is animated too"), std::string::npos)
+      << warnings[0];
+  EXPECT_NE(warnings[0].find("node 2 ('rig') translation"), std::string::npos) << warnings[0];
+
+  // Another frame rate; a malformed sampler is an error naming the animation and channel.
+  GltfSceneOptions fps30;
+  fps30.animation_fps = 30.0f;
+  const Result<DemoScene> f = load_text("animated_30.gltf", animated_gltf(), fps30);
+  ASSERT_TRUE(f.ok()) << f.status().to_string();
+  EXPECT_EQ(f->lights[0].track.times, (std::vector<float>{0.0f, 30.0f, 60.0f}));
+  expect_error(load_text("animated_bezier.gltf", animated_gltf("", "BEZIER")), "animated_bezier.gltf",
+               {"animation 2 ('TorchAction') channel 0", "unknown interpolation 'BEZIER'"});
+  expect_error(load_text("animated_count.gltf", animated_gltf("", "LINEAR")), "animated_count.gltf",
+               {"animation 2 ('TorchAction') channel 0", "6 values for 2 key times"});
+}
+
+// An animated light is checked against the level's bounds at every key, as at rest.
+TEST(GltfScene, AnimatedLightKeysOutsideTheLevelAreRefused) {
+  // The rig moves 4 along +X and the lamp's rest translation back, so that the lamp rests at
+  // (0, 0.7, 0.5) while its keys (in the buffer, carried by the rig) lie at x = 4.3 to 4.6, past
+  // the two-block level's box grown by its extent 2 (x <= 4).
+  std::string text = animated_gltf();
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {R"("translation":[0.1,0.2,0])", R"("translation":[4.0,0.2,0])"},
+           {R"("translation":[0.3,0.5,0.5])", R"("translation":[-4.0,0.5,0.5])"}})
+    text.replace(text.find(from), from.size(), to);
+  expect_error(
+      load_text("animated_far.gltf", text), "animated_far.gltf",
+      {"node 3 ('lamp'): light 0 ('bulb'): animation key 0", "(4.3, 0.7, 0.5)", "outside the level's box"});
+  // At rest inside, with keys inside: it loads.
+  EXPECT_TRUE(load_text("animated_near.gltf", animated_gltf()).ok());
+}
+
+// The sample scenes number their attribute sets from 0 (clutter_room.gltf had TEXCOORD_1
+// without TEXCOORD_0, which the Khronos validator refuses); the loader warns about a gap.
+TEST(GltfScene, AttributeSetsWithoutGapsInTheSamples) {
+  for (const char* name : {"two_rooms.gltf", "clutter_room.gltf", "host_room.gltf"}) {
+    tinygltf::TinyGLTF gltf;
+    tinygltf::Model model;
+    std::string err, warn;
+    ASSERT_TRUE(gltf.LoadASCIIFromFile(&model, &err, &warn, std::string(MODRT_SCENES_DIR) + "/" + name))
+        << name << ": " << err;
+    for (const tinygltf::Mesh& mesh : model.meshes)
+      for (const tinygltf::Primitive& prim : mesh.primitives)
+        for (const auto& [attribute, accessor] : prim.attributes) {
+          const std::size_t underscore = attribute.rfind('_');
+          if (underscore == std::string::npos || attribute.rfind("TEXCOORD", 0) != 0) continue;
+          const int set = std::stoi(attribute.substr(underscore + 1));
+          if (set > 0) {
+            EXPECT_TRUE(prim.attributes.count("TEXCOORD_" + std::to_string(set - 1)))
+                << name << ": mesh '" << mesh.name << "' has " << attribute << " without the set before it";
+          }
+        }
+    std::vector<std::string> warnings;
+    GltfSceneOptions options;
+    options.warnings = &warnings;
+    ASSERT_TRUE(load_gltf_scene(std::string(MODRT_SCENES_DIR) + "/" + name, options).ok()) << name;
+    for (const std::string& w : warnings) EXPECT_EQ(w.find("without TEXCOORD_0"), std::string::npos) << w;
+  }
+  std::vector<std::string> warnings;
+  GltfSceneOptions options;
+  options.warnings = &warnings;
+  ClutterBoxGltf gap;  // TEXCOORD_1 alone
+  ASSERT_TRUE(load_text("texcoord_gap.gltf", gap.text(), options).ok());
+  int gaps = 0;
+  for (const std::string& w : warnings) gaps += w.find("TEXCOORD_1 without TEXCOORD_0") != std::string::npos;
+  EXPECT_EQ(gaps, 1);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "modrt/checked_arithmetic.h"
 #include "modrt/clutter_mesh.h"
 #include "modrt/gles/gles_direct_light.h"
 #include "modrt/level_geometry.h"
@@ -44,7 +45,71 @@ struct DrawRange {
   int material = 0;
   bool dynamic = false;
   int clutter = -1;  // DemoScene::clutter object whose lightmap lights it
+  // Drawn without culling (a double-sided dynamic or clutter mesh; a double-sided static mesh is
+  // two culled draws instead, its back side mapped on its own).
+  bool both_sides = false;
+  bool casts_shadow = true;  // false for the back side of a static mesh: its front casts the same
 };
+
+// The camera image's light model: gles::light_glsl() once per light slot, its uniforms and
+// functions renamed with the slot's suffix by the preprocessor (u_light_position ->
+// u_light_position_1, direct_e_over_pi -> direct_e_over_pi_1, ...), and direct_e_over_pi_all
+// summing the slots in use in light order, as add_ld sums the ld. Every global name of
+// light.glsl must be listed here: one left out is declared twice with two lights, which the
+// shader compiler refuses (DemoRender's two-light tests).
+constexpr const char* kLightGlslNames[] = {
+    "u_light_position", "u_light_rgb",     "u_light_radius",     "u_spot_direction", "u_spot_cos",
+    "u_shadow",         "u_shadow_params", "u_falloff_floor_d2", "shadow_depth",     "direct_e_over_pi"};
+
+std::string light_slot_name(const char* name, std::size_t slot) {
+  return name + ("_" + std::to_string(slot));
+}
+
+std::string light_slots_glsl(std::size_t slots) {
+  std::string out;
+  for (std::size_t i = 0; i < slots; ++i) {
+    for (const char* name : kLightGlslNames)
+      out += std::string("#define ") + name + " " + light_slot_name(name, i) + "\n";
+    out += gles::light_glsl();
+    out += "\n";
+    for (const char* name : kLightGlslNames) out += std::string("#undef ") + name + "\n";
+  }
+  out += "uniform int u_light_count;\nvec3 direct_e_over_pi_all(vec3 position, vec3 normal) {\n";
+  out += "  vec3 e = direct_e_over_pi_0(position, normal);\n";
+  for (std::size_t i = 1; i < slots; ++i)
+    out += "  if (u_light_count > " + std::to_string(i) + ") e += direct_e_over_pi_" + std::to_string(i) +
+           "(position, normal);\n";
+  return out + "  return e;\n}\n";
+}
+
+// Adds one light's ld (u_ld) to the sum of the lights before it (u_sum; u_first: none), texel by
+// texel in the ld layout.
+const char* const kLdSumFrag = R"(uniform highp sampler2D u_ld;
+uniform highp sampler2D u_sum;
+uniform int u_first;
+layout(location = 0) out vec4 o_ld;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec4 v = texelFetch(u_ld, p, 0);
+  if (u_first == 0) v += texelFetch(u_sum, p, 0);
+  o_ld = v;
+}
+)";
+
+// Texture units of the scene program: u_shadow_0 and the material, atlas and probe samplers take
+// 0..8 (assign_sampler_units, in this order), the other lights' shadow maps from 9 on.
+constexpr int kFirstExtraShadowUnit = 9;
+int shadow_unit(std::size_t light) { return light == 0 ? 0 : kFirstExtraShadowUnit + int(light) - 1; }
+
+Mesh back_side(const Mesh& mesh) {
+  Mesh back = mesh;
+  back.name += " (back side)";
+  for (std::size_t t = 0; t + 2 < back.indices.size(); t += 3)
+    std::swap(back.indices[t + 1], back.indices[t + 2]);
+  for (glm::vec3& n : back.normal) n = -n;
+  for (glm::vec4& t : back.tangent) t = -t;
+  return back;
+}
 
 void append_sphere(std::vector<MappedVertex>& out, float radius) {
   const int rings = 8, segments = 16;
@@ -71,6 +136,27 @@ Status gl_error_status(const platform::GlFunctions& gl, const std::string& what)
   return Status::error(e == GL_OUT_OF_MEMORY ? ErrorCode::resource_limit : ErrorCode::internal_error,
                        "renderer: " + what + ": " + platform::gl_error_name(e) +
                            (e == GL_OUT_OF_MEMORY ? " (the GL driver could not allocate it)" : ""));
+}
+
+Result<std::vector<MappedMesh>> map_back_sides(const DemoScene& scene, const Level& level) {
+  DemoScene backs;
+  std::vector<int> original;
+  for (std::size_t i = 0; i < scene.meshes.size(); ++i) {
+    const Mesh& mesh = scene.meshes[i];
+    if (mesh.dynamic || mesh.clutter >= 0 || mesh.material < 0 ||
+        std::size_t(mesh.material) >= scene.materials.size() ||
+        !scene.materials[std::size_t(mesh.material)].double_sided)
+      continue;
+    backs.meshes.push_back(back_side(mesh));
+    original.push_back(int(i));
+  }
+  if (backs.meshes.empty()) return std::vector<MappedMesh>();
+  Result<std::vector<MappedMesh>> mapped = map_to_proxies(backs, level);
+  if (!mapped.ok())
+    return Status::error(mapped.status().code(),
+                         "back sides of double-sided meshes: " + mapped.status().message());
+  for (MappedMesh& m : mapped.value()) m.mesh = original[std::size_t(m.mesh)];
+  return mapped;
 }
 
 Status buffer_data_checked(const platform::GlFunctions& gl, GLenum target, std::size_t bytes,
@@ -100,10 +186,14 @@ struct SceneRenderer::Impl {
     return t;
   }
   GLint loc(GLuint program, const char* name) const { return gl.glGetUniformLocation(program, name); }
-  // The camera image's light.glsl uniforms (gles::light_glsl(), the ld pass's light model).
-  gles::LightUniforms scene_lighting;
-  void set_lighting(const FrameState& l) const {
-    scene_lighting.set(gl, SceneRenderer::gpu_light(l), {shadow_cube, kShadowNear, kShadowFar});
+  // The camera image's light.glsl uniforms per light slot (light_slots_glsl, the ld pass's
+  // light model), the slots in use and the light marker's colour.
+  std::vector<gles::LightUniforms> scene_lighting;
+  GLint light_count = -1, marker_rgb = -1;
+  void set_lighting(const FrameState& frame) const {
+    for (std::size_t i = 0; i < frame.lights.size(); ++i)
+      scene_lighting[i].set(gl, frame.lights[i], {shadow_cubes[i], kShadowNear, kShadowFar});
+    gl.glUniform1i(light_count, int(frame.lights.size()));
   }
 
   GLint shadow_view_proj = -1, shadow_offset = -1, tonemap_exposure = -1;
@@ -115,10 +205,15 @@ struct SceneRenderer::Impl {
 
   std::vector<GLuint> programs, framebuffers, textures, buffers;
   GLuint vao = 0, empty_vao = 0, vbo = 0;
-  GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0, gather_program = 0;
-  GLuint shadow_cube = 0;
-  std::array<GLuint, 6> shadow_fbo{};
+  GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0, gather_program = 0, sum_program = 0;
+  std::vector<GLuint> shadow_cubes;                // one per light slot
+  std::vector<std::array<GLuint, 6>> shadow_fbos;  // their faces
   int shadow_size = 0;
+  // add_ld: two RGBA32F targets in the ld layout, written in turn; `sum` the last written.
+  std::array<GLuint, 2> sum_texture{}, sum_fbo{};
+  int sum = -1;
+  TextureSize sum_layout;
+  GLint sum_first = -1;
   std::size_t samples = 0;
   GLuint color = 0, depth = 0, scene_fbo = 0, display = 0, display_fbo = 0;
   std::array<GLuint, 5> own_atlas{};  // CPU-computed atlas (0) and vector atlases (1..4)
@@ -162,6 +257,13 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     return Status::error(
         ErrorCode::resource_limit,
         "renderer: this GLES context cannot render to float targets (no EXT_color_buffer_float)");
+  if (scene.lights.size() > kMaxDemoLights)
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the scene has " + std::to_string(scene.lights.size()) +
+                             " lights; the renderer draws at most " + std::to_string(kMaxDemoLights) +
+                             " (kMaxDemoLights: a shadow cube map each)");
+  // One slot for a scene without lights: the program and its uniforms stay the same.
+  const std::size_t slots = std::max<std::size_t>(scene.lights.size(), 1);
   while (gl.glGetError() != GL_NO_ERROR) {
   }
   auto impl = std::make_unique<Impl>(gl);
@@ -181,8 +283,12 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   if (Status s = program("demo shadow", {kHeader, kShadowVert}, {kHeader, kShadowFrag}, m.shadow_program);
       !s.ok())
     return s;
-  if (Status s = program("demo scene", {kHeader, kSceneVert}, {kHeader, gles::light_glsl(), kSceneFrag},
+  const std::string lights_glsl = light_slots_glsl(slots);
+  if (Status s = program("demo scene", {kHeader, kSceneVert}, {kHeader, lights_glsl.c_str(), kSceneFrag},
                          m.scene_program);
+      !s.ok())
+    return s;
+  if (Status s = program("demo ld sum", {kHeader, kFullscreenVert}, {kHeader, kLdSumFrag}, m.sum_program);
       !s.ok())
     return s;
   if (Status s =
@@ -195,13 +301,30 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     return s;
   gl.glUseProgram(m.scene_program);
   platform::assign_sampler_units(gl, m.scene_program,
-                                 {"u_shadow", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",
+                                 {"u_shadow_0", "u_normal_map", "u_atlas", "u_vector0", "u_vector1",
                                   "u_vector2", "u_vector3", "u_base_map", "u_probes"});
+  for (std::size_t i = 1; i < slots; ++i)
+    platform::set_int(gl, m.scene_program, light_slot_name("u_shadow", i).c_str(), shadow_unit(i));
+  for (std::size_t i = 0; i < slots; ++i) {
+    const auto loc = [&](const char* name) {
+      return m.loc(m.scene_program, light_slot_name(name, i).c_str());
+    };
+    gles::LightUniforms u;
+    u.position = loc("u_light_position"), u.rgb = loc("u_light_rgb"), u.radius = loc("u_light_radius"),
+    u.spot_direction = loc("u_spot_direction"), u.spot_cos = loc("u_spot_cos"),
+    u.shadow_params = loc("u_shadow_params"), u.falloff_floor = loc("u_falloff_floor_d2");
+    gl.glUniform1f(u.falloff_floor, 0.0f);  // the camera image shades points, not texels
+    m.scene_lighting.push_back(u);
+  }
+  m.light_count = m.loc(m.scene_program, "u_light_count");
+  m.marker_rgb = m.loc(m.scene_program, "u_marker_rgb");
+  gl.glUseProgram(m.sum_program);
+  platform::assign_sampler_units(gl, m.sum_program, {"u_ld", "u_sum"});
+  m.sum_first = m.loc(m.sum_program, "u_first");
   gl.glUseProgram(m.tonemap_program);
   platform::assign_sampler_units(gl, m.tonemap_program, {"u_linear"});
   gl.glUseProgram(m.gather_program);
   platform::assign_sampler_units(gl, m.gather_program, {"u_cell_texel", "u_clutter_atlas"});
-  m.scene_lighting = gles::LightUniforms::find(gl, m.scene_program);
   m.shadow_view_proj = m.loc(m.shadow_program, "u_view_proj");
   m.shadow_offset = m.loc(m.shadow_program, "u_offset");
   m.tonemap_exposure = m.loc(m.tonemap_program, "u_exposure");
@@ -220,21 +343,38 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
   // Its size was checked before anything was expanded (map_to_proxies, on the exact count of
   // the cut meshes), and is checked here on what was mapped; reserved once, so that growing it
   // never holds twice the buffer.
-  const std::size_t drawn_corners = drawn_corner_count(scene, mapped);
+  // Double-sided static meshes: their back sides as meshes of their own, mapped onto the proxy
+  // faces they face, drawn culled like their fronts.
+  Result<std::vector<MappedMesh>> backs = map_back_sides(scene, level);
+  if (!backs.ok()) return Status::error(backs.status().code(), "renderer: " + backs.status().message());
+  std::size_t drawn_corners = drawn_corner_count(scene, mapped);
+  for (const MappedMesh& mm : backs.value())
+    drawn_corners = saturating_add(drawn_corners, mm.vertices.size());
   if (const std::string problem = vertex_buffer_problem(drawn_corners); !problem.empty())
     return Status::error(ErrorCode::resource_limit, "renderer: " + problem);
+  const auto double_sided = [&](const Mesh& mesh) {
+    return mesh.material >= 0 && std::size_t(mesh.material) < scene.materials.size() &&
+           scene.materials[std::size_t(mesh.material)].double_sided;
+  };
   std::vector<MappedVertex> vertices;
   vertices.reserve(drawn_corners);
-  for (const MappedMesh& mm : mapped) {
-    DrawRange d{GLint(vertices.size()), GLsizei(mm.vertices.size()),
-                scene.meshes[std::size_t(mm.mesh)].material, false};
-    vertices.insert(vertices.end(), mm.vertices.begin(), mm.vertices.end());
-    m.draws.push_back(d);
-  }
+  for (const bool front : {true, false})
+    for (const MappedMesh& mm : front ? mapped : std::span<const MappedMesh>(backs.value())) {
+      if (mm.mesh < 0 || std::size_t(mm.mesh) >= scene.meshes.size())
+        return Status::error(ErrorCode::invalid_argument, "renderer: a mapped mesh names mesh " +
+                                                              std::to_string(mm.mesh) + ", the scene has " +
+                                                              std::to_string(scene.meshes.size()));
+      DrawRange d{GLint(vertices.size()), GLsizei(mm.vertices.size()),
+                  scene.meshes[std::size_t(mm.mesh)].material, false};
+      d.casts_shadow = front;
+      vertices.insert(vertices.end(), mm.vertices.begin(), mm.vertices.end());
+      m.draws.push_back(d);
+    }
   auto next = [&] { return GLint(vertices.size()); };
   for (const Mesh& mesh : scene.meshes) {
     if (!mesh.dynamic) continue;
     DrawRange d{next(), 0, mesh.material, true};
+    d.both_sides = double_sided(mesh);
     for (std::uint32_t i : mesh.indices) {
       if (i >= mesh.position.size() || i >= mesh.normal.size())
         return Status::error(ErrorCode::invalid_argument,
@@ -262,6 +402,7 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
                            "renderer: clutter mesh '" + mesh.name + "' needs one lightmap UV per vertex");
     const float res = float(scene.clutter[std::size_t(mesh.clutter)].mesh->atlas.res);
     DrawRange d{next(), 0, mesh.material, false, mesh.clutter};
+    d.both_sides = double_sided(mesh);
     for (std::uint32_t i : mesh.indices) {
       if (i >= mesh.position.size() || i >= mesh.normal.size())
         return Status::error(ErrorCode::invalid_argument,
@@ -360,33 +501,40 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
                                     ? image_texture[std::size_t(mat.normal_texture)]
                                     : 0);
 
-  // ---- shadow cube map (depth, hardware comparison) ----
+  // ---- shadow cube maps (depth, hardware comparison), one per light ----
   m.shadow_size = options.shadow_size;
-  gl.glGenTextures(1, &m.shadow_cube);
-  m.textures.push_back(m.shadow_cube);
-  gl.glBindTexture(GL_TEXTURE_CUBE_MAP, m.shadow_cube);
-  gl.glTexStorage2D(GL_TEXTURE_CUBE_MAP, 1, GL_DEPTH_COMPONENT24, m.shadow_size, m.shadow_size);
-  if (Status s = gl_error_status(gl, "allocating the shadow cube map"); !s.ok()) return s;
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  for (int f = 0; f < 6; ++f) {
-    GLuint fbo = 0;
-    gl.glGenFramebuffers(1, &fbo);
-    m.framebuffers.push_back(fbo);
-    gl.glBindFramebuffer(GL_FRAMEBUFFER, fbo);
-    gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GLenum(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f),
-                              m.shadow_cube, 0);
-    const GLenum none = GL_NONE;
-    gl.glDrawBuffers(1, &none);
-    gl.glReadBuffer(GL_NONE);
-    if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      return Status::error(ErrorCode::resource_limit,
-                           "renderer: the shadow cube map (DEPTH_COMPONENT24) is not renderable");
-    m.shadow_fbo[std::size_t(f)] = fbo;
+  for (std::size_t light = 0; light < slots; ++light) {
+    GLuint cube = 0;
+    gl.glGenTextures(1, &cube);
+    m.textures.push_back(cube);
+    m.shadow_cubes.push_back(cube);
+    gl.glBindTexture(GL_TEXTURE_CUBE_MAP, cube);
+    gl.glTexStorage2D(GL_TEXTURE_CUBE_MAP, 1, GL_DEPTH_COMPONENT24, m.shadow_size, m.shadow_size);
+    if (Status s = gl_error_status(gl, "allocating the shadow cube map of light " + std::to_string(light));
+        !s.ok())
+      return s;
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl.glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    std::array<GLuint, 6>& faces = m.shadow_fbos.emplace_back();
+    for (int f = 0; f < 6; ++f) {
+      GLuint fbo = 0;
+      gl.glGenFramebuffers(1, &fbo);
+      m.framebuffers.push_back(fbo);
+      gl.glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+      gl.glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT,
+                                GLenum(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f), cube, 0);
+      const GLenum none = GL_NONE;
+      gl.glDrawBuffers(1, &none);
+      gl.glReadBuffer(GL_NONE);
+      if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        return Status::error(ErrorCode::resource_limit,
+                             "renderer: the shadow cube map (DEPTH_COMPONENT24) is not renderable");
+      faces[std::size_t(f)] = fbo;
+    }
   }
 
   // ---- camera targets ----
@@ -426,6 +574,10 @@ void bind_texture(const platform::GlFunctions& gl, int unit, GLenum target, GLui
 Status SceneRenderer::render_shadows(const FrameState& frame) {
   Impl& m = *impl_;
   const platform::GlFunctions& gl = m.gl;
+  if (frame.lights.size() > m.shadow_cubes.size())
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the frame has " + std::to_string(frame.lights.size()) +
+                             " lights, the renderer was made for " + std::to_string(m.shadow_cubes.size()));
   static const glm::vec3 dirs[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   static const glm::vec3 ups[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
   const glm::mat4 proj = glm::perspective(glm::radians(90.0f), 1.0f, kShadowNear, kShadowFar);
@@ -440,17 +592,20 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   gl.glPolygonOffset(1.5f, 2.0f);
   gl.glViewport(0, 0, m.shadow_size, m.shadow_size);
   const GLint vp = m.shadow_view_proj, off = m.shadow_offset;
-  for (int f = 0; f < 6; ++f) {
-    gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbo[std::size_t(f)]);
-    gl.glClearDepthf(1.0f);
-    gl.glClear(GL_DEPTH_BUFFER_BIT);
-    const glm::mat4 view_proj =
-        proj * glm::lookAt(frame.light_position, frame.light_position + dirs[f], ups[f]);
-    gl.glUniformMatrix4fv(vp, 1, GL_FALSE, glm::value_ptr(view_proj));
-    for (const DrawRange& d : m.draws) {
-      const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
-      gl.glUniform3f(off, o.x, o.y, o.z);
-      gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
+  for (std::size_t light = 0; light < frame.lights.size(); ++light) {
+    const glm::vec3 at = frame.lights[light].position;
+    for (int f = 0; f < 6; ++f) {
+      gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbos[light][std::size_t(f)]);
+      gl.glClearDepthf(1.0f);
+      gl.glClear(GL_DEPTH_BUFFER_BIT);
+      const glm::mat4 view_proj = proj * glm::lookAt(at, at + dirs[f], ups[f]);
+      gl.glUniformMatrix4fv(vp, 1, GL_FALSE, glm::value_ptr(view_proj));
+      for (const DrawRange& d : m.draws) {
+        if (!d.casts_shadow) continue;
+        const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
+        gl.glUniform3f(off, o.x, o.y, o.z);
+        gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
+      }
     }
   }
   gl.glDisable(GL_POLYGON_OFFSET_FILL);
@@ -459,19 +614,78 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   return gl_error_status(gl, "shadow pass");
 }
 
-gles::GpuLight SceneRenderer::gpu_light(const FrameState& frame) {
-  gles::GpuLight l;
-  l.position = frame.light_position;
-  l.rgb = frame.light_rgb;
-  l.radius = frame.light_radius;
-  l.spot_direction = frame.spot_direction;
-  l.spot_inner = frame.spot_inner;
-  l.spot_outer = frame.spot_outer;
-  return l;
+gles::GpuShadowCube SceneRenderer::shadow_cube(std::size_t light) const {
+  return {light < impl_->shadow_cubes.size() ? impl_->shadow_cubes[light] : 0, kShadowNear, kShadowFar};
 }
 
-gles::GpuShadowCube SceneRenderer::shadow_cube() const {
-  return {impl_->shadow_cube, kShadowNear, kShadowFar};
+std::size_t SceneRenderer::light_slots() const { return impl_->shadow_cubes.size(); }
+
+Status SceneRenderer::add_ld(GLuint ld_texture, TextureSize layout, bool first) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (!ld_texture || layout.width < 1 || layout.height < 1)
+    return Status::error(ErrorCode::invalid_argument, "renderer: add_ld needs an ld texture and its layout");
+  if (m.sum_texture[0] && (layout.width != m.sum_layout.width || layout.height != m.sum_layout.height))
+    return Status::error(ErrorCode::invalid_argument, "renderer: add_ld: the ld layout changed");
+  if (!first && m.sum < 0)
+    return Status::error(ErrorCode::invalid_argument, "renderer: add_ld: no sum to add to (first light?)");
+  if (!m.sum_texture[0]) {
+    m.sum_layout = layout;
+    for (std::size_t i = 0; i < 2; ++i) {
+      m.sum_texture[i] = m.texture(GL_RGBA32F, layout.width, layout.height);
+      Result<GLuint> fbo = platform::create_framebuffer(gl, "demo ld sum", {m.sum_texture[i]}, "RGBA32F");
+      if (!fbo.ok()) return fbo.status();
+      m.sum_fbo[i] = fbo.value();
+      m.framebuffers.push_back(fbo.value());
+    }
+  }
+  const int target = first ? 0 : 1 - m.sum;
+  gl.glDisable(GL_DEPTH_TEST);
+  gl.glDisable(GL_BLEND);
+  gl.glDisable(GL_CULL_FACE);
+  gl.glDisable(GL_SCISSOR_TEST);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.sum_fbo[std::size_t(target)]);
+  gl.glViewport(0, 0, layout.width, layout.height);
+  gl.glUseProgram(m.sum_program);
+  gl.glUniform1i(m.sum_first, first ? 1 : 0);
+  bind_texture(gl, 0, GL_TEXTURE_2D, ld_texture);
+  bind_texture(gl, 1, GL_TEXTURE_2D, first ? 0 : m.sum_texture[std::size_t(m.sum)]);
+  gl.glBindVertexArray(m.empty_vao);
+  gl.glDrawArrays(GL_TRIANGLES, 0, 3);
+  gl.glBindVertexArray(0);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  gl.glUseProgram(0);
+  gl.glActiveTexture(GL_TEXTURE0);
+  m.sum = target;
+  return gl_error_status(gl, "summing the lights' ld");
+}
+
+GLuint SceneRenderer::summed_ld() const {
+  return impl_->sum < 0 ? 0 : impl_->sum_texture[std::size_t(impl_->sum)];
+}
+
+Status SceneRenderer::read_summed_ld(std::span<float> ld) {
+  Impl& m = *impl_;
+  const platform::GlFunctions& gl = m.gl;
+  if (m.sum < 0) return Status::error(ErrorCode::invalid_argument, "renderer: no ld summed yet");
+  const std::size_t texels = std::size_t(m.sum_layout.width) * std::size_t(m.sum_layout.height);
+  if (ld.size() > 3 * texels)
+    return Status::error(ErrorCode::invalid_argument, "renderer: ld has " + std::to_string(ld.size()) +
+                                                          " floats, more than the summed texture's " +
+                                                          std::to_string(3 * texels));
+  if (m.readback.size() < 4 * texels) m.readback.resize(4 * texels);
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, m.sum_fbo[std::size_t(m.sum)]);
+  gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+  gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  gl.glReadPixels(0, 0, m.sum_layout.width, m.sum_layout.height, GL_RGBA, GL_FLOAT, m.readback.data());
+  gl.glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  if (Status s = gl_error_status(gl, "reading the summed ld"); !s.ok()) return s;
+  // As GlesDirectLight::read_ld: the CPU runtime rejects NaN and negative ld.
+  for (std::size_t i = 0; i < ld.size(); ++i) {
+    const float v = m.readback[4 * (i / 3) + i % 3];
+    ld[i] = v > 0.0f ? std::min(v, kMaxLightValue) : 0.0f;
+  }
+  return Status::success();
 }
 
 Result<GLuint> SceneRenderer::upload_atlas(std::span<const float> atlas_rgb, int slot) {
@@ -648,6 +862,10 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   if (m.clutter_floats > 0 && !m.clutter_uploaded)
     return Status::error(ErrorCode::invalid_argument,
                          "renderer: the scene has clutter but no clutter lightmap was uploaded");
+  if (frame.lights.size() > m.shadow_cubes.size())
+    return Status::error(ErrorCode::invalid_argument,
+                         "renderer: the frame has " + std::to_string(frame.lights.size()) +
+                             " lights, the renderer was made for " + std::to_string(m.shadow_cubes.size()));
   const glm::mat4 view_proj = view_projection(frame.camera);
   gl.glBindFramebuffer(GL_FRAMEBUFFER, m.scene_fbo);
   gl.glViewport(0, 0, options_.width, options_.height);
@@ -655,7 +873,8 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glDepthFunc(GL_LESS);
   gl.glDepthMask(GL_TRUE);
   // Walls are one-sided: two blocks sharing a wall each draw their own face of it, coplanar
-  // and facing apart, and only the one facing the camera may win.
+  // and facing apart, and only the one facing the camera may win. Single-sided glTF materials
+  // are culled too; double-sided ones are drawn as two culled sides or without culling (DrawRange).
   gl.glEnable(GL_CULL_FACE);
   gl.glCullFace(GL_BACK);
   gl.glDisable(GL_BLEND);
@@ -676,7 +895,8 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glUniform4i(m.su.probe_cell, int(cell.block), cell.i0.x, cell.i0.y, cell.i0.z);
   gl.glUniform3f(m.su.probe_f, float(cell.f.x), float(cell.f.y), float(cell.f.z));
   bind_texture(gl, 8, GL_TEXTURE_2D, frame.probes);
-  bind_texture(gl, 0, GL_TEXTURE_CUBE_MAP, m.shadow_cube);
+  for (std::size_t i = 0; i < m.shadow_cubes.size(); ++i)
+    bind_texture(gl, shadow_unit(i), GL_TEXTURE_CUBE_MAP, m.shadow_cubes[i]);
   bind_texture(gl, 2, GL_TEXTURE_2D, frame.atlas);
   for (int i = 0; i < 4; ++i)
     bind_texture(gl, 3 + i, GL_TEXTURE_2D, vector ? frame.vector_atlas[std::size_t(i)] : frame.atlas);
@@ -691,6 +911,10 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     const GLuint normal_map = m.material_normal[std::size_t(d.material)];
     const GLuint base_map = m.material_base[std::size_t(d.material)];
     const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
+    if (d.both_sides)
+      gl.glDisable(GL_CULL_FACE);
+    else
+      gl.glEnable(GL_CULL_FACE);
     gl.glUniform3f(u_offset, o.x, o.y, o.z);
     gl.glUniform3f(u_base, mat.base_color.x, mat.base_color.y, mat.base_color.z);
     gl.glUniform1i(u_nm, normal_map != 0);
@@ -711,13 +935,17 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
     gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
   }
   gl.glUniform1i(u_clutter, 0);
-  // The light itself, a small bright sphere (scaled through the offset trick: radius 1 mesh).
+  gl.glEnable(GL_CULL_FACE);
+  // The lights themselves, small bright spheres (scaled through the offset trick: radius 1 mesh).
   gl.glUniform1i(u_emissive, 1);
-  const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), frame.light_position) *
-                           glm::scale(glm::mat4(1.0f), glm::vec3(std::max(frame.light_radius, 0.01f)));
-  gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(marker));
   gl.glUniform3f(u_offset, 0.0f, 0.0f, 0.0f);
-  gl.glDrawArrays(GL_TRIANGLES, m.light_marker.first, m.light_marker.count);
+  for (const gles::GpuLight& light : frame.lights) {
+    const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), light.position) *
+                             glm::scale(glm::mat4(1.0f), glm::vec3(std::max(light.radius, 0.01f)));
+    gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(marker));
+    gl.glUniform3f(m.marker_rgb, light.rgb.x, light.rgb.y, light.rgb.z);
+    gl.glDrawArrays(GL_TRIANGLES, m.light_marker.first, m.light_marker.count);
+  }
   gl.glBindVertexArray(0);
   gl.glDisable(GL_CULL_FACE);
   if (Status s = gl_error_status(gl, "scene pass"); !s.ok()) return s;

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: MIT
-// modrt demo — the OpenGL ES 3.0 scene renderer: shadow cube map of the point light, direct
-// light at the proxy samples (the ld the MRT runtime takes), and the camera image shaded with
-// direct light plus indirect light from the lightmap atlas, the vector irradiance atlases
-// (normal-mapped materials) or the probe volume (dynamic meshes), tone-mapped to sRGB.
+// modrt demo — the OpenGL ES 3.0 scene renderer: a shadow cube map per point or spot light (up
+// to kMaxDemoLights), the sum of the lights' direct light at the proxy samples (the ld the MRT
+// runtime takes), and the camera image shaded with every light's direct light plus indirect
+// light from the lightmap atlas, the vector irradiance atlases (normal-mapped materials) or the
+// probe volume (dynamic meshes), tone-mapped to sRGB. Double-sided materials are drawn from both
+// sides (map_back_sides), single-sided ones with their back faces culled.
 //
 // Works with either backend: the GLES backend's atlas textures are sampled directly (same
 // context); the CPU backend's atlas is uploaded with upload_atlas(). Needs float render
@@ -40,11 +42,10 @@ struct RendererOptions {
 // What one frame shows and is lit by.
 struct FrameState {
   DemoCamera camera;
-  glm::vec3 light_position{0.5f};
-  glm::vec3 light_rgb{1.0f};  // radiant intensity per channel (W/sr)
-  float light_radius = 0.05f;
-  glm::vec3 spot_direction{0.0f, -1.0f, 0.0f};  // spot lights (DemoLight); cones of pi: a point light
-  float spot_inner = 3.14159265f, spot_outer = 3.14159265f;
+  // The point and spot lights this frame (gles::GpuLight: position, W/sr per channel, radius,
+  // spot cone; cones of pi: a point light), at most the renderer's light_slots(), each with its
+  // shadow cube map (render_shadows) and drawn as a small emissive sphere.
+  std::vector<gles::GpuLight> lights;
   glm::vec3 dynamic_offset{0.0f};
   // Indirect light: the scalar atlas (RGBA, .rgb = E/pi) and, when all four are set, the
   // OHLSH vector atlases used by normal-mapped materials.
@@ -70,10 +71,21 @@ Status gl_error_status(const platform::GlFunctions& gl, const std::string& what)
 Status buffer_data_checked(const platform::GlFunctions& gl, GLenum target, std::size_t bytes,
                            const void* data, const std::string& what);
 
+// The back sides of the static meshes whose material is double-sided, each a copy of its mesh
+// with the triangles' order reversed, the normals turned and the tangent frame mirrored (xyz
+// and w negated, so that the bumped normal turns with the normal, as glTF's double-sided
+// lighting), mapped onto the proxies like any static mesh: each side gets the lightmap of the
+// proxy face it faces. MappedMesh::mesh names the original mesh. Empty when no static mesh is
+// double-sided.
+Result<std::vector<MappedMesh>> map_back_sides(const DemoScene& scene, const Level& level);
+
 class SceneRenderer {
  public:
-  // `mapped` from map_to_proxies(scene, level); `albedo` is the level's per-sample albedo
-  // (3 per sample). The context must be current for every call.
+  // `mapped` from map_to_proxies(scene, level); the back sides of double-sided static meshes are
+  // mapped here (map_back_sides). Dynamic and clutter meshes of a double-sided material are drawn
+  // without culling, their back faces shaded with the normal turned. `albedo` is the level's
+  // per-sample albedo (3 per sample). One shadow cube map per light of the scene (at least one;
+  // more than kMaxDemoLights is an error). The context must be current for every call.
   static Result<std::unique_ptr<SceneRenderer>> create(const platform::GlFunctions& gl, bool gles_context,
                                                        const DemoScene& scene,
                                                        std::span<const MappedMesh> mapped, const Level& level,
@@ -83,12 +95,22 @@ class SceneRenderer {
   SceneRenderer(const SceneRenderer&) = delete;
   SceneRenderer& operator=(const SceneRenderer&) = delete;
 
-  // The light's cube shadow map over every mesh (dynamic ones at dynamic_offset).
+  // Each light's cube shadow map over every mesh (dynamic ones at dynamic_offset).
   Status render_shadows(const FrameState& frame);
-  // That shadow map, and the frame's light, for the direct-light pass at the level's samples
+  // Light `light`'s shadow map, for the direct-light pass at the level's samples
   // (gles::GlesDirectLight: the same light.glsl as the camera image).
-  gles::GpuShadowCube shadow_cube() const;
-  static gles::GpuLight gpu_light(const FrameState& frame);
+  gles::GpuShadowCube shadow_cube(std::size_t light = 0) const;
+  // The number of lights the renderer was made for (its shadow maps and light model copies).
+  std::size_t light_slots() const;
+  // Several lights' ld at the proxy samples, summed on the GPU one light at a time:
+  // gles::GlesDirectLight renders one light into its texture, add_ld() adds that texture (of
+  // `layout`, GlesDirectLight::layout()) to the sum (`first`: the sum restarts with it), and
+  // summed_ld() is the texture of the sum so far, in the same layout (what
+  // FramePipeline::run_from_texture reads). read_summed_ld() copies it to the CPU as
+  // GlesDirectLight::read_ld does (3 floats per sample, NaN and negatives as 0).
+  Status add_ld(GLuint ld_texture, TextureSize layout, bool first);
+  GLuint summed_ld() const;
+  Status read_summed_ld(std::span<float> ld);
   // Uploads an atlas computed on the CPU (3 floats per texel) into one of the renderer's own
   // atlas textures and returns it: slot 0 for FrameState::atlas, 1..4 for vector_atlas[0..3].
   Result<GLuint> upload_atlas(std::span<const float> atlas_rgb, int slot = 0);

@@ -5,6 +5,7 @@
 // a glTF file; proxy_mapping.h then gives every static mesh its lightmap coordinates.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -31,6 +32,9 @@ struct Material {
   int base_color_texture = -1;  // index into DemoScene::images, -1: none
   int normal_texture = -1;      // tangent-space normal map (glTF convention), -1: none
   float normal_scale = 1.0f;
+  // glTF doubleSided: both sides are drawn, the back side shaded with the normal (and tangent
+  // frame) reversed; false: back faces are culled (docs/demo.md, "Scenes from glTF").
+  bool double_sided = false;
 };
 
 // Triangle mesh in world space (node transforms applied), indexed.
@@ -54,6 +58,24 @@ struct Mesh {
   int source_node = -1, source_primitive = -1;
 };
 
+// Sampled keyframes of a position (a glTF animation's translation channel, in world space):
+// `times` in demo frames, strictly increasing; `values` one per key, or for cubic three per key
+// (in-tangent, value, out-tangent; tangents per frame) as glTF's CUBICSPLINE. The track loops
+// every `period` frames (its animation's duration); before the first key and after the last it
+// holds that key's value. Sampled by track_point (demo_run.h).
+struct KeyTrack {
+  enum class Interpolation { linear, step, cubic };
+  std::vector<float> times;
+  std::vector<glm::vec3> values;
+  Interpolation interpolation = Interpolation::linear;
+  float period = 0.0f;
+};
+
+// The renderer's light limit: one shadow cube map and one copy of the light model per light in
+// the camera image (docs/demo.md, "Lights"); load_gltf_scene keeps the first ones and names
+// the rest in a warning, DemoRun refuses a scene with more.
+inline constexpr std::size_t kMaxDemoLights = 4;
+
 // A point or spot light moves along a closed path of key positions (Catmull-Rom, one loop
 // per `period` frames); a single key holds it still. A spot light (outer_cone < pi) shines
 // along `direction`, full inside inner_cone, fading smoothly to zero at outer_cone (half
@@ -66,6 +88,7 @@ struct DemoLight {
   glm::vec3 color{1.0f};
   float intensity = 1.0f;  // radiant intensity (W/sr) at colour (1, 1, 1)
   float radius = 0.05f;    // size of the emitter drawn in the image; shading treats it as a point
+  KeyTrack track;          // when it has keys: the light's position, instead of `path`
 };
 
 struct DemoCamera {
@@ -85,6 +108,7 @@ struct DemoScene {
   // Path of the dynamic meshes (all move together), as DemoLight::path.
   std::vector<glm::vec3> dynamic_path;
   int dynamic_period = 120;
+  KeyTrack dynamic_track;  // when it has keys: the dynamic meshes' offset, instead of dynamic_path
   // DRT clutter objects inside the level's blocks (kind mesh from glTF, drawn by the meshes
   // whose Mesh::clutter names them).
   std::vector<ClutterObject> clutter;

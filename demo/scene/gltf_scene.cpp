@@ -462,6 +462,7 @@ std::string json_vec3(const glm::dvec3& v) {
 struct NodeInstance {
   int node = 0;
   glm::dmat4 world{1.0};
+  glm::dmat4 parent{1.0};  // the parent's world matrix (identity for a root)
 };
 
 struct BlockNode {
@@ -515,7 +516,12 @@ class Loader {
                : 3 * options_.max_vertices;
   }
   void add_light(const NodeInstance& inst, int light);
+  void read_animations(const std::vector<NodeInstance>& instances);
+  KeyTrack read_track(const tinygltf::Animation& animation, int sampler, const std::string& what,
+                      const glm::dmat4& parent, std::vector<glm::dvec3>& world_keys) const;
+  double animation_duration(const tinygltf::Animation& animation, const std::string& what) const;
   void check_light_positions() const;
+  void keep_light_limit();
   void add_default_light();
   std::size_t mesh_corners(int mesh) const;
   void check_vertex_buffer_estimate(const std::vector<NodeInstance>& instances) const;
@@ -540,25 +546,41 @@ class Loader {
   bool have_camera_ = false;
   bool have_dynamic_key_ = false;
   glm::dvec3 dynamic_key_{0.0};
-  bool warned_morph_ = false, warned_texcoord_ = false;
+  int dynamic_key_node_ = -1;
+  std::vector<std::string> directional_lights_;  // skipped, named in one warning
+  bool warned_morph_ = false, warned_texcoord_ = false, warned_attribute_gap_ = false;
   std::vector<ClutterNode> clutter_nodes_;
   // Per scene_.lights entry: what it is (node and light) and its position in double, for the
   // check against the level's extent once the level is known.
   struct LightSource {
     std::string what;
     glm::dvec3 position{0.0};
+    int node = -1;                 // the glTF node carrying it; -1 for a level file's light
+    std::vector<glm::dvec3> keys;  // its animation's key positions (world), checked as `position`
   };
   std::vector<LightSource> light_sources_;
 };
+
+// A boolean in `extras`: JSON true or false, or the integers 1 and 0, which Blender's glTF
+// exporter writes for boolean custom properties (only exactly 0 and 1; 2 or 0.5 are no booleans).
+// nullopt for anything else.
+std::optional<bool> extras_bool(const tinygltf::Value& v) {
+  if (v.IsBool()) return v.Get<bool>();
+  if (v.IsInt() && (v.Get<int>() == 0 || v.Get<int>() == 1)) return v.Get<int>() == 1;
+  return std::nullopt;
+}
+
+// What extras_bool accepts, for the error messages.
+constexpr const char* kExtrasBool = "true or false (or 1 or 0)";
 
 // A node marked as a proxy block that is not drawn (extras.modrt_block true, or an object
 // without "draw": true); malformed marks count as drawn here and are reported by load().
 bool undrawn_block(const tinygltf::Node& node) {
   if (!node.extras.IsObject() || !node.extras.Has("modrt_block")) return false;
   const tinygltf::Value& b = node.extras.Get("modrt_block");
-  if (b.IsBool()) return b.Get<bool>();
+  if (const std::optional<bool> flag = extras_bool(b)) return *flag;
   if (!b.IsObject()) return false;
-  return !(b.Has("draw") && b.Get("draw").IsBool() && b.Get("draw").Get<bool>());
+  return !(b.Has("draw") && extras_bool(b.Get("draw")).value_or(false));
 }
 
 std::size_t saturating_add(std::size_t a, std::size_t b) {
@@ -586,6 +608,11 @@ std::size_t Loader::mesh_corners(int mesh) const {
       count = count > 2 ? 3 * (count - 2) : 0;
     else if (mode != TINYGLTF_MODE_TRIANGLES)
       count = 0;  // refused by add_mesh
+    // A double-sided static mesh is drawn twice, its back side mapped on its own (the renderer's
+    // map_back_sides); counted twice whether the node is static or not.
+    if (prim.material >= 0 && std::size_t(prim.material) < model_.materials.size() &&
+        model_.materials[std::size_t(prim.material)].doubleSided)
+      count = saturating_add(count, count);
     corners = saturating_add(corners, count);
   }
   return corners;
@@ -628,6 +655,7 @@ std::vector<NodeInstance> Loader::traverse(const std::vector<int>& roots) const 
       fail(ErrorCode::format_error, node_label(model_.nodes[std::size_t(inst.node)], inst.node) +
                                         " is reached twice (a cycle or a node with two parents)");
     seen[std::size_t(inst.node)] = 1;
+    inst.parent = inst.world;
     inst.world = inst.world * local_matrix(inst.node);
     out.push_back(inst);
     const std::vector<int>& children = model_.nodes[std::size_t(inst.node)].children;
@@ -894,6 +922,7 @@ void Loader::convert_materials() {
         fail(ErrorCode::format_error,
              what + ": baseColorFactor " + short_double(x) + " is not a finite number >= 0");
     m.base_color = glm::vec3(float(f[0]), float(f[1]), float(f[2]));  // glTF factors are linear already
+    m.double_sided = gm.doubleSided;
     const tinygltf::TextureInfo& base = gm.pbrMetallicRoughness.baseColorTexture;
     if (base.index >= 0) {
       m.base_color_texture = image_for_texture(base.index, what + " baseColorTexture");
@@ -992,6 +1021,17 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic,
                                           " elements, POSITION has " + num(n));
       return v;
     };
+    // glTF numbers attribute sets from 0 without gaps; the Khronos validator refuses TEXCOORD_1
+    // without TEXCOORD_0 (clutter_room.gltf had that), other tools may drop the set.
+    for (const char* set : {"TEXCOORD", "COLOR", "JOINTS", "WEIGHTS"})
+      for (int k = 1; k < 8 && !warned_attribute_gap_; ++k)
+        if (attribute((std::string(set) + "_" + num(k)).c_str()) >= 0 &&
+            attribute((std::string(set) + "_" + num(k - 1)).c_str()) < 0) {
+          warned_attribute_gap_ = true;
+          warnings_.push_back(what + ": " + set + "_" + num(k) + " without " + set + "_" + num(k - 1) +
+                              " (glTF numbers attribute sets from 0 without gaps; the Khronos glTF "
+                              "validator refuses the file)");
+        }
     std::vector<float> nrm = read_attribute("NORMAL", 3);
     std::vector<float> uv = read_attribute("TEXCOORD_0", 2);
     std::vector<float> lightmap_uv;
@@ -1166,8 +1206,8 @@ void Loader::add_mesh(int node_index, const glm::dmat4& transform, bool dynamic,
 
 void Loader::read_clutter_extras(const tinygltf::Value& value, ClutterNode& out) const {
   const std::string where = out.label + ": extras.modrt_clutter";
-  if (value.IsBool()) return;  // true: every field at its default
-  if (!value.IsObject()) fail(ErrorCode::format_error, where + " must be an object (or true)");
+  if (extras_bool(value)) return;  // true (false never gets here): every field at its default
+  if (!value.IsObject()) fail(ErrorCode::format_error, where + " must be an object (or true or 1)");
   for (const std::string& key : value.Keys())
     if (key != "block" && key != "res" && key != "albedo")
       fail(ErrorCode::format_error,
@@ -1304,8 +1344,7 @@ void Loader::add_light(const NodeInstance& inst, int light) {
   const std::string what =
       "light " + num(light) + (l.name.empty() ? std::string() : " (" + quote(l.name) + ")");
   if (l.type == "directional") {
-    warnings_.push_back(what +
-                        ": directional lights are not supported (the demo renders point lights); skipped");
+    directional_lights_.push_back(node_label(node, inst.node) + ": " + what);
     return;
   }
   if (l.type != "point" && l.type != "spot") {
@@ -1354,7 +1393,182 @@ void Loader::add_light(const NodeInstance& inst, int light) {
   d.color = glm::vec3(color);
   d.intensity = float(l.intensity * double(options_.light_intensity_scale));
   scene_.lights.push_back(d);
-  light_sources_.push_back({node_label(node, inst.node) + ": " + what, position});
+  light_sources_.push_back({node_label(node, inst.node) + ": " + what, position, inst.node, {}});
+}
+
+// One animation sampler as a KeyTrack in world space and demo frames: the node's parent
+// transform carries the keys (a translation T moves the node's origin to parent * T), its
+// linear part the cubic tangents, which are per second in glTF and per frame here.
+KeyTrack Loader::read_track(const tinygltf::Animation& animation, int sampler, const std::string& what,
+                            const glm::dmat4& parent, std::vector<glm::dvec3>& world_keys) const {
+  if (sampler < 0 || std::size_t(sampler) >= animation.samplers.size())
+    fail(ErrorCode::format_error, what + " refers to sampler " + num(sampler) + "; the animation has " +
+                                      num(animation.samplers.size()) + " samplers");
+  const tinygltf::AnimationSampler& s = animation.samplers[std::size_t(sampler)];
+  KeyTrack track;
+  if (s.interpolation.empty() || s.interpolation == "LINEAR")
+    track.interpolation = KeyTrack::Interpolation::linear;
+  else if (s.interpolation == "STEP")
+    track.interpolation = KeyTrack::Interpolation::step;
+  else if (s.interpolation == "CUBICSPLINE")
+    track.interpolation = KeyTrack::Interpolation::cubic;
+  else
+    fail(ErrorCode::format_error, what + ": unknown interpolation " + quote(s.interpolation) +
+                                      " (glTF has LINEAR, STEP and CUBICSPLINE)");
+  const std::vector<float> times = read_floats(s.input, what + " input", 1);
+  if (times.empty()) fail(ErrorCode::format_error, what + ": the sampler has no keys");
+  for (std::size_t k = 0; k < times.size(); ++k)
+    if (!std::isfinite(times[k]) || times[k] < 0.0f || (k > 0 && !(times[k] > times[k - 1])))
+      fail(ErrorCode::format_error, what + ": key time " + num(k) + " (" + short_double(double(times[k])) +
+                                        ") is not finite, negative or not after the one before; glTF "
+                                        "key times are strictly increasing from >= 0");
+  const std::size_t per_key = track.interpolation == KeyTrack::Interpolation::cubic ? 3 : 1;
+  const std::vector<float> values = read_floats(s.output, what + " output", 3);
+  if (values.size() != 3 * per_key * times.size())
+    fail(ErrorCode::format_error, what + ": the output has " + num(values.size() / 3) + " values for " +
+                                      num(times.size()) + " key times; " + s.interpolation + " needs " +
+                                      num(per_key * times.size()));
+  const double fps = double(options_.animation_fps);
+  const glm::dmat3 linear(parent);
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    track.times.push_back(float(double(times[k]) * fps));
+    if (!std::isfinite(track.times.back()))
+      fail(ErrorCode::format_error, what + ": key time " + num(k) + " (" + short_double(double(times[k])) +
+                                        " s) is beyond float's range in frames");
+  }
+  for (std::size_t i = 0; i < values.size() / 3; ++i) {
+    const glm::dvec3 v(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
+    const bool tangent = per_key == 3 && i % 3 != 1;
+    const glm::dvec3 w = tangent ? linear * v / fps : glm::dvec3(parent * glm::dvec4(v, 1.0));
+    if (!(std::isfinite(w.x) && std::isfinite(w.y) && std::isfinite(w.z)) ||
+        glm::any(glm::greaterThan(glm::abs(w), glm::dvec3(double(std::numeric_limits<float>::max())))))
+      fail(ErrorCode::format_error,
+           what + ": output value " + num(i) + " is not finite in world space (node transforms overflow)");
+    track.values.push_back(glm::vec3(w));
+    if (!tangent) world_keys.push_back(w);
+  }
+  return track;
+}
+
+// The animation's duration in seconds, its last key time over all its samplers: every track of
+// it loops with this period, as a player loops the whole animation.
+double Loader::animation_duration(const tinygltf::Animation& animation, const std::string& what) const {
+  double duration = 0.0;
+  for (std::size_t i = 0; i < animation.samplers.size(); ++i) {
+    const std::vector<float> times =
+        read_floats(animation.samplers[i].input, what + " sampler " + num(i) + " input", 1);
+    for (const float t : times)
+      if (std::isfinite(t)) duration = std::max(duration, double(t));
+  }
+  return duration;
+}
+
+// glTF animations (docs/demo.md, "Animations"): a translation channel of a node carrying a point
+// or spot light moves that light, one of the first dynamic node (the key of dynamic_path) moves
+// the dynamic meshes; both become KeyTracks the demo samples every frame. Every other channel is
+// ignored, and all ignored ones are named in a single warning.
+void Loader::read_animations(const std::vector<NodeInstance>& instances) {
+  if (model_.animations.empty()) return;
+  if (!(std::isfinite(options_.animation_fps) && options_.animation_fps > 0.0f &&
+        options_.animation_fps <= 1e6f))
+    fail(ErrorCode::invalid_argument,
+         "animation_fps " + short_double(double(options_.animation_fps)) + " is not in (0, 1e6]");
+  const std::size_t nodes = model_.nodes.size();
+  std::vector<const NodeInstance*> instance_of(nodes, nullptr);
+  for (const NodeInstance& inst : instances) instance_of[std::size_t(inst.node)] = &inst;
+  std::vector<int> parent(nodes, -1);
+  for (std::size_t i = 0; i < nodes; ++i)
+    for (const int c : model_.nodes[i].children)
+      if (c >= 0 && std::size_t(c) < nodes) parent[std::size_t(c)] = int(i);
+  std::vector<int> light_of(nodes, -1);
+  for (std::size_t i = 0; i < light_sources_.size(); ++i)
+    if (light_sources_[i].node >= 0) light_of[std::size_t(light_sources_[i].node)] = int(i);
+  // Nodes any channel targets: a node below one of them would move with it, which the demo
+  // does not do.
+  std::vector<char> animated(nodes, 0);
+  for (const tinygltf::Animation& a : model_.animations)
+    for (const tinygltf::AnimationChannel& ch : a.channels)
+      if (ch.target_node >= 0 && std::size_t(ch.target_node) < nodes)
+        animated[std::size_t(ch.target_node)] = 1;
+  std::vector<char> played(nodes, 0);
+  std::vector<std::string> ignored;
+  for (std::size_t ai = 0; ai < model_.animations.size(); ++ai) {
+    const tinygltf::Animation& a = model_.animations[ai];
+    const std::string name =
+        "animation " + num(ai) + (a.name.empty() ? std::string() : " (" + quote(a.name) + ")");
+    std::optional<double> duration;
+    for (std::size_t ci = 0; ci < a.channels.size(); ++ci) {
+      const tinygltf::AnimationChannel& ch = a.channels[ci];
+      const std::string channel = name + " channel " + num(ci);
+      const int t = ch.target_node;
+      if (t < 0 || std::size_t(t) >= nodes) {
+        ignored.push_back(channel + " (" + ch.target_path + ", no target node)");
+        continue;
+      }
+      const tinygltf::Node& node = model_.nodes[std::size_t(t)];
+      const std::string target = channel + " (" + node_label(node, t) + " " + ch.target_path;
+      const int light = light_of[std::size_t(t)];
+      const bool dynamic = t == dynamic_key_node_;
+      const NodeInstance* inst = instance_of[std::size_t(t)];
+      if (!inst) {
+        ignored.push_back(target + ", a node outside the scene)");
+        continue;
+      }
+      // Scale and rotation of a light node without children or mesh move nothing (the light is a
+      // point at the node's origin); a spot light's rotation would turn its cone.
+      const bool bare = node.children.empty() && node.mesh < 0;
+      if (light >= 0 && bare && !dynamic &&
+          (ch.target_path == "scale" ||
+           (ch.target_path == "rotation" && scene_.lights[std::size_t(light)].outer_cone >= 3.14159f)))
+        continue;
+      if (ch.target_path != "translation" || (light < 0 && !dynamic)) {
+        ignored.push_back(target + ")");
+        continue;
+      }
+      bool ancestor_animated = false;
+      for (int p = parent[std::size_t(t)], steps = 0; p >= 0 && steps < int(nodes);
+           p = parent[std::size_t(p)], ++steps)
+        ancestor_animated = ancestor_animated || animated[std::size_t(p)];
+      if (ancestor_animated) {
+        ignored.push_back(target + ": a parent node is animated too, and the demo moves the node alone)");
+        continue;
+      }
+      if (played[std::size_t(t)]) {
+        ignored.push_back(target + ": an earlier channel moves it already)");
+        continue;
+      }
+      played[std::size_t(t)] = 1;
+      std::vector<glm::dvec3> keys;
+      KeyTrack track = read_track(a, ch.sampler, channel, inst->parent, keys);
+      if (!duration) duration = animation_duration(a, name);
+      track.period = float(*duration * double(options_.animation_fps));
+      if (!std::isfinite(track.period))
+        fail(ErrorCode::format_error,
+             name + ": its duration " + short_double(*duration) + " s is beyond float's range in frames");
+      if (light >= 0) {
+        scene_.lights[std::size_t(light)].track = track;
+        light_sources_[std::size_t(light)].keys = std::move(keys);
+      }
+      if (dynamic) scene_.dynamic_track = std::move(track);
+      if (!bare && !dynamic)
+        ignored.push_back(
+            node_label(node, t) + ": its " +
+            (node.mesh >= 0 ? (node.children.empty() ? "mesh" : "mesh and children") : "children") +
+            " stay where they are (only its light moves)");
+      else if (!node.children.empty())
+        ignored.push_back(node_label(node, t) +
+                          ": its children stay where they are (only its own mesh moves)");
+    }
+  }
+  if (!ignored.empty()) {
+    std::string list;
+    for (const std::string& i : ignored) list += (list.empty() ? "" : "; ") + i;
+    warnings_.push_back(
+        "animations: modrt-demo plays the translation of nodes carrying a point or spot light and of the "
+        "first "
+        "dynamic node (docs/demo.md, \"Animations\"); ignored: " +
+        list);
+  }
 }
 
 // Lights outside the level's bounding box grown by its largest extent (light_position_in_level,
@@ -1365,12 +1579,39 @@ void Loader::check_light_positions() const {
   for (const BlockDescription& b : scene_.level.blocks)
     for (const glm::dvec3& c : block_corners(scene_.level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
   for (const LightSource& l : light_sources_)
-    if (!light_position_in_level(l.position, lo, hi, scene_.level.cell_size))
-      fail(ErrorCode::invalid_argument,
-           l.what + ": the light at " + short_vec3(l.position) + " is outside the level's box " +
-               short_vec3(lo) + " - " + short_vec3(hi) + " grown by its largest extent " +
-               short_double(std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, scene_.level.cell_size})) +
-               " (light_position_in_level, light_policy.h)");
+    for (std::size_t k = 0; k <= l.keys.size(); ++k) {
+      const glm::dvec3& p = k == 0 ? l.position : l.keys[k - 1];
+      if (!light_position_in_level(p, lo, hi, scene_.level.cell_size))
+        fail(ErrorCode::invalid_argument,
+             l.what + (k == 0 ? std::string() : ": animation key " + num(k - 1)) + ": the light at " +
+                 short_vec3(p) + " is outside the level's box " + short_vec3(lo) + " - " + short_vec3(hi) +
+                 " grown by its largest extent " +
+                 short_double(std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, scene_.level.cell_size})) +
+                 " (light_position_in_level, light_policy.h)");
+    }
+}
+
+// The renderer draws kMaxDemoLights lights (a shadow cube map each); the rest are dropped,
+// named in one warning. Directional lights were skipped on the way, and are named in another.
+void Loader::keep_light_limit() {
+  if (!directional_lights_.empty()) {
+    std::string names;
+    for (const std::string& d : directional_lights_) names += (names.empty() ? "" : ", ") + d;
+    warnings_.push_back(
+        num(directional_lights_.size()) +
+        " directional light(s) skipped: the demo renders point and spot lights only (its "
+        "GL light model and shadow cube maps are a point light's; docs/demo.md, \"Lights\"): " +
+        names);
+  }
+  if (scene_.lights.size() <= kMaxDemoLights) return;
+  std::string names;
+  for (std::size_t i = kMaxDemoLights; i < light_sources_.size(); ++i)
+    names += (names.empty() ? "" : ", ") + light_sources_[i].what;
+  warnings_.push_back(num(scene_.lights.size()) + " point and spot lights; modrt-demo renders the first " +
+                      num(kMaxDemoLights) +
+                      " (one shadow cube map each; docs/demo.md, \"Lights\"); dropped: " + names);
+  scene_.lights.resize(kMaxDemoLights);
+  light_sources_.resize(kMaxDemoLights);
 }
 
 // A scene without a light (none in the glTF file or its level, or only directional ones,
@@ -1616,14 +1857,15 @@ DemoScene Loader::load(const std::string& path) {
         if (b.IsObject()) {
           is_block = true;
           if (b.Has("draw")) {
-            if (!b.Get("draw").IsBool())
-              fail(ErrorCode::format_error, label + ": extras.modrt_block.draw must be true or false");
-            draw_block = b.Get("draw").Get<bool>();
+            const std::optional<bool> draw = extras_bool(b.Get("draw"));
+            if (!draw)
+              fail(ErrorCode::format_error, label + ": extras.modrt_block.draw must be " + kExtrasBool);
+            draw_block = *draw;
           }
-        } else if (b.IsBool()) {
-          is_block = b.Get<bool>();
+        } else if (const std::optional<bool> flag = extras_bool(b)) {
+          is_block = *flag;
         } else {
-          fail(ErrorCode::format_error, label + ": extras.modrt_block must be an object (or true)");
+          fail(ErrorCode::format_error, label + ": extras.modrt_block must be an object (or true or 1)");
         }
         if (is_block) block_nodes.push_back({inst.node, inst.world, &b});
       }
@@ -1639,17 +1881,15 @@ DemoScene Loader::load(const std::string& path) {
     }
     if (node.extras.IsObject()) {
       if (node.extras.Has("modrt_dynamic")) {
-        const tinygltf::Value& d = node.extras.Get("modrt_dynamic");
-        if (!d.IsBool())
-          fail(ErrorCode::format_error, label + ": extras.modrt_dynamic must be true or false");
-        dynamic = d.Get<bool>();
+        const std::optional<bool> d = extras_bool(node.extras.Get("modrt_dynamic"));
+        if (!d) fail(ErrorCode::format_error, label + ": extras.modrt_dynamic must be " + kExtrasBool);
+        dynamic = *d;
       }
     }
     if (is_block && dynamic)
       fail(ErrorCode::format_error, label + ": a node cannot be both a proxy block and dynamic");
     const bool clutter_false = node.extras.IsObject() && node.extras.Has("modrt_clutter") &&
-                               node.extras.Get("modrt_clutter").IsBool() &&
-                               !node.extras.Get("modrt_clutter").Get<bool>();
+                               extras_bool(node.extras.Get("modrt_clutter")) == false;
     if (node.extras.IsObject() && node.extras.Has("modrt_clutter") && !clutter_false) {
       ClutterNode c;
       c.node = inst.node;
@@ -1679,6 +1919,7 @@ DemoScene Loader::load(const std::string& path) {
       if (!have_dynamic_key_) {
         have_dynamic_key_ = true;
         dynamic_key_ = glm::dvec3(inst.world[3]);
+        dynamic_key_node_ = inst.node;
       }
       glm::dmat4 relative = inst.world;
       relative[3] -= glm::dvec4(dynamic_key_, 0.0);
@@ -1710,8 +1951,9 @@ DemoScene Loader::load(const std::string& path) {
     // No modrt markup: the proxy blocks come from the scene's own geometry (docs/import.md).
     Result<precompute::SceneImport> imported = import_scene_level(scene_, options_.import_settings);
     if (!imported.ok())
-      fail(imported.status().code(), "no proxy blocks in the file, and importing them from its geometry failed: " +
-                                         imported.status().message());
+      fail(imported.status().code(),
+           "no proxy blocks in the file, and importing them from its geometry failed: " +
+               imported.status().message());
     for (const std::string& w : imported->warnings) warnings_.push_back("import: " + w);
     if (options_.import_result) *options_.import_result = std::move(imported).value();
   }
@@ -1724,10 +1966,11 @@ DemoScene Loader::load(const std::string& path) {
 
   bool walls = true;
   if (const tinygltf::Value* lv = scene_level_extras(); lv && lv->Has("proxy_walls")) {
-    if (!lv->Get("proxy_walls").IsBool())
+    const std::optional<bool> flag = extras_bool(lv->Get("proxy_walls"));
+    if (!flag)
       fail(ErrorCode::format_error,
-           "scene " + num(scene_index_) + ": extras.modrt_level.proxy_walls must be true or false");
-    walls = lv->Get("proxy_walls").Get<bool>();
+           "scene " + num(scene_index_) + ": extras.modrt_level.proxy_walls must be " + kExtrasBool);
+    walls = *flag;
   }
   if (options_.proxy_walls) walls = *options_.proxy_walls;
   if (walls) add_wall_meshes(scene_, options_.wall_subdivisions);
@@ -1773,14 +2016,13 @@ DemoScene Loader::load(const std::string& path) {
       d.color = glm::vec3(l.color);
       d.intensity = float(l.intensity);
       scene_.lights.push_back(d);
-      light_sources_.push_back({what, l.position});
+      light_sources_.push_back({what, l.position, -1, {}});
     }
   }
+  read_animations(instances);
   check_light_positions();
-  if (scene_.lights.empty())
-    add_default_light();
-  else if (scene_.lights.size() > 1)
-    warnings_.push_back(num(scene_.lights.size()) + " lights; modrt-demo renders the first one");
+  keep_light_limit();
+  if (scene_.lights.empty()) add_default_light();
   return std::move(scene_);
 }
 

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 // modrt demo — scenes from glTF 2.0 files (.gltf with external or embedded buffers and
 // images, or .glb), read with tinygltf: triangle meshes with their node transforms baked
-// in, pbrMetallicRoughness base colours and normal maps, the first camera, the
-// KHR_lights_punctual point and spot lights, dynamic meshes, and the proxy blocks (the MRT level),
+// in, pbrMetallicRoughness base colours, normal maps and doubleSided, the first camera, the
+// KHR_lights_punctual point and spot lights (up to kMaxDemoLights), dynamic meshes, the
+// translation animations of lights and dynamic meshes, and the proxy blocks (the MRT level),
 // either from nodes marked in `extras` or from a sidecar level JSON file. The schema, units
 // and limits are documented in docs/demo.md, "Scenes from glTF".
 #pragma once
@@ -39,6 +40,9 @@ struct GltfSceneOptions {
   bool smooth_missing_normals = false;
   float light_intensity_scale = kCandelaToWattsPerSr;  // multiplies KHR_lights_punctual intensity
   float light_radius = 0.05f;                          // DemoLight::radius of the glTF lights
+  // glTF animations are timed in seconds, the demo in frames: key time t becomes frame
+  // t x animation_fps (Blender's default scene rate is 24). In (0, 1e6].
+  float animation_fps = 24.0f;
   // Size limits, checked before anything of that size is allocated.
   std::size_t max_vertices = 50'000'000;              // all meshes together, after normal splitting
   std::size_t max_file_bytes = std::size_t(1) << 30;  // the glTF/glb file and each external file
@@ -47,9 +51,10 @@ struct GltfSceneOptions {
   // a mesh counted): estimated from the accessor counts before any mesh is expanded. The
   // renderer refuses more than kMaxVertexBufferBytes whatever this says.
   std::size_t max_vertex_buffer_bytes = kMaxVertexBufferBytes;
-  // Non-fatal problems (directional light dropped, more than one light, no light and so the
-  // default light, no camera, orthographic camera, skins, ignored extensions, tinygltf's own
-  // warnings) are appended here when set.
+  // Non-fatal problems (directional lights dropped, lights beyond kMaxDemoLights dropped,
+  // animation channels the demo does not play, no light and so the default light, no camera,
+  // orthographic camera, skins, ignored extensions, tinygltf's own warnings) are appended here
+  // when set.
   std::vector<std::string>* warnings = nullptr;
   // A file without proxy blocks (no level file, no sidecar, no marked nodes) gets them from its
   // own geometry (scene_import_glue.h, docs/import.md); false: such a file is refused.

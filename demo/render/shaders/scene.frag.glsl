@@ -5,6 +5,10 @@
 // atlases evaluated at the bumped normal in the proxy face's frame (MRT §6.4), or for
 // dynamic meshes from the probe volume's SH9 (MRT §6.5), sampled here from the backend's
 // world-frame probe texture (nothing read back). u_output: 0 combined, 1 direct, 2 indirect.
+// Direct light: direct_e_over_pi_all, the sum over the frame's lights of light.glsl's model
+// (the renderer includes one renamed copy per light before this file). Back faces (drawn only for
+// double-sided materials) are shaded with the normal turned and the tangent frame mirrored, so
+// that the bumped normal turns too (glTF's double-sided lighting).
 uniform vec3 u_base_color;
 uniform int u_has_base_map;
 uniform sampler2D u_base_map;  // sRGB-encoded RGBA8, multiplies u_base_color
@@ -25,7 +29,8 @@ uniform int u_probe_grid;
 uniform ivec4 u_probe_cell;
 uniform vec3 u_probe_f;
 uniform int u_output;
-uniform int u_emissive;       // the light's own marker
+uniform int u_emissive;       // a light's own marker, drawn in u_marker_rgb x 20
+uniform vec3 u_marker_rgb;
 uniform int u_clutter;        // DRT clutter mesh: u_atlas is its own clutter lightmap
 in vec3 v_position;
 in vec3 v_normal;
@@ -81,20 +86,24 @@ vec3 probe_e_over_pi(vec3 n) {
 
 void main() {
   if (u_emissive != 0) {
-    o_color = vec4(u_light_rgb * 20.0, 1.0);
+    o_color = vec4(u_marker_rgb * 20.0, 1.0);
     return;
   }
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) n = -n;
+  vec4 tangent = v_tangent;
+  if (!gl_FrontFacing) {
+    n = -n;
+    tangent = -tangent;  // t and b = cross(n, t) w both turn
+  }
   vec3 shading_n = n;
   if (u_has_normal_map != 0) {
-    vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));
-    vec3 b = cross(n, t) * v_tangent.w;
+    vec3 t = normalize(tangent.xyz - n * dot(n, tangent.xyz));
+    vec3 b = cross(n, t) * tangent.w;
     vec3 m = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
     m.xy *= u_normal_scale;
     shading_n = normalize(mat3(t, b, n) * m);
   }
-  vec3 direct = direct_e_over_pi(v_position, shading_n);
+  vec3 direct = direct_e_over_pi_all(v_position, shading_n);
   vec3 indirect;
   if (u_dynamic != 0) {
     indirect = probe_e_over_pi(shading_n);
