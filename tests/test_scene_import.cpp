@@ -181,6 +181,52 @@ TEST(SceneImport, InvertedWindingIsFoundAndChangesNothing) {
   }
 }
 
+// A wall box between plan points a and b (0.15 m thick, 2.5 m high), any direction.
+void add_wall(ImportObject& o, glm::dvec2 a, glm::dvec2 b) {
+  const glm::dvec2 d = glm::normalize(b - a), n(-d.y * 0.075, d.x * 0.075);
+  const glm::dvec2 p[4] = {a - n, b - n, b + n, a + n};
+  const std::uint32_t base = std::uint32_t(o.positions.size());
+  for (int c = 0; c < 8; ++c) o.positions.push_back({p[c % 4].x, c < 4 ? 0.0 : 2.5, p[c % 4].y});
+  // Bottom, top and four sides; the winding does not matter here (a closed box of either).
+  const int quads[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1},
+                           {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 4, 0}};
+  for (const auto& q : quads)
+    for (int t : {0, 1, 2, 0, 2, 3}) o.indices.push_back(base + std::uint32_t(q[t]));
+}
+
+TEST(SceneImport, SlantedWallIsFollowedByWarpedBlocks) {
+  // A 6 x 3 room whose corner at the origin is cut at 45 degrees from (1.5, 0) to (0, 1.5).
+  std::vector<ImportObject> objects;
+  objects.push_back(box_object("floor", {-0.1, -0.1, -0.1}, {6.1, 0.0, 3.1}, glm::dvec3(0.5)));
+  objects.push_back(box_object("ceiling", {-0.1, 2.5, -0.1}, {6.1, 2.6, 3.1}, glm::dvec3(0.8)));
+  ImportObject walls;
+  walls.name = "walls";
+  const glm::dvec2 outline[5] = {{1.5, 0}, {6, 0}, {6, 3}, {0, 3}, {0, 1.5}};
+  for (int e = 0; e < 5; ++e) add_wall(walls, outline[e], outline[(e + 1) % 5]);
+  walls.triangle_albedo = {glm::dvec3(0.6)};
+  objects.push_back(walls);
+  Result<SceneImport> r = import_scene(objects, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_EQ(r->rooms.size(), 1u);
+  ASSERT_TRUE(build_level_layout(r->level, 4).ok());
+  // The blocks cover the room (to the walls' centre lines: 18 - 1.125 m^2) and none reaches
+  // past the slanted wall by more than a plan cell or two.
+  double area = 0.0;
+  const double tol = 2.0 * r->plan.cell + 1e-9;
+  bool on_slant = false;
+  for (const BlockDescription& b : r->level.blocks) {
+    const auto& c = b.corners;
+    const glm::dvec2 q[4] = {{c[0].x, c[0].z}, {c[1].x, c[1].z}, {c[5].x, c[5].z}, {c[4].x, c[4].z}};
+    for (int k = 0; k < 4; ++k) {
+      area += 0.5 * (q[k].x * q[(k + 1) % 4].y - q[(k + 1) % 4].x * q[k].y);
+      EXPECT_GE(q[k].x + q[k].y, 1.5 - tol) << b.name << " corner " << k;
+      if (std::abs(q[k].x + q[k].y - 1.5) < tol && q[k].x > 0.3 && q[k].x < 1.2) on_slant = true;
+    }
+  }
+  EXPECT_NEAR(std::abs(area), 18.0 - 1.125, 0.03 * 16.875);
+  EXPECT_TRUE(on_slant) << "no block corner was moved onto the slanted wall";
+}
+
 TEST(SceneImport, BadInputIsRefusedByName) {
   TwoRooms scene = two_rooms();
   scene.objects[3].positions[2].y = std::nan("");

@@ -306,6 +306,102 @@ bool closed_volume(const ImportObject& ob, double& volume) {
   return true;
 }
 
+// A convex, counter-clockwise or clockwise, quad with no edge shorter than min_edge.
+bool good_quad(const std::array<glm::dvec2, 4>& q, double min_edge) {
+  double first = 0.0;
+  for (int e = 0; e < 4; ++e) {
+    const glm::dvec2 a = q[std::size_t(e)], b = q[std::size_t((e + 1) % 4)], c = q[std::size_t((e + 2) % 4)];
+    const double turn = (b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x);
+    if (!(std::abs(turn) > 1e-12) || glm::length(b - a) < min_edge) return false;
+    if (e == 0)
+      first = turn;
+    else if ((turn > 0.0) != (first > 0.0))
+      return false;
+  }
+  return true;
+}
+
+// A straight wall of a room that follows neither axis (plan points; `inside` a point in the room).
+struct SlantedWall {
+  glm::dvec2 a{0.0}, b{0.0}, inside{0.0};
+  int room = -1;
+};
+
+// Douglas-Peucker on lattice points [first, last] of a closed loop.
+void simplify(const std::vector<glm::ivec2>& loop, std::size_t first, std::size_t last, double tolerance,
+              std::vector<std::size_t>& keep) {
+  if (last <= first + 1) return;
+  const glm::dvec2 a(loop[first]), b(loop[last % loop.size()]);
+  const glm::dvec2 d = b - a;
+  const double len = glm::length(d);
+  double worst = -1.0;
+  std::size_t at = first;
+  for (std::size_t i = first + 1; i < last; ++i) {
+    const glm::dvec2 p(loop[i]);
+    const double dist =
+        len > 0.0 ? std::abs(d.x * (p.y - a.y) - d.y * (p.x - a.x)) / len : glm::length(p - a);
+    if (dist > worst) {
+      worst = dist;
+      at = i;
+    }
+  }
+  if (worst <= tolerance) return;
+  simplify(loop, first, at, tolerance, keep);
+  keep.push_back(at);
+  simplify(loop, at, last, tolerance, keep);
+}
+
+// The rooms' slanted walls: each room's outline (its plan cells, to the wall mid-planes)
+// traced and simplified (Douglas-Peucker, 1.5 cells), keeping segments at least min_length
+// long and at least 10 degrees off both axes.
+std::vector<SlantedWall> slanted_walls(const ImportPlan& plan, int room_count, double min_length) {
+  std::vector<SlantedWall> out;
+  auto in = [&](int r, int i, int k) {
+    return i >= 0 && k >= 0 && i < plan.width && k < plan.height &&
+           plan.label[std::size_t(k) * std::size_t(plan.width) + std::size_t(i)] == r;
+  };
+  for (int r = 0; r < room_count; ++r) {
+    // Directed boundary edges with the room on the left, keyed by their start.
+    std::multimap<std::pair<int, int>, std::pair<int, int>> edges;
+    for (int k = 0; k < plan.height; ++k)
+      for (int i = 0; i < plan.width; ++i) {
+        if (!in(r, i, k)) continue;
+        if (!in(r, i, k - 1)) edges.insert({{i, k}, {i + 1, k}});
+        if (!in(r, i + 1, k)) edges.insert({{i + 1, k}, {i + 1, k + 1}});
+        if (!in(r, i, k + 1)) edges.insert({{i + 1, k + 1}, {i, k + 1}});
+        if (!in(r, i - 1, k)) edges.insert({{i, k + 1}, {i, k}});
+      }
+    while (!edges.empty()) {
+      std::vector<glm::ivec2> loop;
+      auto it = edges.begin();
+      const std::pair<int, int> start = it->first;
+      std::pair<int, int> at = start;
+      while (it != edges.end()) {
+        loop.push_back({at.first, at.second});
+        at = it->second;
+        edges.erase(it);
+        if (at == start) break;
+        it = edges.find(at);
+      }
+      if (loop.size() < 8) continue;
+      std::vector<std::size_t> keep = {0};
+      simplify(loop, 0, loop.size(), 1.5, keep);
+      std::sort(keep.begin(), keep.end());
+      for (std::size_t s = 0; s < keep.size(); ++s) {
+        const glm::dvec2 a = plan.origin + plan.cell * glm::dvec2(loop[keep[s]]);
+        const glm::dvec2 b = plan.origin + plan.cell * glm::dvec2(loop[keep[(s + 1) % keep.size()]]);
+        const glm::dvec2 d = b - a;
+        const double len = glm::length(d);
+        if (len < min_length || std::min(std::abs(d.x), std::abs(d.y)) < std::sin(0.1745) * len) continue;
+        // The room lies on the left of the traced direction.
+        const glm::dvec2 inside = 0.5 * (a + b) + glm::dvec2(-d.y, d.x) / len * (2.0 * plan.cell);
+        out.push_back({a, b, inside, r});
+      }
+    }
+  }
+  return out;
+}
+
 struct BlockGrid {
   int nx = 0, nz = 0;              // cells along x and z
   std::vector<glm::dvec2> vertex;  // (nx + 1) x (nz + 1) plan corners, row j = z index
@@ -320,7 +416,8 @@ bool inside_triangle(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2&
 }
 
 Result<BlockGrid> make_block_grid(const ImportPlan& plan, const std::vector<ImportedOpening>& openings,
-                                  int room_count, double storey, const ImportSettings& settings, bool bend) {
+                                  const std::vector<SlantedWall>& slanted, int room_count, double storey,
+                                  const ImportSettings& settings, bool bend) {
   const double min_gap = storey / settings.max_block_aspect;
   const double tolerance = settings.max_wall_thickness;
   std::array<std::vector<Line>, 2> candidates = {boundary_lines(plan, 0, min_gap),
@@ -330,6 +427,12 @@ Result<BlockGrid> make_block_grid(const ImportPlan& plan, const std::vector<Impo
     along.push_back({o.span_min, 1, o.span_max - o.span_min, o.position, o.position});
     along.push_back({o.span_max, 1, o.span_max - o.span_min, o.position, o.position});
   }
+  // A slanted wall's ends are grid lines, so that the blocks along it can be warped onto it.
+  for (const SlantedWall& w : slanted)
+    for (const glm::dvec2& e : {w.a, w.b}) {
+      candidates[0].push_back({e.x, 2, glm::length(w.b - w.a), e.y, e.y});
+      candidates[1].push_back({e.y, 2, glm::length(w.b - w.a), e.x, e.x});
+    }
   const std::vector<GridLine> xl = grid_lines(candidates[0], min_gap, storey, tolerance, bend);
   const std::vector<GridLine> zl = grid_lines(candidates[1], min_gap, storey, tolerance, bend);
   if (xl.size() < 2 || zl.size() < 2)
@@ -346,23 +449,9 @@ Result<BlockGrid> make_block_grid(const ImportPlan& plan, const std::vector<Impo
   auto v = [&](int i, int j) { return g.vertex[std::size_t(j) * std::size_t(g.nx + 1) + std::size_t(i)]; };
   // Every cell a convex quad no thinner than a quarter of min_gap (a bend must not fold it).
   for (int j = 0; j < g.nz; ++j)
-    for (int i = 0; i < g.nx; ++i) {
-      const glm::dvec2 q[4] = {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)};
-      for (int e = 0; e < 4; ++e) {
-        const glm::dvec2 a = q[e], b = q[(e + 1) % 4], c = q[(e + 2) % 4];
-        const double turn = (b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x);
-        if (!(turn < 0.0) && !(turn > 0.0))
-          return Status::error(ErrorCode::invalid_argument, "degenerate cell");
-        if (glm::length(b - a) < 0.25 * min_gap)
-          return Status::error(ErrorCode::invalid_argument, "thin cell");
-      }
-      const double t0 = (q[1].x - q[0].x) * (q[2].y - q[1].y) - (q[1].y - q[0].y) * (q[2].x - q[1].x);
-      for (int e = 1; e < 4; ++e) {
-        const glm::dvec2 a = q[e], b = q[(e + 1) % 4], c = q[(e + 2) % 4];
-        const double turn = (b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x);
-        if ((turn > 0.0) != (t0 > 0.0)) return Status::error(ErrorCode::invalid_argument, "concave cell");
-      }
-    }
+    for (int i = 0; i < g.nx; ++i)
+      if (!good_quad({v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)}, 0.25 * min_gap))
+        return Status::error(ErrorCode::invalid_argument, "a bent line folds a cell");
   // Room of each cell: the region covering most of its plan cells.
   const PlanGrid grid{plan.origin, plan.cell, plan.width, plan.height};
   g.cell_room.assign(std::size_t(g.nx) * std::size_t(g.nz), -1);
@@ -391,6 +480,70 @@ Result<BlockGrid> make_block_grid(const ImportPlan& plan, const std::vector<Impo
       if (total > 0 && 2 * *best > total)
         g.cell_room[std::size_t(j) * std::size_t(g.nx) + std::size_t(i)] = int(best - count.begin());
     }
+  // Along a slanted wall: a cell it cuts stays a block only when most (3/5) of it lies on the
+  // room's side; then each grid vertex between the room's blocks and the cells beyond moves
+  // onto the wall when it lies within 3/4 of a cell of it (a move that would fold a cell is
+  // undone). The blocks' faces then run along the wall (MRT's warped blocks).
+  auto room_at = [&](int i, int j) {
+    return i < 0 || j < 0 || i >= g.nx || j >= g.nz
+               ? -1
+               : g.cell_room[std::size_t(j) * std::size_t(g.nx) + std::size_t(i)];
+  };
+  for (const SlantedWall& w : slanted) {
+    const glm::dvec2 d = w.b - w.a, n = glm::dvec2(-d.y, d.x) / glm::length(d);
+    const double side = glm::dot(w.inside - w.a, n) > 0.0 ? 1.0 : -1.0;
+    for (int j = 0; j < g.nz; ++j)
+      for (int i = 0; i < g.nx; ++i) {
+        if (room_at(i, j) != w.room) continue;
+        const glm::dvec2 q[4] = {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)};
+        // The cell's area on the room's side of the wall's line, from a 6 x 6 sample grid.
+        int in = 0, on_line = 0;
+        for (int sy = 0; sy < 6; ++sy)
+          for (int sx = 0; sx < 6; ++sx) {
+            const double u = (sx + 0.5) / 6.0, t = (sy + 0.5) / 6.0;
+            const glm::dvec2 p =
+                (1 - u) * (1 - t) * q[0] + u * (1 - t) * q[1] + u * t * q[2] + (1 - u) * t * q[3];
+            const double along = glm::dot(p - w.a, d) / glm::dot(d, d);
+            if (along < 0.0 || along > 1.0) continue;
+            ++on_line;
+            if (side * glm::dot(p - w.a, n) > 0.0) ++in;
+          }
+        if (on_line == 36 && 5 * in < 3 * 36)
+          g.cell_room[std::size_t(j) * std::size_t(g.nx) + std::size_t(i)] = -1;
+      }
+    for (int j = 0; j <= g.nz; ++j)
+      for (int i = 0; i <= g.nx; ++i) {
+        int blocks = 0, others = 0;
+        double size = std::numeric_limits<double>::max();
+        for (int dj = -1; dj <= 0; ++dj)
+          for (int di = -1; di <= 0; ++di) {
+            const int r = room_at(i + di, j + dj);
+            if (r == w.room) {
+              ++blocks;
+              const glm::dvec2 a = v(std::max(i + di, 0), std::max(j + dj, 0));
+              const glm::dvec2 b = v(std::min(i + di + 1, g.nx), std::min(j + dj + 1, g.nz));
+              size = std::min({size, std::abs(b.x - a.x), std::abs(b.y - a.y)});
+            } else if (r < 0) {
+              ++others;
+            }
+          }
+        if (blocks == 0 || others == 0 || blocks + others != 4) continue;
+        glm::dvec2& p = g.vertex[std::size_t(j) * std::size_t(g.nx + 1) + std::size_t(i)];
+        const double along = std::clamp(glm::dot(p - w.a, d) / glm::dot(d, d), 0.0, 1.0);
+        const glm::dvec2 onto = w.a + along * d;
+        if (glm::length(onto - p) > 0.75 * size || glm::length(onto - p) < 1e-9) continue;
+        const glm::dvec2 before = p;
+        p = onto;
+        bool fine = true;
+        for (int dj = -1; dj <= 0 && fine; ++dj)
+          for (int di = -1; di <= 0 && fine; ++di) {
+            const int ci = i + di, cj = j + dj;
+            if (room_at(ci, cj) < 0) continue;  // not a block: its shape does not matter
+            fine = good_quad({v(ci, cj), v(ci + 1, cj), v(ci + 1, cj + 1), v(ci, cj + 1)}, 0.25 * min_gap);
+          }
+        if (!fine) p = before;
+      }
+  }
   return g;
 }
 
@@ -468,12 +621,14 @@ Result<SceneImport> import_scene(std::span<const ImportObject> objects,
 
   // Step 4: the block grid, its lines bending between features of different walls; straight
   // lines (the weaker feature dropped) where a bend would make a cell too thin or not convex.
-  Result<BlockGrid> made = make_block_grid(plan, out.openings, room_count, storey, settings, true);
+  const std::vector<SlantedWall> slanted =
+      slanted_walls(plan, room_count, storey / settings.max_block_aspect);
+  Result<BlockGrid> made = make_block_grid(plan, out.openings, slanted, room_count, storey, settings, true);
   if (!made.ok()) {
     out.warnings.push_back("the block grid's lines could not bend between openings (" +
                            made.status().message() +
                            "); straight lines, where the weaker of two close features is dropped");
-    made = make_block_grid(plan, out.openings, room_count, storey, settings, false);
+    made = make_block_grid(plan, out.openings, slanted, room_count, storey, settings, false);
   }
   if (!made.ok()) return made.status();
   const BlockGrid& bg = made.value();
