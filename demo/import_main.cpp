@@ -35,6 +35,7 @@
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_json.h"
+#include "modrt/precompute/shaped_operators.h"
 #include "scene/gltf_scene.h"
 
 namespace fs = std::filesystem;
@@ -432,6 +433,9 @@ int main(int argc, char** argv) {
     Result<Matrix> basis = precompute::load_or_bake_interface_basis(ds, cache, {}, log);
     precompute::LevelBuildSettings bs;
     if (basis.ok()) bs.interface_basis = &basis.value();
+    // Shaped blocks' operators are baked once per proportion and kept beside the dictionary.
+    precompute::ShapedOperatorCache shaped_cache(cache);
+    bs.shaped_cache = &shaped_cache;
     Result<Level> built = precompute::build_level(scene->level, dict.value(), bs);
     if (!built.ok()) {
       std::fprintf(stderr, "modrt-import: level build: %s\n", built.status().message().c_str());

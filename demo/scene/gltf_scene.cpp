@@ -1947,6 +1947,7 @@ DemoScene Loader::load(const std::string& path) {
   } else if (!block_nodes.empty()) {
     scene_.level = level_from_extras(path, block_nodes);
   }
+  bool imported_level = false;
   if (scene_.level.blocks.empty() && level_file.empty() && block_nodes.empty() && options_.import_unmarked) {
     // No modrt markup: the proxy blocks come from the scene's own geometry (docs/import.md).
     Result<precompute::SceneImport> imported = import_scene_level(scene_, options_.import_settings);
@@ -1956,6 +1957,7 @@ DemoScene Loader::load(const std::string& path) {
                imported.status().message());
     for (const std::string& w : imported->warnings) warnings_.push_back("import: " + w);
     if (options_.import_result) *options_.import_result = std::move(imported).value();
+    imported_level = true;
   }
   if (scene_.level.blocks.empty())
     fail(ErrorCode::format_error,
@@ -1964,7 +1966,8 @@ DemoScene Loader::load(const std::string& path) {
 
   make_clutter_objects();
 
-  bool walls = true;
+  // An imported level's walls are the scene's own: the proxies are not drawn over them.
+  bool walls = !imported_level;
   if (const tinygltf::Value* lv = scene_level_extras(); lv && lv->Has("proxy_walls")) {
     const std::optional<bool> flag = extras_bool(lv->Get("proxy_walls"));
     if (!flag)

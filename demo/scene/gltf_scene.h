@@ -32,7 +32,8 @@ struct GltfSceneOptions {
   std::string level_path;
   int scene = -1;  // glTF scene to load; -1: the file's default scene (or scene 0)
   // Draw the proxy blocks' walls as meshes (add_wall_meshes). Unset: the glTF scene's
-  // `extras.modrt_level.proxy_walls`, true when that is absent too.
+  // `extras.modrt_level.proxy_walls`, true when that is absent too, false when the blocks
+  // were imported from the scene's own geometry (its walls are drawn).
   std::optional<bool> proxy_walls;
   int wall_subdivisions = 4;
   // Primitives without NORMAL: flat normals (the glTF rule; vertices are split per

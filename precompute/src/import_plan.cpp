@@ -368,6 +368,41 @@ void measure_rooms(const TriangleSoup& tris, const ImportPlan& plan, int room_co
   }
 }
 
+namespace {
+
+// The raster finds an opening's jambs to a plan cell and its sill and head to a cut step;
+// the geometry has them exactly: each moves to the plane of the nearest triangle facing
+// along it (a reveal for a jamb, the lintel's underside for the head, the sill's top) within
+// `reach` (jambs) or `step` (sill, head) of the estimate, among the triangles at the opening.
+void snap_to_geometry(const TriangleSoup& tris, ImportedOpening& o, double reach, double step) {
+  const int along = o.normal_axis == 0 ? 2 : 0, across = o.normal_axis;
+  double best[4] = {reach, reach, step, step};  // span_min, span_max, sill, head
+  double snapped[4] = {o.span_min, o.span_max, o.sill, o.head};
+  for (std::size_t t = 0; t < tris.size(); ++t) {
+    const glm::dvec3 &a = tris.a[t], &b = tris.b[t], &c = tris.c[t];
+    const glm::dvec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+    // Near the opening: within half a metre across its wall and overlapping it.
+    if (hi[across] < o.position - 0.5 || lo[across] > o.position + 0.5) continue;
+    if (hi[along] < o.span_min - reach || lo[along] > o.span_max + reach) continue;
+    if (hi.y < o.sill - step || lo.y > o.head + step) continue;
+    const glm::dvec3 n = unit_normal(a, b, c);
+    if (std::abs(n[along]) > 0.99 && hi[along] - lo[along] < 1e-6 && lo.y < o.head && hi.y > o.sill)
+      for (int e = 0; e < 2; ++e) {
+        const double d = std::abs(lo[along] - (e == 0 ? o.span_min : o.span_max));
+        if (d < best[e]) best[e] = d, snapped[e] = lo[along];
+      }
+    if (std::abs(n.y) > 0.99 && hi.y - lo.y < 1e-6 && hi[along] > o.span_min && lo[along] < o.span_max)
+      for (int e = 2; e < 4; ++e) {
+        const double d = std::abs(lo.y - (e == 2 ? o.sill : o.head));
+        if (d < best[e]) best[e] = d, snapped[e] = lo.y;
+      }
+  }
+  if (snapped[1] - snapped[0] > 0.1) o.span_min = snapped[0], o.span_max = snapped[1];
+  if (snapped[3] - snapped[2] > 0.1) o.sill = snapped[2], o.head = snapped[3];
+}
+
+}  // namespace
+
 std::vector<ImportedOpening> find_openings(const TriangleSoup& tris, const ImportPlan& plan,
                                            const std::vector<ImportedRoom>& rooms, double step,
                                            std::vector<std::string>& warnings) {
@@ -465,6 +500,7 @@ std::vector<ImportedOpening> find_openings(const TriangleSoup& tris, const Impor
     const ImportedRoom& ra = rooms[std::size_t(f.a)];
     o.sill = std::max(ra.measured_floor, f.y0 - 0.5 * step);
     o.head = std::min(ra.measured_ceiling, f.y1 + 0.5 * step);
+    snap_to_geometry(tris, o, 2.0 * plan.cell, step);
     if (o.span_max - o.span_min < 0.2 || o.head - o.sill < 0.2) {
       warnings.push_back("an opening of " + std::to_string(o.span_max - o.span_min).substr(0, 4) + " x " +
                          std::to_string(o.head - o.sill).substr(0, 4) + " m at (" +
