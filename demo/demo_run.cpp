@@ -355,7 +355,11 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   // the CPU backend's probes of the object's block (the renderer samples that cell only; with
   // the camera skip a hidden block's are computed by this read) turned into the world frame
   // and uploaded.
-  if (s.ok() && probe_sampler_.grid() > 0) {
+  // Only a scene with dynamic meshes reads them (an imported interior has none, and its
+  // origin may lie outside every block: the L hall's cut corner).
+  const bool has_dynamic =
+      std::any_of(scene_->meshes.begin(), scene_->meshes.end(), [](const Mesh& m) { return m.dynamic; });
+  if (s.ok() && has_dynamic && probe_sampler_.grid() > 0) {
     const Result<ProbeCell> cell = probe_sampler_.locate(glm::dvec3(state.dynamic_offset), "dynamic object");
     if (!cell.ok()) s = cell.status();
     GLuint probe_texture = 0;

@@ -96,9 +96,12 @@ int add_accessor(tinygltf::Model& model, int buffer, const std::vector<float>& d
 
 struct WriteStats {
   std::size_t primitives = 0, triangles_in = 0, triangles_out = 0, split = 0, outside = 0;
+  std::size_t clutter_triangles = 0;  // furniture made DRT clutter: its own mesh and charts
 };
 
-// Replaces every mapped primitive of `model` by its pieces with TEXCOORD_1 (a mesh per node).
+// Replaces every mapped primitive of `model` by its pieces with TEXCOORD_1 (a mesh per node),
+// and every piece of furniture made clutter by its closed mesh with the clutter lightmap's
+// charts as TEXCOORD_1.
 Status add_lightmap_coordinates(tinygltf::Model& model, const demo::DemoScene& scene, const Level& layout,
                                 WriteStats& stats, std::vector<std::string>& warnings) {
   std::vector<glm::dmat4> world(model.nodes.size(), glm::dmat4(1.0));
@@ -108,7 +111,8 @@ Status add_lightmap_coordinates(tinygltf::Model& model, const demo::DemoScene& s
       world_matrices(model, root, glm::dmat4(1.0), world, 0);
   std::map<int, std::vector<std::size_t>> meshes_of_node;
   for (std::size_t m = 0; m < scene.meshes.size(); ++m)
-    if (!scene.meshes[m].dynamic && scene.meshes[m].clutter < 0 && scene.meshes[m].source_node >= 0)
+    if (!scene.meshes[m].dynamic && scene.meshes[m].source_node >= 0 &&
+        (scene.meshes[m].clutter < 0 || !scene.meshes[m].lightmap_uv.empty()))
       meshes_of_node[scene.meshes[m].source_node].push_back(m);
   if (meshes_of_node.empty()) return Status::success();
   model.buffers.emplace_back();
@@ -124,44 +128,61 @@ Status add_lightmap_coordinates(tinygltf::Model& model, const demo::DemoScene& s
       const demo::Mesh& dm = scene.meshes[mi];
       if (dm.source_primitive < 0 || std::size_t(dm.source_primitive) >= mesh.primitives.size()) continue;
       tinygltf::Primitive& prim = mesh.primitives[std::size_t(dm.source_primitive)];
-      MeshLightmapInput input{StridedVec3::tight(dm.position), StridedVec3::tight(dm.normal),
-                              dm.position.size(), dm.indices};
       std::vector<float> pos, nrm, uv0, tan, uv1;
-      Result<MeshLightmapStats> mapped =
-          map_mesh_lightmap(layout, input, [&](const std::array<MappedCorner, 3>& c) {
-            const int order[3] = {0, mirrored ? 2 : 1, mirrored ? 1 : 2};
-            for (int k : order) {
-              const MappedCorner& mc = c[std::size_t(k)];
-              const glm::dvec3 p = glm::dvec3(inv * glm::dvec4(glm::dvec3(mc.position), 1.0));
-              glm::dvec3 n = normal_to_local * glm::dvec3(mc.normal);
-              n = glm::length(n) > 0.0 ? glm::normalize(n) : glm::dvec3(0, 1, 0);
-              pos.insert(pos.end(), {float(p.x), float(p.y), float(p.z)});
-              nrm.insert(nrm.end(), {float(n.x), float(n.y), float(n.z)});
-              const std::uint32_t* tri = &dm.indices[3 * std::size_t(mc.triangle)];
-              if (!dm.uv.empty()) {
-                const glm::vec2 u = mc.barycentric[0] * dm.uv[tri[0]] + mc.barycentric[1] * dm.uv[tri[1]] +
-                                    mc.barycentric[2] * dm.uv[tri[2]];
-                uv0.insert(uv0.end(), {u.x, u.y});
-              }
-              if (!dm.tangent.empty()) {
-                const glm::vec4 t = mc.barycentric[0] * dm.tangent[tri[0]] +
-                                    mc.barycentric[1] * dm.tangent[tri[1]] +
-                                    mc.barycentric[2] * dm.tangent[tri[2]];
-                glm::dvec3 tl = inv3 * glm::dvec3(t);
-                tl = glm::length(tl) > 0.0 ? glm::normalize(tl) : glm::dvec3(1, 0, 0);
-                tan.insert(tan.end(), {float(tl.x), float(tl.y), float(tl.z), dm.tangent[tri[0]].w});
-              }
-              const glm::vec2 l = (mc.lightmap) / atlas;
-              uv1.insert(uv1.end(), {l.x, l.y});
-            }
-          });
-      if (!mapped.ok())
-        return Status::error(mapped.status().code(), dm.name + ": " + mapped.status().message());
+      // One output corner: world position and normal, the material's uv and tangent, and the
+      // lightmap coordinate in [0, 1]^2.
+      auto emit = [&](const glm::vec3& position, const glm::vec3& normal, const glm::vec2* uv,
+                      const glm::vec4* tangent, glm::vec2 lightmap) {
+        const glm::dvec3 p = glm::dvec3(inv * glm::dvec4(glm::dvec3(position), 1.0));
+        glm::dvec3 n = normal_to_local * glm::dvec3(normal);
+        n = glm::length(n) > 0.0 ? glm::normalize(n) : glm::dvec3(0, 1, 0);
+        pos.insert(pos.end(), {float(p.x), float(p.y), float(p.z)});
+        nrm.insert(nrm.end(), {float(n.x), float(n.y), float(n.z)});
+        if (uv) uv0.insert(uv0.end(), {uv->x, uv->y});
+        if (tangent) {
+          glm::dvec3 tl = inv3 * glm::dvec3(*tangent);
+          tl = glm::length(tl) > 0.0 ? glm::normalize(tl) : glm::dvec3(1, 0, 0);
+          tan.insert(tan.end(), {float(tl.x), float(tl.y), float(tl.z), tangent->w});
+        }
+        uv1.insert(uv1.end(), {lightmap.x, lightmap.y});
+      };
+      const int order[3] = {0, mirrored ? 2 : 1, mirrored ? 1 : 2};
       stats.primitives += 1;
-      stats.triangles_in += mapped->triangles;
-      stats.triangles_out += mapped->corners / 3;
-      stats.split += mapped->split_triangles;
-      stats.outside += mapped->triangles_outside;
+      if (dm.clutter >= 0) {
+        // Furniture made DRT clutter: its closed mesh with the clutter lightmap's charts.
+        for (std::size_t t = 0; 3 * t < dm.indices.size(); ++t)
+          for (int k : order) {
+            const std::uint32_t v = dm.indices[3 * t + std::size_t(k)];
+            emit(dm.position[v], dm.normal[v], dm.uv.empty() ? nullptr : &dm.uv[v],
+                 dm.tangent.empty() ? nullptr : &dm.tangent[v], dm.lightmap_uv[v]);
+          }
+        stats.clutter_triangles += dm.indices.size() / 3;
+      } else {
+        MeshLightmapInput input{StridedVec3::tight(dm.position), StridedVec3::tight(dm.normal),
+                                dm.position.size(), dm.indices};
+        Result<MeshLightmapStats> mapped =
+            map_mesh_lightmap(layout, input, [&](const std::array<MappedCorner, 3>& c) {
+              for (int k : order) {
+                const MappedCorner& mc = c[std::size_t(k)];
+                const std::uint32_t* tri = &dm.indices[3 * std::size_t(mc.triangle)];
+                glm::vec2 u(0.0f);
+                glm::vec4 t(0.0f);
+                for (int j = 0; j < 3; ++j) {
+                  if (!dm.uv.empty()) u += mc.barycentric[j] * dm.uv[tri[j]];
+                  if (!dm.tangent.empty()) t += mc.barycentric[j] * dm.tangent[tri[j]];
+                }
+                if (!dm.tangent.empty()) t.w = dm.tangent[tri[0]].w;
+                emit(mc.position, mc.normal, dm.uv.empty() ? nullptr : &u, dm.tangent.empty() ? nullptr : &t,
+                     mc.lightmap / atlas);
+              }
+            });
+        if (!mapped.ok())
+          return Status::error(mapped.status().code(), dm.name + ": " + mapped.status().message());
+        stats.triangles_in += mapped->triangles;
+        stats.triangles_out += mapped->corners / 3;
+        stats.split += mapped->split_triangles;
+        stats.outside += mapped->triangles_outside;
+      }
       const bool had_uv = prim.attributes.count("TEXCOORD_0") > 0;
       for (const char* dropped : {"COLOR_0", "TEXCOORD_2", "JOINTS_0", "WEIGHTS_0"})
         if (prim.attributes.count(dropped))
@@ -287,7 +308,10 @@ Status write_report(const std::string& dir, const std::string& input, const prec
         ")\n- mapped primitives: " + std::to_string(ws.primitives) + ", " + std::to_string(ws.triangles_in) +
         " triangles -> " + std::to_string(ws.triangles_out) + " pieces (" + std::to_string(ws.split) +
         " cut at block boundaries, " + std::to_string(ws.outside) +
-        " with a part in no block)\n\n## Rooms\n\n| room | plan x | plan z | area m² | floor | ceiling | "
+        " with a part in no block)\n- clutter (DRT): " + std::to_string(scene.clutter.size()) + " objects, " +
+        std::to_string(ws.clutter_triangles) +
+        " triangles with their own lightmap charts\n\n## Rooms\n\n| room | plan x | plan z | area m² | floor "
+        "| ceiling | "
         "blocks |\n|---|---|---|---|---|---|---|\n";
   for (std::size_t r = 0; r < imp.rooms.size(); ++r) {
     const precompute::ImportedRoom& room = imp.rooms[r];
@@ -405,9 +429,9 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "%s: %zu primitives, %zu triangles -> %zu (cut at block boundaries: %zu), TEXCOORD_1 at res %d "
-      "(atlas %d x %d)\n",
+      "(atlas %d x %d); %zu clutter objects, %zu triangles with their own lightmap charts\n",
       output.c_str(), ws.primitives, ws.triangles_in, ws.triangles_out, ws.split, res, layout->atlas.width,
-      layout->atlas.height);
+      layout->atlas.height, scene->clutter.size(), ws.clutter_triangles);
   if (!level_json.empty()) {
     if (Status s = precompute::save_level_json(level_json, scene->level); !s.ok()) {
       std::fprintf(stderr, "modrt-import: %s\n", s.message().c_str());

@@ -5,11 +5,106 @@
 #include <cmath>
 #include <map>
 
+#include <glm/geometric.hpp>
+
+#include "modrt/precompute/clutter_import.h"
+#include "modrt/precompute/clutter_mesh.h"
+
 namespace modrt::demo {
 
 namespace {
 
 double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+// Barycentric coordinates of p's projection onto triangle (a, b, c)'s plane (extrapolated
+// outside it).
+glm::dvec3 plane_barycentric(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b,
+                             const glm::dvec3& c) {
+  const glm::dvec3 e0 = b - a, e1 = c - a, d = p - a;
+  const double d00 = glm::dot(e0, e0), d01 = glm::dot(e0, e1), d11 = glm::dot(e1, e1);
+  const double d20 = glm::dot(d, e0), d21 = glm::dot(d, e1), den = d00 * d11 - d01 * d01;
+  if (!(std::abs(den) > 0.0)) return glm::dvec3(1.0, 0.0, 0.0);
+  const double v = (d11 * d20 - d01 * d21) / den, w = (d00 * d21 - d01 * d20) / den;
+  return glm::dvec3(1.0 - v - w, v, w);
+}
+
+// Furniture (the importer's clutter objects) becomes DRT mesh clutter: a closed, welded
+// mesh with generated lightmap charts (precompute/clutter_import.h) owned by the block that
+// holds its centroid. The object's meshes are replaced by that mesh, piece by piece under
+// their own materials (texture coordinates carried over from the nearest input triangle), and
+// drawn with the clutter lightmap. An object that cannot be made clutter stays static
+// geometry, with a warning.
+void add_imported_clutter(DemoScene& scene, const std::vector<precompute::ImportObject>& objects,
+                          const std::vector<std::vector<std::size_t>>& object_meshes,
+                          precompute::SceneImport& imported) {
+  std::vector<std::size_t> marked;  // meshes of extras.modrt_clutter nodes: their objects come later
+  for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi)
+    if (scene.meshes[mi].clutter >= 0) marked.push_back(mi);
+  int added = 0;
+  for (std::size_t o = 0; o < objects.size(); ++o) {
+    if (imported.object_role[o] != precompute::ObjectRole::clutter) continue;
+    const precompute::ImportObject& obj = objects[o];
+    Result<precompute::ClutterImport> ci =
+        precompute::make_clutter_mesh_from_object(obj.positions, obj.indices, {}, obj.name);
+    // DRT has one albedo per object: the area-weighted mean of its triangles'.
+    glm::dvec3 albedo(0.0);
+    double area = 0.0;
+    for (std::size_t t = 0; 3 * t < obj.indices.size(); ++t) {
+      const double a = 0.5 * glm::length(glm::cross(
+                                 obj.positions[obj.indices[3 * t + 1]] - obj.positions[obj.indices[3 * t]],
+                                 obj.positions[obj.indices[3 * t + 2]] - obj.positions[obj.indices[3 * t]]));
+      albedo += a * obj.triangle_albedo[obj.triangle_albedo.size() == 1 ? 0 : t];
+      area += a;
+    }
+    albedo = area > 0.0 ? albedo / area : glm::dvec3(0.5);
+    Result<ClutterObject> object =
+        ci.ok() ? precompute::make_mesh_clutter(ci->mesh,
+                                                precompute::clutter_owner_block(scene.level, ci->centroid),
+                                                albedo, ci->res, obj.name)
+                : Result<ClutterObject>(ci.status());
+    if (!object.ok()) {
+      imported.warnings.push_back(obj.name +
+                                  ": stays static geometry, not clutter: " + object.status().message());
+      continue;
+    }
+    const int index = int(scene.clutter.size());
+    std::size_t first = 0;  // the first triangle of this mesh within the object
+    for (std::size_t mi : object_meshes[o]) {
+      const Mesh& m = scene.meshes[mi];
+      const std::size_t count = m.indices.size() / 3;
+      Mesh out;
+      out.name = m.name;
+      out.material = m.material;
+      out.clutter = index;
+      out.source_node = m.source_node;
+      out.source_primitive = m.source_primitive;
+      for (std::size_t t = 0; t < ci->source_triangle.size(); ++t) {
+        const std::size_t src = ci->source_triangle[t];
+        if (src < first || src >= first + count) continue;
+        const std::uint32_t* s = &m.indices[3 * (src - first)];
+        for (int k = 0; k < 3; ++k) {
+          const std::uint32_t v = ci->mesh.indices[3 * t + std::size_t(k)];
+          const glm::dvec3 p = ci->mesh.positions[v];
+          out.indices.push_back(std::uint32_t(out.position.size()));
+          out.position.emplace_back(p);
+          out.normal.emplace_back(ci->normals[v]);
+          out.lightmap_uv.emplace_back(ci->mesh.uvs[v]);
+          const glm::dvec3 w = plane_barycentric(p, glm::dvec3(m.position[s[0]]),
+                                                 glm::dvec3(m.position[s[1]]), glm::dvec3(m.position[s[2]]));
+          if (!m.uv.empty())
+            out.uv.push_back(glm::vec2(w.x * glm::dvec2(m.uv[s[0]]) + w.y * glm::dvec2(m.uv[s[1]]) +
+                                       w.z * glm::dvec2(m.uv[s[2]])));
+          if (!m.tangent.empty()) out.tangent.push_back(m.tangent[s[0]]);
+        }
+      }
+      first += count;
+      scene.meshes[mi] = std::move(out);
+    }
+    scene.clutter.push_back(std::move(object).value());
+    ++added;
+  }
+  for (std::size_t mi : marked) scene.meshes[mi].clutter += added;
+}
 
 }  // namespace
 
@@ -96,6 +191,7 @@ Result<precompute::SceneImport> import_scene_level(DemoScene& scene,
       first += tris;
     }
   }
+  add_imported_clutter(scene, objects, object_meshes, imported.value());
   return imported;
 }
 
