@@ -46,6 +46,17 @@ void add_imported_clutter(DemoScene& scene, const std::vector<precompute::Import
     const precompute::ImportObject& obj = objects[o];
     Result<precompute::ClutterImport> ci =
         precompute::make_clutter_mesh_from_object(obj.positions, obj.indices, {}, obj.name);
+    // A curved object's rebuild is a staircase of grid cells (an icosphere of 80 triangles
+    // becomes 2950), and the rebuild is what is drawn: such an object stays static geometry,
+    // lit through the proxies, until its own triangles can carry the clutter charts.
+    const std::size_t in_triangles = obj.indices.size() / 3;
+    if (ci.ok() && ci->mesh.indices.size() / 3 > 4 * std::max<std::size_t>(in_triangles, 12)) {
+      imported.warnings.push_back(
+          obj.name + ": stays static geometry, not clutter: its rebuild on the clutter grid has " +
+          std::to_string(ci->mesh.indices.size() / 3) + " triangles for its " + std::to_string(in_triangles) +
+          " (a curved shape)");
+      continue;
+    }
     // DRT has one albedo per object: the area-weighted mean of its triangles'.
     glm::dvec3 albedo(0.0);
     double area = 0.0;
