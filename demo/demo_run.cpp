@@ -324,7 +324,11 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   const bool several = scene.lights.size() > 1;
   if (s.ok() && gpu_direct_) {
     for (std::size_t i = 0; i < state.lights.size() && s.ok(); ++i) {
-      s = gpu_direct_->render(state.lights[i], renderer_->shadow_cube(i));
+      // An imported level's proxy samples lie inside the walls, up to proxy_depth behind the
+      // surfaces they stand for: the walls' own faces must not shadow them.
+      gles::GpuShadowCube cube = renderer_->shadow_cube(i);
+      cube.normal_offset = scene.proxy_depth;
+      s = gpu_direct_->render(state.lights[i], cube);
       if (s.ok() && several) s = renderer_->add_ld(gpu_direct_->ld_texture(), gpu_direct_->layout(), i == 0);
     }
     if (s.ok() && !ld_on_gpu) s = several ? renderer_->read_summed_ld(ld_) : gpu_direct_->read_ld(ld_);

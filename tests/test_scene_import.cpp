@@ -88,6 +88,10 @@ TEST(SceneImport, TwoRoomsWithADoorway) {
     EXPECT_NEAR(room.floor, 0.0, 1e-9);
     EXPECT_NEAR(room.ceiling, 2.5, 1e-9);
   }
+  // The proxy walls run through the 0.15 m walls' mid-planes: 0.075 m behind the surfaces,
+  // plus up to three cells (the raster takes every cell a wall face touches, and one of slack).
+  EXPECT_GE(s.plan.proxy_depth, 0.075 - s.plan.cell);
+  EXPECT_LE(s.plan.proxy_depth, 0.075 + 3.0 * s.plan.cell + 1e-9);
   // One doorway, between the two rooms, with its jambs, sill and head within two plan cells.
   ASSERT_EQ(s.openings.size(), 1u) << s.openings.size();
   const ImportedOpening& door = s.openings[0];

@@ -52,7 +52,8 @@ vec3 light_e_over_pi(vec3 position, vec3 normal) {
   if (cosine <= 0.0) return vec3(0.0);
   // Offset along the normal against acne, growing with the distance (the texel footprint).
   vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
-  float visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
+  // A 1 cm bias along the ray in metres (a constant depth offset would be d^2 / near metres).
+  float visible = texture(u_shadow, vec4(v, shadow_depth(v * max(1.0 - 0.01 / max(length(v), 1e-6), 1e-3))));
   return u_light_rgb * (visible * cosine / max(d2, u_light_radius * u_light_radius) / 3.14159265);
 }
 )";

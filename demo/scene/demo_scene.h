@@ -56,6 +56,9 @@ struct Mesh {
   std::vector<glm::vec2> lightmap_uv;
   // Where it came from in a glTF file (node and primitive), -1 for meshes made by the demo.
   int source_node = -1, source_primitive = -1;
+  // The scene importer's object this mesh belongs to (index into SceneImport::object_role);
+  // -1 when the scene was not imported or the mesh is dynamic.
+  int import_object = -1;
 };
 
 // Sampled keyframes of a position (a glTF animation's translation channel, in world space):
@@ -112,6 +115,10 @@ struct DemoScene {
   // DRT clutter objects inside the level's blocks (kind mesh from glTF, drawn by the meshes
   // whose Mesh::clutter names them).
   std::vector<ClutterObject> clutter;
+  // How far the proxy walls lie behind the surfaces they stand for (m): 0 for hand-placed
+  // proxies; an imported level's rooms meet at their walls' mid-planes (ImportPlan::proxy_depth).
+  // The direct-light pass at the proxy samples tests shadows this much further along the normal.
+  float proxy_depth = 0.0f;
 };
 
 }  // namespace modrt::demo

@@ -89,6 +89,7 @@ void add_imported_clutter(DemoScene& scene, const std::vector<precompute::Import
       out.clutter = index;
       out.source_node = m.source_node;
       out.source_primitive = m.source_primitive;
+      out.import_object = m.import_object;
       for (std::size_t t = 0; t < ci->source_triangle.size(); ++t) {
         const std::size_t src = ci->source_triangle[t];
         if (src < first || src >= first + count) continue;
@@ -153,6 +154,7 @@ Result<precompute::SceneImport> import_scene_level(DemoScene& scene,
     }
     precompute::ImportObject& o = objects[it->second];
     object_meshes[it->second].push_back(mi);
+    scene.meshes[mi].import_object = int(it->second);
     const std::uint32_t base = std::uint32_t(o.positions.size());
     for (const glm::vec3& p : m.position) o.positions.push_back(glm::dvec3(p));
     for (std::uint32_t i : m.indices) o.indices.push_back(base + i);
@@ -172,6 +174,7 @@ Result<precompute::SceneImport> import_scene_level(DemoScene& scene,
   Result<precompute::SceneImport> imported = precompute::import_scene(objects, lights, settings);
   if (!imported.ok()) return imported.status();
   scene.level = imported->level;
+  scene.proxy_depth = float(imported->plan.proxy_depth);
   scene.level.name = scene.name.empty() ? "imported" : scene.name;
   // Turn round what faces solid: indices swapped, and the normals (and tangents' handedness)
   // of a mesh all of whose triangles turn (shared vertices keep theirs otherwise).

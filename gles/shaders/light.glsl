@@ -11,7 +11,10 @@ uniform float u_light_radius;
 uniform vec3 u_spot_direction;  // spot lights: unit axis
 uniform vec3 u_spot_cos;        // (cos outer cone, cos inner cone, 0); outer -2 for a point light
 uniform highp samplerCubeShadow u_shadow;
-uniform vec3 u_shadow_params;   // (near, far, 1 with a shadow map / 0 without) of its 90° faces
+// (near, far, 1 with a shadow map / 0 without, normal offset): the 90° faces' planes, and how
+// far (m) the shadow test moves the point along its normal beyond the offset against acne
+// (proxy samples that lie inside walls: GpuShadowCube::normal_offset).
+uniform vec4 u_shadow_params;
 // The ld pass: the texel-footprint floor of the inverse-square falloff, A / (2 pi) for the
 // level's smallest block texel area A (modrt/light_policy.h: light_falloff_d2,
 // texel_footprint_d2); the camera image shades points, not texels: 0.
@@ -37,8 +40,11 @@ vec3 direct_e_over_pi(vec3 position, vec3 normal) {
   float visible = 1.0;
   if (u_shadow_params.z > 0.0) {
     // Normal offset against acne, scaled with distance (texel footprint grows with it).
-    vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2)) - u_light_position;
-    visible = texture(u_shadow, vec4(v, shadow_depth(v) - 0.0005));
+    vec3 v = position + normal * (0.004 + 0.004 * sqrt(d2) + u_shadow_params.w) - u_light_position;
+    // A 1 cm bias along the ray, in metres: a constant offset in depth units is d^2 / near
+    // times longer in metres (half a metre at 3 m) and lets light through walls.
+    vec3 biased = v * max(1.0 - 0.01 / max(length(v), 1e-6), 1e-3);
+    visible = texture(u_shadow, vec4(v, shadow_depth(biased)));
   }
   float falloff = max(max(d2, u_light_radius * u_light_radius), u_falloff_floor_d2);
   return u_light_rgb * (cone * visible * cosine / falloff / 3.14159265);

@@ -44,7 +44,8 @@ void LightUniforms::set(const platform::GlFunctions& gl, const GpuLight& l,
   const float cos_inner =
       std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
   gl.glUniform3f(spot_cos, cos_outer, cos_inner, 0.0f);
-  gl.glUniform3f(shadow_params, shadow.near_plane, shadow.far_plane, shadow.texture != 0 ? 1.0f : 0.0f);
+  gl.glUniform4f(shadow_params, shadow.near_plane, shadow.far_plane, shadow.texture != 0 ? 1.0f : 0.0f,
+                 std::isfinite(shadow.normal_offset) ? std::clamp(shadow.normal_offset, 0.0f, 1.0f) : 0.0f);
 }
 
 namespace {

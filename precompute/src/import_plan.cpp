@@ -249,6 +249,35 @@ int classify_plan(const TriangleSoup& tris, const PlanGrid& grid, const ImportSe
       queue.push_back(nb);
     }
   }
+  // How deep the proxy walls lie: the wall cells on a boundary between two rooms (between a
+  // room and the outside when no two rooms meet), their 90th percentile of steps from free
+  // space. Not the maximum: at a corner the steps count two walls' half thicknesses (4-connected).
+  std::vector<int> between_rooms, toward_outside;
+  for (int k = 0; k < grid.height; ++k)
+    for (int i = 0; i < grid.width; ++i) {
+      const std::size_t c = grid.index(i, k);
+      if (steps[c] <= 0 || plan.label[c] == kPlanSolid) continue;
+      const int ni[4] = {i - 1, i + 1, i, i}, nk[4] = {k, k, k - 1, k + 1};
+      bool room_room = false, room_outside = false;
+      for (int e = 0; e < 4; ++e) {
+        if (ni[e] < 0 || nk[e] < 0 || ni[e] >= grid.width || nk[e] >= grid.height) continue;
+        const int other = plan.label[grid.index(ni[e], nk[e])];
+        if (other == plan.label[c] || other == kPlanSolid) continue;
+        (other >= 0 && plan.label[c] >= 0 ? room_room : room_outside) = true;
+      }
+      if (room_room)
+        between_rooms.push_back(steps[c]);
+      else if (room_outside)
+        toward_outside.push_back(steps[c]);
+    }
+  std::vector<int>& boundary = between_rooms.empty() ? toward_outside : between_rooms;
+  int deepest = 0;
+  if (!boundary.empty()) {
+    const std::size_t p90 = (boundary.size() - 1) * 9 / 10;
+    std::nth_element(boundary.begin(), boundary.begin() + std::ptrdiff_t(p90), boundary.end());
+    deepest = boundary[p90];
+  }
+  plan.proxy_depth = double(deepest + 1) * grid.cell;
   return rooms;
 }
 

@@ -38,6 +38,11 @@ struct GpuLight {
 struct GpuShadowCube {
   std::uint32_t texture = 0;
   float near_plane = 0.01f, far_plane = 30.0f;
+  // How far (m) the shadow test moves a point along its normal, beyond the shader's own offset
+  // against acne: 0 for points on the surfaces they shade; for proxy samples that lie inside
+  // walls (an imported level's proxies run through the walls' mid-planes), how deep they lie,
+  // so that the wall's own faces do not shadow them (DemoScene::proxy_depth).
+  float normal_offset = 0.0f;
 };
 
 // light_glsl()'s uniforms in one program: found once, set per frame. floor_d2 is

@@ -102,6 +102,7 @@ namespace modrt::platform {
   X(PFNGLUNIFORM4IPROC, glUniform4i)                             \
   X(PFNGLUNIFORM3FPROC, glUniform3f)                             \
   X(PFNGLUNIFORM3FVPROC, glUniform3fv)                           \
+  X(PFNGLUNIFORM4FPROC, glUniform4f)                             \
   X(PFNGLUNIFORMMATRIX3FVPROC, glUniformMatrix3fv)               \
   X(PFNGLUNIFORMMATRIX4FVPROC, glUniformMatrix4fv)               \
   X(PFNGLUSEPROGRAMPROC, glUseProgram)                           \

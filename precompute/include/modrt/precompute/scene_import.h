@@ -107,6 +107,10 @@ struct ImportPlan {
   // Cells that are wall (solid in the plan cut), whatever region they were handed to.
   std::vector<std::uint8_t> wall;
   double cut_height = 0.0;
+  // How far a proxy wall lies behind the surface it stands for (m): rooms meet at their wall's
+  // mid-plane, so up to half the thickest wall between two regions, plus one cell. A renderer's
+  // shadow test moves the proxy samples this far along their normals (DemoScene::proxy_depth).
+  double proxy_depth = 0.0;
 };
 inline constexpr int kPlanOutside = -1;
 inline constexpr int kPlanSolid = -2;
