@@ -119,8 +119,9 @@ ctest_args=(--output-on-failure -j2 --timeout 900)
 #   one-thread partition runs in the scalar backend (~125 s); the scalar backend on two threads:
 #   its kernels run on one, and the two-thread partition with SSE4.1 and AVX2 (~75 s);
 # - the accuracy comparisons against ray-traced references (DRT's four against the path tracer,
-#   LevelAccuracy's against the one-bounce reference): the tracers and the DRT build run under
-#   ASan in the shorter DRT, path-tracer and level tests (~190 s);
+#   LevelAccuracy's against the one-bounce reference, the imported flat's against the path tracer
+#   on its triangles): the tracers, the DRT build, the import and the demo's frame run under
+#   ASan in the shorter DRT, path-tracer, level, import and demo tests (~190 s);
 # - six numerical checks whose code runs sanitized in a shorter sibling (~480 sanitized CPU
 #   seconds, measured by a local .ci/run): the dense spectral radii (the reduced operators'
 #   build runs in every other ReducedFeedback test), the incremental DRT rebuild of a moved
@@ -161,6 +162,7 @@ asan_excluded=(
   'Drt\.MultiBounceLowersTheError.*'
   'DrtMesh\.LowersTheError.*'
   'LevelAccuracy\.InterfaceTransportMatchesOneBounceReference'
+  'import_accuracy_flat'
   'LevelAccuracy\.ResponseIsZeroWithoutAPathAndNonZeroWithOne'
   'ReducedFeedback\.SpectralRadiiMatchTheDenseOperators'
   'Drt\.IncrementalRebuildOfAMovedObjectEqualsAFullBuild'
