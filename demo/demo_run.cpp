@@ -245,6 +245,14 @@ Status DemoRun::clutter_light(const FrameState& state) {
   std::vector<double> sum(clutter_ld_.size(), 0.0);
   for (std::size_t li = 0; li < state.lights.size(); ++li) {
     const DemoLight& light = scene_->lights[li];
+    if (light.directional) {
+      const std::vector<float> e = precompute::clutter_directional_light(
+          *clutter_scene_, glm::dvec3(light.direction), glm::dvec3(light.color) * double(light.intensity));
+      if (e.size() != clutter_ld_.size())
+        return Status::error(ErrorCode::internal_error, "demo: clutter direct light has the wrong size");
+      for (std::size_t i = 0; i < e.size(); ++i) sum[i] += double(e[i]);
+      continue;
+    }
     LightDescription l;
     l.position = glm::dvec3(state.lights[li].position);
     l.radius = light.radius;
@@ -291,6 +299,7 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     l.spot_direction = light.direction;
     l.spot_inner = light.inner_cone;
     l.spot_outer = light.outer_cone;
+    if (light.directional) l.directional = true, l.spot_direction = light.direction;
   }
   state.dynamic_offset = dynamic_offset(scene, frame);
   state.output = options_.output;
@@ -306,7 +315,9 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
     for (std::size_t i = 0; i < scene.lights.size(); ++i) {
       const DemoLight& light = scene.lights[i];
       cpu::CpuLight& l = lights[i];
-      l.type = light.outer_cone >= 3.14159f ? cpu::LightType::point : cpu::LightType::spot;
+      l.type = light.directional              ? cpu::LightType::directional
+               : light.outer_cone >= 3.14159f ? cpu::LightType::point
+                                              : cpu::LightType::spot;
       l.position = state.lights[i].position;
       l.direction = light.direction;
       l.color = light.color;

@@ -52,6 +52,7 @@
 #include "modrt/level_runtime.h"
 #include "modrt/light_policy.h"
 #include "modrt/mesh_lightmap_uv.h"
+#include "modrt/platform/gl_context.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/level_build.h"
@@ -59,7 +60,6 @@
 #include "modrt/precompute/mesh_path_tracer.h"
 #include "modrt/precompute/path_tracer.h"
 #include "modrt/precompute/shaped_operators.h"
-#include "modrt/platform/gl_context.h"
 #include "modrt/reduced_feedback.h"
 #include "scene/gltf_scene.h"
 #include "scene/scene_import_glue.h"
@@ -238,7 +238,8 @@ int main(int argc, char** argv) {
   app.add_option(
          "--ld", ld_model,
          "modrt's side: demo (modrt-demo's frame: the GPU ld pass, DRT clutter, the CPU backend's converged "
-         "solve), cpu (modrt::cpu's direct-light evaluator, shadows from the proxy walls, no DRT) or mesh (ld "
+         "solve), cpu (modrt::cpu's direct-light evaluator, shadows from the proxy walls, no DRT) or mesh "
+         "(ld "
          "traced from the proxy samples through every mesh, no DRT); cpu and mesh use the scalar reference's "
          "converged multi-bounce")
       ->check(CLI::IsMember({"demo", "cpu", "mesh"}))
@@ -311,7 +312,8 @@ int main(int argc, char** argv) {
   if (ld_model == "demo") {
     platform::ContextRequest request{};
     if (!platform::parse_context_request(gl_platform, &request))
-      return fail("--gl-platform", Status::error(ErrorCode::invalid_argument, "unknown platform " + gl_platform));
+      return fail("--gl-platform",
+                  Status::error(ErrorCode::invalid_argument, "unknown platform " + gl_platform));
     Result<std::unique_ptr<platform::GlContext>> created = platform::create_context(request);
     if (!created.ok()) return fail("GL context (--ld demo)", created.status());
     context = std::move(created).value();
@@ -336,6 +338,12 @@ int main(int argc, char** argv) {
   std::vector<cpu::CpuLight> cpu_lights;
   std::vector<precompute::MeshLight> mesh_lights;
   for (const demo::DemoLight& light : scene.lights) {
+    if (light.directional) {
+      // The mesh path tracer has point and spot lights: the truth would miss the sun.
+      std::fprintf(stderr, "modrt-import-accuracy: %s has a directional light; the path tracer has none\n",
+                   input.c_str());
+      return 1;
+    }
     const bool spot = light.outer_cone < 3.14159f;
     cpu::CpuLight& c = cpu_lights.emplace_back();
     c.type = spot ? cpu::LightType::spot : cpu::LightType::point;
@@ -400,7 +408,10 @@ int main(int argc, char** argv) {
     if (Status s = run->render(0, linear, srgb); !s.ok()) return fail("demo frame", s);
     if (Status s = run->backend().read_atlas(atlas); !s.ok()) return fail("demo atlas", s);
     const std::span<const float> run_ld = run->ld();
-    if (run_ld.size() != ld.size()) return fail("demo ld", Status::error(ErrorCode::internal_error, "ld of " + std::to_string(run_ld.size()) + " values, the level has " + std::to_string(ld.size())));
+    if (run_ld.size() != ld.size())
+      return fail("demo ld", Status::error(ErrorCode::internal_error,
+                                           "ld of " + std::to_string(run_ld.size()) +
+                                               " values, the level has " + std::to_string(ld.size())));
     std::copy(run_ld.begin(), run_ld.end(), ld.begin());
     solve_iterations = std::size_t(run->backend().converged_stats().last.iterations);
   } else if (ld_model == "cpu") {
@@ -622,27 +633,28 @@ int main(int argc, char** argv) {
   std::string md;
   const std::string name = std::filesystem::path(input).stem().string();
   md += "### " + name + "\n\n";
-  md += "`" + input + "`: " + std::to_string(room_count) + " rooms, " + std::to_string(imp.openings.size()) +
-        " openings, " + std::to_string(level.blocks.size()) + " blocks (" +
-        std::to_string(level.shaped.size()) + " shaped operator sets), " +
-        std::to_string(scene.lights.size()) + " lights, res " + std::to_string(res) + " dictionary (kb " +
-        std::to_string(dict->settings.kb) + "); ld: " +
-        (ld_model == "demo" ? std::string("modrt-demo's frame (GPU ld pass with shadow cube maps, DRT clutter, "
-                                          "the CPU backend's converged solve)")
-         : ld_model == "cpu" ? std::string("modrt::cpu evaluator (shadows from the proxy walls, no clutter)")
-                             : std::string("traced from the proxy samples through every mesh, no DRT")) +
-        "; converged solve " + std::to_string(solve_iterations) +
-        " iterations. Truth: " + std::to_string(indices.size() / 3) + " triangles" +
-        (truth_without_clutter ? " (**without the " + std::to_string(clutter_triangles_left_out) +
-                                     " triangles of clutter objects**)"
-                               : std::string()) +
-        ", " + std::to_string(paths) + " paths x " + std::to_string(bounces) + " segments per point, " +
-        std::to_string(points.size()) + " points (" + std::to_string(points_per_room) + " per room)" +
-        (proxy_truth ? "; proxy PT: " + std::to_string(proxy_paths) + " paths per point" : std::string()) +
-        ". Time: import " + fixed(t_import, 2) + " s, dictionary " + fixed(t_dict, 1) + " s, level build " +
-        fixed(t_build, 1) + " s, ld + converged bounce " + fixed(t_modrt, 2) + " s, mapping and points " +
-        fixed(t_points, 2) + " s, truth " + fixed(t_truth, 1) + " s" +
-        (proxy_truth ? ", proxy PT " + fixed(t_proxy, 1) + " s" : std::string()) + ".";
+  md +=
+      "`" + input + "`: " + std::to_string(room_count) + " rooms, " + std::to_string(imp.openings.size()) +
+      " openings, " + std::to_string(level.blocks.size()) + " blocks (" +
+      std::to_string(level.shaped.size()) + " shaped operator sets), " + std::to_string(scene.lights.size()) +
+      " lights, res " + std::to_string(res) + " dictionary (kb " + std::to_string(dict->settings.kb) +
+      "); ld: " +
+      (ld_model == "demo" ? std::string("modrt-demo's frame (GPU ld pass with shadow cube maps, DRT clutter, "
+                                        "the CPU backend's converged solve)")
+       : ld_model == "cpu" ? std::string("modrt::cpu evaluator (shadows from the proxy walls, no clutter)")
+                           : std::string("traced from the proxy samples through every mesh, no DRT")) +
+      "; converged solve " + std::to_string(solve_iterations) +
+      " iterations. Truth: " + std::to_string(indices.size() / 3) + " triangles" +
+      (truth_without_clutter ? " (**without the " + std::to_string(clutter_triangles_left_out) +
+                                   " triangles of clutter objects**)"
+                             : std::string()) +
+      ", " + std::to_string(paths) + " paths x " + std::to_string(bounces) + " segments per point, " +
+      std::to_string(points.size()) + " points (" + std::to_string(points_per_room) + " per room)" +
+      (proxy_truth ? "; proxy PT: " + std::to_string(proxy_paths) + " paths per point" : std::string()) +
+      ". Time: import " + fixed(t_import, 2) + " s, dictionary " + fixed(t_dict, 1) + " s, level build " +
+      fixed(t_build, 1) + " s, ld + converged bounce " + fixed(t_modrt, 2) + " s, mapping and points " +
+      fixed(t_points, 2) + " s, truth " + fixed(t_truth, 1) + " s" +
+      (proxy_truth ? ", proxy PT " + fixed(t_proxy, 1) + " s" : std::string()) + ".";
   if (pieces_disagree)
     md += " Structural pieces whose vertex normals face against their winding: " +
           std::to_string(pieces_disagree) + ".";

@@ -1849,7 +1849,7 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
   modrt_light bad = light;
   bad.type = MODRT_LIGHT_DIRECTIONAL;
   expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_UNSUPPORTED,
-               {"modrt_context_set_light_gpu", "light.type", "point and spot"});
+               {"modrt_context_set_light_gpu", "light.type", "orthographic shadow map"});
   bad = light;
   bad.position[1] = std::numeric_limits<float>::quiet_NaN();
   expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"position"});

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: MIT
 // The GPU direct-light pass at the proxy samples (gles/include/modrt/gles/gles_direct_light.h)
-// on every GL context: without shadows it is modrt::cpu's CpuDirectLight (point and spot
-// models, the same light units and falloff floor; relative L2 <= 1e-5, float32 GPU math in
+// on every GL context: without shadows it is modrt::cpu's CpuDirectLight (point, spot and
+// directional models, the same light units and falloff floor; relative L2 <= 1e-5, float32 GPU math in
 // another order); the level runtime evaluates its texture as it evaluates the same ld from
 // memory (relative L2 <= 1e-6); a bad light is refused by name. The shadowed pass against the
 // ray-traced direct light: test_demo (DemoRender.LdPassMatchesRayTracedDirectLight).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -44,9 +45,12 @@ TEST_P(GlesDirectLightTest, WithoutShadowsItIsTheCpuEvaluator) {
   Result<std::unique_ptr<gles::GlesDirectLight>> d = gles::GlesDirectLight::create(gl(), t.level, t.albedo);
   ASSERT_TRUE(d.ok()) << d.status().to_string();
   const glm::vec3 at = glm::vec3(t.description.lights.front().position);
-  for (bool spot : {false, true}) {
+  for (const cpu::LightType type :
+       {cpu::LightType::point, cpu::LightType::spot, cpu::LightType::directional}) {
+    const bool spot = type == cpu::LightType::spot, directional = type == cpu::LightType::directional;
+    const char* name = spot ? "spot" : directional ? "directional" : "point";
     cpu::CpuLight c;
-    c.type = spot ? cpu::LightType::spot : cpu::LightType::point;
+    c.type = type;
     c.position = at;
     c.color = glm::vec3(1.0f, 0.8f, 0.6f);
     c.intensity = 2.5f;
@@ -59,14 +63,15 @@ TEST_P(GlesDirectLightTest, WithoutShadowsItIsTheCpuEvaluator) {
     g.rgb = c.color * c.intensity;
     g.radius = c.radius;
     if (spot) g.spot_direction = c.direction, g.spot_inner = c.inner_angle, g.spot_outer = c.outer_angle;
+    if (directional) g.directional = true, g.spot_direction = c.direction;
     ASSERT_TRUE(d.value()->render(g).ok());
     std::vector<float> ld(t.albedo.size());
     ASSERT_TRUE(d.value()->read_ld(ld).ok());
     const std::vector<float> ref = cpu_ld(t.level, t.albedo, c);
     const double e = rel_l2(ld, ref);
-    EXPECT_LT(e, 1e-5) << (spot ? "spot" : "point");
-    std::printf("  %s light: GPU ld vs CpuDirectLight (no shadows) rel L2 %.2e\n", spot ? "spot" : "point",
-                e);
+    EXPECT_LT(e, 1e-5) << name;
+    EXPECT_GT(*std::max_element(ld.begin(), ld.end()), 0.0f) << name << ": nothing lit";
+    std::printf("  %s light: GPU ld vs CpuDirectLight (no shadows) rel L2 %.2e\n", name, e);
   }
 }
 
@@ -113,6 +118,10 @@ TEST_P(GlesDirectLightTest, ABadLightIsRefused) {
   g = gles::GpuLight{};
   g.rgb.z = -1.0f;
   EXPECT_EQ(d->render(g).code(), ErrorCode::invalid_argument);
+  g = gles::GpuLight{};
+  g.directional = true;
+  g.spot_direction = glm::vec3(0.0f);
+  EXPECT_EQ(d->render(g).code(), ErrorCode::invalid_argument) << "a directional light without a direction";
   std::vector<float> short_ld(5);
   EXPECT_EQ(d->read_ld(short_ld).code(), ErrorCode::invalid_argument);
   std::vector<float> albedo = t.albedo;

@@ -585,18 +585,21 @@ TEST(GltfScene, LightConversion) {
   options.warnings = &warnings;
   Result<DemoScene> r = load_text("lights.gltf", syn.text(), options);
   ASSERT_TRUE(r.ok()) << r.status().to_string();
-  ASSERT_EQ(r->lights.size(), 1u);
-  const DemoLight& spot = r->lights[0];
+  ASSERT_EQ(r->lights.size(), 2u);
+  // The sun: along its node's -Z, 3 lux as irradiance (the candela scale), no cone.
+  const DemoLight& sun = r->lights[0];
+  EXPECT_TRUE(sun.directional);
+  EXPECT_NEAR(sun.intensity, 3.0f / 683.0f, 1e-7f);
+  expect_near(sun.direction, {0.0f, 0.0f, -1.0f}, 1e-6f, "sun direction");
+  const DemoLight& spot = r->lights[1];
+  EXPECT_FALSE(spot.directional);
   EXPECT_NEAR(spot.intensity, 0.1f, 1e-6f);  // 68.3 cd / 683 lm/W
   expect_near(spot.color, {1.0f, 0.5f, 0.25f}, 1e-6f, "spot colour");
   expect_near(spot.path[0], {0.5f, 0.9f, 0.5f}, 1e-6f, "spot position");
   expect_near(spot.direction, {0.0f, -1.0f, 0.0f}, 1e-5f, "spot direction");
   EXPECT_FLOAT_EQ(spot.inner_cone, 0.25f);
   EXPECT_FLOAT_EQ(spot.outer_cone, 0.5f);
-  bool sun = false;
-  for (const std::string& w : warnings)
-    sun = sun || (w.find("'sun'") != std::string::npos && w.find("directional") != std::string::npos);
-  EXPECT_TRUE(sun);
+  for (const std::string& w : warnings) EXPECT_EQ(w.find("'sun'"), std::string::npos) << w;
   // A point light keeps the DemoLight defaults: no cone.
   EXPECT_GE(sample().lights[0].outer_cone, 3.14159f);
 
@@ -1256,9 +1259,9 @@ TEST(GltfScene, DoubleSidedMaterialsAreMarked) {
                {"vertex buffer"});
 }
 
-// Every point and spot light is kept up to kMaxDemoLights; the others, and every directional
-// light, are each named in one warning.
-TEST(GltfScene, LightsUpToTheLimitAndOneWarningPerKindDropped) {
+// Every light, point, spot or directional, is kept up to kMaxDemoLights in node order; the
+// others are named in one warning.
+TEST(GltfScene, LightsUpToTheLimitAndOneWarningForTheDropped) {
   Synthetic syn;
   std::string nodes = R"([{"name":"tri","mesh":0},{"name":"room","extras":{"modrt_block":{"cell":[0,0,0]}}})";
   std::string lights;
@@ -1283,27 +1286,23 @@ TEST(GltfScene, LightsUpToTheLimitAndOneWarningPerKindDropped) {
   const Result<DemoScene> r = load_text("many_lights.gltf", syn.text(), options);
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   ASSERT_EQ(r->lights.size(), kMaxDemoLights);
-  const float kept[4] = {10, 11, 13, 14};  // point lights 0, 1, 3, 4 in node order
-  for (std::size_t i = 0; i < kMaxDemoLights; ++i) EXPECT_EQ(r->lights[i].intensity, kept[i]);
-  int directional = 0, dropped = 0;
+  const float kept[4] = {10, 11, 12, 13};  // lights 0 to 3 in node order, light 2 directional
+  for (std::size_t i = 0; i < kMaxDemoLights; ++i) {
+    EXPECT_EQ(r->lights[i].intensity, kept[i]);
+    EXPECT_EQ(r->lights[i].directional, i == 2);
+  }
+  int dropped = 0;
   for (const std::string& w : warnings) {
-    if (w.find("directional") != std::string::npos) {
-      ++directional;
-      EXPECT_NE(w.find("light 2 ('l2')"), std::string::npos) << w;
-      EXPECT_NE(w.find("light 5 ('l5')"), std::string::npos) << w;
-      EXPECT_NE(w.find("node 4 ('n2')"), std::string::npos) << w;
-    }
     if (w.find("dropped") != std::string::npos) {
       ++dropped;
-      EXPECT_NE(w.find("6 point and spot lights"), std::string::npos) << w;
+      EXPECT_NE(w.find("8 lights"), std::string::npos) << w;
       EXPECT_NE(w.find("first 4"), std::string::npos) << w;
-      EXPECT_NE(w.find("light 6 ('l6')"), std::string::npos) << w;
-      EXPECT_NE(w.find("light 7 ('l7')"), std::string::npos) << w;
-      EXPECT_EQ(w.find("light 4 ('l4')"), std::string::npos) << w;
+      for (const char* l : {"light 4 ('l4')", "light 5 ('l5')", "light 6 ('l6')", "light 7 ('l7')"})
+        EXPECT_NE(w.find(l), std::string::npos) << w;
+      EXPECT_EQ(w.find("light 3 ('l3')"), std::string::npos) << w;
     }
     EXPECT_EQ(w.find("renders the first one"), std::string::npos) << w;
   }
-  EXPECT_EQ(directional, 1);
   EXPECT_EQ(dropped, 1);
 }
 

@@ -57,9 +57,10 @@ struct DrawRange {
 // summing the slots in use in light order, as add_ld sums the ld. Every global name of
 // light.glsl must be listed here: one left out is declared twice with two lights, which the
 // shader compiler refuses (DemoRender's two-light tests).
-constexpr const char* kLightGlslNames[] = {
-    "u_light_position", "u_light_rgb",     "u_light_radius",     "u_spot_direction", "u_spot_cos",
-    "u_shadow",         "u_shadow_params", "u_falloff_floor_d2", "shadow_depth",     "direct_e_over_pi"};
+constexpr const char* kLightGlslNames[] = {"u_light_position", "u_light_rgb",        "u_light_radius",
+                                           "u_spot_direction", "u_spot_cos",         "u_shadow",
+                                           "u_shadow_params",  "u_falloff_floor_d2", "shadow_depth",
+                                           "direct_e_over_pi", "u_shadow_matrix",    "directional_visible"};
 
 std::string light_slot_name(const char* name, std::size_t slot) {
   return name + ("_" + std::to_string(slot));
@@ -192,7 +193,7 @@ struct SceneRenderer::Impl {
   GLint light_count = -1, marker_rgb = -1;
   void set_lighting(const FrameState& frame) const {
     for (std::size_t i = 0; i < frame.lights.size(); ++i)
-      scene_lighting[i].set(gl, frame.lights[i], {shadow_cubes[i], kShadowNear, kShadowFar});
+      scene_lighting[i].set(gl, frame.lights[i], shadow_cube(i));
     gl.glUniform1i(light_count, int(frame.lights.size()));
   }
 
@@ -206,7 +207,38 @@ struct SceneRenderer::Impl {
   std::vector<GLuint> programs, framebuffers, textures, buffers;
   GLuint vao = 0, empty_vao = 0, vbo = 0;
   GLuint shadow_program = 0, scene_program = 0, tonemap_program = 0, gather_program = 0, sum_program = 0;
-  std::vector<GLuint> shadow_cubes;                // one per light slot
+  std::vector<GLuint> shadow_cubes;  // one per light slot
+  // Directional lights: the orthographic map in the cube's +X face (render_shadows), per slot;
+  // the drawn geometry's bounds it covers (static, and dynamic before its frame's offset).
+  std::vector<gles::GpuShadowCube> directional_shadow;
+  std::vector<std::uint8_t> slot_directional;
+  glm::vec3 static_lo{0.0f}, static_hi{0.0f}, dynamic_lo{0.0f}, dynamic_hi{0.0f};
+  bool has_static = false, has_dynamic = false;
+  // A directional light's orthographic shadow map: the bounding sphere of the static geometry
+  // and of the dynamic geometry at this frame's offset, seen along `direction` from outside it.
+  gles::GpuShadowCube directional_shadow_map(const FrameState& frame, glm::vec3 direction) const {
+    glm::vec3 lo = static_lo, hi = static_hi;
+    if (has_dynamic) {
+      const glm::vec3 dlo = dynamic_lo + frame.dynamic_offset, dhi = dynamic_hi + frame.dynamic_offset;
+      lo = has_static ? glm::min(lo, dlo) : dlo;
+      hi = has_static ? glm::max(hi, dhi) : dhi;
+    }
+    const glm::vec3 centre = 0.5f * (lo + hi);
+    const float radius = 0.5f * glm::length(hi - lo) + 0.05f;
+    const glm::vec3 dir = glm::length(direction) > 1e-6f ? glm::normalize(direction) : glm::vec3(0, -1, 0);
+    const glm::vec3 up = std::abs(dir.y) < 0.99f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+    gles::GpuShadowCube cube;
+    cube.near_plane = 0.05f;
+    cube.far_plane = 2.0f * radius + 0.1f;
+    const glm::mat4 view = glm::lookAt(centre - dir * (radius + 0.05f), centre, up);
+    cube.directional_view_proj =
+        glm::ortho(-radius, radius, -radius, radius, cube.near_plane, cube.far_plane) * view;
+    return cube;
+  }
+  gles::GpuShadowCube shadow_cube(std::size_t light) const {
+    if (light < slot_directional.size() && slot_directional[light]) return directional_shadow[light];
+    return {light < shadow_cubes.size() ? shadow_cubes[light] : 0, kShadowNear, kShadowFar};
+  }
   std::vector<std::array<GLuint, 6>> shadow_fbos;  // their faces
   int shadow_size = 0;
   // add_ld: two RGBA32F targets in the ld layout, written in turn; `sum` the last written.
@@ -312,7 +344,8 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
     gles::LightUniforms u;
     u.position = loc("u_light_position"), u.rgb = loc("u_light_rgb"), u.radius = loc("u_light_radius"),
     u.spot_direction = loc("u_spot_direction"), u.spot_cos = loc("u_spot_cos"),
-    u.shadow_params = loc("u_shadow_params"), u.falloff_floor = loc("u_falloff_floor_d2");
+    u.shadow_params = loc("u_shadow_params"), u.falloff_floor = loc("u_falloff_floor_d2"),
+    u.shadow_matrix = loc("u_shadow_matrix");
     gl.glUniform1f(u.falloff_floor, 0.0f);  // the camera image shades points, not texels
     m.scene_lighting.push_back(u);
   }
@@ -434,6 +467,18 @@ Result<std::unique_ptr<SceneRenderer>> SceneRenderer::create(const platform::GlF
       return Status::error(ErrorCode::invalid_argument, "renderer: a mesh uses material " +
                                                             std::to_string(d.material) + ", the scene has " +
                                                             std::to_string(scene.materials.size()));
+  // The bounds a directional light's orthographic shadow map covers.
+  for (const DrawRange& d : m.draws) {
+    glm::vec3& lo = d.dynamic ? m.dynamic_lo : m.static_lo;
+    glm::vec3& hi = d.dynamic ? m.dynamic_hi : m.static_hi;
+    bool& any = d.dynamic ? m.has_dynamic : m.has_static;
+    for (GLint i = d.first; i < d.first + GLint(d.count); ++i) {
+      const glm::vec3 p = vertices[std::size_t(i)].position;
+      lo = any ? glm::min(lo, p) : p;
+      hi = any ? glm::max(hi, p) : p;
+      any = true;
+    }
+  }
   gl.glGenVertexArrays(1, &m.vao);
   gl.glGenVertexArrays(1, &m.empty_vao);
   gl.glGenBuffers(1, &m.vbo);
@@ -592,7 +637,27 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   gl.glPolygonOffset(1.5f, 2.0f);
   gl.glViewport(0, 0, m.shadow_size, m.shadow_size);
   const GLint vp = m.shadow_view_proj, off = m.shadow_offset;
+  m.slot_directional.assign(m.shadow_cubes.size(), 0);
+  m.directional_shadow.resize(m.shadow_cubes.size());
   for (std::size_t light = 0; light < frame.lights.size(); ++light) {
+    if (frame.lights[light].directional) {
+      // An orthographic map over the drawn geometry's bounding sphere, in the +X face.
+      m.slot_directional[light] = 1;
+      gles::GpuShadowCube& cube = m.directional_shadow[light];
+      cube = m.directional_shadow_map(frame, frame.lights[light].spot_direction);
+      cube.texture = m.shadow_cubes[light];
+      gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbos[light][0]);
+      gl.glClearDepthf(1.0f);
+      gl.glClear(GL_DEPTH_BUFFER_BIT);
+      gl.glUniformMatrix4fv(vp, 1, GL_FALSE, glm::value_ptr(cube.directional_view_proj));
+      for (const DrawRange& d : m.draws) {
+        if (!d.casts_shadow) continue;
+        const glm::vec3 o = d.dynamic ? frame.dynamic_offset : glm::vec3(0.0f);
+        gl.glUniform3f(off, o.x, o.y, o.z);
+        gl.glDrawArrays(GL_TRIANGLES, d.first, d.count);
+      }
+      continue;
+    }
     const glm::vec3 at = frame.lights[light].position;
     for (int f = 0; f < 6; ++f) {
       gl.glBindFramebuffer(GL_FRAMEBUFFER, m.shadow_fbos[light][std::size_t(f)]);
@@ -614,9 +679,7 @@ Status SceneRenderer::render_shadows(const FrameState& frame) {
   return gl_error_status(gl, "shadow pass");
 }
 
-gles::GpuShadowCube SceneRenderer::shadow_cube(std::size_t light) const {
-  return {light < impl_->shadow_cubes.size() ? impl_->shadow_cubes[light] : 0, kShadowNear, kShadowFar};
-}
+gles::GpuShadowCube SceneRenderer::shadow_cube(std::size_t light) const { return impl_->shadow_cube(light); }
 
 std::size_t SceneRenderer::light_slots() const { return impl_->shadow_cubes.size(); }
 
@@ -940,6 +1003,7 @@ Status SceneRenderer::render_image(const FrameState& frame, std::span<float> lin
   gl.glUniform1i(u_emissive, 1);
   gl.glUniform3f(u_offset, 0.0f, 0.0f, 0.0f);
   for (const gles::GpuLight& light : frame.lights) {
+    if (light.directional) continue;  // the sun has no place
     const glm::mat4 marker = view_proj * glm::translate(glm::mat4(1.0f), light.position) *
                              glm::scale(glm::mat4(1.0f), glm::vec3(std::max(light.radius, 0.01f)));
     gl.glUniformMatrix4fv(m.su.view_proj, 1, GL_FALSE, glm::value_ptr(marker));

@@ -85,7 +85,11 @@ inline constexpr std::size_t kMaxDemoLights = 4;
 // angles, radians, as glTF's KHR_lights_punctual); both backends see it through ld.
 struct DemoLight {
   std::vector<glm::vec3> path;
+  // Spot: the cone's axis; directional: the direction the light travels.
   glm::vec3 direction{0.0f, -1.0f, 0.0f};
+  // A directional light (the sun): `intensity` is the irradiance on a surface facing it, and
+  // `path`, `radius` and the cones are unused (its shadow map is orthographic).
+  bool directional = false;
   float inner_cone = 3.14159265f, outer_cone = 3.14159265f;
   int period = 120;
   glm::vec3 color{1.0f};

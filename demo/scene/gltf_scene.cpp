@@ -547,7 +547,6 @@ class Loader {
   bool have_dynamic_key_ = false;
   glm::dvec3 dynamic_key_{0.0};
   int dynamic_key_node_ = -1;
-  std::vector<std::string> directional_lights_;  // skipped, named in one warning
   bool warned_morph_ = false, warned_texcoord_ = false, warned_attribute_gap_ = false;
   std::vector<ClutterNode> clutter_nodes_;
   // Per scene_.lights entry: what it is (node and light) and its position in double, for the
@@ -557,6 +556,7 @@ class Loader {
     glm::dvec3 position{0.0};
     int node = -1;                 // the glTF node carrying it; -1 for a level file's light
     std::vector<glm::dvec3> keys;  // its animation's key positions (world), checked as `position`
+    bool directional = false;      // where it stands does not matter
   };
   std::vector<LightSource> light_sources_;
 };
@@ -1343,11 +1343,7 @@ void Loader::add_light(const NodeInstance& inst, int light) {
   const tinygltf::Light& l = model_.lights[std::size_t(light)];
   const std::string what =
       "light " + num(light) + (l.name.empty() ? std::string() : " (" + quote(l.name) + ")");
-  if (l.type == "directional") {
-    directional_lights_.push_back(node_label(node, inst.node) + ": " + what);
-    return;
-  }
-  if (l.type != "point" && l.type != "spot") {
+  if (l.type != "point" && l.type != "spot" && l.type != "directional") {
     warnings_.push_back(what + ": unknown light type " + quote(l.type) + "; skipped");
     return;
   }
@@ -1369,6 +1365,14 @@ void Loader::add_light(const NodeInstance& inst, int light) {
     fail(ErrorCode::format_error, node_label(node, inst.node) + ": " + what +
                                       ": its world position is not finite (node transforms overflow)");
   d.path = {glm::vec3(position)};
+  if (l.type == "directional") {
+    // KHR_lights_punctual: along its node's local -Z; intensity in lux (lm/m^2), scaled to
+    // irradiance as a point light's candela (lm/sr) to W/sr.
+    const glm::dvec3 dir = glm::dmat3(inst.world) * glm::dvec3(0, 0, -1);
+    if (!(glm::length(dir) > 1e-12)) fail(ErrorCode::format_error, what + ": its node transform is singular");
+    d.direction = glm::vec3(glm::normalize(dir));
+    d.directional = true;
+  }
   if (l.type == "spot") {
     const double inner = l.spot.innerConeAngle, outer = l.spot.outerConeAngle;
     if (!(inner >= 0.0 && inner < outer && outer <= 0.5 * 3.14159265358979 + 1e-9))
@@ -1393,7 +1397,8 @@ void Loader::add_light(const NodeInstance& inst, int light) {
   d.color = glm::vec3(color);
   d.intensity = float(l.intensity * double(options_.light_intensity_scale));
   scene_.lights.push_back(d);
-  light_sources_.push_back({node_label(node, inst.node) + ": " + what, position, inst.node, {}});
+  light_sources_.push_back(
+      {node_label(node, inst.node) + ": " + what, position, inst.node, {}, d.directional});
 }
 
 // One animation sampler as a KeyTrack in world space and demo frames: the node's parent
@@ -1579,7 +1584,7 @@ void Loader::check_light_positions() const {
   for (const BlockDescription& b : scene_.level.blocks)
     for (const glm::dvec3& c : block_corners(scene_.level, b)) lo = glm::min(lo, c), hi = glm::max(hi, c);
   for (const LightSource& l : light_sources_)
-    for (std::size_t k = 0; k <= l.keys.size(); ++k) {
+    for (std::size_t k = 0; k <= l.keys.size() && !l.directional; ++k) {
       const glm::dvec3& p = k == 0 ? l.position : l.keys[k - 1];
       if (!light_position_in_level(p, lo, hi, scene_.level.cell_size))
         fail(ErrorCode::invalid_argument,
@@ -1591,32 +1596,22 @@ void Loader::check_light_positions() const {
     }
 }
 
-// The renderer draws kMaxDemoLights lights (a shadow cube map each); the rest are dropped,
-// named in one warning. Directional lights were skipped on the way, and are named in another.
+// The renderer draws kMaxDemoLights lights (a shadow map each); the rest are dropped, named in
+// one warning.
 void Loader::keep_light_limit() {
-  if (!directional_lights_.empty()) {
-    std::string names;
-    for (const std::string& d : directional_lights_) names += (names.empty() ? "" : ", ") + d;
-    warnings_.push_back(
-        num(directional_lights_.size()) +
-        " directional light(s) skipped: the demo renders point and spot lights only (its "
-        "GL light model and shadow cube maps are a point light's; docs/demo.md, \"Lights\"): " +
-        names);
-  }
   if (scene_.lights.size() <= kMaxDemoLights) return;
   std::string names;
   for (std::size_t i = kMaxDemoLights; i < light_sources_.size(); ++i)
     names += (names.empty() ? "" : ", ") + light_sources_[i].what;
-  warnings_.push_back(num(scene_.lights.size()) + " point and spot lights; modrt-demo renders the first " +
+  warnings_.push_back(num(scene_.lights.size()) + " lights; modrt-demo renders the first " +
                       num(kMaxDemoLights) +
-                      " (one shadow cube map each; docs/demo.md, \"Lights\"); dropped: " + names);
+                      " (one shadow map each; docs/demo.md, \"Lights\"); dropped: " + names);
   scene_.lights.resize(kMaxDemoLights);
   light_sources_.resize(kMaxDemoLights);
 }
 
-// A scene without a light (none in the glTF file or its level, or only directional ones,
-// which the demo skips): a white point light of cell_size^2 W/sr (the same irradiance at
-// the same distance in cells, whatever the unit), at 85 % of the height of the block whose
+// A scene without a light (none in the glTF file or its level): a white point light of cell_size^2 W/sr (the
+// same irradiance at the same distance in cells, whatever the unit), at 85 % of the height of the block whose
 // centre is nearest the middle of the level: inside the level (the middle of its bounding
 // box may lie in solid rock) and above the default camera, which stands at the middle of
 // block 0.

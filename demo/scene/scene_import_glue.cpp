@@ -163,7 +163,7 @@ Result<precompute::SceneImport> import_scene_level(DemoScene& scene,
   }
   std::vector<LightDescription> lights;
   for (const DemoLight& l : scene.lights) {
-    if (l.path.empty()) continue;
+    if (l.path.empty() || l.directional) continue;  // the level's lights are point lights
     LightDescription d;
     d.position = glm::dvec3(l.path.front());
     d.radius = l.radius;

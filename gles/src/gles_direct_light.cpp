@@ -26,8 +26,8 @@ const char* light_glsl() { return kLight; }
 
 LightUniforms LightUniforms::find(const platform::GlFunctions& gl, GLuint program) {
   const auto loc = [&](const char* name) { return gl.glGetUniformLocation(program, name); };
-  return {loc("u_light_position"), loc("u_light_rgb"),     loc("u_light_radius"),    loc("u_spot_direction"),
-          loc("u_spot_cos"),       loc("u_shadow_params"), loc("u_falloff_floor_d2")};
+  return {loc("u_light_position"), loc("u_light_rgb"),     loc("u_light_radius"),     loc("u_spot_direction"),
+          loc("u_spot_cos"),       loc("u_shadow_params"), loc("u_falloff_floor_d2"), loc("u_shadow_matrix")};
 }
 
 void LightUniforms::set(const platform::GlFunctions& gl, const GpuLight& l,
@@ -43,7 +43,8 @@ void LightUniforms::set(const platform::GlFunctions& gl, const GpuLight& l,
   const float cos_outer = l.spot_outer >= 3.14159f ? -2.0f : std::cos(l.spot_outer);
   const float cos_inner =
       std::max(l.spot_inner >= 3.14159f ? -1.0f : std::cos(l.spot_inner), cos_outer + 1e-4f);
-  gl.glUniform3f(spot_cos, cos_outer, cos_inner, 0.0f);
+  gl.glUniform3f(spot_cos, cos_outer, cos_inner, l.directional ? 1.0f : 0.0f);
+  gl.glUniformMatrix4fv(shadow_matrix, 1, GL_FALSE, &shadow.directional_view_proj[0][0]);
   gl.glUniform4f(shadow_params, shadow.near_plane, shadow.far_plane, shadow.texture != 0 ? 1.0f : 0.0f,
                  std::isfinite(shadow.normal_offset) ? std::clamp(shadow.normal_offset, 0.0f, 1.0f) : 0.0f);
 }
@@ -135,6 +136,9 @@ Status GlesDirectLight::render(const GpuLight& light, const GpuShadowCube& shado
     return Status::error(ErrorCode::non_finite, "gles direct light: the light has a NaN or Inf field");
   if (light.rgb.x < 0.0f || light.rgb.y < 0.0f || light.rgb.z < 0.0f || light.radius < 0.0f)
     return Status::error(ErrorCode::invalid_argument, "gles direct light: negative intensity or radius");
+  if (light.directional && !(glm::length(light.spot_direction) > 1e-6f))
+    return Status::error(ErrorCode::invalid_argument,
+                         "gles direct light: a directional light needs a direction (spot_direction is zero)");
   gl_.glDisable(GL_BLEND);
   gl_.glDisable(GL_DEPTH_TEST);
   gl_.glDisable(GL_SCISSOR_TEST);

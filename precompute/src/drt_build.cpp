@@ -1200,4 +1200,36 @@ std::vector<float> clutter_direct_light(const LevelScene& scene, std::span<const
   return out;
 }
 
+std::vector<float> clutter_directional_light(const LevelScene& scene, const glm::dvec3& direction,
+                                             const glm::dvec3& irradiance) {
+  std::vector<float> out;
+  const double length = glm::length(direction);
+  if (!(length > 1e-12) || !std::isfinite(length)) {
+    for (const ClutterObject& object : scene.clutter())
+      out.resize(out.size() + 3 * clutter_texel_geometry(object).position.size(), 0.0f);
+    return out;
+  }
+  const glm::dvec3 to_light = -direction / length;
+  // A shadow ray long enough to leave any level (the rays' far end outside every wall).
+  constexpr double kSunDistance = 1.0e4;
+  for (const ClutterObject& object : scene.clutter()) {
+    const ClutterTexelGeometry cg = clutter_texel_geometry(object);
+    const std::size_t base = out.size();
+    out.resize(base + 3 * cg.position.size(), 0.0f);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cg.position.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                          const double cosine = glm::dot(cg.normal[i], to_light);
+                          if (!(cosine > 0.0)) continue;
+                          const glm::dvec3 x = cg.position[i] + 1e-5 * cg.normal[i];
+                          if (scene.occluded(x, x + kSunDistance * to_light)) continue;
+                          for (int c = 0; c < 3; ++c)
+                            out[base + 3 * i + std::size_t(c)] =
+                                float(object.albedo[c] * irradiance[c] * cosine / std::numbers::pi);
+                        }
+                      });
+  }
+  return out;
+}
+
 }  // namespace modrt::precompute

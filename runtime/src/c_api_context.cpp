@@ -600,9 +600,10 @@ modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_lig
     cpu::CpuLight l;
     if (modrt_status st = to_cpu_light(fn, 0, *light, l); st != MODRT_OK) return st;
     if (l.type == cpu::LightType::directional)
-      return fail(
-          MODRT_ERROR_UNSUPPORTED,
-          std::string(fn) + ": light.type: the GPU pass has point and spot lights only (use set_lights)");
+      return fail(MODRT_ERROR_UNSUPPORTED,
+                  std::string(fn) +
+                      ": light.type: a directional light needs an orthographic shadow map, which "
+                      "modrt_shadow_cube cannot carry (use modrt_context_set_lights)");
     if (Status s = cpu::CpuDirectLight::check_light(0, l); !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     gles::GpuShadowCube cube;

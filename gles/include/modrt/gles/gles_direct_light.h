@@ -14,6 +14,7 @@
 #include <memory>
 #include <span>
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
 #include "modrt/backend.h"
@@ -23,13 +24,17 @@
 
 namespace modrt::gles {
 
-// One point or spot light (light.glsl).
+// One point, spot or directional light (light.glsl), in CpuLight's units.
 struct GpuLight {
   glm::vec3 position{0.5f};
-  glm::vec3 rgb{1.0f};  // radiant intensity, W/sr per channel (colour x intensity)
+  // Point and spot: radiant intensity, W/sr per channel (colour x intensity); directional: the
+  // irradiance on a surface facing the light, per channel (CpuLight::intensity's meaning).
+  glm::vec3 rgb{1.0f};
   float radius = 0.0f;  // the 1/d^2 clamp, as CpuLight::radius
+  // Spot: the cone's axis; directional: the direction the light travels.
   glm::vec3 spot_direction{0.0f, -1.0f, 0.0f};
   float spot_inner = 3.14159265f, spot_outer = 3.14159265f;  // half-angles; outer >= pi: a point light
+  bool directional = false;                                  // position, radius and cones unused
 };
 
 // A cube shadow map of the light: a GL_TEXTURE_CUBE_MAP depth texture with
@@ -43,13 +48,17 @@ struct GpuShadowCube {
   // walls (an imported level's proxies run through the walls' mid-planes), how deep they lie,
   // so that the wall's own faces do not shadow them (DemoScene::proxy_depth).
   float normal_offset = 0.0f;
+  // Directional lights: the shadow map is orthographic, in the cube's +X face; this takes world
+  // positions to its clip space (x, y in [-1, 1] across the face, z its depth from near_plane
+  // to far_plane).
+  glm::mat4 directional_view_proj{1.0f};
 };
 
 // light_glsl()'s uniforms in one program: found once, set per frame. floor_d2 is
 // u_falloff_floor_d2 (the proxy samples' texel floor; 0 for a camera image of points).
 struct LightUniforms {
   GLint position = -1, rgb = -1, radius = -1, spot_direction = -1, spot_cos = -1, shadow_params = -1,
-        falloff_floor = -1;
+        falloff_floor = -1, shadow_matrix = -1;
   static LightUniforms find(const platform::GlFunctions& gl, GLuint program);
   // With the program in use. The shadow map goes to the texture unit of u_shadow (the caller's).
   void set(const platform::GlFunctions& gl, const GpuLight& light, const GpuShadowCube& shadow) const;

@@ -139,4 +139,10 @@ class DrtBuilder {
 std::vector<float> clutter_direct_light(const LevelScene& scene, std::span<const LightDescription> lights,
                                         int light_samples);
 
+// The same for a directional light (the sun): `direction` the way its light travels,
+// `irradiance` per channel on a surface facing it (cpu::CpuLight's directional model:
+// albedo * irradiance * max(0, -n.direction) * visibility / pi), shadowed as above.
+std::vector<float> clutter_directional_light(const LevelScene& scene, const glm::dvec3& direction,
+                                             const glm::dvec3& irradiance);
+
 }  // namespace modrt::precompute
