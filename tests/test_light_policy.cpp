@@ -308,5 +308,46 @@ TEST(LightPolicy, RunShortcutAgreesWithEmbree) {
   }
 }
 
+// The sun on clutter (clutter_directional_light, the demo's DRT clutter under a directional
+// light) is a point light very far away: at 1 km along the sun's direction, with its intensity
+// times 1 km^2, clutter_direct_light gives the same ld to 1e-3 (the 1/d^2 and the direction vary
+// by the box's size over 1 km). One block open to the outside at -X, a box on its floor; the
+// sun comes in through the opening and down, lighting some faces and not others.
+TEST(LightPolicy, SunOnClutterIsAFarPointLight) {
+  LevelDescription d;
+  d.name = "open_block";
+  BlockDescription& b = d.blocks.emplace_back();
+  b.faces = FaceMask(kAllFaces & ~(1u << kFaceNegX));
+  b.albedo.fill(glm::dvec3(0.5));
+  const Level level = build(d);
+  ClutterObject box;
+  box.block = 0;
+  box.box.center = glm::dvec3(0.5, 0.1, 0.5);
+  const std::vector<ClutterObject> clutter = {box};
+  const precompute::LevelScene scene(level, level.res, clutter);
+  const glm::dvec3 direction = glm::normalize(glm::dvec3(1.0, -0.5, 0.2));
+  const glm::dvec3 irradiance(2.0, 1.5, 1.0);
+  const std::vector<float> sun = precompute::clutter_directional_light(scene, direction, irradiance);
+  constexpr double kFar = 1000.0;
+  const LightDescription far{box.box.center - kFar * direction, 0.0, irradiance / 2.0, 2.0 * kFar * kFar};
+  const std::vector<float> point = precompute::clutter_direct_light(scene, {&far, 1}, 1);
+  ASSERT_EQ(sun.size(), point.size());
+  ASSERT_FALSE(sun.empty());
+  double num = 0.0, den = 0.0;
+  std::size_t lit = 0, dark = 0;
+  for (std::size_t i = 0; i < sun.size(); ++i) {
+    num += (double(sun[i]) - point[i]) * (double(sun[i]) - point[i]);
+    den += double(point[i]) * point[i];
+    ASSERT_TRUE(std::isfinite(sun[i]) && sun[i] >= 0.0f) << i;
+    (sun[i] > 0.0f ? lit : dark) += 1;
+  }
+  EXPECT_GT(lit, sun.size() / 10);
+  EXPECT_GT(dark, sun.size() / 10);
+  EXPECT_LT(std::sqrt(num / std::max(den, 1e-30)), 1e-3);
+  // No direction: no light, not NaN.
+  const std::vector<float> none = precompute::clutter_directional_light(scene, glm::dvec3(0.0), irradiance);
+  EXPECT_EQ(min_max(none), std::make_pair(0.0f, 0.0f));
+}
+
 }  // namespace
 }  // namespace modrt
