@@ -230,6 +230,7 @@ int main(int argc, char** argv) {
   options.camera_skip = camera_skip;
   options.save_clutter = save_clutter;
   options.shaped_cache_dir = precompute::default_cache_dir();
+  options.drt_cache_dir = precompute::default_cache_dir();
   options.interface_basis = interface_basis.ok() ? &interface_basis.value() : nullptr;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene.value(), dict.value(), ctx, options);
   if (!run.ok()) {
@@ -251,10 +252,15 @@ int main(int argc, char** argv) {
                 blocks,
                 options.interface_basis ? "" : " (connected blocks keep cube operators: no interface basis)");
   }
-  if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0)
-    std::printf("  DRT: %zu clutter objects, %zu texels; operators built in %.2f s, %.2f MB\n", d.objects,
-                d.texels, d.seconds, double(d.bytes) / 1e6);
-  else if (!drt)
+  if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0) {
+    if (!d.rebuilt.empty()) std::printf("  DRT: cached operators not used (%s)\n", d.rebuilt.c_str());
+    std::printf("  DRT: %zu clutter objects, %zu texels; operators %s in %.2f s, %.2f MB%s%s\n", d.objects,
+                d.texels, d.loaded ? "loaded" : "built", d.seconds, double(d.bytes) / 1e6,
+                d.cache_file.empty() ? ""
+                : d.loaded           ? " from "
+                                     : ", saved to ",
+                d.cache_file.c_str());
+  } else if (!drt)
     std::printf("  DRT: off (--no-drt)\n");
 
   std::vector<float> linear(3 * std::size_t(width) * std::size_t(height)), flipped(linear.size());

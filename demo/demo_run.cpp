@@ -12,6 +12,7 @@
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/drt_build.h"
+#include "modrt/precompute/drt_cache.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/precompute/shaped_operators.h"
@@ -154,9 +155,13 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     const Clock::time_point t0 = Clock::now();
     precompute::DrtBuildSettings settings;
     settings.rays = options.drt_rays;
-    Result<DrtOperators> drt = precompute::DrtBuilder(lv, dict, settings).build(scene.clutter);
+    Result<precompute::DrtCacheResult> drt =
+        precompute::load_or_build_drt(lv, dict, scene.clutter, settings, options.drt_cache_dir);
     if (!drt.ok()) return drt.status();
-    run->drt_ = std::make_unique<DrtOperators>(std::move(drt).value());
+    run->drt_startup_.loaded = drt->loaded;
+    run->drt_startup_.cache_file = drt->path;
+    run->drt_startup_.rebuilt = drt->rebuilt;
+    run->drt_ = std::make_unique<DrtOperators>(std::move(drt->operators));
     run->drt_startup_.seconds = ms_since(t0) * 1e-3;
     run->drt_startup_.objects = scene.clutter.size();
     run->drt_startup_.bytes = run->drt_->storage_bytes();

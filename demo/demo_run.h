@@ -60,6 +60,10 @@ struct DemoRunOptions {
   // Where the level build keeps operators baked for blocks that are not cubes (MRT §8,
   // precompute/shaped_operators.h), so a second run loads them; empty: baked every run.
   std::string shaped_cache_dir;
+  // Where the DRT operators are kept (precompute/drt_cache.h: named by a hash of the level,
+  // dictionary, clutter and build settings), so a second start loads them; empty: built every
+  // run.
+  std::string drt_cache_dir;
   // The dictionary's interface basis (precompute::load_or_bake_interface_basis): with it,
   // stretched blocks connected to others get shaped operators too; null: only unconnected ones.
   const Matrix* interface_basis = nullptr;
@@ -80,6 +84,9 @@ struct StageTimes {
 struct DrtStartup {
   std::size_t objects = 0, texels = 0, bytes = 0;
   double seconds = 0.0;
+  bool loaded = false;     // from DemoRunOptions::drt_cache_dir, not built
+  std::string cache_file;  // where they were loaded from or saved (empty: no cache)
+  std::string rebuilt;     // why a cached file was not used (it was replaced), or empty
 };
 
 class DemoRun {
