@@ -6,11 +6,11 @@
 // names the directory.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "drt_test_support.h"
@@ -60,13 +60,15 @@ TEST(DrtCache, BuiltOnceThenLoadedAndRebuiltWhenAnythingChanges) {
   std::vector<std::string> log;
   const auto record = [&](const std::string& line) { log.push_back(line); };
 
-  Result<DrtCacheResult> first = load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
+  Result<DrtCacheResult> first =
+      load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
   ASSERT_TRUE(first.ok()) << first.status().to_string();
   EXPECT_FALSE(first->loaded);
   ASSERT_TRUE(fs::exists(first->path)) << first->path;
   EXPECT_EQ(first->operators.objects.size(), s.clutter.size());
 
-  Result<DrtCacheResult> second = load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
+  Result<DrtCacheResult> second =
+      load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
   ASSERT_TRUE(second.ok()) << second.status().to_string();
   EXPECT_TRUE(second->loaded);
   EXPECT_EQ(second->path, first->path);
@@ -102,7 +104,8 @@ TEST(DrtCache, BuiltOnceThenLoadedAndRebuiltWhenAnythingChanges) {
 
   // A truncated file is rebuilt and replaced, the reason reported.
   fs::resize_file(first->path, fs::file_size(first->path) / 2);
-  Result<DrtCacheResult> repaired = load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
+  Result<DrtCacheResult> repaired =
+      load_or_build_drt(level.value(), dict(), s.clutter, quick(), dir.str(), record);
   ASSERT_TRUE(repaired.ok()) << repaired.status().to_string();
   EXPECT_FALSE(repaired->loaded);
   EXPECT_FALSE(repaired->rebuilt.empty());

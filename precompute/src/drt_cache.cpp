@@ -86,14 +86,16 @@ std::string misfit(const Level& level, std::span<const ClutterObject> clutter, c
   std::size_t texels = 0;
   for (const ClutterObject& o : clutter) texels += std::size_t(clutter_texel_count(o));
   if (sizes.clutter_texels != texels)
-    return std::to_string(sizes.clutter_texels) + " clutter texels, the objects have " + std::to_string(texels);
+    return std::to_string(sizes.clutter_texels) + " clutter texels, the objects have " +
+           std::to_string(texels);
   return {};
 }
 
 }  // namespace
 
 Result<std::uint64_t> drt_cache_key(const Level& level, const DictionarySettings& dict,
-                                    std::span<const ClutterObject> clutter, const DrtBuildSettings& settings) {
+                                    std::span<const ClutterObject> clutter,
+                                    const DrtBuildSettings& settings) {
   Result<std::vector<std::byte>> bytes = serialize_level(level);
   if (!bytes.ok()) return bytes.status();
   Fnv f;
@@ -114,8 +116,8 @@ std::string drt_cache_file_name(std::uint64_t key) {
 }
 
 Result<DrtCacheResult> load_or_build_drt(const Level& level, const Dictionary& dict,
-                                         std::span<const ClutterObject> clutter, const DrtBuildSettings& settings,
-                                         const std::string& cache_dir,
+                                         std::span<const ClutterObject> clutter,
+                                         const DrtBuildSettings& settings, const std::string& cache_dir,
                                          const std::function<void(const std::string&)>& log) {
   DrtCacheResult out;
   if (!cache_dir.empty()) {

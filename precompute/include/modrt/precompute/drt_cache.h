@@ -32,17 +32,17 @@ std::string drt_cache_file_name(std::uint64_t key);
 
 struct DrtCacheResult {
   DrtOperators operators;
-  std::string path;       // the cache file (empty without a cache directory)
-  bool loaded = false;    // read from the cache, not built
-  std::string rebuilt;    // why a file that was there was not used (it is replaced), or empty
+  std::string path;     // the cache file (empty without a cache directory)
+  bool loaded = false;  // read from the cache, not built
+  std::string rebuilt;  // why a file that was there was not used (it is replaced), or empty
 };
 
 // The operators of `clutter` in `level`: loaded from cache_dir when a fitting file is there,
 // else built with DrtBuilder(level, dict, settings) and saved there (cache_dir empty: built,
 // not saved). `log` (may be empty) gets one line per load, build or replacement.
 Result<DrtCacheResult> load_or_build_drt(const Level& level, const Dictionary& dict,
-                                         std::span<const ClutterObject> clutter, const DrtBuildSettings& settings,
-                                         const std::string& cache_dir,
+                                         std::span<const ClutterObject> clutter,
+                                         const DrtBuildSettings& settings, const std::string& cache_dir,
                                          const std::function<void(const std::string&)>& log = {});
 
 }  // namespace modrt::precompute
