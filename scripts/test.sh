@@ -145,6 +145,10 @@ ctest_args=(--output-on-failure -j2 --timeout 900)
 #   conformance tests is the frame pipeline's skip and solve logic, one C++ code for every
 #   backend, while each backend's own kernels and passes run sanitized in the suite's other
 #   tests (~350 of the sanitized suite's ~2 600 CPU seconds, measured by a local .ci/run).
+# - DemoRender.AnimatedLightFollowsItsTrack: LeakSanitizer's tracer crashed in its leak check
+#   after the last test ("Tracer caught signal 11"), both runs of a local CI; the animated
+#   light's track and the DemoRun it drives run sanitized in the other DemoRender tests
+#   (EveryLightLightsTheFrame, CpuDirectLightMatchesTheLdPass) and test_gltf_scene.
 # One alternative per line, joined into one anchored regex. CTest's regex engine (KWSys) allows
 # at most 10 parenthesised groups and refuses a larger pattern ("Error in compile"), after which
 # nothing would be excluded; hence flat alternatives, and the check below.
@@ -163,6 +167,7 @@ asan_excluded=(
   'DrtMesh\.LowersTheError.*'
   'LevelAccuracy\.InterfaceTransportMatchesOneBounceReference'
   'import_accuracy_flat'
+  'DemoRender\.AnimatedLightFollowsItsTrack'
   'LevelAccuracy\.ResponseIsZeroWithoutAPathAndNonZeroWithOne'
   'ReducedFeedback\.SpectralRadiiMatchTheDenseOperators'
   'Drt\.IncrementalRebuildOfAMovedObjectEqualsAFullBuild'
