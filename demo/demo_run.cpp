@@ -74,6 +74,21 @@ glm::vec3 light_position(const DemoLight& light, int frame) {
   return path_point(light.path, double(frame) / double(std::max(light.period, 1)));
 }
 
+cpu::CpuLight cpu_light(const DemoLight& light, const glm::vec3& position) {
+  cpu::CpuLight l;
+  l.type = light.directional              ? cpu::LightType::directional
+           : light.outer_cone >= 3.14159f ? cpu::LightType::point
+                                          : cpu::LightType::spot;
+  l.position = position;
+  l.direction = light.direction;
+  l.color = light.color;
+  l.intensity = light.intensity;
+  l.radius = light.radius;
+  l.inner_angle = std::min(light.inner_cone, light.outer_cone);
+  l.outer_angle = std::min(light.outer_cone, 3.14159265f);
+  return l;
+}
+
 glm::vec3 dynamic_offset(const DemoScene& scene, int frame) {
   if (!scene.dynamic_track.times.empty()) return track_point(scene.dynamic_track, double(frame));
   return path_point(scene.dynamic_path, double(frame) / double(std::max(scene.dynamic_period, 1)));
@@ -317,20 +332,8 @@ Status DemoRun::render(int frame, std::span<float> linear_rgb, std::span<std::ui
   t = Clock::now();
   if (s.ok() && cpu_direct_) {
     std::array<cpu::CpuLight, kMaxDemoLights> lights;
-    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
-      const DemoLight& light = scene.lights[i];
-      cpu::CpuLight& l = lights[i];
-      l.type = light.directional              ? cpu::LightType::directional
-               : light.outer_cone >= 3.14159f ? cpu::LightType::point
-                                              : cpu::LightType::spot;
-      l.position = state.lights[i].position;
-      l.direction = light.direction;
-      l.color = light.color;
-      l.intensity = light.intensity;
-      l.radius = light.radius;
-      l.inner_angle = std::min(light.inner_cone, light.outer_cone);
-      l.outer_angle = std::min(light.outer_cone, 3.14159265f);
-    }
+    for (std::size_t i = 0; i < scene.lights.size(); ++i)
+      lights[i] = cpu_light(scene.lights[i], state.lights[i].position);
     s = cpu_direct_->evaluate(std::span(lights.data(), scene.lights.size()), ld_);
   }
   // The GPU pass, one light at a time with its shadow map, summed on the GPU when there are

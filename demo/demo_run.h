@@ -181,6 +181,9 @@ glm::vec3 path_point(const std::vector<glm::vec3>& keys, double t);
 glm::vec3 track_point(const KeyTrack& track, double frame);
 // Where a light is at `frame`: its track when it has keys, else its path (one loop per period).
 glm::vec3 light_position(const DemoLight& light, int frame);
+// The light as modrt::cpu's evaluator takes it (type from the cones and `directional`), at
+// `position` (light_position of the frame).
+cpu::CpuLight cpu_light(const DemoLight& light, const glm::vec3& position);
 // The dynamic meshes' offset at `frame`: DemoScene::dynamic_track, else dynamic_path.
 glm::vec3 dynamic_offset(const DemoScene& scene, int frame);
 

@@ -344,16 +344,8 @@ int main(int argc, char** argv) {
                    input.c_str());
       return 1;
     }
-    const bool spot = light.outer_cone < 3.14159f;
-    cpu::CpuLight& c = cpu_lights.emplace_back();
-    c.type = spot ? cpu::LightType::spot : cpu::LightType::point;
-    c.position = demo::light_position(light, 0);
-    c.direction = light.direction;
-    c.color = light.color;
-    c.intensity = light.intensity;
-    c.radius = light.radius;
-    c.inner_angle = std::min(light.inner_cone, light.outer_cone);
-    c.outer_angle = std::min(light.outer_cone, 3.14159265f);
+    const cpu::CpuLight& c = cpu_lights.emplace_back(demo::cpu_light(light, demo::light_position(light, 0)));
+    const bool spot = c.type == cpu::LightType::spot;
     precompute::MeshLight& m = mesh_lights.emplace_back();
     m.light.position = glm::dvec3(c.position);
     m.light.radius = light.radius;
