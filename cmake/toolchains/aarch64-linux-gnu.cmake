@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 # Cross-compiling for aarch64 (Debian's g++-aarch64-linux-gnu); tests run under qemu-aarch64
-# through CMAKE_CROSSCOMPILING_EMULATOR (ctest and gtest_discover_tests use it).
+# through CMAKE_CROSSCOMPILING_EMULATOR (ctest uses it for every add_test of an executable target).
 # Used by scripts/test-aarch64.sh, which also supplies GoogleTest and the header-only packages.
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
