@@ -4,6 +4,8 @@
 // clutter texel points, and one-bounce accuracy of MRT and MRT + DRT on a scene.
 #pragma once
 
+#include <map>
+
 #include "drt_test_support.h"
 
 namespace modrt::precompute::drt_test {
@@ -94,7 +96,86 @@ struct AccuracyResult {
   double drt_alone = 0, clutter_alone = 0, clutter_cb_only = 0;
   // The clutter shaded by the volume probes with the U_dyn delta (clutter-aware probes).
   double probes_udyn = 0;
+  // The DRT issue's study (docs/drt.md, "Gathering the real radiance"): the clutter lightmap
+  // with the same rays gathering the scene's real exitant radiance (ld) instead of Limp b,
+  // plus Cc c; its entries (texel, sample); and per clutter face (box face or mesh chart) the
+  // worst |mean / truth mean - 1| of Cb b + Cc c and of the real gather.
+  double clutter_real = 0;
+  std::size_t gather_entries = 0;
+  double worst_face_cb = 0, worst_face_real = 0;
+  // The same with the clutter-to-clutter light gathered per texel too (in place of Cc c).
+  double clutter_real_texels = 0, worst_face_real_texels = 0;
+  // The scene lightmap with dUb b replaced by the real radiance of the hidden samples, and
+  // then dUc c by the clutter's light gathered per texel; the worst floor strip's mean
+  // error (worst_floor_strip_error) of those and of MRT + DRT.
+  double drt_real_shadow = 0, drt_real_both = 0;
+  double strip_drt = 0, strip_real_shadow = 0, strip_real_both = 0;
+  float min_cb = 0, min_real = 0;  // the lowest texel value of each, before any clamp
 };
+
+// The DRT issue's acceptance for the clutter lightmap, met by gathering the real radiance
+// (the scene's ld at the samples and the other objects' clutter_ld at their texels, one
+// bounce): relL2 <= 0.15, every face's mean within 20 % of the truth, no texel below 0
+// (a sum of non-negative weights times non-negative radiance), and at most half the error
+// of Cb b + Cc c.
+inline void expect_real_gather_meets_the_issue(const AccuracyResult& a) {
+  EXPECT_LE(a.clutter_real_texels, 0.15);
+  EXPECT_LE(a.worst_face_real_texels, 0.20);
+  EXPECT_GE(a.min_real, 0.0f);
+  EXPECT_LT(a.clutter_real_texels, 0.5 * a.clutter);
+}
+
+// Bytes of the scene-side operators (dUb with its sample and block indices, dUc with its
+// sample indices; float32 and uint32), the rest of storage_bytes being the clutter's.
+inline std::size_t scene_operator_bytes(const DrtOperators& drt) {
+  std::size_t bytes = 0;
+  for (const DrtObjectOperators& op : drt.objects)
+    bytes += 4 * (op.dUb_sample.size() + op.dUb_block.size() + op.dUb.data.size() + op.dUc_sample.size() +
+                  op.dUc.data.size());
+  return bytes;
+}
+
+// The floor strip of the DRT issue: per object, the upward-facing level samples within 0.15
+// of its box (mesh: its bounds), not inside clutter; the worst signed mean(value) /
+// mean(truth) - 1 over the objects (largest magnitude), all three channels summed.
+inline double worst_floor_strip_error(const LevelSampleGeometry& g, std::span<const ClutterObject> clutter,
+                                      const std::vector<std::uint8_t>& skip, std::span<const float> value,
+                                      std::span<const float> truth) {
+  double worst = 0;
+  for (const ClutterObject& o : clutter) {
+    double v = 0, t = 0;
+    for (std::size_t i = 0; i < g.position.size(); ++i) {
+      if (skip[i] || g.normal[i].y < 0.9 || !clutter_contains(o.box, g.position[i], 0.15)) continue;
+      for (int ch = 0; ch < 3; ++ch) {
+        v += value[3 * i + std::size_t(ch)];
+        t += truth[3 * i + std::size_t(ch)];
+      }
+    }
+    if (t > 0 && std::abs(v / t - 1.0) > std::abs(worst)) worst = v / t - 1.0;
+  }
+  return worst;
+}
+
+// The worst |mean(value) / mean(truth) - 1| over the clutter's faces (box faces and mesh
+// charts, each object's own), all three channels summed.
+inline double worst_face_mean_error(std::span<const ClutterObject> clutter, std::span<const float> value,
+                                    std::span<const float> truth) {
+  double worst = 0;
+  std::size_t base = 0;
+  for (const ClutterObject& o : clutter) {
+    const ClutterTexelGeometry cg = clutter_texel_geometry(o);
+    std::map<int, std::pair<double, double>> sums;
+    for (std::size_t t = 0; t < cg.face.size(); ++t)
+      for (int ch = 0; ch < 3; ++ch) {
+        sums[cg.face[t]].first += value[3 * (base + t) + std::size_t(ch)];
+        sums[cg.face[t]].second += truth[3 * (base + t) + std::size_t(ch)];
+      }
+    for (const auto& [face, sum] : sums)
+      if (sum.second > 0) worst = std::max(worst, std::abs(sum.first / sum.second - 1.0));
+    base += cg.face.size();
+  }
+  return worst;
+}
 
 // One bounce at the level's texels and the clutter texels: MRT (lightmap Ub b + Ur r; the
 // clutter shaded by probes) and MRT + DRT (+ dUb b + dUc c; clutter Cb b) against the path
@@ -151,8 +232,87 @@ inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
   drt_apply_probes(drt_probes, f.b, c, aware);
   const std::vector<float> aware_lightmap = probe_shading(level, aware, s.clutter);
   const std::vector<std::uint8_t> none(cp.size(), 0);
+  DrtBuildSettings with_gather = settings;
+  with_gather.sample_gather = true;
+  DrtBuildState state;
+  const DrtOperators drt_gather =
+      DrtBuilder(level, dict(), with_gather).build(s.clutter, nullptr, &state).value();
+  std::vector<float> clutter_real(clutter_lightmap.size());
+  std::size_t gather_entries = 0, texel_base = 0;
+  for (const ClutterSampleGather& gather : state.sample_gather()) {
+    const std::size_t texels = gather.row_start.size() - 1;
+    clutter_gather_radiance(gather, ld, std::span(clutter_real).subspan(3 * texel_base, 3 * texels));
+    gather_entries += gather.sample.size();
+    texel_base += texels;
+  }
+  EXPECT_EQ(texel_base, cp.size());
+  // Clutter-to-clutter light gathered at the other objects' texels (their clutter_ld) in
+  // place of Cc c (c: constant per face).
+  std::vector<float> clutter_real_texels = clutter_real, from_clutter(clutter_real.size());
+  texel_base = 0;
+  std::size_t clutter_entries = gather_entries;
+  for (const ClutterSampleGather& gather : state.sample_gather(true)) {
+    clutter_entries += gather.sample.size();
+    const std::size_t texels = gather.row_start.size() - 1;
+    clutter_gather_radiance(gather, clutter_ld, std::span(from_clutter).subspan(3 * texel_base, 3 * texels));
+    texel_base += texels;
+  }
+  for (std::size_t i = 0; i < from_clutter.size(); ++i) clutter_real_texels[i] += from_clutter[i];
+  drt_clutter_add_cc(drt_gather, c, clutter_real);
+  // The scene's side (the issue's item 2): the shadow subtracts the real radiance of the
+  // hidden samples (ld) instead of Limp b, and, second, the clutter's light comes from its
+  // texels (clutter_ld) instead of dUc c.
+  std::vector<float> real_shadow = f.lightmap, real_both;
+  std::size_t scene_entries = 0;
+  {
+    std::vector<float> delta(real_shadow.size()), light(real_shadow.size());
+    const ClutterSampleGather hidden = state.scene_sample_gather(), entered = state.scene_sample_gather(true);
+    scene_entries = hidden.sample.size() + entered.sample.size();
+    clutter_gather_radiance(hidden, ld, delta);
+    clutter_gather_radiance(entered, clutter_ld, light);
+    DrtOperators dUc_only = drt_gather;
+    for (DrtObjectOperators& op : dUc_only.objects) {
+      op.dUb_sample.clear();
+      op.dUb_block.clear();
+      op.dUb = Matrix{};
+    }
+    for (std::size_t i = 0; i < delta.size(); ++i) real_shadow[i] += delta[i];
+    real_both = real_shadow;
+    for (std::size_t i = 0; i < light.size(); ++i) real_both[i] += light[i];
+    drt_apply(level, dUc_only, f.b, c, real_shadow);
+  }
 
   AccuracyResult a;
+  a.drt_real_shadow = rel_l2(real_shadow, truth.value, skip);
+  a.drt_real_both = rel_l2(real_both, truth.value, skip);
+  a.strip_drt = worst_floor_strip_error(g, s.clutter, skip, lightmap, truth.value);
+  a.strip_real_shadow = worst_floor_strip_error(g, s.clutter, skip, real_shadow, truth.value);
+  a.strip_real_both = worst_floor_strip_error(g, s.clutter, skip, real_both, truth.value);
+  std::printf(
+      "%s: scene lightmap relL2 with the real radiance behind clutter %.4f, with the clutter's light from "
+      "its "
+      "texels too %.4f (MRT+DRT %.4f); worst floor strip (0.15 around an object) mean %+.1f %% / %+.1f %% "
+      "(MRT+DRT %+.1f %%); %zu scene entries, %zu clutter entries; dUb and dUc %zu bytes, Cb and Cc %zu "
+      "bytes\n",
+      name, a.drt_real_shadow, a.drt_real_both, rel_l2(lightmap, truth.value, skip),
+      100.0 * a.strip_real_shadow, 100.0 * a.strip_real_both, 100.0 * a.strip_drt, scene_entries,
+      clutter_entries, scene_operator_bytes(drt), drt.storage_bytes() - scene_operator_bytes(drt));
+  a.clutter_real = rel_l2(clutter_real, clutter_truth.value, none);
+  a.clutter_real_texels = rel_l2(clutter_real_texels, clutter_truth.value, none);
+  a.worst_face_real_texels = worst_face_mean_error(s.clutter, clutter_real_texels, clutter_truth.value);
+  a.gather_entries = gather_entries;
+  a.worst_face_cb = worst_face_mean_error(s.clutter, clutter_lightmap, clutter_truth.value);
+  a.worst_face_real = worst_face_mean_error(s.clutter, clutter_real, clutter_truth.value);
+  a.min_cb = *std::min_element(clutter_lightmap.begin(), clutter_lightmap.end());
+  a.min_real = *std::min_element(clutter_real.begin(), clutter_real.end());
+  std::printf(
+      "%s: clutter gathering the real radiance (ld) + Cc c: relL2 %.4f (Cb b + Cc c %.4f); worst face mean "
+      "%+.1f %% (Cb b + Cc c %+.1f %%); lowest texel %.4g (Cb b + Cc c %.4g, largest truth %.4g); %zu gather "
+      "entries for %zu texels; clutter light gathered per texel too: relL2 %.4f, worst face mean %+.1f %%\n",
+      name, a.clutter_real, rel_l2(clutter_lightmap, clutter_truth.value, none), 100.0 * a.worst_face_real,
+      100.0 * a.worst_face_cb, double(a.min_real), double(a.min_cb),
+      double(*std::max_element(clutter_truth.value.begin(), clutter_truth.value.end())), a.gather_entries,
+      cp.size(), a.clutter_real_texels, 100.0 * a.worst_face_real_texels);
   a.mrt = rel_l2(f.lightmap, truth.value, skip);
   a.drt = rel_l2(lightmap, truth.value, skip);
   a.noise = noise_floor(truth, skip);

@@ -42,12 +42,14 @@ TEST(Drt, LowersTheErrorOfMrtAgainstThePathTracerOnTheBoxRoomWithTwoBoxes) {
   const AccuracyResult a = accuracy(box_room_two_boxes(), "box room, two boxes");
   EXPECT_LT(a.drt, 0.7 * a.mrt);
   EXPECT_LT(a.clutter, a.probes);
+  expect_real_gather_meets_the_issue(a);
 }
 
 TEST(Drt, LowersTheErrorOfMrtAgainstThePathTracerOnAMazeBlockWithFourPillars) {
   const AccuracyResult a = accuracy(maze_block_four_pillars(), "maze block, four pillars");
   EXPECT_LT(a.drt, 0.7 * a.mrt);
   EXPECT_LT(a.clutter, a.probes);
+  expect_real_gather_meets_the_issue(a);
 }
 
 // Multi-bounce (docs/drt.md, "Multi-bounce"): MRT's feedback alone and with the DRT delta in

@@ -44,6 +44,52 @@ DrtBuildState::DrtBuildState(DrtBuildState&&) noexcept = default;
 DrtBuildState& DrtBuildState::operator=(DrtBuildState&&) noexcept = default;
 bool DrtBuildState::empty() const { return !impl_; }
 
+std::vector<ClutterSampleGather> DrtBuildState::sample_gather(bool clutter_texels) const {
+  std::vector<ClutterSampleGather> out;
+  if (!impl_) return out;
+  for (const std::vector<TexelResult>& texels : impl_->texels) {
+    ClutterSampleGather& g = out.emplace_back();
+    g.row_start.push_back(0);
+    for (const TexelResult& t : texels) {
+      for (const auto& [sample, weight] : clutter_texels ? t.texels : t.samples) {
+        g.sample.push_back(sample);
+        g.weight.push_back(weight);
+      }
+      g.row_start.push_back(std::uint32_t(g.sample.size()));
+    }
+  }
+  return out;
+}
+
+ClutterSampleGather DrtBuildState::scene_sample_gather(bool clutter_texels) const {
+  ClutterSampleGather g;
+  if (!impl_) return g;
+  g.row_start.push_back(0);
+  for (const SampleResult& sample : impl_->samples) {
+    std::vector<std::pair<std::uint32_t, float>> entries;
+    for (const ObjectRows& rows : sample.rows)
+      for (const auto& e : clutter_texels ? rows.texels : rows.samples) entries.push_back(e);
+    merge_sorted_duplicates(entries);
+    for (const auto& [index, weight] : entries) {
+      g.sample.push_back(index);
+      g.weight.push_back(weight);
+    }
+    g.row_start.push_back(std::uint32_t(g.sample.size()));
+  }
+  return g;
+}
+
+void clutter_gather_radiance(const ClutterSampleGather& gather, std::span<const float> radiance,
+                             std::span<float> out) {
+  for (std::size_t t = 0; t + 1 < gather.row_start.size(); ++t) {
+    double sum[3] = {0, 0, 0};
+    for (std::uint32_t e = gather.row_start[t]; e < gather.row_start[t + 1]; ++e)
+      for (int ch = 0; ch < 3; ++ch)
+        sum[ch] += double(gather.weight[e]) * double(radiance[3 * std::size_t(gather.sample[e]) + ch]);
+    for (int ch = 0; ch < 3; ++ch) out[3 * t + ch] = float(sum[ch]);
+  }
+}
+
 // One build or rebuild over a fixed list of objects.
 struct DrtBuilder::Pass {
   const DrtBuilder& b;
@@ -66,7 +112,20 @@ struct DrtBuilder::Pass {
         }),
         probe_gathers([this] {
           return std::vector<LimpGather>(kSh9Count, LimpGather(b.level_, b.dict_, b.walls_.samples().block));
-        }) {}
+        }) {
+    if (!b.settings_.sample_gather) return;
+    texel_lookup.resize(objects.size());
+    std::uint32_t base = 0;
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      texel_lookup[k].prepare(objects[k]);
+      texel_base.push_back(base);
+      base += std::uint32_t(clutter_texel_count(objects[k]));
+    }
+  }
+  // With DrtBuildSettings::sample_gather: each object's hit -> texel lookup and its first
+  // texel among all objects' (clutter-wide texel order).
+  std::vector<ObjectBasis> texel_lookup;
+  std::vector<std::uint32_t> texel_base;
 
   std::span<const glm::dvec3> sets() const { return b.direction_sets_; }
   int rays() const { return int(b.direction_sets_.size() / kDirectionSets); }
@@ -118,8 +177,15 @@ struct DrtBuilder::Pass {
           rows->dUc.resize(std::size_t(queries[k].columns), 0.0);
           rows->dUc[col] += w * value;
         });
+        if (!texel_lookup.empty()) {
+          const int t = texel_lookup[k].texel_at(nearest[r].entry, x, hit_dirs[r]);
+          if (t >= 0) rows->texels.emplace_back(texel_base[k] + std::uint32_t(t), float(w));
+        }
       }
-      if (rows) gather.flush(rows->dUb);
+      if (rows) {
+        gather.flush(rows->dUb, b.settings_.sample_gather ? &rows->samples : nullptr);
+        merge_sorted_duplicates(rows->texels);
+      }
     }
     return result;
   }
@@ -371,13 +437,19 @@ struct DrtBuilder::Pass {
           queries[std::size_t(hit.object)].charge(hit.entry, x, dirs[r], [&](std::size_t col, double value) {
             result.add_cc(cc_key(std::uint32_t(hit.object), int(col)), w * value);
           });
+          if (!texel_lookup.empty()) {
+            const int t = texel_lookup[std::size_t(hit.object)].texel_at(hit.entry, x, dirs[r]);
+            if (t >= 0)
+              result.texels.emplace_back(texel_base[std::size_t(hit.object)] + std::uint32_t(t), float(w));
+          }
           continue;
         }
       }
       if (wall.block >= 0) gather.add(wall, w);
     }
-    gather.flush(result.cb);
+    gather.flush(result.cb, b.settings_.sample_gather ? &result.samples : nullptr);
     std::sort(result.cc.begin(), result.cc.end());
+    merge_sorted_duplicates(result.texels);
     return result;
   }
 

@@ -392,8 +392,13 @@ class LimpGather {
   }
   // Adds the gathered Limp rows to `rows` and clears the gather. Samples are taken in the
   // order the rays first touched them, fixed by the work item's directions, so the sums do
-  // not depend on scheduling.
-  void flush(BlockRows& rows) {
+  // not depend on scheduling. `samples`, when given, also receives each touched sample's
+  // weight itself (DrtBuildSettings::sample_gather), ascending by sample.
+  void flush(BlockRows& rows, std::vector<std::pair<std::uint32_t, float>>* samples = nullptr) {
+    if (samples) {
+      for (std::size_t idx : touched_) samples->emplace_back(std::uint32_t(idx), float(weight_[idx]));
+      std::sort(samples->begin(), samples->end());
+    }
     for (std::size_t idx : touched_) {
       const int blk = sample_block_[idx];
       const LevelBlock& lb = level_.blocks[std::size_t(blk)];
@@ -423,6 +428,9 @@ struct ObjectRows {
   std::uint32_t object = 0;
   BlockRows dUb;
   std::vector<double> dUc;  // face_count of the object; empty when no ray entered it
+  // With DrtBuildSettings::sample_gather: the same rays' weights per hidden scene sample
+  // (negative: dUb's taps) and per clutter texel they enter (clutter-wide order), ascending.
+  std::vector<std::pair<std::uint32_t, float>> samples, texels;
 };
 
 struct SampleResult {
@@ -434,7 +442,7 @@ struct SampleResult {
   ObjectRows& rows_of(std::uint32_t object) {
     auto it = std::lower_bound(rows.begin(), rows.end(), object,
                                [](const ObjectRows& r, std::uint32_t o) { return r.object < o; });
-    if (it == rows.end() || it->object != object) it = rows.insert(it, ObjectRows{object, {}, {}});
+    if (it == rows.end() || it->object != object) it = rows.insert(it, ObjectRows{object, {}, {}, {}, {}});
     return *it;
   }
   const ObjectRows* find(std::uint32_t object) const {
@@ -447,6 +455,11 @@ struct SampleResult {
 // One clutter texel's gather (DRT §4.3 and clutter-to-clutter light).
 struct TexelResult {
   BlockRows cb;  // Limp sums of the walls its rays reach, per block
+  // The same rays' weight per scene sample (bilinear taps of the wall hits), ascending by
+  // sample; recorded only with DrtBuildSettings::sample_gather.
+  std::vector<std::pair<std::uint32_t, float>> samples;
+  // And per clutter texel (clutter-wide order) the weight of the rays that enter it first.
+  std::vector<std::pair<std::uint32_t, float>> texels;
   // (source object, face slot) -> weight of the rays that enter that face first, ascending.
   std::vector<std::pair<std::uint64_t, double>> cc;
   // Adds w to key's entry (few distinct keys per texel: a linear search).
@@ -459,6 +472,19 @@ struct TexelResult {
     }
   }
 };
+// Sorts (key, weight) pairs and adds up the weights of equal keys.
+inline void merge_sorted_duplicates(std::vector<std::pair<std::uint32_t, float>>& entries) {
+  std::sort(entries.begin(), entries.end());
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (out > 0 && entries[out - 1].first == entries[i].first) {
+      entries[out - 1].second += entries[i].second;
+    } else {
+      entries[out++] = entries[i];
+    }
+  }
+  entries.resize(out);
+}
 // A mesh can have many charts: 32 bits each.
 inline std::uint64_t cc_key(std::uint32_t object, int slot) {
   return (std::uint64_t(object) << 32) | std::uint64_t(std::uint32_t(slot));

@@ -57,6 +57,12 @@ struct DrtBuildSettings {
   // entries per object (DrtObjectOperators::face_count = n).
   int clutter_prior_modes = 0;
   int clutter_prior_grid = 4;
+  // Also keep each clutter texel's gather weights per scene sample in the DrtBuildState
+  // (DrtBuildState::sample_gather): what Cb's rays reach, before Limp turns it into a
+  // function of b, so that the scene's real exitant radiance can be gathered instead (the DRT
+  // issue's study, docs/drt.md "Gathering the real radiance"). Memory: one entry per texel
+  // and sample its rays reach.
+  bool sample_gather = false;
   std::uint64_t seed = 0x647274ull;
 };
 
@@ -80,6 +86,17 @@ struct DrtBuildReport {
   double scene_seconds = 0.0, clutter_seconds = 0.0;
 };
 
+// A sparse operator over the scene samples, one row per clutter texel (CSR).
+struct ClutterSampleGather {
+  std::vector<std::uint32_t> row_start;  // texels + 1
+  std::vector<std::uint32_t> sample;
+  std::vector<float> weight;
+};
+// out (3 per texel) = gather radiance (3 per scene sample, RGB-interleaved): each texel's
+// weighted sum of the scene's exitant radiance at the samples its rays reach.
+void clutter_gather_radiance(const ClutterSampleGather& gather, std::span<const float> radiance,
+                             std::span<float> out);
+
 // What a build traced (per scene sample and clutter texel, before inpainting, dropping and
 // the SVD) and the objects it traced, so that rebuild_object re-traces only what a move can
 // change. Move-only; filled by DrtBuilder::build.
@@ -90,6 +107,17 @@ class DrtBuildState {
   DrtBuildState(DrtBuildState&&) noexcept;
   DrtBuildState& operator=(DrtBuildState&&) noexcept;
   bool empty() const;
+  // With DrtBuildSettings::sample_gather, per object (in the build's order): row t of its
+  // clutter texels' gather, the weights of the scene samples their rays' first wall hits
+  // reach (bilinear taps, 1 / rays a ray; rays that enter clutter first or leave the level
+  // bring nothing); with clutter_texels, the weights of the other objects' texels (clutter-
+  // wide texel order) their rays enter first instead. Empty without the setting.
+  std::vector<ClutterSampleGather> sample_gather(bool clutter_texels = false) const;
+  // The scene's side, one row per level sample (all objects together; empty rows for samples
+  // inside clutter or that see none): the weights of the samples hidden behind clutter
+  // (negative: the real radiance dUb b stands for) or, with clutter_texels, of the clutter
+  // texels the sample's rays enter first (the real radiance dUc c stands for).
+  ClutterSampleGather scene_sample_gather(bool clutter_texels = false) const;
 
  private:
   friend class DrtBuilder;
