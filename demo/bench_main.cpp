@@ -45,6 +45,7 @@
 #include "modrt/file_io.h"
 #include "modrt/level.h"
 #include "modrt/level_runtime.h"
+#include "modrt/precompute/bake.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/level_build.h"
@@ -183,16 +184,9 @@ Result<SuiteConfig> make_suite(bool quick) {
   }
   if (quick) {
     cfg.name = "quick";
-    DictionarySettings s;  // like tests/test_support.h, at the mobile resolution
-    s.res = 6;
+    DictionarySettings s =
+        precompute::quick_dictionary_settings(6);  // the tests' bake at the mobile resolution
     s.kb = 12;
-    s.rays = 1024;
-    s.sh_rays = 256;
-    s.probe_grid = 2;
-    s.lightfield_spatial = 6;
-    s.lightfield_directional = 12;
-    s.lightfield_supersample = 3;
-    s.response_rays = 1024;
     cfg.dictionaries = {s};
     cfg.kbs = {4, 12};
     cfg.gt_paths_one = 256;

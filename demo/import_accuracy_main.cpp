@@ -53,6 +53,7 @@
 #include "modrt/light_policy.h"
 #include "modrt/mesh_lightmap_uv.h"
 #include "modrt/platform/gl_context.h"
+#include "modrt/precompute/bake.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/level_build.h"
@@ -78,17 +79,8 @@ double luminance(const float* rgb) { return kLum[0] * rgb[0] + kLum[1] * rgb[1] 
 // The dictionary for `res`: the default one at 16; otherwise a quick bake (the tests' small
 // settings at that res), minutes cheaper and good enough for a smoke test.
 DictionarySettings dictionary_settings(int res) {
-  DictionarySettings s;
-  if (res == int(s.res)) return s;
-  s.res = std::uint32_t(res);
-  s.rays = 1024;
-  s.sh_rays = 256;
-  s.probe_grid = 2;
-  s.lightfield_spatial = 6;
-  s.lightfield_directional = 12;
-  s.lightfield_supersample = 3;
-  s.response_rays = 1024;
-  return s;
+  if (res == int(DictionarySettings{}.res)) return DictionarySettings{};
+  return precompute::quick_dictionary_settings(std::uint32_t(res));
 }
 
 // A piece of a structural triangle as the proxy mapping cut it: world corners, their atlas

@@ -6,23 +6,13 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "modrt/precompute/bake.h"
 #include "modrt/precompute/dictionary_cache.h"
 #include "modrt/precompute/shaped_operators.h"
 
 namespace modrt::test {
 
-inline DictionarySettings small_test_settings() {
-  DictionarySettings s;
-  s.res = 8;
-  s.rays = 1024;
-  s.sh_rays = 256;
-  s.probe_grid = 2;
-  s.lightfield_spatial = 6;
-  s.lightfield_directional = 12;
-  s.lightfield_supersample = 3;
-  s.response_rays = 1024;
-  return s;
-}
+inline DictionarySettings small_test_settings() { return precompute::quick_dictionary_settings(8); }
 
 inline const Dictionary& small_test_dictionary() {
   static const Dictionary dict = [] {

@@ -45,6 +45,19 @@ int shape_index_of(FaceMask mask) {
 
 }  // namespace
 
+DictionarySettings quick_dictionary_settings(std::uint32_t res) {
+  DictionarySettings s;
+  s.res = res;
+  s.rays = 1024;
+  s.sh_rays = 256;
+  s.probe_grid = 2;
+  s.lightfield_spatial = 6;
+  s.lightfield_directional = 12;
+  s.lightfield_supersample = 3;
+  s.response_rays = 1024;
+  return s;
+}
+
 InterfaceSettings interface_settings(const DictionarySettings& s) {
   InterfaceSettings is;
   is.spatial = int(s.lightfield_spatial);

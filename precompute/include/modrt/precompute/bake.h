@@ -92,4 +92,9 @@ Result<Dictionary> bake_dictionary(const DictionarySettings& settings, const Bak
                                    std::uint64_t memory_budget = kDefaultBakeMemoryBudget,
                                    Matrix* lightfield_basis = nullptr);
 
+// A small, fast bake at `res` (a few seconds at res 8, two cores): the tests' dictionary,
+// modrt-bench --quick's and the accuracy tools' smoke runs. Fewer rays and SH rays than the
+// default, a 2^3 probe grid and a coarse interface lightfield; kb and kd stay the default's.
+DictionarySettings quick_dictionary_settings(std::uint32_t res);
+
 }  // namespace modrt::precompute
