@@ -47,9 +47,10 @@ struct DemoRunOptions {
   // DRT for the scene's clutter (docs/drt.md): operators built at create(). The clutter
   // meshes need it (they are lit by the clutter lightmap); a caller that turns it off must
   // pass a scene whose clutter is ordinary geometry (demo_main's --no-drt does that).
-  // DrtBuildSettings::rays. 256 rather than the build's 1024: a quarter of the start-up
-  // time, and docs/drt.md measured the errors against the path tracer within 0.006 of 1024's.
-  int drt_rays = 256;
+  // DrtBuildSettings::rays. At 256 the shadow delta under furniture is visibly mottled
+  // (docs/demo.md: the imported flat's table at 256, 1024 and 4096 rays); 1024 is as smooth
+  // as 4096, and the operators are built once (drt_cache_dir).
+  int drt_rays = 1024;
   // The camera skip (docs/cpu.md): the backend writes the lightmap tiles and atlas rectangles of
   // the blocks the camera can see only (CameraVisibility -> Backend::set_visible_blocks, each
   // frame); the image is the same, bit for bit (DemoRender.CameraSkipRendersTheSameImage).

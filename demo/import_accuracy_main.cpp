@@ -315,6 +315,7 @@ int main(int argc, char** argv) {
     ro.renderer.width = ro.renderer.height = 64;
     ro.camera_skip = false;  // every block's lightmap, not only those the camera sees
     ro.shaped_cache_dir = cache_dir;
+    ro.drt_cache_dir = cache_dir;
     ro.interface_basis = &basis.value();
     Result<std::unique_ptr<demo::DemoRun>> made = demo::DemoRun::create(scene, dict.value(), *context, ro);
     if (!made.ok()) return fail("demo run", made.status());

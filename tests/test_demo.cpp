@@ -40,6 +40,14 @@ namespace {
 
 const Dictionary& dict() { return test::small_test_dictionary(); }
 
+// modrt-demo's defaults, with the DRT operators kept in the test cache: built once for all
+// tests that light the same clutter with the same settings (load_or_build_drt).
+DemoRunOptions run_options() {
+  DemoRunOptions options;
+  options.drt_cache_dir = MODRT_TEST_CACHE_DIR "/drt";
+  return options;
+}
+
 const DemoScene& scene() {
   static const DemoScene s = [] {
     Result<DemoScene> r = default_scene();
@@ -153,7 +161,7 @@ TEST(DemoRender, LdPassMatchesRayTracedDirectLight) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";
   const DemoScene walls = unwarped_walls();
-  DemoRunOptions options;
+  DemoRunOptions options = run_options();
   options.renderer.width = 64, options.renderer.height = 36;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(walls, dict(), *ctx, options);
   ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -210,7 +218,7 @@ TEST(DemoRender, SpotLightIsThePointLightTimesItsCone) {
   std::vector<float> linear(3 * 32 * 18);
   std::vector<std::uint8_t> srgb(linear.size());
   for (const DemoScene* sc : {&point, &spot}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.renderer.width = 32, options.renderer.height = 18;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(*sc, dict(), *ctx, options);
     ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -259,7 +267,7 @@ TEST(DemoRender, CpuDirectLightMatchesTheLdPass) {
   std::vector<float> linear(3 * 32 * 18);
   std::vector<std::uint8_t> srgb(linear.size());
   for (DemoDirect direct : {DemoDirect::gpu, DemoDirect::cpu}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.direct = direct;
     options.renderer.width = 32, options.renderer.height = 18;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(walls, dict(), *ctx, options);
@@ -306,7 +314,7 @@ TEST(DemoRender, SunThroughAnOpeningMatchesTheCpuEvaluator) {
   std::vector<float> linear(3 * 32 * 18);
   std::vector<std::uint8_t> srgb(linear.size());
   for (DemoDirect direct : {DemoDirect::gpu, DemoDirect::cpu}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.direct = direct;
     options.renderer.width = 32, options.renderer.height = 18;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(row, dict(), *ctx, options);
@@ -346,7 +354,7 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
   std::vector<std::vector<std::uint8_t>> images;
   std::vector<std::vector<float>> linear;
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.backend = backend;
     options.bounces = 2;  // the same feedback steps on both (their converged solves stop at other iterates)
     options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
@@ -385,7 +393,7 @@ TEST(DemoRender, FramesAfterTheFirstAreAsBrightAsTheFirst) {
       DemoScene still = clutter ? scene() : walls_only();  // scene(): the built-in one, its clutter pillar
       for (DemoLight& l : still.lights) l.path.resize(1);  // a single key holds the light still
       const auto mean_indirect = [&](int bounces, int frame, bool* converged) {
-        DemoRunOptions options;
+        DemoRunOptions options = run_options();
         options.backend = backend;
         options.output = OutputMode::indirect;
         options.bounces = bounces;
@@ -431,7 +439,7 @@ TEST(DemoRender, CameraSkipRendersTheSameImage) {
     std::size_t visible = 0, blocks = 0;
     std::uint64_t hidden = 0;
     for (bool skip : {true, false}) {
-      DemoRunOptions options;
+      DemoRunOptions options = run_options();
       options.backend = backend;
       options.camera_skip = skip;
       options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
@@ -458,7 +466,7 @@ TEST(DemoRender, CameraSkipRendersTheSameImage) {
 TEST(DemoRender, SaveClutterWithoutClutterIsAnError) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";
-  DemoRunOptions options;
+  DemoRunOptions options = run_options();
   options.renderer.width = 32, options.renderer.height = 18;
   options.save_clutter = (std::filesystem::path(MODRT_TEST_CACHE_DIR) / "no_clutter.modrtdrt").string();
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(unwarped_walls(), dict(), *ctx, options);
@@ -501,7 +509,7 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
   std::vector<std::vector<std::uint8_t>> images;
   std::vector<std::vector<float>> linear, clutter;
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.backend = backend;
     options.bounces = 2;  // the same feedback steps on both (their converged solves stop at other iterates)
     options.drt_rays = 128;
@@ -586,7 +594,7 @@ TEST(DemoRender, DynamicMeshShowsTheProbeVolumeAtItsPosition) {
   constexpr int kWidth = 32, kHeight = 18;
   for (DemoBackend backend : {DemoBackend::gles, DemoBackend::cpu}) {
     SCOPED_TRACE(backend == DemoBackend::gles ? "GLES backend" : "CPU backend");
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.backend = backend;
     options.output = OutputMode::indirect;
     options.drt_rays = 64;
@@ -668,7 +676,7 @@ TEST(DemoRender, GlesFrameReadsBackOnlyItsImage) {
   ReadPixelsCountingContext counting(*ctx);
   const DemoScene s = scene_with_clutter_box();
   ASSERT_TRUE(std::any_of(s.meshes.begin(), s.meshes.end(), [](const Mesh& m) { return m.dynamic; }));
-  DemoRunOptions options;
+  DemoRunOptions options = run_options();
   options.backend = DemoBackend::gles;
   options.drt_rays = 64;
   options.renderer.width = 48, options.renderer.height = 27;
@@ -705,7 +713,7 @@ TEST(DemoRender, GlesFrameReadsBackOnlyItsImage) {
 TEST(DemoRender, FirstFrameMatchesGoldenImage) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";
-  DemoRunOptions options;
+  DemoRunOptions options = run_options();
   options.renderer.width = kGoldenWidth, options.renderer.height = kGoldenHeight;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(scene(), dict(), *ctx, options);
   ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -810,7 +818,7 @@ TEST(DemoRender, EveryLightLightsTheFrame) {
          {std::vector<DemoLight>{a}, std::vector<DemoLight>{b}, std::vector<DemoLight>{a, b}}) {
       DemoScene s = base;
       s.lights = lights;
-      DemoRunOptions options;
+      DemoRunOptions options = run_options();
       options.backend = v.backend;
       options.direct = v.direct;
       options.bounces = 2;  // linear in ld, exactly
@@ -869,7 +877,7 @@ TEST(DemoRender, FourLightsRenderAndAFifthIsRefused) {
   }
   s.lights.erase(s.lights.begin());
   ASSERT_EQ(s.lights.size(), kMaxDemoLights);
-  DemoRunOptions options;
+  DemoRunOptions options = run_options();
   options.renderer.width = 32, options.renderer.height = 18;
   Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
   ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -904,7 +912,7 @@ TEST(DemoRender, AnimatedLightFollowsItsTrack) {
   still.lights.front() = still_light(walls, at);
   std::vector<std::vector<float>> ld;
   for (const DemoScene* sc : {&animated, &still}) {
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.renderer.width = 32, options.renderer.height = 18;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(*sc, dict(), *ctx, options);
     ASSERT_TRUE(run.ok()) << run.status().to_string();
@@ -1015,7 +1023,7 @@ TEST(DemoRender, DoubleSidedQuadIsLitFromBehind) {
       quad.dynamic = dynamic;
       s.meshes.push_back(quad);
       if (dynamic) s.dynamic_path = {centre};
-      DemoRunOptions options;
+      DemoRunOptions options = run_options();
       options.output = OutputMode::direct;
       options.renderer.width = kWidth, options.renderer.height = kHeight;
       Result<std::unique_ptr<DemoRun>> run = DemoRun::create(s, dict(), *ctx, options);
@@ -1050,7 +1058,7 @@ TEST(DemoRender, BrightLightRendersFiniteAndWritesFloat32Exr) {
   for (const double candela : {1e8, 1e20}) {
     DemoScene bright = walls_only();
     bright.lights[0].intensity = float(candela / 683.0);
-    DemoRunOptions options;
+    DemoRunOptions options = run_options();
     options.renderer.width = 64, options.renderer.height = 36;
     Result<std::unique_ptr<DemoRun>> run = DemoRun::create(bright, dict(), *ctx, options);
     ASSERT_TRUE(run.ok()) << run.status().to_string();
