@@ -5,23 +5,16 @@
 // albedo in [0, 1], a finite proxy depth, and meshes whose arrays agree; everything else must
 // be an error, never a crash or a hang. The plan raster and triangle count are capped to keep
 // each input cheap.
-#include <unistd.h>
-
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
-#include <string>
 
-#include "scene/gltf_scene.h"
+#include "gltf_fuzz_support.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace modrt::demo;
-  static const std::string path = "/tmp/modrt-fuzz-import-" + std::to_string(::getpid()) + ".gltf";
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) std::abort();
-  if (size > 0 && std::fwrite(data, 1, size, f) != size) std::abort();
-  std::fclose(f);
+  const std::string& path = fuzz::write_input("modrt-fuzz-import", data, size);
   GltfSceneOptions options;
   options.max_vertices = 100'000;
   options.max_image_side = 256;
@@ -37,12 +30,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       for (int k = 0; k < 3; ++k)
         if (!(a[k] >= 0.0 && a[k] <= 1.0)) std::abort();
   }
-  for (const Mesh& m : scene->meshes) {
-    if (m.normal.size() != m.position.size() || (!m.uv.empty() && m.uv.size() != m.position.size()))
-      std::abort();
-    for (std::uint32_t i : m.indices)
-      if (i >= m.position.size()) std::abort();
-    if (m.material < 0 || std::size_t(m.material) >= scene->materials.size()) std::abort();
-  }
+  fuzz::check_meshes(scene.value());
   return 0;
 }
