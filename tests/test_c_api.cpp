@@ -1834,6 +1834,16 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
   const std::vector<float> spot_gpu = lightmap_of(true), spot_cpu = lightmap_of(false);
   EXPECT_LT(rel_l2(spot_gpu, spot_cpu), 1e-4);
   EXPECT_GT(rel_l2(spot_gpu, point_gpu), 0.05);  // the cone matters
+  // A directional light (the sun, since 0.4): irradiance along `direction`, no falloff.
+  modrt_light sun = light;
+  light.type = MODRT_LIGHT_DIRECTIONAL;
+  light.direction[0] = 0.4f, light.direction[1] = -1.0f, light.direction[2] = 0.25f;
+  light.intensity = 3.0f;
+  const std::vector<float> sun_gpu = lightmap_of(true), sun_cpu = lightmap_of(false);
+  EXPECT_GT(*std::max_element(sun_cpu.begin(), sun_cpu.end()), 0.0f);
+  EXPECT_LT(rel_l2(sun_gpu, sun_cpu), 1e-4);
+  EXPECT_GT(rel_l2(sun_gpu, point_gpu), 0.05);
+  std::swap(light, sun);
   // A new albedo reaches the GPU pass: half the albedo, half the direct light of the first bounce.
   std::vector<float> half = t.albedo;
   for (float& a : half) a *= 0.5f;
@@ -1841,15 +1851,17 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
   std::vector<float> spot_half = lightmap_of(true);
   for (float& v : spot_half) v *= 2.0f;
   EXPECT_LT(rel_l2(spot_half, spot_gpu), 1e-4);
-  std::printf("  GPU vs CPU light: point rel L2 %.2e, spot %.2e; half albedo %.2e\n",
-              rel_l2(point_gpu, point_cpu), rel_l2(spot_gpu, spot_cpu), rel_l2(spot_half, spot_gpu));
+  std::printf("  GPU vs CPU light: point rel L2 %.2e, spot %.2e, directional %.2e; half albedo %.2e\n",
+              rel_l2(point_gpu, point_cpu), rel_l2(spot_gpu, spot_cpu), rel_l2(sun_gpu, sun_cpu),
+              rel_l2(spot_half, spot_gpu));
 
   // Bad input: refused, naming the field; the ld source stays set_light_gpu's texture.
   const std::vector<float> before = read_lightmap(c);
   modrt_light bad = light;
   bad.type = MODRT_LIGHT_DIRECTIONAL;
-  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_UNSUPPORTED,
-               {"modrt_context_set_light_gpu", "light.type", "orthographic shadow map"});
+  bad.direction[0] = bad.direction[1] = bad.direction[2] = 0.0f;
+  expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT,
+               {"modrt_context_set_light_gpu", "direction"});
   bad = light;
   bad.position[1] = std::numeric_limits<float>::quiet_NaN();
   expect_error(modrt_context_set_light_gpu(c, &bad, nullptr), MODRT_ERROR_INVALID_ARGUMENT, {"position"});
@@ -1869,6 +1881,18 @@ TEST(CApiGles, LightOnTheGpuIsSetLightsLight) {
   shadow.texture = 0;
   shadow.near_plane = 0.0f;
   expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT, {"near_plane"});
+  shadow.near_plane = 0.01f;
+  shadow.normal_offset = -0.1f;
+  expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT,
+               {"shadow.normal_offset"});
+  shadow.normal_offset = 0.0f;
+  shadow.directional_view_proj[7] = std::numeric_limits<float>::infinity();
+  expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT,
+               {"shadow.directional_view_proj[7]"});
+  // An 0.3 caller's struct (up to far_plane) is read with the defaults after it: the infinite
+  // matrix entry beyond its size is not read.
+  shadow.struct_size = std::uint32_t(offsetof(modrt_shadow_cube, normal_offset));
+  EXPECT_EQ(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_OK) << modrt_last_error();
   shadow.struct_size = 0;
   expect_error(modrt_context_set_light_gpu(c, &light, &shadow), MODRT_ERROR_INVALID_ARGUMENT,
                {"shadow.struct_size is 0"});

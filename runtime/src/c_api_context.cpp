@@ -21,6 +21,8 @@
 #include "modrt/operator_limits.h"
 #include "modrt/probe_sampler.h"
 #if MODRT_RUNTIME_GLES
+#include <glm/gtc/type_ptr.hpp>
+
 #include "modrt/gles/gles_direct_light.h"
 #include "modrt/platform/gl_functions.h"
 #endif
@@ -581,6 +583,7 @@ void modrt_shadow_cube_init(modrt_shadow_cube* shadow) {
   shadow->struct_size = sizeof(modrt_shadow_cube);
   shadow->near_plane = 0.01f;
   shadow->far_plane = 30.0f;
+  for (int i = 0; i < 4; ++i) shadow->directional_view_proj[5 * i] = 1.0f;
 }
 
 modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_light* light,
@@ -599,11 +602,6 @@ modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_lig
       return st;
     cpu::CpuLight l;
     if (modrt_status st = to_cpu_light(fn, 0, *light, l); st != MODRT_OK) return st;
-    if (l.type == cpu::LightType::directional)
-      return fail(MODRT_ERROR_UNSUPPORTED,
-                  std::string(fn) +
-                      ": light.type: a directional light needs an orthographic shadow map, which "
-                      "modrt_shadow_cube cannot carry (use modrt_context_set_lights)");
     if (Status s = cpu::CpuDirectLight::check_light(0, l); !s.ok())
       return fail(from_error_code(s.code()), std::string(fn) + ": " + s.message());
     gles::GpuShadowCube cube;
@@ -612,17 +610,32 @@ modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_lig
               check_struct_size(fn, "shadow", *shadow, "modrt_shadow_cube", "modrt_shadow_cube_init");
           st != MODRT_OK)
         return st;
-      if (shadow->texture != 0 && context->gl.glIsTexture(shadow->texture) != GL_TRUE)
+      modrt_shadow_cube defaults;
+      modrt_shadow_cube_init(&defaults);
+      const modrt_shadow_cube sc = read_sized(*shadow, defaults);
+      if (sc.texture != 0 && context->gl.glIsTexture(sc.texture) != GL_TRUE)
         return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.texture " +
-                                                      std::to_string(shadow->texture) +
+                                                      std::to_string(sc.texture) +
                                                       " is not a texture name of the current GL context");
-      if (!(std::isfinite(shadow->near_plane) && std::isfinite(shadow->far_plane) &&
-            shadow->near_plane > 0.0f && shadow->far_plane > shadow->near_plane))
-        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.near_plane " +
-                                                      std::to_string(shadow->near_plane) + " and far_plane " +
-                                                      std::to_string(shadow->far_plane) +
-                                                      " must be finite, 0 < near < far");
-      cube = {shadow->texture, shadow->near_plane, shadow->far_plane};
+      if (!(std::isfinite(sc.near_plane) && std::isfinite(sc.far_plane) && sc.near_plane > 0.0f &&
+            sc.far_plane > sc.near_plane))
+        return fail(MODRT_ERROR_INVALID_ARGUMENT,
+                    std::string(fn) + ": shadow.near_plane " + std::to_string(sc.near_plane) +
+                        " and far_plane " + std::to_string(sc.far_plane) + " must be finite, 0 < near < far");
+      if (!(std::isfinite(sc.normal_offset) && sc.normal_offset >= 0.0f))
+        return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.normal_offset " +
+                                                      std::to_string(sc.normal_offset) +
+                                                      " must be finite and >= 0");
+      for (int i = 0; i < 16; ++i)
+        if (!std::isfinite(sc.directional_view_proj[i]))
+          return fail(MODRT_ERROR_INVALID_ARGUMENT, std::string(fn) + ": shadow.directional_view_proj[" +
+                                                        std::to_string(i) + "] is not finite");
+      cube.texture = sc.texture;
+      cube.near_plane = sc.near_plane;
+      cube.far_plane = sc.far_plane;
+      cube.normal_offset = sc.normal_offset;
+      std::memcpy(glm::value_ptr(cube.directional_view_proj), sc.directional_view_proj,
+                  sizeof sc.directional_view_proj);
     }
     gles::GpuLight g;
     g.position = l.position;
@@ -632,6 +645,9 @@ modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_lig
       g.spot_direction = glm::normalize(l.direction);
       g.spot_inner = l.inner_angle;
       g.spot_outer = l.outer_angle;
+    } else if (l.type == cpu::LightType::directional) {
+      g.directional = true;
+      g.spot_direction = glm::normalize(l.direction);
     }
     BackendCall call(context);
     if (!context->gpu_direct) {

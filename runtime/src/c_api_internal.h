@@ -111,6 +111,9 @@ template <>  // 0.3: up to light_blocks_kept
 inline constexpr std::size_t kEarlierStructSize<modrt_skip_stats> = offsetof(modrt_skip_stats, tiles_hidden);
 template <>  // 0.2: up to update_ns
 inline constexpr std::size_t kEarlierStructSize<modrt_timings> = offsetof(modrt_timings, feedback_ns);
+template <>  // 0.3: up to far_plane
+inline constexpr std::size_t kEarlierStructSize<modrt_shadow_cube> = offsetof(modrt_shadow_cube,
+                                                                              normal_offset);
 
 // The struct_size rule of modrt.h ("Structs"), for every struct passed in or out: struct_size
 // must be sizeof(T) or the struct's earlier layout (kEarlierStructSize). `what` names the

@@ -315,23 +315,35 @@ MODRT_API modrt_status modrt_context_get_ld_layout(const modrt_context* context,
 /* A cube shadow map of a light, for modrt_context_set_light_gpu: a GL_TEXTURE_CUBE_MAP depth
  * texture of the context's GL context with GL_TEXTURE_COMPARE_MODE GL_COMPARE_REF_TO_TEXTURE,
  * face f a 90-degree perspective projection from the light position along the GL cube-map face
- * axes (+x, -x, +y, -y, +z, -z) with these near and far planes. */
+ * axes (+x, -x, +y, -y, +z, -z) with these near and far planes. A directional light's map is
+ * orthographic, in the +x face alone (directional_view_proj). An 0.3 struct_size (up to
+ * far_plane) is still accepted: no normal offset, and no directional shadows. */
 typedef struct modrt_shadow_cube {
   uint32_t struct_size;        /* sizeof(modrt_shadow_cube): set by modrt_shadow_cube_init */
   uint32_t texture;            /* 0: no shadows */
   float near_plane, far_plane; /* 0 < near < far, finite */
+  /* Since 0.4. How far (metres) the shadow test moves a sample along its normal, beyond the
+   * shader's own offset against acne: 0 where the proxies lie on the surfaces they stand for;
+   * where they lie inside walls (an imported level's proxies run through the walls'
+   * mid-planes), how deep they lie, so that the wall's own faces do not shadow them. Finite,
+   * >= 0. */
+  float normal_offset;
+  /* Since 0.4. A directional light's shadow map: this column-major matrix takes world
+   * positions to the +x face's clip space (x, y in [-1, 1] across the face, z the depth from
+   * near_plane to far_plane). Finite; unused for point and spot lights. */
+  float directional_view_proj[16];
 } modrt_shadow_cube;
-/* Defaults: no texture, near 0.01, far 30. */
+/* Defaults: no texture, near 0.01, far 30, normal offset 0, the identity matrix. */
 MODRT_API void modrt_shadow_cube_init(modrt_shadow_cube* shadow);
 
-/* GLES (since 0.3): ld of one point or spot light evaluated at the proxy samples on the GPU
- * (one full-screen pass, gles::GlesDirectLight: the light model of set_lights, with the
- * context's albedo), shadowed by `shadow` when it is not null and names a texture, and read by
- * the following updates as a set_ld_texture texture of the context: nothing is read back or
- * uploaded. Without a shadow map nothing is shadowed (set_lights shadows by the proxy walls).
- * The light is checked as set_lights checks it (the error names the field); a directional
- * light is MODRT_ERROR_UNSUPPORTED. On failure the previous ld source stays. CPU contexts:
- * MODRT_ERROR_UNSUPPORTED (use set_lights). */
+/* GLES (since 0.3): ld of one point, spot or (since 0.4) directional light evaluated at the
+ * proxy samples on the GPU (one full-screen pass, gles::GlesDirectLight: the light model of
+ * set_lights, with the context's albedo), shadowed by `shadow` when it is not null and names a
+ * texture, and read by the following updates as a set_ld_texture texture of the context:
+ * nothing is read back or uploaded. Without a shadow map nothing is shadowed (set_lights
+ * shadows by the proxy walls). The light is checked as set_lights checks it (the error names
+ * the field). On failure the previous ld source stays. CPU contexts: MODRT_ERROR_UNSUPPORTED
+ * (use set_lights). */
 MODRT_API modrt_status modrt_context_set_light_gpu(modrt_context* context, const modrt_light* light,
                                                    const modrt_shadow_cube* shadow);
 /* Copies the ld the next update will use (sizes.ld floats): set_ld's, or set_lights' result.
