@@ -78,6 +78,19 @@ inline void clutter_texel_points(std::span<const ClutterObject> clutter, std::ve
   }
 }
 
+// The path tracer's one-bounce truth at the clutter texels (512 paths, light-vertex sources,
+// the accuracy tests' settings), for studies that need only the clutter's side.
+inline IndirectEstimate clutter_one_bounce_truth(const LevelScene& scene, const ClutterScene& s) {
+  PathTracerSettings pt;
+  pt.paths = 512;
+  pt.bounces = 1;
+  pt.light_vertex_sources = level_light_centres(s.description);
+  std::vector<glm::dvec3> cp, cn;
+  clutter_texel_points(s.clutter, cp, cn);
+  return trace_indirect(scene, cp, cn, level_direct_radiance(scene, s.description, 8),
+                        level_surface_albedo(scene, s.description), pt);
+}
+
 // The truth's own relative noise: sqrt(sum se^2 / sum value^2) over the points not skipped.
 inline double noise_floor(const IndirectEstimate& truth, const std::vector<std::uint8_t>& skip) {
   double se = 0, v = 0;

@@ -182,18 +182,11 @@ void low_rank_gather_study(const ClutterScene& s, const char* name) {
   DrtBuildState state;
   ASSERT_TRUE(DrtBuilder(level, dict(), settings).build(s.clutter, nullptr, &state).ok());
   const std::vector<ClutterSampleGather> gs = state.sample_gather(), gt = state.sample_gather(true);
-  PathTracerSettings pt;
-  pt.paths = 512;
-  pt.bounces = 1;
-  pt.light_vertex_sources = level_light_centres(s.description);
-  const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
-  const SurfaceAlbedo albedo = level_surface_albedo(scene, s.description);
-  std::vector<glm::dvec3> cp, cn;
-  clutter_texel_points(s.clutter, cp, cn);
-  const IndirectEstimate truth = trace_indirect(scene, cp, cn, direct, albedo, pt);
-  const std::vector<std::uint8_t> none(cp.size(), 0);
+  const IndirectEstimate truth = clutter_one_bounce_truth(scene, s);
+  const std::size_t texels = truth.value.size() / 3;
+  const std::vector<std::uint8_t> none(texels, 0);
   for (const int r : {0, 4, 8, 16, 32}) {
-    std::vector<float> out(3 * cp.size());
+    std::vector<float> out(3 * texels);
     std::size_t base = 0, floats = 0;
     for (std::size_t k = 0; k < gs.size(); ++k) {
       const std::size_t m = gs[k].row_start.size() - 1;
