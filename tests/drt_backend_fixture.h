@@ -30,8 +30,10 @@ struct DrtFixture {
   std::vector<float> ld, clutter_ld, clutter_direct, albedo;
 };
 
-inline const DrtFixture& drt_fixture() {
-  static const DrtFixture f = [] {
+// gather: the same scene with the real-radiance gather (DrtBuildSettings::gather: Gs, Gt, Hs,
+// Ht in place of Cb, Cc and the traced dUb / dUc rows).
+inline DrtFixture make_drt_fixture(bool gather) {
+  {
     const Dictionary& dict = small_test_dictionary();
     DrtFixture s;
     LevelDescription description;
@@ -63,6 +65,7 @@ inline const DrtFixture& drt_fixture() {
     settings.rays = 64;
     settings.vector = true;  // dUb_vec / dUc_vec and U_dyn: the vector and probe stages get deltas
     settings.probes = true;
+    settings.gather = gather;
     Result<DrtOperators> drt =
         precompute::DrtBuilder(s.level, dict, settings).build(std::vector<ClutterObject>{box, pillar});
     if (!drt.ok()) {
@@ -77,8 +80,14 @@ inline const DrtFixture& drt_fixture() {
     s.clutter_direct = random_vector(rng, sizes.clutter_lightmap, 0.0f, 0.5f);
     s.albedo = random_vector(rng, s.ld.size(), 0.2f, 0.9f);
     return s;
-  }();
-  return f;
+  }
+}
+
+inline const DrtFixture& drt_fixture(bool gather = false) {
+  static const DrtFixture f = make_drt_fixture(false);
+  if (!gather) return f;
+  static const DrtFixture g = make_drt_fixture(true);
+  return g;
 }
 
 // Core's scalar reference of one frame with clutter (no feedback); *_mrt without the clutter.
@@ -99,11 +108,19 @@ inline DrtReference drt_reference(const DrtFixture& f, std::span<const float> ld
   EXPECT_TRUE(drt_compute_c(f.drt, clutter_ld, c).ok());
   ref.lightmap = ref.mrt;
   drt_apply(f.level, f.drt, ref.b, c, ref.lightmap);
+  drt_apply_gather(f.drt, ld, clutter_ld, ref.lightmap);
   clamp_lightmap(ref.lightmap);  // the corrected lightmap's clamp (reference_runtime.h), as drt_multi_bounce
   level_fill_atlas(f.level, ref.lightmap, ref.atlas);
   drt_clutter_lightmap(f.drt, ref.b, f.clutter_direct, ref.clutter);
+  // The gather's Gs x_s, then (after clutter_without_cc) the light of the other clutter: Cc c,
+  // or the gather's Gt x_t.
+  DrtOperators gs_only = f.drt, gt_only = f.drt;
+  for (DrtObjectOperators& o : gs_only.objects) o.Gt = DrtSparseRows{};
+  for (DrtObjectOperators& o : gt_only.objects) o.Gs = DrtSparseRows{};
+  drt_clutter_add_gather(gs_only, ld, clutter_ld, ref.clutter);
   ref.clutter_without_cc = ref.clutter;
   drt_clutter_add_cc(f.drt, c, ref.clutter);
+  drt_clutter_add_gather(gt_only, ld, clutter_ld, ref.clutter);
   clamp_lightmap(ref.clutter);  // the clutter lightmap's clamp (drt_evaluate_clutter_lightmap)
   ref.probes_mrt.resize(s.probes);
   level_compute_probes(f.level, dict, ref.b, ref.r, ref.probes_mrt);

@@ -153,6 +153,12 @@ class BackendConformance : public ::testing::TestWithParam<BackendCase> {
 
   const Tolerance& tolerance() const { return GetParam().tolerance; }
 
+  // The clutter tests' bodies, run with and without the real-radiance gather.
+  void check_clutter_matches_scalar_reference(bool gather);
+  void check_clutter_light_and_ld_reach_every_delta(bool gather);
+  void check_clutter_multi_bounce(bool gather);
+  void check_clutter_feedback(bool gather);
+
   std::unique_ptr<Backend> make(const Level& level, const Config& config = {}) {
     const BackendCase& c = GetParam();
     Result<std::unique_ptr<Backend>> created = create(level, c, config);
@@ -399,7 +405,7 @@ TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
   ASSERT_TRUE(drt_converged_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, cs,
                                    b, r, ref, c)
                   .ok());
-  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, f.ld, f.clutter_ld, f.clutter_direct, clutter_ref);
   std::vector<float> lightmap(s.lightmap), clutter(d.clutter_lightmap);
   ASSERT_TRUE(be->read_lightmap(lightmap).ok());
   ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
@@ -934,10 +940,21 @@ TEST_P(BackendConformance, BadVisibleSetIsRefusedAndChangesNothing) {
 // With clutter every stage gets its delta (architecture.md §6): lightmap += dUb b + dUc c
 // (atlas included), the probes Udyn b + Udyn_c c, the vector irradiance dUb_vec b + dUc_vec c;
 // the clutter lightmap is Cb b + Cc c + direct. Each part is large enough to fail if missing.
+// The same with the real-radiance gather (Gs x_s + Gt x_t, Ht x_t - Hs x_s).
 TEST_P(BackendConformance, ClutterMatchesScalarReference) {
-  const DrtFixture& f = drt_fixture();
-  ASSERT_FALSE(f.drt.objects[0].Cc.empty());  // the box and the pillar see each other
-  ASSERT_FALSE(f.drt.objects[1].Cc.empty());
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "Limp");
+    check_clutter_matches_scalar_reference(gather);
+  }
+}
+
+void BackendConformance::check_clutter_matches_scalar_reference(bool gather) {
+  const DrtFixture& f = drt_fixture(gather);
+  for (const DrtObjectOperators& o : f.drt.objects) {  // the box and the pillar see each other
+    ASSERT_FALSE(gather ? o.Gt.empty() : o.Cc.empty());
+    ASSERT_EQ(o.has_gather(), gather);
+    ASSERT_EQ(o.Uc.empty(), gather);
+  }
   const DrtReference ref = drt_reference(f, f.ld, f.clutter_ld);
   const std::vector<float> delta_ref = minus(ref.lightmap, ref.mrt);
   EXPECT_GT(rel_l2(ref.clutter_without_cc, ref.clutter), effect_floor(tolerance()))
@@ -978,12 +995,25 @@ TEST_P(BackendConformance, ClutterMatchesScalarReference) {
     const std::array<int, 2> texel = be->clutter_atlas_texel(1, 0);
     EXPECT_TRUE(texel[0] >= 0 && texel[0] < size.width && texel[1] >= 0 && texel[1] < size.height);
   }
+  if (gather) {  // the reduced solve cannot express the gather: refused, nothing changes
+    ASSERT_TRUE(be->set_albedo(f.albedo).ok());
+    const Status refused = be->update_converged(f.ld);
+    EXPECT_EQ(refused.code(), ErrorCode::invalid_argument) << be->description();
+    EXPECT_NE(refused.message().find("gather"), std::string::npos) << refused.message();
+  }
 }
 
 // A new clutter light alone (same ld) is not a skipped frame, and a change of one block's ld
 // reaches the deltas of the others (a delta reads other blocks' b through the openings).
 TEST_P(BackendConformance, ClutterLightAndOneBlocksLdReachEveryDelta) {
-  const DrtFixture& f = drt_fixture();
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "Limp");
+    check_clutter_light_and_ld_reach_every_delta(gather);
+  }
+}
+
+void BackendConformance::check_clutter_light_and_ld_reach_every_delta(bool gather) {
+  const DrtFixture& f = drt_fixture(gather);
   std::unique_ptr<Backend> be = make(f.level);
   ASSERT_TRUE(be);
   ASSERT_TRUE(be->set_clutter(&f.drt).ok());
@@ -1012,19 +1042,27 @@ TEST_P(BackendConformance, ClutterLightAndOneBlocksLdReachEveryDelta) {
 // feedback reads the lightmap with its delta); the probes and vector irradiance carry their
 // deltas after the same feedback.
 TEST_P(BackendConformance, ClutterMultiBounceMatchesDrtMultiBounce) {
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "Limp");
+    check_clutter_multi_bounce(gather);
+  }
+}
+
+void BackendConformance::check_clutter_multi_bounce(bool gather) {
   constexpr int kSteps = 4;
-  const DrtFixture& f = drt_fixture();
+  const DrtFixture& f = drt_fixture(gather);
   const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
   const DrtBufferSizes d = drt_buffer_sizes(f.drt);
   std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
   MultiBounceSettings settings;
   settings.max_iterations = kSteps;
   settings.tolerance = 0.0f;
-  const Result<MultiBounceReport> rep =
-      drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r, ref, c);
+  std::vector<float> last_ld(s.ld), last_x(d.clutter_ld);
+  const Result<MultiBounceReport> rep = drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld,
+                                                         {}, settings, b, r, ref, c, last_ld, last_x);
   ASSERT_TRUE(rep.ok()) << rep.status().to_string();
   ASSERT_EQ(rep->iterations, kSteps);
-  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, last_ld, last_x, f.clutter_direct, clutter_ref);
   std::vector<float> b0(s.b), r0(s.r), mrt(s.lightmap);
   ASSERT_TRUE(level_multi_bounce(f.level, dict(), f.ld, f.albedo, settings, b0, r0, mrt).ok());
   EXPECT_GT(rel_l2(mrt, ref), effect_floor(tolerance())) << "the delta should change the feedback";
@@ -1059,8 +1097,15 @@ TEST_P(BackendConformance, ClutterMultiBounceMatchesDrtMultiBounce) {
 // With the clutter's albedo each step also feeds the clutter's indirect light back through c
 // (drt_multi_bounce with clutter_albedo); update() then starts again from its direct light.
 TEST_P(BackendConformance, ClutterFeedbackMatchesDrtMultiBounce) {
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "Limp");
+    check_clutter_feedback(gather);
+  }
+}
+
+void BackendConformance::check_clutter_feedback(bool gather) {
   constexpr int kSteps = 3;
-  const DrtFixture& f = drt_fixture();
+  const DrtFixture& f = drt_fixture(gather);
   const LevelBufferSizes s = level_buffer_sizes(f.level, dict());
   const DrtBufferSizes d = drt_buffer_sizes(f.drt);
   std::mt19937 rng(31);
@@ -1069,10 +1114,11 @@ TEST_P(BackendConformance, ClutterFeedbackMatchesDrtMultiBounce) {
   settings.max_iterations = kSteps;
   settings.tolerance = 0.0f;
   std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
+  std::vector<float> last_ld(s.ld), last_x(d.clutter_ld);
   ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, settings,
-                               b, r, ref, c)
+                               b, r, ref, c, last_ld, last_x)
                   .ok());
-  drt_evaluate_clutter_lightmap(f.drt, b, c, f.clutter_direct, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, last_ld, last_x, f.clutter_direct, clutter_ref);
   std::vector<float> plain(s.lightmap), c_plain(d.c);
   ASSERT_TRUE(drt_multi_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, {}, settings, b, r,
                                plain, c_plain)
@@ -1196,7 +1242,7 @@ TEST_P(BackendConformance, ClutterLightmapIsNeverNegative) {
   std::size_t negative = 0;
   for (float v : raw) negative += v < 0.0f;
   ASSERT_GT(negative, raw.size() / 4) << "the negated operators should ring negative";
-  drt_evaluate_clutter_lightmap(negated, b, c, f.clutter_direct, ref);
+  drt_evaluate_clutter_lightmap(negated, b, c, f.ld, f.clutter_ld, f.clutter_direct, ref);
   std::unique_ptr<Backend> be = make(f.level);
   ASSERT_TRUE(be);
   ASSERT_TRUE(be->set_clutter(&negated).ok());

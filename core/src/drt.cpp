@@ -198,6 +198,26 @@ namespace {
 
 std::size_t matrix_bytes(const Matrix& m) { return m.data.size() * sizeof(float); }
 
+std::size_t sparse_bytes(const DrtSparseRows& g) {
+  return (g.start.size() + g.index.size()) * sizeof(std::uint32_t) + g.weight.size() * sizeof(float);
+}
+
+// A CSR of `rows` rows (or none) whose indices are below `columns` and whose weights are
+// finite and non-negative; "" or what is wrong.
+std::string check_sparse(const DrtSparseRows& g, std::size_t rows, std::size_t columns) {
+  if (g.empty()) return g.index.empty() && g.weight.empty() ? "" : "has entries but no rows";
+  if (g.rows() != rows) return "has " + std::to_string(g.rows()) + " rows, not " + std::to_string(rows);
+  if (g.index.size() != g.weight.size()) return "has a different number of indices and weights";
+  if (g.start.front() != 0 || g.start.back() != g.index.size()) return "row starts do not span its entries";
+  for (std::size_t r = 0; r < rows; ++r)
+    if (g.start[r + 1] < g.start[r]) return "row starts decrease";
+  for (std::size_t e = 0; e < g.index.size(); ++e) {
+    if (g.index[e] >= columns) return "index out of range";
+    if (!(g.weight[e] >= 0.0f) || !std::isfinite(g.weight[e])) return "weight negative, NaN or Inf";
+  }
+  return "";
+}
+
 bool all_finite(const Matrix& m) {
   return std::all_of(m.data.begin(), m.data.end(), [](float x) { return std::isfinite(x); });
 }
@@ -218,8 +238,15 @@ std::size_t DrtOperators::storage_bytes() const {
         (o.dUb_sample.size() + o.dUb_block.size() + o.dUc_sample.size() + o.Cb_blocks.size() +
          o.Cc_objects.size() + o.dUb_vec_sample.size() + o.dUb_vec_block.size() + o.dUc_vec_sample.size()) *
         sizeof(std::uint32_t);
+    bytes += sparse_bytes(o.Gs) + sparse_bytes(o.Gt) + sparse_bytes(o.Hs) + sparse_bytes(o.Ht) +
+             o.H_sample.size() * sizeof(std::uint32_t);
   }
   return bytes;
+}
+
+bool DrtOperators::has_gather() const {
+  return std::any_of(objects.begin(), objects.end(),
+                     [](const DrtObjectOperators& o) { return o.has_gather(); });
 }
 
 DrtBufferSizes drt_buffer_sizes(const DrtOperators& drt) {
@@ -290,6 +317,23 @@ Status check_drt_operators(const Level& level, const DrtOperators& drt) {
     }
     if ((!o.Cc_objects.empty() || !o.Cc.empty()) && (o.Cc.rows != o.texel_count || o.Cc.cols != cc_cols))
       return fail("Cc is not m x (faces of its source objects)");
+    const std::size_t clutter_texels = drt_buffer_sizes(drt).clutter_texels;
+    if (const std::string e = check_sparse(o.Gs, o.texel_count, level.sample_count); !e.empty())
+      return fail("Gs " + e);
+    if (const std::string e = check_sparse(o.Gt, o.texel_count, clutter_texels); !e.empty())
+      return fail("Gt " + e);
+    for (std::size_t r = 0; r < o.H_sample.size(); ++r)
+      if (o.H_sample[r] >= level.sample_count || (r > 0 && o.H_sample[r] <= o.H_sample[r - 1]))
+        return fail("H_sample out of range, not sorted or not unique");
+    if (o.H_sample.empty() && (!o.Hs.empty() || !o.Ht.empty()))
+      return fail("Hs / Ht have rows but no H_sample");
+    if (!o.H_sample.empty()) {
+      if (const std::string e = check_sparse(o.Hs, o.H_sample.size(), level.sample_count); !e.empty())
+        return fail("Hs " + e);
+      if (const std::string e = check_sparse(o.Ht, o.H_sample.size(), clutter_texels); !e.empty())
+        return fail("Ht " + e);
+      if (o.Hs.empty() || o.Ht.empty()) return fail("H_sample without both Hs and Ht rows");
+    }
     const std::size_t vrows = o.dUb_vec_sample.size();
     if (o.dUb_vec_block.size() != vrows || o.dUb_vec.rows != 4 * vrows ||
         (vrows > 0 && o.dUb_vec.cols != drt.kb))
@@ -481,11 +525,61 @@ void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::
   }
 }
 
-void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
-                                   std::span<const float> c, std::span<const float> clutter_direct,
-                                   std::span<float> out) {
-  drt_clutter_lightmap(drt, b, clutter_direct, out);
+namespace {
+
+// out[3 row + ch] += sign * sum of weight * x[3 index + ch] over row `row` of g.
+void add_sparse_row(const DrtSparseRows& g, std::size_t row, std::span<const float> x, double sign,
+                    float* out) {
+  double acc[3] = {0, 0, 0};
+  for (std::uint32_t e = g.start[row]; e < g.start[row + 1]; ++e) {
+    const float* v = x.data() + 3 * std::size_t(g.index[e]);
+    for (int ch = 0; ch < 3; ++ch) acc[ch] += double(g.weight[e]) * double(v[ch]);
+  }
+  for (int ch = 0; ch < 3; ++ch) out[ch] += float(sign * acc[ch]);
+}
+
+}  // namespace
+
+void drt_apply_gather(const DrtOperators& drt, std::span<const float> ld,
+                      std::span<const float> clutter_radiance, std::span<float> lightmap) {
+  for (const DrtObjectOperators& o : drt.objects)
+    for (std::size_t r = 0; r < o.H_sample.size(); ++r) {
+      float* out = lightmap.data() + 3 * std::size_t(o.H_sample[r]);
+      add_sparse_row(o.Hs, r, ld, -1.0, out);
+      add_sparse_row(o.Ht, r, clutter_radiance, 1.0, out);
+    }
+}
+
+void drt_clutter_add_gather(const DrtOperators& drt, std::span<const float> ld,
+                            std::span<const float> clutter_radiance, std::span<float> out) {
+  std::size_t texel0 = 0;
+  for (const DrtObjectOperators& o : drt.objects) {
+    for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+      float* row = out.data() + 3 * (texel0 + t);
+      if (!o.Gs.empty()) add_sparse_row(o.Gs, t, ld, 1.0, row);
+      if (!o.Gt.empty()) add_sparse_row(o.Gt, t, clutter_radiance, 1.0, row);
+    }
+    texel0 += o.texel_count;
+  }
+}
+
+void drt_clutter_indirect(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                          std::span<const float> ld, std::span<const float> clutter_radiance,
+                          std::span<float> out) {
+  drt_clutter_lightmap(drt, b, {}, out);
   drt_clutter_add_cc(drt, c, out);
+  drt_clutter_add_gather(drt, ld, clutter_radiance, out);
+}
+
+void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
+                                   std::span<const float> c, std::span<const float> ld,
+                                   std::span<const float> clutter_radiance,
+                                   std::span<const float> clutter_direct, std::span<float> out,
+                                   std::span<float> indirect) {
+  drt_clutter_indirect(drt, b, c, ld, clutter_radiance, out);
+  if (!indirect.empty()) std::copy(out.begin(), out.end(), indirect.begin());
+  if (!clutter_direct.empty())
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] += clutter_direct[i];
   clamp_lightmap(out);
 }
 
@@ -574,14 +668,18 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
                                            std::span<const float> albedo, std::span<const float> clutter_ld,
                                            std::span<const float> clutter_albedo,
                                            const MultiBounceSettings& settings, std::span<float> b,
-                                           std::span<float> r, std::span<float> lightmap,
-                                           std::span<float> c) {
+                                           std::span<float> r, std::span<float> lightmap, std::span<float> c,
+                                           std::span<float> last_ld, std::span<float> last_clutter_radiance) {
   const DrtBufferSizes sizes = drt_buffer_sizes(drt);
   if (c.size() != sizes.c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
   if (!clutter_albedo.empty())
     if (Status s = validate_light_signal(clutter_albedo, sizes.clutter_texels, "clutter_albedo"); !s.ok())
       return s;
   if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;
+  if (!last_ld.empty() && last_ld.size() != ld_direct.size())
+    return Status::error(ErrorCode::invalid_argument, "last_ld: wrong size");
+  if (!last_clutter_radiance.empty() && last_clutter_radiance.size() != sizes.clutter_ld)
+    return Status::error(ErrorCode::invalid_argument, "last_clutter_radiance: wrong size");
   Result<FeedbackClamp> clamp = prepare_feedback(ld_direct, albedo, level.sample_count, settings);
   if (!clamp.ok()) return clamp.status();
   MultiBounceReport report;
@@ -600,27 +698,35 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
     fed.resize(sizes.clutter_ld);
   }
   std::vector<float> ld(ld_direct.begin(), ld_direct.end()), b_prev(b.size());
-  if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
-  drt_apply(level, drt, b, c, lightmap);
-  clamp_lightmap(lightmap);  // the corrected lightmap is a lightmap too (reference_runtime.h)
+  // x_t of the gather: the clutter's direct light, then the light fed back.
+  std::span<const float> clutter_radiance = clutter_ld;
+  auto evaluate = [&]() -> Status {
+    if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
+    drt_apply(level, drt, b, c, lightmap);
+    drt_apply_gather(drt, ld, clutter_radiance, lightmap);
+    clamp_lightmap(lightmap);  // the corrected lightmap is a lightmap too (reference_runtime.h)
+    return Status::success();
+  };
+  if (Status s = evaluate(); !s.ok()) return s;
   for (int it = 1; it <= settings.max_iterations; ++it) {
     if (!rho_c.empty()) {
-      drt_clutter_lightmap(drt, b, {}, indirect);
-      drt_clutter_add_cc(drt, c, indirect);
+      drt_clutter_indirect(drt, b, c, ld, clutter_radiance, indirect);
       drt_clutter_feedback(clutter_ld, rho_c, indirect, bound_c, fed);
       if (Status s = drt_compute_c(drt, fed, c); !s.ok()) return s;
+      clutter_radiance = fed;
     }
     report.value_clamped |= apply_feedback(clamp.value(), ld_direct, lightmap, ld);
     std::copy(b.begin(), b.end(), b_prev.begin());
-    if (Status s = level_evaluate(level, dict, ld, b, r, lightmap); !s.ok()) return s;
-    drt_apply(level, drt, b, c, lightmap);
-    clamp_lightmap(lightmap);
+    if (Status s = evaluate(); !s.ok()) return s;
     report.iterations = it;
     if (feedback_converged(b, b_prev, settings.tolerance)) {
       report.converged = true;
       break;
     }
   }
+  if (!last_ld.empty()) std::copy(ld.begin(), ld.end(), last_ld.begin());
+  if (!last_clutter_radiance.empty())
+    std::copy(clutter_radiance.begin(), clutter_radiance.end(), last_clutter_radiance.begin());
   return report;
 }
 

@@ -66,6 +66,27 @@ void visit_fields(Object& o, Visitor&& v) {
   v("texel_position", o.texel_position);  // since version 2
   v("texel_normal", o.texel_normal);
   v("texel_cell", o.texel_cell);  // since version 3
+  v("Gs_start", o.Gs.start);      // since version 4: the real-radiance gather
+  v("Gs_index", o.Gs.index);
+  v("Gs_weight", o.Gs.weight);
+  v("Gt_start", o.Gt.start);
+  v("Gt_index", o.Gt.index);
+  v("Gt_weight", o.Gt.weight);
+  v("H_sample", o.H_sample);
+  v("Hs_start", o.Hs.start);
+  v("Hs_index", o.Hs.index);
+  v("Hs_weight", o.Hs.weight);
+  v("Ht_start", o.Ht.start);
+  v("Ht_index", o.Ht.index);
+  v("Ht_weight", o.Ht.weight);
+}
+
+// How many fields visit_fields walks (the per-object lower bound on bytes).
+std::size_t field_count() {
+  DrtObjectOperators o;
+  std::size_t n = 0;
+  visit_fields(o, [&](const char*, const auto&) { ++n; });
+  return n;
 }
 
 bool finite(float v) { return std::isfinite(v); }
@@ -165,8 +186,8 @@ Result<DrtOperators> parse_drt(std::span<const std::byte> bytes, const std::stri
   drt.level_blocks = header[3];
   drt.level_samples = header[4];
   Reader in(body, what);
-  // A lower bound on an object's bytes: three counts and at least 4 bytes per field (32).
-  if (in.fits("objects", objects, 12 + 4 * 32)) drt.objects.resize(objects);
+  // A lower bound on an object's bytes: three counts and at least 4 bytes per field.
+  if (in.fits("objects", objects, 12 + 4 * field_count())) drt.objects.resize(objects);
   for (std::uint32_t i = 0; i < objects && in.ok(); ++i) {
     DrtObjectOperators& o = drt.objects[i];
     const std::string name = "object " + std::to_string(i);

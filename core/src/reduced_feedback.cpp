@@ -315,6 +315,13 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     return Status::error(ErrorCode::invalid_argument,
                          "reduced feedback: albedo has " + std::to_string(rho.size()) + " floats, expected " +
                              std::to_string(3 * std::size_t(level.sample_count)));
+  // The gather's terms read ld and the clutter's light directly, not through b and c.
+  if (drt && drt->has_gather())
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "reduced feedback: the clutter operators gather the real radiance (DrtObjectOperators::Gs, "
+        "Hs), which the reduced solve in b and c cannot express: use multi_bounce_step(), or build "
+        "the operators with DrtBuildSettings::gather = false");
   // M itself: A = Td_b diag(rho) Ub per block, B = Td_b diag(rho) Ur turned per slot.
   ReducedFeedback plain;
   plain.kb = level.kb, plain.kr = level.kr, plain.block_jacobi = false;

@@ -106,6 +106,7 @@ class ReferenceBackend final : public StagedBackend {
   Status stage_deltas(const StageWork&) override {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
     drt_apply(level(), *clutter(), b_, cl_.c, lightmap_);
+    drt_apply_gather(*clutter(), ld_, cl_.radiance(), lightmap_);
     clamp_lightmap(lightmap_);
     return Status::success();
   }
@@ -152,25 +153,29 @@ class ReferenceBackend final : public StagedBackend {
     cl_.set_light(clutter_ld, clutter_direct);
     if (Status s = drt_compute_c(*clutter(), cl_.clutter_ld, cl_.c_direct); !s.ok()) return s;
     cl_.c = cl_.c_direct;
+    cl_.fed_back = false;
     return Status::success();
   }
   Status stage_clutter_albedo(std::span<const float>) override {
     cl_.c = cl_.c_direct;
+    cl_.fed_back = false;
     return Status::success();
   }
-  // DRT §4.4: the clutter's indirect light of the last evaluation (Cb b + Cc c) fed back.
+  // DRT §4.4: the clutter's indirect light of the last evaluation (cl_.indirect, kept by its
+  // clutter lightmap stage) fed back.
   Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
     if (source == ClutterCSource::direct) {
       cl_.c = cl_.c_direct;
+      cl_.fed_back = false;
       return Status::success();
     }
-    drt_clutter_lightmap(*clutter(), b_, {}, cl_.indirect);
-    drt_clutter_add_cc(*clutter(), cl_.c, cl_.indirect);
     drt_clutter_feedback(cl_.clutter_ld, clutter_albedo(), cl_.indirect, feedback.bound(), cl_.fed);
+    cl_.fed_back = true;
     return drt_compute_c(*clutter(), cl_.fed, cl_.c);
   }
   Status stage_clutter_lightmap() override {
-    drt_evaluate_clutter_lightmap(*clutter(), b_, cl_.c, cl_.clutter_direct, cl_.clutter_lightmap);
+    drt_evaluate_clutter_lightmap(*clutter(), b_, cl_.c, ld_, cl_.radiance(), cl_.clutter_direct,
+                                  cl_.clutter_lightmap, cl_.indirect);
     return Status::success();
   }
 

@@ -30,6 +30,7 @@ void ClutterBuffers::allocate(const DrtBufferSizes& sizes) {
   clutter_lightmap.assign(sizes.clutter_lightmap, 0.0f);
   indirect.assign(sizes.clutter_lightmap, 0.0f);
   fed.assign(sizes.clutter_ld, 0.0f);
+  fed_back = false;
 }
 
 void ClutterBuffers::set_light(std::span<const float> ld, std::span<const float> direct) {

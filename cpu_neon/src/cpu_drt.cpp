@@ -250,6 +250,58 @@ Status CpuDrtRuntime::clutter_add_cc(std::span<const float> c, std::span<float> 
   return Status::success();
 }
 
+namespace {
+
+// out[0..3) += sign * the weighted sum of row r's RGB triplets of x.
+inline void add_gather_row(const DrtSparseRows& g, std::size_t r, const float* x, float sign, float* out) {
+  float acc0 = 0.0f, acc1 = 0.0f, acc2 = 0.0f;
+  for (std::uint32_t e = g.start[r], end = g.start[r + 1]; e < end; ++e) {
+    const float w = g.weight[e];
+    const float* v = x + 3 * std::size_t(g.index[e]);
+    acc0 += w * v[0];
+    acc1 += w * v[1];
+    acc2 += w * v[2];
+  }
+  out[0] += sign * acc0;
+  out[1] += sign * acc1;
+  out[2] += sign * acc2;
+}
+
+}  // namespace
+
+Status CpuDrtRuntime::apply_gather(std::span<const float> ld, std::span<const float> clutter_radiance,
+                                   std::span<float> lightmap) {
+  if (ld.size() != lightmap_size_) return wrong_size("ld", ld.size(), lightmap_size_);
+  if (clutter_radiance.size() != sizes_.clutter_ld)
+    return wrong_size("clutter radiance", clutter_radiance.size(), sizes_.clutter_ld);
+  if (lightmap.size() != lightmap_size_) return wrong_size("lightmap", lightmap.size(), lightmap_size_);
+  for (const DrtObjectOperators& o : drt_->objects)
+    for (std::size_t r = 0; r < o.H_sample.size(); ++r) {
+      float* out = lightmap.data() + 3 * std::size_t(o.H_sample[r]);
+      add_gather_row(o.Hs, r, ld.data(), -1.0f, out);
+      add_gather_row(o.Ht, r, clutter_radiance.data(), 1.0f, out);
+    }
+  return Status::success();
+}
+
+Status CpuDrtRuntime::clutter_add_gather(std::span<const float> ld, std::span<const float> clutter_radiance,
+                                         std::span<float> out) {
+  if (ld.size() != lightmap_size_) return wrong_size("ld", ld.size(), lightmap_size_);
+  if (clutter_radiance.size() != sizes_.clutter_ld)
+    return wrong_size("clutter radiance", clutter_radiance.size(), sizes_.clutter_ld);
+  if (out.size() != sizes_.clutter_lightmap)
+    return wrong_size("clutter lightmap", out.size(), sizes_.clutter_lightmap);
+  for (std::size_t i = 0; i < drt_->objects.size(); ++i) {
+    const DrtObjectOperators& o = drt_->objects[i];
+    for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+      float* row = out.data() + 3 * (texel0_[i] + t);
+      if (!o.Gs.empty()) add_gather_row(o.Gs, t, ld.data(), 1.0f, row);
+      if (!o.Gt.empty()) add_gather_row(o.Gt, t, clutter_radiance.data(), 1.0f, row);
+    }
+  }
+  return Status::success();
+}
+
 Status CpuDrtRuntime::clutter_vector_lightmap(std::span<const float> b, std::span<const float> c,
                                               std::span<float> out) {
   const std::size_t kb = level_->kb;

@@ -113,7 +113,7 @@ struct DrtBuilder::Pass {
         probe_gathers([this] {
           return std::vector<LimpGather>(kSh9Count, LimpGather(b.level_, b.dict_, b.walls_.samples().block));
         }) {
-    if (!b.settings_.sample_gather) return;
+    if (!b.settings_.sample_gather && !b.settings_.gather) return;
     texel_lookup.resize(objects.size());
     std::uint32_t base = 0;
     for (std::size_t k = 0; k < objects.size(); ++k) {
@@ -122,10 +122,12 @@ struct DrtBuilder::Pass {
       base += std::uint32_t(clutter_texel_count(objects[k]));
     }
   }
-  // With DrtBuildSettings::sample_gather: each object's hit -> texel lookup and its first
+  // With DrtBuildSettings::gather or sample_gather: each object's hit -> texel lookup and its first
   // texel among all objects' (clutter-wide texel order).
   std::vector<ObjectBasis> texel_lookup;
   std::vector<std::uint32_t> texel_base;
+  // Whether the rays' weights per scene sample and clutter texel are recorded.
+  bool records() const { return !texel_lookup.empty(); }
 
   std::span<const glm::dvec3> sets() const { return b.direction_sets_; }
   int rays() const { return int(b.direction_sets_.size() / kDirectionSets); }
@@ -183,7 +185,7 @@ struct DrtBuilder::Pass {
         }
       }
       if (rows) {
-        gather.flush(rows->dUb, b.settings_.sample_gather ? &rows->samples : nullptr);
+        gather.flush(rows->dUb, records() ? &rows->samples : nullptr);
         merge_sorted_duplicates(rows->texels);
       }
     }
@@ -447,7 +449,7 @@ struct DrtBuilder::Pass {
       }
       if (wall.block >= 0) gather.add(wall, w);
     }
-    gather.flush(result.cb, b.settings_.sample_gather ? &result.samples : nullptr);
+    gather.flush(result.cb, records() ? &result.samples : nullptr);
     std::sort(result.cc.begin(), result.cc.end());
     merge_sorted_duplicates(result.texels);
     return result;
@@ -739,6 +741,14 @@ struct DrtBuilder::Pass {
           });
     }
 
+    // The real-radiance gather (DrtBuildSettings::gather): the traced samples' rows become
+    // Hs / Ht, and only the inpainted ones stay in dUb / dUc.
+    if (b.settings_.gather && !vector) {
+      for (std::size_t k = 0; k < objects.size(); ++k) assemble_scene_gather(k, result, drt.objects[k]);
+      for (SampleResult& r : result)
+        if (r.state == SampleResult::traced) r.rows.clear();
+    }
+
     for (std::size_t k = 0; k < objects.size(); ++k) {
       DrtObjectOperators& op = drt.objects[k];
       const std::uint32_t f_count = std::uint32_t(queries[k].columns);
@@ -790,6 +800,53 @@ struct DrtBuilder::Pass {
     }
   }
 
+  // Hs and Ht of object k: per traced sample charged to it, the hidden samples' weights (the
+  // rays' negative Limp taps, stored positive) and its texels' (clutter-wide index).
+  void assemble_scene_gather(std::size_t k, const std::vector<SampleResult>& result,
+                             DrtObjectOperators& op) const {
+    op.H_sample.clear();
+    op.Hs = DrtSparseRows{};
+    op.Ht = DrtSparseRows{};
+    for (std::size_t s = 0; s < result.size(); ++s) {
+      if (result[s].state != SampleResult::traced) continue;
+      const ObjectRows* o = result[s].find(std::uint32_t(k));
+      if (!o || (o->samples.empty() && o->texels.empty())) continue;
+      if (op.H_sample.empty()) op.Hs.start.push_back(0), op.Ht.start.push_back(0);
+      op.H_sample.push_back(std::uint32_t(s));
+      for (const auto& [sample, weight] : o->samples) {
+        if (weight >= 0.0f) continue;  // a hidden sample's taps are negative (the wall taken away)
+        op.Hs.index.push_back(sample);
+        op.Hs.weight.push_back(-weight);
+      }
+      for (const auto& [texel, weight] : o->texels) {
+        op.Ht.index.push_back(texel);
+        op.Ht.weight.push_back(weight);
+      }
+      op.Hs.start.push_back(std::uint32_t(op.Hs.index.size()));
+      op.Ht.start.push_back(std::uint32_t(op.Ht.index.size()));
+    }
+  }
+
+  // Gs and Gt of an object from its traced texels (the real-radiance gather).
+  static void assemble_clutter_gather(const std::vector<TexelResult>& texels, DrtObjectOperators& op) {
+    op.Gs = DrtSparseRows{};
+    op.Gt = DrtSparseRows{};
+    op.Gs.start.push_back(0);
+    op.Gt.start.push_back(0);
+    for (const TexelResult& t : texels) {
+      for (const auto& [sample, weight] : t.samples) {
+        op.Gs.index.push_back(sample);
+        op.Gs.weight.push_back(std::max(weight, 0.0f));
+      }
+      for (const auto& [texel, weight] : t.texels) {
+        op.Gt.index.push_back(texel);
+        op.Gt.weight.push_back(weight);
+      }
+      op.Gs.start.push_back(std::uint32_t(op.Gs.index.size()));
+      op.Gt.start.push_back(std::uint32_t(op.Gt.index.size()));
+    }
+  }
+
   // Td_c, Cb (SVD-compressed to cb_modes) and Cc of object k from its traced texels.
   void assemble_clutter(std::size_t k, const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
     const ClutterObject& object = objects[k];
@@ -836,6 +893,16 @@ struct DrtBuilder::Pass {
           op.Td_c(std::uint32_t(f), std::uint32_t(f * res * res + t)) = float(1.0 / (res * res));
     }
 
+    if (b.settings_.gather) {  // the gather takes the place of Cb and Cc
+      op.Cb_blocks.clear();
+      op.Cb_sigma.clear();
+      op.Uc = op.Vc = op.Cc = Matrix();
+      op.Cb_truncation_error = 0.0f;
+      op.Cc_objects.clear();
+      assemble_clutter_gather(texels, op);
+      return;
+    }
+    op.Gs = op.Gt = DrtSparseRows{};
     assemble_cb_cc(texels, 1, op.Cb_blocks, op.Uc, op.Vc, &op.Cb_sigma, op.Cb_truncation_error, op.Cc_objects,
                    op.Cc);
   }

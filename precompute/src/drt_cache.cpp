@@ -75,6 +75,7 @@ void hash_settings(Fnv& f, const DrtBuildSettings& s) {
   f.value(s.clutter_prior_modes);
   f.value(s.clutter_prior_grid);
   f.value(s.seed);
+  f.value(std::uint8_t(s.gather));
   // sample_gather is left out: it keeps extra data in the DrtBuildState, the operators are
   // the same.
 }

@@ -123,6 +123,17 @@ std::vector<double> clutter_texel_area(const ClutterObject& object);
 // for a mesh, its data present and consistent (atlas of res, at least one texel, charts).
 Status validate_clutter(const Level& level, std::span<const ClutterObject> objects);
 
+// Sparse rows (CSR) of non-negative weights: row r's entries are [start[r], start[r + 1]) of
+// index and weight. No rows: all three empty.
+struct DrtSparseRows {
+  std::vector<std::uint32_t> start;  // rows + 1
+  std::vector<std::uint32_t> index;
+  std::vector<float> weight;
+
+  std::size_t rows() const { return start.empty() ? 0 : start.size() - 1; }
+  bool empty() const { return start.empty(); }
+};
+
 struct DrtObjectOperators {
   std::uint32_t texel_count = 0;  // m
   std::uint32_t face_count = 0;   // f: entries of c (lit faces, mesh charts or lighting-prior modes)
@@ -188,8 +199,28 @@ struct DrtObjectOperators {
   // not recorded.
   std::uint32_t cell_res = 0;
   std::vector<std::uint32_t> texel_cell;
+  // The real-radiance gather (beyond the paper; docs/drt.md "Gathering the real radiance",
+  // precompute's DrtBuildSettings::gather): the same rays as Cb, Cc, dUb and dUc, weighing the
+  // radiance the scene and the clutter emit in this evaluation instead of Limp b and c, in
+  // sparse rows of non-negative weights (1 / rays a ray, bilinear taps on the scene samples):
+  //   x_s: the scene samples' exitant radiance, the ld that Td_b reads (ld_direct + rho
+  //        lightmap in multi-bounce), 3 per level sample;
+  //   x_t: the clutter texels' exitant radiance, clutter_ld (or its fed-back light), 3 per
+  //        clutter texel in clutter-wide texel order.
+  // Clutter side, one row per texel of this object (empty: not built): Gs over x_s (the wall
+  // samples its rays reach) and Gt over x_t (the other objects' texels they enter first);
+  // G_s x_s + G_t x_t is a sum of non-negative terms, so that the clutter lightmap cannot go
+  // below 0. Built with the gather, the object has no Cb (Uc, Vc) and no Cc.
+  // Scene side, one row per sample of H_sample (sorted, unique; the traced samples charged to
+  // this object): the sample loses Hs x_s (the samples its rays no longer reach; the weights
+  // are subtracted) and gains Ht x_t (this object's texels they enter). Built with the gather,
+  // dUb and dUc keep only the inpainted rows of samples inside clutter.
+  DrtSparseRows Gs, Gt;
+  std::vector<std::uint32_t> H_sample;
+  DrtSparseRows Hs, Ht;
 
   bool empty() const { return dUb.empty() && dUc.empty() && Uc.empty() && Td_c.empty(); }
+  bool has_gather() const { return !Gs.empty() || !Gt.empty() || !H_sample.empty(); }
 };
 
 struct DrtOperators {
@@ -201,6 +232,8 @@ struct DrtOperators {
   std::uint32_t level_blocks = 0, level_samples = 0;
 
   bool empty() const { return objects.empty(); }
+  // Whether any object carries the real-radiance gather (DrtObjectOperators::Gs ...).
+  bool has_gather() const;
   // Bytes of the run-time operators (float32 matrices and uint32 indices; not the sigmas).
   std::size_t storage_bytes() const;
 };
@@ -227,6 +260,20 @@ Status drt_compute_c(const DrtOperators& drt, std::span<const float> clutter_ld,
 // reference_runtime.h: drt_multi_bounce, the CPU backend, the GLES atlas pass).
 void drt_apply(const Level& level, const DrtOperators& drt, std::span<const float> b,
                std::span<const float> c, std::span<float> lightmap);
+// The real-radiance gather's scene side: lightmap += Ht x_t - Hs x_s on the H_sample rows
+// (x_s = ld of the evaluation, 3 per level sample; x_t = the clutter's exitant radiance, 3 per
+// clutter texel). A delta like drt_apply, unclamped; nothing for objects without the gather.
+void drt_apply_gather(const DrtOperators& drt, std::span<const float> ld,
+                      std::span<const float> clutter_radiance, std::span<float> lightmap);
+// Its clutter side: out += Gs x_s + Gt x_t per texel (3 per clutter texel).
+void drt_clutter_add_gather(const DrtOperators& drt, std::span<const float> ld,
+                            std::span<const float> clutter_radiance, std::span<float> out);
+// The clutter's indirect light, unclamped: out = Cb b + Cc c + Gs x_s + Gt x_t (the terms the
+// operators carry): what the clutter lightmap shows besides its direct light and what the
+// clutter feedback reads.
+void drt_clutter_indirect(const DrtOperators& drt, std::span<const float> b, std::span<const float> c,
+                          std::span<const float> ld, std::span<const float> clutter_radiance,
+                          std::span<float> out);
 // Clutter lightmaps: out = Cb b (+ clutter_direct when it is not empty), 3 per texel.
 void drt_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
                           std::span<const float> clutter_direct, std::span<float> out);
@@ -248,14 +295,16 @@ void drt_clutter_vector_lightmap(const DrtOperators& drt, std::span<const float>
 // Clutter-to-clutter light: out += Cc c per object (c as drt_compute_c, out the clutter
 // lightmap of drt_clutter_lightmap). Nothing happens for objects without Cc.
 void drt_clutter_add_cc(const DrtOperators& drt, std::span<const float> c, std::span<float> out);
-// The clutter lightmap every backend outputs (architecture.md §6): out = Cb b + Cc c +
-// clutter_direct (drt_clutter_lightmap, then drt_clutter_add_cc), clamped at 0 like every
-// lightmap (clamp_lightmap, reference_runtime.h): Cb b can be negative where the real light
-// is not (Limp's weak point, docs/drt.md). The two parts above stay unclamped (the feedback
-// reads them and clamps itself).
+// The clutter lightmap every backend outputs (architecture.md §6): out = indirect +
+// clutter_direct, indirect = drt_clutter_indirect (Cb b + Cc c + Gs x_s + Gt x_t), clamped at
+// 0 like every lightmap (clamp_lightmap, reference_runtime.h): Cb b can be negative where the
+// real light is not (Limp's weak point, docs/drt.md); the gather cannot. `indirect`, when not
+// empty, receives the unclamped indirect light (what the next feedback step reads).
 void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const float> b,
-                                   std::span<const float> c, std::span<const float> clutter_direct,
-                                   std::span<float> out);
+                                   std::span<const float> c, std::span<const float> ld,
+                                   std::span<const float> clutter_radiance,
+                                   std::span<const float> clutter_direct, std::span<float> out,
+                                   std::span<float> indirect = {});
 
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
 // evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT
@@ -265,13 +314,18 @@ void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const floa
 // evaluation's Cb b + Cc c, so light bounces off the clutter too. Empty clutter_albedo: c
 // stays that of the direct light (the clutter's indirect light is not fed back). On return
 // c (3 per clutter face) is the c of the last evaluation, the one drt_clutter_add_cc takes.
+// With the real-radiance gather (DrtObjectOperators::has_gather) every evaluation also adds
+// drt_apply_gather(ld, x_t), ld that evaluation's (ld_direct, then ld_direct + rho lightmap)
+// and x_t the clutter's light (clutter_ld, or with clutter_albedo its fed-back light, the
+// previous evaluation's indirect light drt_clutter_indirect fed back); last_ld and
+// last_clutter_radiance, when not empty (3 per sample, 3 per clutter texel), receive the last
+// evaluation's, the inputs of its clutter lightmap (drt_evaluate_clutter_lightmap).
 // The oracle for the backends' multi_bounce_step with clutter; allocates per call.
-Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary& dict,
-                                           const DrtOperators& drt, std::span<const float> ld_direct,
-                                           std::span<const float> albedo, std::span<const float> clutter_ld,
-                                           std::span<const float> clutter_albedo,
-                                           const MultiBounceSettings& settings, std::span<float> b,
-                                           std::span<float> r, std::span<float> lightmap, std::span<float> c);
+Result<MultiBounceReport> drt_multi_bounce(
+    const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
+    std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
+    const MultiBounceSettings& settings, std::span<float> b, std::span<float> r, std::span<float> lightmap,
+    std::span<float> c, std::span<float> last_ld = {}, std::span<float> last_clutter_radiance = {});
 
 // The clutter's light for the next bounce: out = clutter_ld + rho_c * min(max(indirect, 0),
 // bound), rho_c the clutter albedo clamped to max_albedo and indirect = Cb b + Cc c of the

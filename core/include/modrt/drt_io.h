@@ -4,7 +4,7 @@
 // DrtBuilder, written by modrt-demo --save-clutter) so that an app loads them without the
 // precompute library, from a path or a memory buffer. This comment is the contract.
 //
-// ## Layout (format version 3)
+// ## Layout (format version 4)
 //
 // Little-endian; floats are IEEE-754 binary32 stored by their bit pattern as a u32.
 //
@@ -50,7 +50,9 @@ namespace modrt {
 
 // 2: the texels' positions and normals (DrtObjectOperators::texel_position, texel_normal).
 // 3: the texels' lightmap cells (cell_res, texel_cell).
-inline constexpr std::uint32_t kDrtFileVersion = 3;
+// 4: the real-radiance gather (Gs, Gt, H_sample, Hs, Ht: each sparse row set as three lists,
+//    start, index, weight).
+inline constexpr std::uint32_t kDrtFileVersion = 4;
 inline constexpr char kDrtFileMagic[8] = {'M', 'O', 'D', 'R', 'T', 'D', 'R', 'T'};
 inline constexpr std::size_t kDrtFileHeaderBytes = 64;
 // load_drt refuses larger files; serialize_drt refuses to produce them.

@@ -57,7 +57,7 @@ struct StageWork {
 // Where this evaluation's clutter c (3 per clutter face) comes from.
 enum class ClutterCSource {
   direct,    // c = Td_c clutter_ld, the clutter's direct light (set_clutter_light)
-  feedback,  // c = Td_c drt_clutter_feedback(clutter_ld, rho_c, Cb b + Cc c of the last evaluation, bound)
+  feedback,  // c = Td_c drt_clutter_feedback(clutter_ld, rho_c, indirect of the last evaluation, bound)
 };
 
 // The terms of drt_feedback_bound for a clutter feedback step. ld_max_on_gpu: ld came from a
@@ -99,11 +99,16 @@ enum class StageOutput {
 // modrt::cpu): c of this evaluation and of the direct light alone, the clutter's light, its
 // lightmap, and the last evaluation's indirect light (Cb b + Cc c) with the light fed back.
 // allocate() sizes everything (capacity for clutter_direct too) so that no frame allocates.
+// `indirect` is the last clutter lightmap's unclamped indirect light (drt_clutter_indirect),
+// which the next feedback step reads; `fed_back` says whether this evaluation's clutter light
+// is `fed` (a feedback step) or clutter_ld, the x_t of the real-radiance gather (radiance()).
 struct ClutterBuffers {
   std::vector<float> c, c_direct, clutter_ld, clutter_direct, clutter_lightmap, indirect, fed;
+  bool fed_back = false;
   void allocate(const DrtBufferSizes& sizes);
   // clutter_ld and clutter_direct (may be empty) copied in; c_direct is then the caller's.
   void set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
+  std::span<const float> radiance() const { return fed_back ? fed : clutter_ld; }
 };
 
 struct StagedBackendOptions {
@@ -254,9 +259,11 @@ class StagedBackend : public Backend {
   virtual Status stage_clutter_albedo(std::span<const float> rho_c) = 0;
   // c for this evaluation, before the b stage overwrites the last evaluation's b.
   virtual Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) = 0;
-  // The DRT deltas dUb b + dUc c (and their vector and probe twins) of this evaluation's b and c.
+  // The DRT deltas dUb b + dUc c (and their vector and probe twins) of this evaluation's b and c,
+  // and the gather's Ht x_t - Hs x_s of its ld and clutter light (drt_apply_gather).
   virtual Status stage_deltas(const StageWork& work) = 0;
-  // The clutter lightmap Cb b + Cc c + clutter_direct, clamped at 0.
+  // The clutter lightmap drt_clutter_indirect + clutter_direct, clamped at 0 (with the gather
+  // reading this evaluation's ld and clutter light).
   virtual Status stage_clutter_lightmap() = 0;
   // Timing (when on): default, the steady clock around each stage; a backend with GPU timer
   // queries overrides the three together.

@@ -50,6 +50,14 @@ class CpuDrtRuntime {
   // out (3 per clutter texel) += Cc c: light of other clutter objects (drt.h
   // drt_clutter_add_cc); nothing for objects without Cc.
   Status clutter_add_cc(std::span<const float> c, std::span<float> out);
+  // The real-radiance gather (drt.h DrtObjectOperators::Gs ... Ht), x_s = ld (3 per level
+  // sample) and x_t = the clutter's light (3 per clutter texel): lightmap += Ht x_t - Hs x_s
+  // (drt_apply_gather) and out += Gs x_s + Gt x_t (drt_clutter_add_gather); nothing for objects
+  // without it. Sparse rows of RGB triplets: one loop for every ISA, accumulated in float.
+  Status apply_gather(std::span<const float> ld, std::span<const float> clutter_radiance,
+                      std::span<float> lightmap);
+  Status clutter_add_gather(std::span<const float> ld, std::span<const float> clutter_radiance,
+                            std::span<float> out);
   // out (12 per clutter texel) = Uc_vec (Vc_vec b) + Cc_vec c: the clutter's vector
   // irradiance (drt.h drt_clutter_vector_lightmap); zeros for objects without it.
   Status clutter_vector_lightmap(std::span<const float> b, std::span<const float> c, std::span<float> out);

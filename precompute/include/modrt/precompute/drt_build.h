@@ -63,6 +63,12 @@ struct DrtBuildSettings {
   // issue's study, docs/drt.md "Gathering the real radiance"). Memory: one entry per texel
   // and sample its rays reach.
   bool sample_gather = false;
+  // Build the real-radiance gather (DrtObjectOperators::Gs, Gt, H_sample, Hs, Ht; docs/drt.md
+  // "Gathering the real radiance") in place of Cb, Cc and the traced samples' dUb and dUc
+  // rows: the clutter lightmap gathers the scene's and the other clutter's exitant radiance
+  // (never below 0) and the scene's deltas take away and add the real radiance. The vector
+  // and probe operators stay Limp's. The reduced (converged) solve refuses such operators.
+  bool gather = false;
   std::uint64_t seed = 0x647274ull;
 };
 
