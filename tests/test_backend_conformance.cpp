@@ -996,6 +996,7 @@ void BackendConformance::check_clutter_matches_scalar_reference(bool gather) {
     EXPECT_TRUE(texel[0] >= 0 && texel[0] < size.width && texel[1] >= 0 && texel[1] < size.height);
   }
   if (gather) {  // the reduced solve cannot express the gather: refused, nothing changes
+    EXPECT_FALSE(be->converged_available()) << be->description();
     ASSERT_TRUE(be->set_albedo(f.albedo).ok());
     const Status refused = be->update_converged(f.ld);
     EXPECT_EQ(refused.code(), ErrorCode::invalid_argument) << be->description();
@@ -1196,6 +1197,12 @@ TEST_P(BackendConformance, FramesAllocateNothing) {
   // (reference_backend.h); the backends an app runs allocate nothing.
   if (be->kind() != BackendKind::reference) {
     EXPECT_EQ(allocations(true), 0) << be->description() << ": with clutter";
+  }
+  // And with the real-radiance gather (same scene; no converged solve).
+  ASSERT_TRUE(be->set_clutter(&drt_fixture(true).drt).ok());
+  ASSERT_TRUE(frames(true));
+  if (be->kind() != BackendKind::reference) {
+    EXPECT_EQ(allocations(true), 0) << be->description() << ": with the gather";
   }
 }
 

@@ -452,6 +452,10 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
   if (!stage_solve_available())
     return refused(std::string(fn) + ": no converged solve" + (drt_ ? " with clutter" : "") +
                    " in this backend: use multi_bounce_step()");
+  if (gather_)
+    return refused(std::string(fn) +
+                   ": the clutter operators gather the real radiance (DrtObjectOperators::Gs, Hs), which the "
+                   "reduced solve in b and c cannot express: use multi_bounce_step()");
   if (!has_albedo_) return refused(std::string(fn) + ": call set_albedo first");
   if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
     return refused(std::string(fn) + ": tolerance must be in (0, 1) and max_iterations at least 1");
@@ -612,6 +616,7 @@ Status StagedBackend::set_clutter(const DrtOperators* drt) {
   }
   if (Status s = stage_clutter_set(drt); !s.ok()) return s;
   drt_ = drt;
+  gather_ = drt && drt->has_gather();
   drt_sizes_ = drt ? drt_buffer_sizes(*drt) : DrtBufferSizes{};
   rho_c_.clear();
   rho_c_.reserve(drt_sizes_.clutter_ld);  // set_clutter_albedo allocates nothing

@@ -138,7 +138,8 @@ class Backend {
                          std::string(backend_kind_name(kind())) + ": no converged solve from a texture");
   }
   virtual ConvergedStats converged_stats() const { return {}; }
-  // Whether update_converged can run (a backend with a reduced solve).
+  // Whether update_converged can run (a backend with a reduced solve, and no clutter operators
+  // that gather the real radiance: DrtObjectOperators::has_gather).
   virtual bool converged_available() const { return false; }
 
   // Skip what the camera cannot see (issue 20): visible[i] != 0 marks block i potentially

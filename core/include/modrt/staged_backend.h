@@ -128,7 +128,9 @@ class StagedBackend : public Backend {
   Status update_converged_from_texture(std::uint32_t ld_texture,
                                        const ReducedSolveSettings& settings = {}) final;
   ConvergedStats converged_stats() const final { return converged_; }
-  bool converged_available() const final { return stage_solve_available(); }
+  // Not with clutter operators that gather the real radiance (the reduced solve in b and c
+  // cannot express them; the frame pipeline then runs its feedback steps).
+  bool converged_available() const final { return stage_solve_available() && !gather_; }
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
@@ -314,6 +316,7 @@ class StagedBackend : public Backend {
   float rho_max_ = 0.0f;
   bool has_albedo_ = false, updated_ = false, timing_ = false;
   const DrtOperators* drt_ = nullptr;
+  bool gather_ = false;  // drt_->has_gather()
   DrtBufferSizes drt_sizes_;
   std::vector<float> rho_c_, rho_c_next_;  // the clamped clutter albedo (empty: none); the next one
   // The converged solve: the reduced operators of the current albedo (built on first use), the
