@@ -2,7 +2,9 @@
 // DRT §4.3, second half: the clutter atlas, Uc y + Cc c + the clutter's direct light per
 // clutter texel (y = Vc b from drt_vc.frag; Cc c: light of other clutter objects' faces, drt.h).
 // With NO_DIRECT: the vector clutter's instance (Uc_vec y + Cc_vec c, 4 rows per clutter texel
-// in a linear target, no direct light).
+// in a linear target, no direct light). With GATHER (when some object gathers the real
+// radiance): + Gs x_s + Gt x_t (drt_clutter_add_gather, drt_gather.glsl); an object without
+// it has empty rows, one with it no Uc modes and no Cc columns.
 // Uc and Cc rows are packed four modes / columns per texel.
 uniform isampler2D u_texel_map;  // clutter-atlas sized: (clutter texel or -1, first Uc texel, first y, modes)
 uniform sampler2D u_uc;
@@ -12,6 +14,9 @@ uniform isampler2D u_cc_map;     // clutter-atlas sized: (first Cc texel, Cc col
 uniform sampler2D u_cc;
 uniform isampler2D u_cc_faces;   // per Cc column: (c index, 0, 0, 0)
 uniform usampler2D u_c;          // per clutter face, RGB (drt_c.frag)
+#ifdef GATHER
+uniform isampler2D u_gather_texels;  // per clutter texel: (first entry, Gs entries, Gt entries, 0)
+#endif
 
 layout(location = 0) out OUTPUT_TYPE o_color;
 
@@ -34,6 +39,10 @@ void main() {
         acc += w[j] * load_signal(u_c, load_int(u_cc_faces, cc.z + 4 * g + j).x).rgb;
       }
     }
+#ifdef GATHER
+    ivec4 row = load_int(u_gather_texels, map.x);
+    acc += gather_row(u_xs, row.x, row.y) + gather_row(u_xt, row.x + row.y, row.z);
+#endif
 #ifndef NO_DIRECT
     acc += load(u_direct, map.x).rgb;
     // A lightmap: clamped at 0 (core's drt_evaluate_clutter_lightmap). The vector instance's

@@ -8,10 +8,16 @@
 // its c rows; items no clutter affects have none and write 0.
 //   b row: DELTA_ROWS sub-rows of GROUPS texels from entry.x (four modes per texel)
 //   c row: DELTA_ROWS sub-rows of ceil(f / 4) texels from entry.x (four faces per texel)
+// Built with GATHER (the scalar instance, when some object gathers the real radiance) a
+// sample also has gather rows, one per object whose H_sample lists it: Ht x_t - Hs x_s
+// (drt_apply_gather), the Hs entries from entry.x and the Ht entries after them
+// (drt_gather.glsl).
 uniform sampler2D u_dub;
 uniform sampler2D u_duc;
 uniform isampler2D u_item_entries;  // per item: (first entry, entry count, 0, 0)
-uniform isampler2D u_entries;       // b row: (first texel, source block, 0, 0); c row: (first texel, first face, f, 1)
+// b row: (first texel, source block, 0, 0); c row: (first texel, first face, f, 1); gather
+// row: (first entry, Hs entries, Ht entries, 2)
+uniform isampler2D u_entries;
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform usampler2D u_c;  // per clutter face, RGB
 uniform int u_count;     // items * DELTA_ROWS
@@ -29,6 +35,10 @@ void main() {
       ivec4 entry = load_int(u_entries, e);
       if (entry.w == 0) {
         acc += dot_rgb(u_dub, entry.x + j * GROUPS, u_b_red, u_b_green, u_b_blue, entry.y * GROUPS, GROUPS);
+#ifdef GATHER
+      } else if (entry.w == 2) {
+        acc += gather_row(u_xt, entry.x + entry.y, entry.z) - gather_row(u_xs, entry.x, entry.y);
+#endif
       } else {
         int quads = (entry.z + 3) / 4;
         for (int q = 0; q < quads; ++q) {

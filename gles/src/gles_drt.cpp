@@ -2,6 +2,7 @@
 #include "gles_drt.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <map>
 #include <tuple>
@@ -21,6 +22,8 @@ extern const char* const kDrtFeedbackFrag;
 extern const char* const kDrtDeltaFrag;
 extern const char* const kDrtVcFrag;
 extern const char* const kDrtClutterFrag;
+extern const char* const kDrtGather;
+extern const char* const kDrtLightFrag;
 
 namespace {
 
@@ -159,19 +162,58 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
     }
   }
 
+  // The real-radiance gather (drt.h, DrtObjectOperators::Gs ... Ht): each row packed as its
+  // x_s entries (Gs, Hs) followed by its x_t entries (Gt, Ht), (column, weight bits) each, and
+  // described by (first entry, x_s entries, x_t entries, 2): per clutter texel its Gs / Gt row
+  // (empty for an object without the gather), per H_sample row a delta entry of its sample.
+  struct DeltaEntry {
+    std::uint32_t item;
+    std::array<std::int32_t, 4> value;
+  };
+  d->gather_ = drt.has_gather();
+  std::vector<std::uint32_t> gather;        // 2 per entry
+  std::vector<std::int32_t> gather_texels;  // 4 per clutter texel
+  std::vector<DeltaEntry> gather_rows;      // the scalar delta's gather entries
+  if (d->gather_) {
+    std::size_t entries = 0;
+    for (const DrtObjectOperators& o : drt.objects)
+      entries += o.Gs.index.size() + o.Gt.index.size() + o.Hs.index.size() + o.Ht.index.size();
+    gather.reserve(2 * std::max<std::size_t>(entries, 1));
+    auto pack_gather = [&](const DrtSparseRows& xs_part, const DrtSparseRows& xt_part, std::size_t row) {
+      const std::size_t first = gather.size() / 2;
+      auto put = [&](const DrtSparseRows& g) {
+        if (g.empty()) return std::int32_t(0);
+        for (std::uint32_t e = g.start[row]; e < g.start[row + 1]; ++e)
+          gather.insert(gather.end(), {g.index[e], std::bit_cast<std::uint32_t>(g.weight[e])});
+        return std::int32_t(g.start[row + 1] - g.start[row]);
+      };
+      const std::int32_t from_s = put(xs_part), from_t = put(xt_part);
+      return std::array<std::int32_t, 4>{std::int32_t(first), from_s, from_t, 2};
+    };
+    gather_texels.reserve(4 * std::max<std::size_t>(d->sizes_.clutter_texels, 1));
+    for (const DrtObjectOperators& o : drt.objects) {
+      for (std::uint32_t t = 0; t < o.texel_count; ++t) {
+        const std::array<std::int32_t, 4> row = pack_gather(o.Gs, o.Gt, t);
+        gather_texels.insert(gather_texels.end(), row.begin(), row.end());
+      }
+      for (std::size_t r = 0; r < o.H_sample.size(); ++r)
+        gather_rows.push_back({o.H_sample[r], pack_gather(o.Hs, o.Ht, r)});
+    }
+    if (gather.empty()) gather.assign(2, 0u);
+  }
+
   // Delta operators (DRT §4.1-4.2, §5): per item (level sample or probe) `rows` values from
   // b rows (item, block) and c rows (item). Rows of different objects for the same (item,
   // block) read the same b: they are summed (in double) into one, so that an item under many
-  // objects' shadows costs one row per block it sees, not one per object.
+  // objects' shadows costs one row per block it sees, not one per object. `extra`: entries
+  // added as they are (the gather's rows).
   struct DeltaTables {
     std::vector<float> dub, duc;
     std::vector<std::int32_t> item_entries, entries;
   };
-  auto build_delta = [&](std::size_t rows, std::size_t items, auto b_part, auto c_part) {
-    struct Entry {
-      std::uint32_t item;
-      std::array<std::int32_t, 4> value;
-    };
+  auto build_delta = [&](std::size_t rows, std::size_t items, auto b_part, auto c_part,
+                         const std::vector<DeltaEntry>& extra = {}) {
+    using Entry = DeltaEntry;
     std::vector<Entry> entries;
     DeltaTables t;
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> b_row;  // (item, block) -> row
@@ -207,6 +249,7 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
           t.dub[4 * G * (rows * row + j) + k] = float(b_sum[row * per_row + j * kb + k]);
       entries.push_back({key.first, {std::int32_t(G * rows * row), std::int32_t(key.second), 0, 0}});
     }
+    entries.insert(entries.end(), extra.begin(), extra.end());
     // Entries grouped by item (stable: the objects' order), one range per item.
     std::stable_sort(entries.begin(), entries.end(),
                      [](const Entry& a, const Entry& b) { return a.item < b.item; });
@@ -226,7 +269,8 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       },
       [](const DrtObjectOperators& o) {
         return std::pair<Index, const Matrix*>{&o.dUc_sample, &o.dUc};
-      });
+      },
+      gather_rows);
   bool any_vector = false, any_probes = false;
   for (const DrtObjectOperators& o : drt.objects) {
     any_vector |= !o.dUb_vec.empty() || !o.dUc_vec.empty();
@@ -340,6 +384,13 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   delta_tables("dUb / dUc", scalar, d->scalar_);
   if (!vector.entries.empty()) delta_tables("dUb_vec / dUc_vec", vector, d->vector_);
   if (!probes.entries.empty()) delta_tables("Udyn / Udyn_c", probes, d->probes_);
+  if (d->gather_) {
+    d->gather_entries_ = linear_texture("gather rows", GL_RG32UI, gather.size() / 2);
+    if (limit.ok())
+      upload_linear(gl, d->gather_entries_, GL_RG_INTEGER, GL_UNSIGNED_INT, 2, gather.data(),
+                    gather.size() / 2, sizeof(std::uint32_t));
+    d->gather_texels_ = int_table("gather clutter texel table", gather_texels);
+  }
   d->mode_info_ = int_table("Cb mode table", mode_info);
   d->cb_blocks_ = int_table("Cb block list", cb_blocks);
   d->clutter_ld_ = linear_texture("clutter_ld", GL_RGB32F, d->sizes_.clutter_texels);
@@ -395,6 +446,15 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
   }
   if (Status s = target("Vc b", kLinearWidth, linear_rows(mode0), GL_RGBA32UI, "RGBA32UI", d->y_); !s.ok())
     return s;
+  if (d->gather_) {
+    if (Status s = target("gather x_s", kLinearWidth, linear_rows(samples), GL_RGBA32UI, "RGBA32UI", d->xs_);
+        !s.ok())
+      return s;
+    if (Status s = target("gather x_t", kLinearWidth, linear_rows(d->sizes_.clutter_texels), GL_RGBA32UI,
+                          "RGBA32UI", d->xt_);
+        !s.ok())
+      return s;
+  }
   if (Status s = target("clutter atlas", atlas_w, atlas_h, setup.output_format, setup.output_format_name,
                         d->clutter_);
       !s.ok())
@@ -414,12 +474,13 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                       0.0f);
 
   // ---- programs ----
+  // with_gather: built with GATHER, drt_gather.glsl between common.glsl and the pass.
   auto program = [&](const char* name, const char* fragment, GLuint& out,
-                     std::initializer_list<const char*> samplers, int count,
-                     const std::string& extra = {}) -> Status {
-    const std::string head = *setup.defines + extra;
-    Result<GLuint> p =
-        build_program(gl, name, {"#version 300 es\n", kFullscreenVert}, {head.c_str(), kCommon, fragment});
+                     std::initializer_list<const char*> samplers, int count, const std::string& extra = {},
+                     bool with_gather = false) -> Status {
+    const std::string head = *setup.defines + extra + (with_gather ? "#define GATHER 1\n" : "");
+    Result<GLuint> p = build_program(gl, name, {"#version 300 es\n", kFullscreenVert},
+                                     {head.c_str(), kCommon, with_gather ? kDrtGather : "", fragment});
     if (!p.ok()) return p.status();
     out = p.value();
     d->programs_.push_back(out);
@@ -450,12 +511,15 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
       !s.ok())
     return s;
   d->u_linear_scale_ = gl.glGetUniformLocation(d->prog_feedback_linear_, "u_scale");
+  // The gather's samplers come last; a program without them ignores their names.
   for (DeltaPass* pass : {&d->scalar_, &d->vector_, &d->probes_}) {
     if (!pass->entries) continue;
-    if (Status s = program(
-            "drt_delta.frag", kDrtDeltaFrag, pass->program,
-            {"u_dub", "u_duc", "u_item_entries", "u_entries", "u_b_red", "u_b_green", "u_b_blue", "u_c"},
-            int(pass->count), "#define DELTA_ROWS " + std::to_string(pass->rows) + "\n");
+    const bool with_gather = d->gather_ && pass == &d->scalar_;
+    if (Status s =
+            program(with_gather ? "drt_delta.frag (GATHER)" : "drt_delta.frag", kDrtDeltaFrag, pass->program,
+                    {"u_dub", "u_duc", "u_item_entries", "u_entries", "u_b_red", "u_b_green", "u_b_blue",
+                     "u_c", "u_gather", "u_xs", "u_xt"},
+                    int(pass->count), "#define DELTA_ROWS " + std::to_string(pass->rows) + "\n", with_gather);
         !s.ok())
       return s;
   }
@@ -464,11 +528,23 @@ Result<std::unique_ptr<GlesDrt>> GlesDrt::create(const platform::GlFunctions& gl
                   {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"}, int(mode0));
       !s.ok())
     return s;
-  if (Status s =
-          program("drt_clutter.frag", kDrtClutterFrag, d->prog_clutter_,
-                  {"u_texel_map", "u_uc", "u_y", "u_direct", "u_cc_map", "u_cc", "u_cc_faces", "u_c"}, -1);
+  if (Status s = program(d->gather_ ? "drt_clutter.frag (GATHER)" : "drt_clutter.frag", kDrtClutterFrag,
+                         d->prog_clutter_,
+                         {"u_texel_map", "u_uc", "u_y", "u_direct", "u_cc_map", "u_cc", "u_cc_faces", "u_c",
+                          "u_gather_texels", "u_gather", "u_xs", "u_xt"},
+                         -1, {}, d->gather_);
       !s.ok())
     return s;
+  if (d->gather_) {
+    if (Status s =
+            program("drt_light.frag (ld)", kDrtLightFrag, d->prog_light_ld_, {"u_light"}, int(samples));
+        !s.ok())
+      return s;
+    if (Status s = program("drt_light.frag (clutter_ld)", kDrtLightFrag, d->prog_light_clutter_, {"u_light"},
+                           int(d->sizes_.clutter_texels));
+        !s.ok())
+      return s;
+  }
   if (d->has_vector_) {
     if (Status s = program("drt_vc.frag (vector)", kDrtVcFrag, d->prog_vc_vec_,
                            {"u_vc", "u_mode_info", "u_cb_blocks", "u_b_red", "u_b_green", "u_b_blue"},
@@ -505,6 +581,7 @@ void GlesDrt::set_light(std::span<const float> clutter_ld, std::span<const float
                 clutter_direct.empty() ? zeros_.data() : clutter_direct.data(), sizes_.clutter_texels,
                 sizeof(float));
   light_changed_ = true;
+  xt_current_ = false;
 }
 
 void GlesDrt::set_albedo(std::span<const float> rho_c) {
@@ -514,8 +591,9 @@ void GlesDrt::set_albedo(std::span<const float> rho_c) {
     upload_linear(gl_, rho_c_, GL_RGB, GL_FLOAT, 3, rho_c.data(), sizes_.clutter_texels, sizeof(float));
 }
 
-void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
-                        GLuint ld_max_texture, bool keep_c) {
+void GlesDrt::run_scene(const std::array<GLuint, 3>& b, const GlesDrtLd& ld, bool feedback,
+                        const ClutterFeedback& bound, GLuint ld_max_texture, bool keep_c) {
+  bool fed = false;  // x_t is the light fed back (ClutterBuffers::radiance)
   if (keep_c) {
     light_changed_ = true;  // the next update() starts again from the direct light
   } else if (feedback && feed_) {
@@ -530,15 +608,43 @@ void GlesDrt::run_scene(const std::array<GLuint, 3>& b, bool feedback, const Clu
     draw(prog_feedback_, fed_,
          {clutter_ld_, rho_c_, clutter_direct_, texel_xy_, clutter_.texture, ld_max_texture});
     draw(prog_c_fed_, c_, {td_c_, face_info_, fed_.texture});
-    light_changed_ = true;      // the next update() starts again from the direct light
+    light_changed_ = true;  // the next update() starts again from the direct light
+    fed = true;
   } else if (light_changed_) {  // c depends on the clutter's light only
     draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_});
     light_changed_ = false;
   }
-  for (const DeltaPass* pass : {&scalar_, &vector_, &probes_})
-    if (pass->entries)
+  if (gather_) gather_inputs(ld, fed);
+  for (const DeltaPass* pass : {&scalar_, &vector_, &probes_}) {
+    if (!pass->entries) continue;
+    if (gather_ && pass == &scalar_)
+      draw(pass->program, pass->target,
+           {pass->dub, pass->duc, pass->item_entries, pass->entries, b[0], b[1], b[2], c_.texture,
+            gather_entries_, xs_signal_, xt_signal_});
+    else
       draw(pass->program, pass->target,
            {pass->dub, pass->duc, pass->item_entries, pass->entries, b[0], b[1], b[2], c_.texture});
+  }
+}
+
+void GlesDrt::gather_inputs(const GlesDrtLd& ld, bool fed) {
+  if (ld.signal) {
+    xs_signal_ = ld.texture;
+  } else {
+    gl_.glBindSampler(0, ld.sampler);  // u_light: the caller's texture reads texel by texel
+    draw(prog_light_ld_, xs_, {ld.texture});
+    gl_.glBindSampler(0, 0);
+    xs_signal_ = xs_.texture;
+  }
+  if (fed) {
+    xt_signal_ = fed_.texture;
+    return;
+  }
+  if (!xt_current_) {  // clutter_ld changed since its last copy
+    draw(prog_light_clutter_, xt_, {clutter_ld_});
+    xt_current_ = true;
+  }
+  xt_signal_ = xt_.texture;
 }
 
 void GlesDrt::solve_start() { draw(prog_c_, c_, {td_c_, face_info_, clutter_ld_}); }
@@ -557,8 +663,13 @@ void GlesDrt::solve_step(const std::array<GLuint, 3>& b, float scale) {
 
 void GlesDrt::run_clutter(const std::array<GLuint, 3>& b) {
   draw(prog_vc_, y_, {vc_, mode_info_, cb_blocks_, b[0], b[1], b[2]});
-  draw(prog_clutter_, clutter_,
-       {texel_map_, uc_, y_.texture, clutter_direct_, cc_map_, cc_, cc_faces_, c_.texture});
+  if (gather_)
+    draw(prog_clutter_, clutter_,
+         {texel_map_, uc_, y_.texture, clutter_direct_, cc_map_, cc_, cc_faces_, c_.texture, gather_texels_,
+          gather_entries_, xs_signal_, xt_signal_});
+  else
+    draw(prog_clutter_, clutter_,
+         {texel_map_, uc_, y_.texture, clutter_direct_, cc_map_, cc_, cc_faces_, c_.texture});
 }
 
 Status GlesDrt::read_clutter_vector_lightmap(const std::array<GLuint, 3>& b, std::span<float> out) {

@@ -13,6 +13,12 @@
 //                     by probes.frag)
 //   drt_vc.frag       y = Vc b per (object, mode)
 //   drt_clutter.frag  clutter atlas = Uc y + Cc c (clutter-to-clutter) + clutter direct light
+// With the real-radiance gather (DrtOperators::has_gather; without it none of this runs):
+//   drt_light.frag    x_s = this evaluation's ld as a signal (unless it is one: the feedback
+//                     pass's), before the delta pass; x_t = clutter_ld as a signal, when the
+//                     clutter's light changed (a feedback step's x_t is drt_feedback.frag's)
+//   drt_delta.frag    the scalar instance, built with GATHER, adds Ht x_t - Hs x_s
+//   drt_clutter.frag  built with GATHER, adds Gs x_s + Gt x_t (drt_gather.glsl)
 // Layouts: gles/README.md, "DRT".
 #pragma once
 
@@ -42,6 +48,15 @@ struct GlesDrtSetup {
   std::size_t probe_count = 0;  // probes the runtime renders (blocks x g^3; 0: none): apply U_dyn
 };
 
+// This evaluation's ld, the x_s of the real-radiance gather: the feedback pass's signal target,
+// or the RGB32F upload or the caller's texture, read through `sampler` (texel by texel, as
+// b.frag reads it).
+struct GlesDrtLd {
+  GLuint texture = 0;
+  bool signal = false;
+  GLuint sampler = 0;
+};
+
 class GlesDrt {
  public:
   // Packs and uploads the operators (checked by the caller with check_drt_operators),
@@ -66,8 +81,10 @@ class GlesDrt {
   // at feedback.bound() (drt_feedback_bound). ld_max_texture (not 0): the walls' ld is on the
   // GPU and ld_max is that texture's texel (GlesLevelRuntime's ld_max.frag), not feedback's.
   // keep_c: c is the converged solve's (solve_step), kept for this evaluation's deltas.
-  void run_scene(const std::array<GLuint, 3>& b, bool feedback, const ClutterFeedback& bound,
-                 GLuint ld_max_texture = 0, bool keep_c = false);
+  // ld: this evaluation's (x_s of the gather, read by this delta pass and the next run_clutter;
+  // unused without the gather); x_t is the light fed back in a feedback step, else clutter_ld.
+  void run_scene(const std::array<GLuint, 3>& b, const GlesDrtLd& ld, bool feedback,
+                 const ClutterFeedback& bound, GLuint ld_max_texture = 0, bool keep_c = false);
   // The converged solve's clutter terms (GlesLevelRuntime::stage_solve; core's
   // reduced_feedback.h, ReducedClutter). solve_start: c = c0 = Td_c clutter_ld. solve_step, one
   // Jacobi step from b's planes and the c on hand: delta_texture() = dUb b + dUc c, and with a
@@ -76,7 +93,8 @@ class GlesDrt {
   void solve_start();
   void solve_step(const std::array<GLuint, 3>& b, float scale);
   bool has_delta() const { return scalar_.entries != 0; }
-  // The clutter atlas from b's planes (and the c of run_scene, for Cc).
+  // The clutter atlas from b's planes (and the c of run_scene, for Cc; with the gather its x_s
+  // and x_t).
   void run_clutter(const std::array<GLuint, 3>& b);
   // Deltas (RGBA32UI float bits, linear layout): per sample, read by atlas.frag; per sample
   // and OHLSH coefficient (4 s + i), read by vector.frag; per probe coefficient (9 p + j), read
@@ -114,6 +132,9 @@ class GlesDrt {
   };
   explicit GlesDrt(const platform::GlFunctions& gl) : gl_(gl) {}
   void draw(GLuint program, const Target& target, std::initializer_list<GLuint> textures);
+  // The gather's x_s and x_t for this evaluation (xs_signal_, xt_signal_); fed: a feedback
+  // step's, x_t = fed_.
+  void gather_inputs(const GlesDrtLd& ld, bool fed);
   // A target in the output format (the clutter atlas or its vector twin) into readback_.
   void read_back(const Target& target);
 
@@ -138,6 +159,14 @@ class GlesDrt {
   GLuint vec_map_ = 0, vec_cc_map_ = 0, prog_vc_vec_ = 0, prog_clutter_vec_ = 0;
   Target y_vec_, clutter_vec_;
   DeltaPass scalar_, vector_, probes_;
+  // The real-radiance gather (only when some object has it): the packed rows (RG32UI), each
+  // clutter texel's Gs / Gt row, the x_s and x_t signals drt_light.frag writes, whether x_t
+  // holds the current clutter_ld, and the x_s and x_t of this evaluation (xs_ or the feedback
+  // pass's ld; xt_ or fed_).
+  bool gather_ = false, xt_current_ = false;
+  GLuint gather_entries_ = 0, gather_texels_ = 0, prog_light_ld_ = 0, prog_light_clutter_ = 0;
+  Target xs_, xt_;
+  GLuint xs_signal_ = 0, xt_signal_ = 0;
   GLuint prog_c_ = 0, prog_vc_ = 0, prog_clutter_ = 0, prog_feedback_ = 0, prog_c_fed_ = 0,
          prog_feedback_linear_ = 0;
   GLint u_feedback_bound_ = -1, u_feedback_scale_ = -1, u_feedback_clutter_max_ = -1, u_linear_scale_ = -1;

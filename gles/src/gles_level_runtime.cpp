@@ -812,9 +812,11 @@ Status GlesLevelRuntime::stage_clutter_c(ClutterCSource source, const ClutterFee
 }
 
 Status GlesLevelRuntime::stage_deltas(const StageWork&) {
-  drt_->run_scene(b_.textures, eval_.clutter_feedback, eval_.clutter,
+  // The ld b.frag read (the gather's x_s): the feedback pass's, or the upload or caller's texture.
+  const GlesDrtLd ld{eval_.feedback ? ld_feedback_.texture : ld_source_, eval_.feedback, ld_sampler_};
+  drt_->run_scene(b_.textures, ld, eval_.clutter_feedback, eval_.clutter,
                   eval_.ld_max_on_gpu ? ld_max_.texture : 0, eval_.solved);
-  return check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c)");
+  return check("DRT pass (c = Td_c clutter_ld, delta = dUb b + dUc c + Ht x_t - Hs x_s)");
 }
 
 Status GlesLevelRuntime::stage_atlas(const StageWork& work) {
