@@ -4,7 +4,8 @@
 // Mesa's software device; a kind that cannot be created is skipped with the reason): b and r
 // read back against core's scalar reference, partial passes (partial_fraction) bit-identical to
 // the full path, with and without clutter, the GPU-side guard of the fed-back light, the
-// vector-irradiance and probe options, shader errors and pass timers. Every output every
+// vector-irradiance and probe options, shader errors and pass timers, the real-radiance gather
+// in an operator set mixed with Limp objects and from a caller's ld texture. Every output every
 // backend has is checked through Backend by test_backend_conformance.cpp. Tolerances (relative
 // L2): 1e-4 for float32 and bits32 targets, 2e-3 for float16 targets or float16 operators.
 #include <gtest/gtest.h>
@@ -26,6 +27,7 @@
 #include "modrt/gles/gles_level_runtime.h"
 #include "modrt/level_runtime.h"
 #include "modrt/platform/gl_context.h"
+#include "modrt/reference_backend.h"
 
 namespace modrt::gles {
 namespace {
@@ -328,6 +330,62 @@ TEST_P(GlesBackend, ClutterLightAndPartialUpdatesAreNotSkipped) {
   ASSERT_TRUE(rt->read_atlas(atlas).ok());
   EXPECT_LE(rel_l2(atlas, test::drt_reference(f, ld2, clutter_ld2).atlas), 2e-6);
   EXPECT_EQ(rt->skip_stats().frames_partial, partial_before + 1);
+}
+
+// The real-radiance gather (DrtObjectOperators::Gs ... Ht) in an operator set that mixes it
+// with the Limp operators (the box keeps Cb, Cc and its traced dUb / dUc rows, the pillar
+// gathers), against core's reference backend: a frame, clutter feedback steps (x_s the fed-back
+// ld, x_t the fed-back clutter light), and ld from the caller's GL texture (x_s copied from it by
+// drt_light.frag; another ld than the last frame's), which gives the frame of the same ld in
+// CPU memory.
+TEST_P(GlesBackend, GatherMixedWithLimpOperatorsMatchesTheReference) {
+  const test::DrtFixture& f = test::drt_fixture(false);
+  DrtOperators mixed = f.drt;
+  mixed.objects[1] = test::drt_fixture(true).drt.objects[1];  // the same scene, built with the gather
+  ASSERT_TRUE(check_drt_operators(f.level, mixed).ok());
+  ASSERT_TRUE(!mixed.objects[0].has_gather() && !mixed.objects[0].Cc.empty());
+  ASSERT_TRUE(mixed.objects[1].has_gather() && mixed.objects[1].Uc.empty());
+  Result<std::unique_ptr<Backend>> ref = create_reference_backend(f.level, dict());
+  ASSERT_TRUE(ref.ok());
+  std::unique_ptr<GlesLevelRuntime> rt = make(f.level, {.target = TargetFormat::float32});
+  ASSERT_TRUE(rt);
+  const std::vector<float> clutter_albedo(drt_buffer_sizes(mixed).clutter_ld, 0.6f);
+  for (Backend* be : {ref.value().get(), static_cast<Backend*>(rt.get())}) {
+    ASSERT_TRUE(be->set_clutter(&mixed).ok());
+    ASSERT_TRUE(be->set_clutter_light(f.clutter_ld, f.clutter_direct).ok());
+    ASSERT_TRUE(be->set_albedo(f.albedo).ok());
+  }
+  std::vector<float> lightmap(rt->sizes().lightmap), lightmap_ref(lightmap.size());
+  std::vector<float> clutter(rt->clutter_sizes().clutter_lightmap), clutter_ref(clutter.size());
+  const auto compare = [&](const char* what) {
+    ASSERT_TRUE(rt->read_lightmap(lightmap).ok());
+    ASSERT_TRUE(rt->read_clutter_lightmap(clutter).ok());
+    ASSERT_TRUE(ref.value()->read_lightmap(lightmap_ref).ok());
+    ASSERT_TRUE(ref.value()->read_clutter_lightmap(clutter_ref).ok());
+    const double e = rel_l2(lightmap, lightmap_ref), ec = rel_l2(clutter, clutter_ref);
+    EXPECT_LE(e, 2e-6) << what;
+    EXPECT_LE(ec, 2e-6) << what;
+    std::printf("  %s, mixed gather and Limp, %s: rel L2 lightmap %.2e, clutter lightmap %.2e\n",
+                rt->description(), what, e, ec);
+  };
+  ASSERT_TRUE(rt->update(f.ld).ok());
+  ASSERT_TRUE(ref.value()->update(f.ld).ok());
+  compare("a frame");
+  for (Backend* be : {ref.value().get(), static_cast<Backend*>(rt.get())}) {
+    ASSERT_TRUE(be->set_clutter_albedo(clutter_albedo).ok());
+    for (int k = 0; k < 2; ++k) ASSERT_TRUE(be->multi_bounce_step(f.ld).ok());
+  }
+  compare("two steps with clutter feedback");
+  std::vector<float> ld2 = f.ld;
+  for (std::size_t i = 0; i < ld2.size() / 3; ++i) ld2[i] *= 1.5f;
+  const std::size_t samples = f.level.sample_count;
+  const GLuint ld_texture = create_texture(gl(), GL_RGB32F, kLinearWidth, linear_rows(samples));
+  upload_linear(gl(), ld_texture, GL_RGB, GL_FLOAT, 3, ld2.data(), samples, sizeof(float));
+  const Status from_texture = rt->update_from_texture(ld_texture);
+  gl().glDeleteTextures(1, &ld_texture);
+  ASSERT_TRUE(from_texture.ok()) << from_texture.to_string();
+  ASSERT_TRUE(ref.value()->update(ld2).ok());
+  compare("ld from a texture");
 }
 
 INSTANTIATE_TEST_SUITE_P(Contexts, GlesBackend,
