@@ -222,7 +222,7 @@ inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
   const Frame f = evaluate_mrt(level, ld);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const DrtBuilder builder(level, dict(), settings);
+  const DrtBuilder builder(level, dict(), paper_operators(settings));
   const DrtOperators drt = builder.build(s.clutter).value();
   const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_TRUE(check_drt_operators(level, drt).ok());
@@ -257,14 +257,14 @@ inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
   std::vector<float> probes(sz.probes);
   level_compute_probes(level, dict(), f.b, f.r, probes);
   const std::vector<float> probe_lightmap = probe_shading(level, probes, s.clutter);
-  DrtBuildSettings with_probes = settings;
+  DrtBuildSettings with_probes = paper_operators(settings);
   with_probes.probes = true;
   const DrtOperators drt_probes = DrtBuilder(level, dict(), with_probes).build(s.clutter).value();
   std::vector<float> aware = probes;
   drt_apply_probes(drt_probes, f.b, c, aware);
   const std::vector<float> aware_lightmap = probe_shading(level, aware, s.clutter);
   const std::vector<std::uint8_t> none(cp.size(), 0);
-  DrtBuildSettings with_gather = settings;
+  DrtBuildSettings with_gather = paper_operators(settings);
   with_gather.sample_gather = true;
   DrtBuildState state;
   const DrtOperators drt_gather =

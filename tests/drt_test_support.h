@@ -34,6 +34,13 @@
 
 namespace modrt::precompute::drt_test {
 
+// The paper's operators (Cb = Uc Vc, Cc, dUb and dUc on every traced sample): the settings of
+// the tests of those operators, the build default being the real-radiance gather.
+inline DrtBuildSettings paper_operators(DrtBuildSettings settings = {}) {
+  settings.gather = false;
+  return settings;
+}
+
 inline const Dictionary& dict() { return test::small_test_dictionary(); }
 
 using test::box_room_two_boxes;
@@ -66,6 +73,9 @@ inline Frame evaluate_mrt(const Level& level, std::span<const float> ld) {
   return f;
 }
 
+inline bool sparse_equal(const DrtSparseRows& a, const DrtSparseRows& b) {
+  return a.start == b.start && a.index == b.index && a.weight == b.weight;
+}
 inline bool operators_equal(const DrtObjectOperators& a, const DrtObjectOperators& b) {
   return a.texel_count == b.texel_count && a.face_count == b.face_count && a.dUb_sample == b.dUb_sample &&
          a.dUb_block == b.dUb_block && a.dUb.data == b.dUb.data && a.Td_c.data == b.Td_c.data &&
@@ -76,7 +86,9 @@ inline bool operators_equal(const DrtObjectOperators& a, const DrtObjectOperator
          a.dUb_vec.data == b.dUb_vec.data && a.dUc_vec_sample == b.dUc_vec_sample &&
          a.dUc_vec.data == b.dUc_vec.data && a.Udyn_probe == b.Udyn_probe && a.Udyn_block == b.Udyn_block &&
          a.Udyn.data == b.Udyn.data && a.Udyn_c_probe == b.Udyn_c_probe && a.Udyn_c.data == b.Udyn_c.data &&
-         a.texel_position == b.texel_position && a.texel_normal == b.texel_normal;
+         a.texel_position == b.texel_position && a.texel_normal == b.texel_normal &&
+         sparse_equal(a.Gs, b.Gs) && sparse_equal(a.Gt, b.Gt) && a.H_sample == b.H_sample &&
+         sparse_equal(a.Hs, b.Hs) && sparse_equal(a.Ht, b.Ht);
 }
 
 // Two boxes in a row on the floor of a closed room, so that many rays pass through both

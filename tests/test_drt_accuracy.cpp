@@ -67,7 +67,7 @@ MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* nam
   const LevelScene scene(level, level.res, s.clutter);
   const std::vector<float> albedo = level_sample_albedo(level);
   const std::vector<float> ld = level_direct_light(scene, s.description.lights, albedo, 8);
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 512;
   const DrtOperators drt = DrtBuilder(level, dict(), settings).build(s.clutter).value();
   const std::vector<float> clutter_ld = clutter_direct_light(scene, s.description.lights, 8);

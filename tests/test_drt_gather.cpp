@@ -123,7 +123,7 @@ Estimate brute_force(const LevelScene& scene, const LevelScene& walls, std::span
 TEST(Drt, ClutterSeesClutterAsTheBruteForceGatherDoes) {
   const ClutterScene s = two_boxes_in_a_row();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 4096;
   settings.cb_modes = 1000;  // Cb exactly, so that only the gather is compared
   const DrtBuilder builder(level, dict(), settings);
@@ -256,7 +256,7 @@ struct OhlshGather {
 TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
   const ClutterScene s = two_boxes_in_a_row();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 4096;
   settings.vector = true;
   const DrtOperators drt = DrtBuilder(level, dict(), settings).build(s.clutter).value();
@@ -357,7 +357,7 @@ TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
 TEST(Drt, VectorCbMatchesTheBruteForceGather) {
   const ClutterScene s = two_boxes_in_a_row();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 4096;
   settings.vector = true;
   settings.cb_modes = 100000;  // no truncation: the operator itself is compared

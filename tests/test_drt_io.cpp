@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "binary_test_support.h"
@@ -64,6 +65,13 @@ void expect_same_object(const DrtObjectOperators& a, const DrtObjectOperators& b
   EXPECT_EQ(a.texel_normal, b.texel_normal);
   EXPECT_EQ(a.cell_res, b.cell_res);
   EXPECT_EQ(a.texel_cell, b.texel_cell);
+  for (const auto& [x, y, what] : {std::tuple(&a.Gs, &b.Gs, "Gs"), std::tuple(&a.Gt, &b.Gt, "Gt"),
+                                   std::tuple(&a.Hs, &b.Hs, "Hs"), std::tuple(&a.Ht, &b.Ht, "Ht")}) {
+    EXPECT_EQ(x->start, y->start) << what;
+    EXPECT_EQ(x->index, y->index) << what;
+    EXPECT_EQ(x->weight, y->weight) << what;
+  }
+  EXPECT_EQ(a.H_sample, b.H_sample);
 }
 
 struct Built {
@@ -76,11 +84,20 @@ const Built& built() {
     Built out;
     out.scene = two_boxes_in_a_row();
     out.level = build_level(out.scene.description, dict()).value();
-    DrtBuildSettings settings;
+    DrtBuildSettings settings = paper_operators();
     settings.rays = 256;
     settings.vector = true;
     settings.probes = true;
     out.drt = DrtBuilder(out.level, dict(), settings).build(out.scene.clutter).value();
+    // And the gather's rows on the same objects (an operator set may carry both), so that
+    // every field of the file is exercised.
+    settings.gather = true;
+    const DrtOperators gather = DrtBuilder(out.level, dict(), settings).build(out.scene.clutter).value();
+    for (std::size_t k = 0; k < gather.objects.size(); ++k) {
+      DrtObjectOperators& o = out.drt.objects[k];
+      const DrtObjectOperators& g = gather.objects[k];
+      o.Gs = g.Gs, o.Gt = g.Gt, o.H_sample = g.H_sample, o.Hs = g.Hs, o.Ht = g.Ht;
+    }
     return out;
   }();
   return b;
@@ -100,6 +117,9 @@ TEST(DrtFile, OperatorsRoundTripAndGiveTheSameDelta) {
   ASSERT_EQ(drt.objects[0].texel_cell.size(), 3 * std::size_t(drt.objects[0].texel_count));
   ASSERT_GT(drt.objects[0].cell_res, 0u);
   ASSERT_GT(drt.probes_per_block, 0u);
+  ASSERT_FALSE(drt.objects[0].Gs.empty());
+  ASSERT_FALSE(drt.objects[0].Gt.empty());  // the two boxes see each other
+  ASSERT_FALSE(drt.objects[0].H_sample.empty());
 
   const std::vector<std::byte> bytes = serialize_drt(drt).value();
   Result<DrtOperators> back = parse_drt(bytes, "two_boxes.modrtdrt");
@@ -124,7 +144,9 @@ TEST(DrtFile, OperatorsRoundTripAndGiveTheSameDelta) {
   ASSERT_TRUE(drt_compute_c(back.value(), clutter_ld, c_back).ok());
   std::vector<float> lm = f.lightmap, lm_back = f.lightmap;
   drt_apply(b.level, drt, f.b, c, lm);
+  drt_apply_gather(drt, ld, clutter_ld, lm);
   drt_apply(b.level, back.value(), f.b, c_back, lm_back);
+  drt_apply_gather(back.value(), ld, clutter_ld, lm_back);
   EXPECT_EQ(lm, lm_back);
   EXPECT_NE(lm, f.lightmap);
 
@@ -157,9 +179,9 @@ TEST(DrtFile, DamageIsRefusedNamingThePart) {
   reseal(b);
   expect_refused(b, ErrorCode::version_mismatch, "rebuild the clutter operators");
   b = good;
-  put_u32(b, 8, 2);  // before the texel cells
+  put_u32(b, 8, 3);  // before the gather
   reseal(b);
-  expect_refused(b, ErrorCode::version_mismatch, "format version 2, this build reads 3");
+  expect_refused(b, ErrorCode::version_mismatch, "format version 3, this build reads 4");
   b = good;
   b[20] ^= std::byte(1);  // object count, header checksum not updated
   expect_refused(b, ErrorCode::checksum_mismatch, "header checksum");

@@ -80,7 +80,7 @@ TEST(DrtMesh, ABoxGivenAsAMeshGivesTheBoxsDeltas) {
   ASSERT_EQ(clutter_texel_count(mesh), clutter_texel_count(box));
   ASSERT_EQ(clutter_face_count(mesh), kFaceCount);
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();  // dUb, dUc and Cb compared
   settings.rays = 256;
   const DrtBuilder builder(level, dict(), settings);
   struct Out {

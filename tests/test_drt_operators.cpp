@@ -5,6 +5,8 @@
 // incremental rebuild of a moved object equal to a full build.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -98,7 +100,7 @@ TEST(Drt, ValidationNamesTheProblem) {
   bad = s.clutter;
   bad[0].box.rotation[0][0] = 2.0;
   EXPECT_FALSE(validate_clutter(level, bad).ok());
-  const DrtBuilder builder(level, dict());
+  const DrtBuilder builder(level, dict(), paper_operators());
   DrtOperators drt = builder.build(s.clutter).value();
   ASSERT_TRUE(check_drt_operators(level, drt).ok());
   const DrtOperators good = drt;
@@ -136,6 +138,29 @@ TEST(Drt, ValidationNamesTheProblem) {
   drt = with_vec;
   std::swap(drt.objects[0].dUc_vec_sample.front(), drt.objects[0].dUc_vec_sample.back());
   EXPECT_FALSE(check_drt_operators(level, drt).ok());
+  // The gather's sparse rows: indices in range, weights >= 0 and finite, row starts that span
+  // the entries, H_sample sorted; each refusal names the operator.
+  const DrtOperators gather = DrtBuilder(level, dict()).build(s.clutter).value();
+  ASSERT_TRUE(gather.has_gather());
+  ASSERT_TRUE(check_drt_operators(level, gather).ok());
+  const auto refused = [&](const char* what, auto&& spoil) {
+    DrtOperators bad_gather = gather;
+    spoil(bad_gather.objects[1]);
+    const Status status = check_drt_operators(level, bad_gather);
+    EXPECT_FALSE(status.ok()) << what;
+    EXPECT_NE(status.to_string().find(what), std::string::npos) << status.to_string();
+  };
+  refused("Gs", [&](DrtObjectOperators& o) { o.Gs.index.back() = level.sample_count; });
+  refused("Gs", [&](DrtObjectOperators& o) { o.Gs.weight.front() = -1e-3f; });
+  refused("Gs", [&](DrtObjectOperators& o) { o.Gs.weight.front() = std::nanf(""); });
+  refused("Gs", [&](DrtObjectOperators& o) { o.Gs.start.pop_back(); });
+  refused("Gs", [&](DrtObjectOperators& o) { o.Gs.start[1] = o.Gs.start[2] + 1; });
+  refused("Gt", [&](DrtObjectOperators& o) {
+    o.Gt.index.back() = std::uint32_t(drt_buffer_sizes(gather).clutter_texels);
+  });
+  refused("Hs", [&](DrtObjectOperators& o) { o.Hs.weight.back() = std::numeric_limits<float>::infinity(); });
+  refused("Ht", [&](DrtObjectOperators& o) { o.Ht.start.back() += 1; });
+  refused("H_sample", [&](DrtObjectOperators& o) { std::swap(o.H_sample.front(), o.H_sample.back()); });
 }
 
 // Culling is exact: a build that tests every object from every sample and texel gives the
@@ -144,7 +169,7 @@ TEST(Drt, ValidationNamesTheProblem) {
 TEST(Drt, CullingIsExact) {
   const ClutterScene s = l_shaped_level_with_a_box();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 256;
   const DrtBuilder culled(level, dict(), settings);
   settings.cull = false;
@@ -202,7 +227,7 @@ TEST(Drt, CullingIsExact) {
 TEST(Drt, SamplesInsideClutterAreInpainted) {
   const ClutterScene s = box_room_two_boxes();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 256;
   DrtBuildReport report;
   const DrtObjectOperators op =
@@ -256,7 +281,7 @@ TEST(Drt, CcOfAFacingParallelFaceIsItsFormFactor) {
   ClutterScene s = two_boxes_in_a_row();
   s.clutter[0].res = 15;  // a texel at the exact centre of each face
   const Level level = build_level(s.description, dict()).value();
-  const DrtOperators drt = DrtBuilder(level, dict()).build(s.clutter).value();
+  const DrtOperators drt = DrtBuilder(level, dict(), paper_operators()).build(s.clutter).value();
   const DrtObjectOperators& a = drt.objects[0];
   ASSERT_EQ(a.Cc_objects, std::vector<std::uint32_t>{1});
   // Texel (7, 7) of box 0's +x face (slot 1: faces -X, +X, +Y, -Z, +Z are lit).
@@ -312,7 +337,7 @@ TEST(Drt, ShadowedLightmapIsNotMuchNegativeUnderUniformLight) {
 TEST(Drt, CbTruncationErrorIsReportedAndBounded) {
   const ClutterScene s = maze_block_four_pillars();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 256;
   const DrtObjectOperators five = DrtBuilder(level, dict(), settings).build_object(s.clutter[0]).value();
   settings.cb_modes = 1000;
@@ -341,7 +366,7 @@ TEST(Drt, CbTruncationErrorIsReportedAndBounded) {
 TEST(Drt, DroppedDUbRowsStayWithinTheirBound) {
   const ClutterScene s = maze_block_four_pillars();
   const Level level = build_level(s.description, dict()).value();
-  DrtBuildSettings settings;
+  DrtBuildSettings settings = paper_operators();
   settings.rays = 256;
   const DrtOperators all = DrtBuilder(level, dict(), settings).build(s.clutter).value();
   settings.drop_tolerance = 0.03;

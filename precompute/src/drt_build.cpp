@@ -44,15 +44,46 @@ DrtBuildState::DrtBuildState(DrtBuildState&&) noexcept = default;
 DrtBuildState& DrtBuildState::operator=(DrtBuildState&&) noexcept = default;
 bool DrtBuildState::empty() const { return !impl_; }
 
+namespace {
+
+// Each object's first texel in the clutter-wide texel order.
+std::vector<std::uint32_t> texel_bases(std::span<const ClutterObject> objects) {
+  std::vector<std::uint32_t> base;
+  std::uint32_t next = 0;
+  for (const ClutterObject& o : objects) {
+    base.push_back(next);
+    next += std::uint32_t(clutter_texel_count(o));
+  }
+  return base;
+}
+
+// Recorded (object, texel) keys as clutter-wide texel indices.
+void append_texels(const std::vector<std::pair<std::uint64_t, float>>& keyed,
+                   const std::vector<std::uint32_t>& base,
+                   std::vector<std::pair<std::uint32_t, float>>& out) {
+  for (const auto& [key, weight] : keyed)
+    out.emplace_back(base[cc_object(key)] + std::uint32_t(cc_slot(key)), weight);
+}
+
+}  // namespace
+
 std::vector<ClutterSampleGather> DrtBuildState::sample_gather(bool clutter_texels) const {
   std::vector<ClutterSampleGather> out;
   if (!impl_) return out;
+  const std::vector<std::uint32_t> base = texel_bases(impl_->objects);
+  std::vector<std::pair<std::uint32_t, float>> entries;
   for (const std::vector<TexelResult>& texels : impl_->texels) {
     ClutterSampleGather& g = out.emplace_back();
     g.row_start.push_back(0);
     for (const TexelResult& t : texels) {
-      for (const auto& [sample, weight] : clutter_texels ? t.texels : t.samples) {
-        g.sample.push_back(sample);
+      entries.clear();
+      if (clutter_texels) {
+        append_texels(t.texels, base, entries);
+      } else {
+        entries = t.samples;
+      }
+      for (const auto& [index, weight] : entries) {
+        g.sample.push_back(index);
         g.weight.push_back(weight);
       }
       g.row_start.push_back(std::uint32_t(g.sample.size()));
@@ -64,11 +95,17 @@ std::vector<ClutterSampleGather> DrtBuildState::sample_gather(bool clutter_texel
 ClutterSampleGather DrtBuildState::scene_sample_gather(bool clutter_texels) const {
   ClutterSampleGather g;
   if (!impl_) return g;
+  const std::vector<std::uint32_t> base = texel_bases(impl_->objects);
   g.row_start.push_back(0);
   for (const SampleResult& sample : impl_->samples) {
     std::vector<std::pair<std::uint32_t, float>> entries;
-    for (const ObjectRows& rows : sample.rows)
-      for (const auto& e : clutter_texels ? rows.texels : rows.samples) entries.push_back(e);
+    for (const ObjectRows& rows : sample.rows) {
+      if (clutter_texels) {
+        append_texels(rows.texels, base, entries);
+      } else {
+        entries.insert(entries.end(), rows.samples.begin(), rows.samples.end());
+      }
+    }
     merge_sorted_duplicates(entries);
     for (const auto& [index, weight] : entries) {
       g.sample.push_back(index);
@@ -181,7 +218,7 @@ struct DrtBuilder::Pass {
         });
         if (!texel_lookup.empty()) {
           const int t = texel_lookup[k].texel_at(nearest[r].entry, x, hit_dirs[r]);
-          if (t >= 0) rows->texels.emplace_back(texel_base[k] + std::uint32_t(t), float(w));
+          if (t >= 0) rows->texels.emplace_back(cc_key(k, t), float(w));
         }
       }
       if (rows) {
@@ -441,8 +478,7 @@ struct DrtBuilder::Pass {
           });
           if (!texel_lookup.empty()) {
             const int t = texel_lookup[std::size_t(hit.object)].texel_at(hit.entry, x, dirs[r]);
-            if (t >= 0)
-              result.texels.emplace_back(texel_base[std::size_t(hit.object)] + std::uint32_t(t), float(w));
+            if (t >= 0) result.texels.emplace_back(cc_key(std::uint32_t(hit.object), t), float(w));
           }
           continue;
         }
@@ -818,8 +854,8 @@ struct DrtBuilder::Pass {
         op.Hs.index.push_back(sample);
         op.Hs.weight.push_back(-weight);
       }
-      for (const auto& [texel, weight] : o->texels) {
-        op.Ht.index.push_back(texel);
+      for (const auto& [key, weight] : o->texels) {
+        op.Ht.index.push_back(texel_base[cc_object(key)] + std::uint32_t(cc_slot(key)));
         op.Ht.weight.push_back(weight);
       }
       op.Hs.start.push_back(std::uint32_t(op.Hs.index.size()));
@@ -828,7 +864,7 @@ struct DrtBuilder::Pass {
   }
 
   // Gs and Gt of an object from its traced texels (the real-radiance gather).
-  static void assemble_clutter_gather(const std::vector<TexelResult>& texels, DrtObjectOperators& op) {
+  void assemble_clutter_gather(const std::vector<TexelResult>& texels, DrtObjectOperators& op) const {
     op.Gs = DrtSparseRows{};
     op.Gt = DrtSparseRows{};
     op.Gs.start.push_back(0);
@@ -838,8 +874,8 @@ struct DrtBuilder::Pass {
         op.Gs.index.push_back(sample);
         op.Gs.weight.push_back(std::max(weight, 0.0f));
       }
-      for (const auto& [texel, weight] : t.texels) {
-        op.Gt.index.push_back(texel);
+      for (const auto& [key, weight] : t.texels) {
+        op.Gt.index.push_back(texel_base[cc_object(key)] + std::uint32_t(cc_slot(key)));
         op.Gt.weight.push_back(weight);
       }
       op.Gs.start.push_back(std::uint32_t(op.Gs.index.size()));
@@ -1295,6 +1331,9 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
       dirty[candidates[c].first] = 1;
     }
   pass.clutter_pass(st.texels, st.vector_texels, st.geometry, work);
+  // The gather's Gt names texels by their clutter-wide index, which a new texel count of the
+  // moved object shifts for every object after it: all are reassembled (copies of kept rows).
+  if (settings_.gather) std::fill(dirty.begin(), dirty.end(), std::uint8_t(1));
   pass.assemble_clutter_all(st.texels, st.vector_texels, dirty, drt);
   if (report) {
     report->traced_samples += retraced;

@@ -428,9 +428,12 @@ struct ObjectRows {
   std::uint32_t object = 0;
   BlockRows dUb;
   std::vector<double> dUc;  // face_count of the object; empty when no ray entered it
-  // With DrtBuildSettings::sample_gather: the same rays' weights per hidden scene sample
-  // (negative: dUb's taps) and per clutter texel they enter (clutter-wide order), ascending.
-  std::vector<std::pair<std::uint32_t, float>> samples, texels;
+  // With DrtBuildSettings::gather or sample_gather: the same rays' weights per hidden scene
+  // sample (negative: dUb's taps) and per clutter texel they enter (cc_key(object, texel):
+  // an object's own texel numbers stay valid when another object's texel count changes),
+  // ascending.
+  std::vector<std::pair<std::uint32_t, float>> samples;
+  std::vector<std::pair<std::uint64_t, float>> texels;
 };
 
 struct SampleResult {
@@ -456,10 +459,10 @@ struct SampleResult {
 struct TexelResult {
   BlockRows cb;  // Limp sums of the walls its rays reach, per block
   // The same rays' weight per scene sample (bilinear taps of the wall hits), ascending by
-  // sample; recorded only with DrtBuildSettings::sample_gather.
+  // sample; recorded only with DrtBuildSettings::gather or sample_gather.
   std::vector<std::pair<std::uint32_t, float>> samples;
-  // And per clutter texel (clutter-wide order) the weight of the rays that enter it first.
-  std::vector<std::pair<std::uint32_t, float>> texels;
+  // And per clutter texel (cc_key(object, texel)) the weight of the rays that enter it first.
+  std::vector<std::pair<std::uint64_t, float>> texels;
   // (source object, face slot) -> weight of the rays that enter that face first, ascending.
   std::vector<std::pair<std::uint64_t, double>> cc;
   // Adds w to key's entry (few distinct keys per texel: a linear search).
@@ -473,7 +476,8 @@ struct TexelResult {
   }
 };
 // Sorts (key, weight) pairs and adds up the weights of equal keys.
-inline void merge_sorted_duplicates(std::vector<std::pair<std::uint32_t, float>>& entries) {
+template <class Key>
+void merge_sorted_duplicates(std::vector<std::pair<Key, float>>& entries) {
   std::sort(entries.begin(), entries.end());
   std::size_t out = 0;
   for (std::size_t i = 0; i < entries.size(); ++i) {
