@@ -85,12 +85,15 @@ void BM_DrtBuildFourPillars(benchmark::State& state) {
   DrtBuildSettings settings;
   settings.rays = int(state.range(0));
   settings.vector = settings.probes = state.range(1) != 0;
+  settings.gather = state.range(2) != 0;  // the real-radiance gather (the default) or the paper's Cb, Cc
   time_builds(state, DrtBuilder(four_pillar_level(), test::small_test_dictionary(), settings), s.clutter);
 }
+// Args: rays, vector and probe operators, gather.
 BENCHMARK(BM_DrtBuildFourPillars)
-    ->Args({1024, 0})
-    ->Args({256, 0})
-    ->Args({1024, 1})
+    ->Args({1024, 0, 1})
+    ->Args({1024, 0, 0})
+    ->Args({256, 0, 1})
+    ->Args({1024, 1, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -158,6 +158,7 @@ class BackendConformance : public ::testing::TestWithParam<BackendCase> {
   void check_clutter_light_and_ld_reach_every_delta(bool gather);
   void check_clutter_multi_bounce(bool gather);
   void check_clutter_feedback(bool gather);
+  void check_converged_with_clutter(bool gather);
 
   std::unique_ptr<Backend> make(const Level& level, const Config& config = {}) {
     const BackendCase& c = GetParam();
@@ -382,8 +383,16 @@ TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
                 be->description(), e, ep, ev, first.last.iterations, second.last.iterations);
   }
   // With clutter: b and the clutter's c solved together (drt_converged_bounce), the clutter's
-  // light fed back with its albedo; the lightmap and the clutter lightmap equal core's.
-  const DrtFixture& f = drt_fixture();
+  // light fed back with its albedo; the lightmap and the clutter lightmap equal core's. With the
+  // gather's operators: the level solved without them, then kGatherConvergedSteps feedback steps.
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "Limp");
+    check_converged_with_clutter(gather);
+  }
+}
+
+void BackendConformance::check_converged_with_clutter(bool gather) {
+  const DrtFixture& f = drt_fixture(gather);
   std::unique_ptr<Backend> be = make(f.level);
   ASSERT_TRUE(be);
   const Status set = be->set_clutter(&f.drt);
@@ -402,20 +411,23 @@ TEST_P(BackendConformance, ConvergedUpdateMatchesLevelConvergedBounce) {
   std::vector<float> b(s.b), r(s.r), ref(s.lightmap), c(d.c), clutter_ref(d.clutter_lightmap);
   ConvergedBounceSettings cs;
   cs.solve = solve;
+  std::vector<float> last_ld(s.ld), last_x(d.clutter_ld);
   ASSERT_TRUE(drt_converged_bounce(f.level, dict(), f.drt, f.ld, f.albedo, f.clutter_ld, clutter_albedo, cs,
-                                   b, r, ref, c)
+                                   b, r, ref, c, last_ld, last_x)
                   .ok());
-  drt_evaluate_clutter_lightmap(f.drt, b, c, f.ld, f.clutter_ld, f.clutter_direct, clutter_ref);
+  drt_evaluate_clutter_lightmap(f.drt, b, c, last_ld, last_x, f.clutter_direct, clutter_ref);
   std::vector<float> lightmap(s.lightmap), clutter(d.clutter_lightmap);
   ASSERT_TRUE(be->read_lightmap(lightmap).ok());
   ASSERT_TRUE(be->read_clutter_lightmap(clutter).ok());
   const double e = rel_l2(lightmap, ref), ec = rel_l2(clutter, clutter_ref);
-  const double tol = std::max(tolerance().drt, 3e-5);
+  // Each solve stops within 1e-5 of max |b|; with the gather, the feedback steps after it carry
+  // that difference into the clutter's light as well (GLES: 2.7e-5 and 4.2e-5 measured).
+  const double tol = std::max(tolerance().drt, gather ? 1e-4 : 3e-5);
   EXPECT_LE(e, tol) << be->description();
   EXPECT_LE(ec, tol) << be->description() << " clutter lightmap";
   EXPECT_TRUE(be->converged_stats().last.converged);
-  std::printf("  clutter  %-52s converged rel L2 %.2e, clutter lightmap %.2e, %d iterations\n",
-              be->description(), e, ec, be->converged_stats().last.iterations);
+  std::printf("  clutter  %-52s %s converged rel L2 %.2e, clutter lightmap %.2e, %d iterations\n",
+              be->description(), gather ? "gather" : "Limp", e, ec, be->converged_stats().last.iterations);
 }
 
 // A spike in ld rings the unclamped lightmap below -1 (test_cpu_backend asserts it); every
@@ -995,13 +1007,6 @@ void BackendConformance::check_clutter_matches_scalar_reference(bool gather) {
     const std::array<int, 2> texel = be->clutter_atlas_texel(1, 0);
     EXPECT_TRUE(texel[0] >= 0 && texel[0] < size.width && texel[1] >= 0 && texel[1] < size.height);
   }
-  if (gather) {  // the reduced solve cannot express the gather: refused, nothing changes
-    EXPECT_FALSE(be->converged_available()) << be->description();
-    ASSERT_TRUE(be->set_albedo(f.albedo).ok());
-    const Status refused = be->update_converged(f.ld);
-    EXPECT_EQ(refused.code(), ErrorCode::invalid_argument) << be->description();
-    EXPECT_NE(refused.message().find("gather"), std::string::npos) << refused.message();
-  }
 }
 
 // A new clutter light alone (same ld) is not a skipped frame, and a change of one block's ld
@@ -1198,7 +1203,7 @@ TEST_P(BackendConformance, FramesAllocateNothing) {
   if (be->kind() != BackendKind::reference) {
     EXPECT_EQ(allocations(true), 0) << be->description() << ": with clutter";
   }
-  // And with the real-radiance gather (same scene; no converged solve).
+  // And with the real-radiance gather (same scene; its converged update's feedback steps).
   ASSERT_TRUE(be->set_clutter(&drt_fixture(true).drt).ok());
   ASSERT_TRUE(frames(true));
   if (be->kind() != BackendKind::reference) {

@@ -56,15 +56,18 @@ struct Scene {
 };
 
 // Four pillars in the middle block of a corridor (their shadows fall through the openings),
-// with vector and probe deltas; ld a fixed pseudo-random signal.
-const Scene& pillars() {
-  static const Scene s = [] {
+// with vector and probe deltas; ld a fixed pseudo-random signal. The paper's operators (Cb,
+// Cc: the converged solve takes them), or with `gather` the real-radiance gather (the build's
+// default; no converged solve).
+Scene make_pillars(bool gather) {
+  {
     Scene t;
     t.scene = test::maze_block_four_pillars();
     t.level = precompute::build_level(t.scene.description, dict()).value();
     precompute::DrtBuildSettings settings;
     settings.rays = 64;
     settings.vector = settings.probes = true;
+    settings.gather = gather;
     t.drt = precompute::DrtBuilder(t.level, dict(), settings).build(t.scene.clutter).value();
     t.drt_file = serialize_drt(t.drt).value();
     t.level_file = serialize_level(t.level).value();
@@ -78,8 +81,13 @@ const Scene& pillars() {
       t.clutter_albedo.push_back(0.3f + 0.5f * float(i % 3) / 2.0f);
     }
     return t;
-  }();
-  return s;
+  }
+}
+const Scene& pillars(bool gather = false) {
+  static const Scene paper = make_pillars(false);
+  if (!gather) return paper;
+  static const Scene with_gather = make_pillars(true);
+  return with_gather;
 }
 
 // The handles of a context on the pillars' level.
@@ -87,8 +95,8 @@ struct Handles {
   modrt_dictionary* d = nullptr;
   modrt_level* l = nullptr;
   modrt_clutter* clutter = nullptr;
-  Handles() {
-    const Scene& s = pillars();
+  explicit Handles(bool gather = false) {
+    const Scene& s = pillars(gather);
     EXPECT_EQ(modrt_dictionary_load_memory(s.dict_file.data(), s.dict_file.size(), "dict", nullptr, &d),
               MODRT_OK);
     EXPECT_EQ(modrt_level_load_memory(s.level_file.data(), s.level_file.size(), "pillars", nullptr, &l),
@@ -119,8 +127,8 @@ struct Results {
 };
 
 // One frame of the pillars with their clutter light (and albedo with bounces) through the C API.
-Results c_api_frame(modrt_context* c, const Handles& h, bool with_albedo) {
-  const Scene& s = pillars();
+Results c_api_frame(modrt_context* c, const Handles& h, bool with_albedo, bool gather = false) {
+  const Scene& s = pillars(gather);
   EXPECT_EQ(modrt_context_set_clutter(c, h.clutter), MODRT_OK) << modrt_last_error();
   EXPECT_EQ(
       modrt_context_set_clutter_light(c, s.clutter_ld.data(), s.clutter_direct.data(), s.clutter_ld.size()),
@@ -144,8 +152,8 @@ Results c_api_frame(modrt_context* c, const Handles& h, bool with_albedo) {
 }
 
 // The same frame on the C++ CPU backend the context uses: the level's albedo, the same clutter.
-Results cpp_frame(std::uint32_t bounces, bool with_albedo) {
-  const Scene& s = pillars();
+Results cpp_frame(std::uint32_t bounces, bool with_albedo, bool gather = false) {
+  const Scene& s = pillars(gather);
   cpu::CpuRuntimeOptions o;
   o.skip.enabled = true;  // as options.skip_unchanged's default
   std::unique_ptr<Backend> be = cpu::create_cpu_backend(s.level, dict(), o).value();
@@ -167,19 +175,30 @@ Results cpp_frame(std::uint32_t bounces, bool with_albedo) {
   return r;
 }
 
-// One bounce, two feedback steps and the converged solve (b and the clutter's c together).
+void check_cpu_context_is_the_cpp_backend(bool gather);
+
+// One bounce, two feedback steps and the converged solve (b and the clutter's c together; with
+// the gather's operators the level's solve and then kGatherConvergedSteps feedback steps).
 TEST(CApiClutter, CpuContextIsTheCppBackendBitForBit) {
-  Handles h;
+  for (const bool gather : {false, true}) {
+    SCOPED_TRACE(gather ? "gather" : "paper operators");
+    check_cpu_context_is_the_cpp_backend(gather);
+  }
+}
+
+void check_cpu_context_is_the_cpp_backend(bool gather) {
+  Handles h(gather);
   for (std::uint32_t bounces : {0u, 2u, std::uint32_t(MODRT_BOUNCES_CONVERGED)}) {
     modrt_context* c = h.context(MODRT_BACKEND_CPU, bounces);
-    const Results got = c_api_frame(c, h, bounces > 0);
-    const Results ref = cpp_frame(bounces, bounces > 0);
+    const Results got = c_api_frame(c, h, bounces > 0, gather);
+    const Results ref = cpp_frame(bounces, bounces > 0, gather);
     EXPECT_EQ(got.lightmap, ref.lightmap) << bounces << " bounces";
     EXPECT_EQ(got.clutter_lightmap, ref.clutter_lightmap) << bounces << " bounces";
     if (bounces == MODRT_BOUNCES_CONVERGED) {
       modrt_solve_stats st = modrt::rt::sized<modrt_solve_stats>();
       ASSERT_EQ(modrt_context_get_solve_stats(c, &st), MODRT_OK);
       EXPECT_EQ(st.solves, 1u);
+      EXPECT_EQ(st.fallback_updates, 0u);
       EXPECT_EQ(st.converged, 1u) << "the converged solve ran with the clutter";
     }
     // The clutter changes the walls: without it the lightmap differs.
@@ -487,35 +506,38 @@ TEST(CApiClutter, BadInputIsNamedAndChangesNothing) {
 // and every texel at its own place in it.
 TEST(CApiClutter, GlesContextMatchesTheCpuContext) {
   MODRT_GL_CONTEXT_OR_SKIP(gl, platform::ContextRequest::egl_surfaceless);
-  Handles h;
-  for (std::uint32_t bounces : {0u, 2u}) {
-    modrt_context* cpu = h.context(MODRT_BACKEND_CPU, bounces);
-    modrt_context* gles = h.context(MODRT_BACKEND_GLES, bounces);
-    ASSERT_NE(gles, nullptr);
-    const Results a = c_api_frame(cpu, h, bounces > 0), b = c_api_frame(gles, h, bounces > 0);
-    EXPECT_LT(rel_l2(b.lightmap, a.lightmap), 1e-4) << bounces << " bounces";
-    EXPECT_LT(rel_l2(b.clutter_lightmap, a.clutter_lightmap), 1e-4) << bounces << " bounces";
-    uint32_t texture = 0, width = 0, height = 0;
-    int format = -1;
-    ASSERT_EQ(modrt_context_get_clutter_texture(gles, &texture, &format, &width, &height), MODRT_OK)
-        << modrt_last_error();
-    EXPECT_NE(texture, 0u);
-    EXPECT_GE(format, 0);
-    std::vector<uint32_t> xy(2 * a.clutter_lightmap.size() / 3);
-    ASSERT_EQ(modrt_context_get_clutter_texel_coords(gles, xy.data(), xy.size()), MODRT_OK)
-        << modrt_last_error();
-    std::set<std::pair<uint32_t, uint32_t>> seen;
-    for (std::size_t t = 0; t < xy.size() / 2; ++t) {
-      EXPECT_LT(xy[2 * t], width);
-      EXPECT_LT(xy[2 * t + 1], height);
-      seen.insert({xy[2 * t], xy[2 * t + 1]});
+  for (const bool gather : {false, true})
+    for (std::uint32_t bounces : {0u, 2u}) {
+      SCOPED_TRACE(gather ? "gather" : "paper operators");
+      Handles h(gather);
+      modrt_context* cpu = h.context(MODRT_BACKEND_CPU, bounces);
+      modrt_context* gles = h.context(MODRT_BACKEND_GLES, bounces);
+      ASSERT_NE(gles, nullptr);
+      const Results a = c_api_frame(cpu, h, bounces > 0, gather),
+                    b = c_api_frame(gles, h, bounces > 0, gather);
+      EXPECT_LT(rel_l2(b.lightmap, a.lightmap), 1e-4) << bounces << " bounces";
+      EXPECT_LT(rel_l2(b.clutter_lightmap, a.clutter_lightmap), 1e-4) << bounces << " bounces";
+      uint32_t texture = 0, width = 0, height = 0;
+      int format = -1;
+      ASSERT_EQ(modrt_context_get_clutter_texture(gles, &texture, &format, &width, &height), MODRT_OK)
+          << modrt_last_error();
+      EXPECT_NE(texture, 0u);
+      EXPECT_GE(format, 0);
+      std::vector<uint32_t> xy(2 * a.clutter_lightmap.size() / 3);
+      ASSERT_EQ(modrt_context_get_clutter_texel_coords(gles, xy.data(), xy.size()), MODRT_OK)
+          << modrt_last_error();
+      std::set<std::pair<uint32_t, uint32_t>> seen;
+      for (std::size_t t = 0; t < xy.size() / 2; ++t) {
+        EXPECT_LT(xy[2 * t], width);
+        EXPECT_LT(xy[2 * t + 1], height);
+        seen.insert({xy[2 * t], xy[2 * t + 1]});
+      }
+      EXPECT_EQ(seen.size(), xy.size() / 2);  // one texel per place
+      expect_error(modrt_context_get_clutter_texel_coords(cpu, xy.data(), xy.size()), MODRT_ERROR_UNSUPPORTED,
+                   {"a CPU context has no clutter atlas texture"});
+      modrt_context_destroy(gles);
+      modrt_context_destroy(cpu);
     }
-    EXPECT_EQ(seen.size(), xy.size() / 2);  // one texel per place
-    expect_error(modrt_context_get_clutter_texel_coords(cpu, xy.data(), xy.size()), MODRT_ERROR_UNSUPPORTED,
-                 {"a CPU context has no clutter atlas texture"});
-    modrt_context_destroy(gles);
-    modrt_context_destroy(cpu);
-  }
 }
 
 // A GLES context with clutter solves b and the clutter's c together on the GPU

@@ -39,8 +39,10 @@ struct DrtFixture {
   DrtOperators drt;
 };
 
-const DrtFixture& fixture() {
-  static const DrtFixture f = [] {
+// gather: the real-radiance gather's operators (Gs, Gt, Hs, Ht) in place of the paper's Cb, Cc
+// and the traced samples' dUb / dUc rows.
+DrtFixture make_fixture(bool gather) {
+  {
     DrtFixture s;
     for (int x = 0; x < 3; ++x) {
       BlockDescription b;
@@ -69,6 +71,7 @@ const DrtFixture& fixture() {
     precompute::DrtBuildSettings settings;
     settings.rays = 128;
     settings.vector = settings.probes = true;
+    settings.gather = gather;
     Result<DrtOperators> drt = precompute::DrtBuilder(s.level, dict(), settings).build(s.clutter);
     if (!drt.ok()) {
       std::fprintf(stderr, "drt build: %s\n", drt.status().to_string().c_str());
@@ -76,8 +79,55 @@ const DrtFixture& fixture() {
     }
     s.drt = std::move(drt).value();
     return s;
-  }();
-  return f;
+  }
+}
+
+const DrtFixture& fixture(bool gather = false) {
+  static const DrtFixture paper = make_fixture(false);
+  if (!gather) return paper;
+  static const DrtFixture with_gather = make_fixture(true);
+  return with_gather;
+}
+
+// The real-radiance gather: lightmap += Ht x_t - Hs x_s and clutter += Gs x_s + Gt x_t, against
+// core's drt_apply_gather / drt_clutter_add_gather (double accumulation) for every ISA; wrong
+// sizes are refused.
+TEST(CpuDrt, GatherMatchesScalarReferenceForEveryIsa) {
+  const DrtFixture& f = fixture(true);
+  const DrtBufferSizes sizes = drt_buffer_sizes(f.drt);
+  ASSERT_TRUE(f.drt.has_gather());
+  ASSERT_FALSE(f.drt.objects[0].Gt.index.empty());  // the box and the pillar see each other
+  std::mt19937 rng(13);
+  const std::vector<float> ld = random_vector(rng, 3 * std::size_t(f.level.sample_count), 0.0f, 1.0f);
+  const std::vector<float> x_t = random_vector(rng, sizes.clutter_ld, 0.0f, 2.0f);
+  const std::vector<float> base = random_vector(rng, ld.size(), 0.0f, 1.0f);
+  const std::vector<float> clutter_base = random_vector(rng, sizes.clutter_lightmap, 0.0f, 0.5f);
+  std::vector<float> lm_ref(base), cl_ref(clutter_base);
+  drt_apply_gather(f.drt, ld, x_t, lm_ref);
+  drt_clutter_add_gather(f.drt, ld, x_t, cl_ref);
+  const auto minus = [](const std::vector<float>& a, const std::vector<float>& b) {
+    std::vector<float> d(a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) d[i] = a[i] - b[i];
+    return d;
+  };
+  for (Isa isa : supported_isas()) {
+    Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(f.level, f.drt, isa);
+    ASSERT_TRUE(rt.ok()) << rt.status().to_string();
+    std::vector<float> lm(base), cl(clutter_base);
+    ASSERT_TRUE(rt->apply_gather(ld, x_t, lm).ok());
+    ASSERT_TRUE(rt->clutter_add_gather(ld, x_t, cl).ok());
+    const Error es = compare(minus(lm, base), minus(lm_ref, base)),
+                ec = compare(minus(cl, clutter_base), minus(cl_ref, clutter_base));
+    EXPECT_LE(es.rel_l2, 1e-5) << isa_name(isa);
+    EXPECT_LE(ec.rel_l2, 1e-5) << isa_name(isa);
+    Worst ws, wc;
+    ws.add(es), wc.add(ec);
+    ws.print("Ht x_t - Hs x_s", isa), wc.print("Gs x_s + Gt x_t", isa);
+    EXPECT_EQ(rt->apply_gather(std::vector<float>(ld.size() - 3), x_t, lm).code(),
+              ErrorCode::invalid_argument);
+    EXPECT_EQ(rt->clutter_add_gather(ld, std::vector<float>(x_t.size() + 3), cl).code(),
+              ErrorCode::invalid_argument);
+  }
 }
 
 TEST(CpuDrt, MatchesScalarReferenceForEveryIsa) {

@@ -380,11 +380,12 @@ TEST(DemoRender, CpuAndGlesBackendsRenderTheSameImage) {
 }
 
 // The default multi-bounce is the converged one on both backends, on the walls alone and on the
-// built-in scene with its clutter (GLES: its solve fed by the GPU's ld texture, the clutter's c
-// solved with b): with the light held still, frame 7's indirect light is frame 0's within 1 %
-// (the check; before, frame 0 ran 6 feedback steps and the others 2). Two explicit
-// feedback steps per frame are measurably darker than the converged solve, so the comparison
-// can fail.
+// built-in scene with its clutter (GLES: its solve fed by the GPU's ld texture; the clutter's
+// operators gather the real radiance, so the level is solved without them and
+// kGatherConvergedSteps feedback steps with them follow): with the light held still, frame 7's
+// indirect light is frame 0's within 1 % (the check; before, frame 0 ran 6 feedback steps
+// and the others 2). Two explicit feedback steps per frame are measurably darker than the
+// converged solve, so the comparison can fail.
 TEST(DemoRender, FramesAfterTheFirstAreAsBrightAsTheFirst) {
   platform::GlContext* ctx = osmesa();
   if (!ctx) GTEST_SKIP() << "no OSMesa context";

@@ -30,6 +30,7 @@
 #include "modrt/precompute/path_tracer.h"
 #include "modrt/precompute/sampling.h"
 #include "modrt/precompute/sh_operators.h"
+#include "modrt/reduced_feedback.h"
 #include "modrt/sh.h"
 #include "test_support.h"
 
@@ -206,6 +207,87 @@ TEST(Drt, MultiBounceLowersTheErrorAgainstAMultiBouncePathTracer) {
   for (const MultiBounceAccuracy* m : {&a, &room}) {
     EXPECT_LE(m->clutter_gather, 0.15);
     EXPECT_LE(m->gather, m->fed + 0.005);
+  }
+}
+
+// The converged multi-bounce (update_converged's oracle, drt_converged_bounce) against the path
+// tracer with 16 bounces (what is left beyond them: at most 0.7^16 of the light): with the
+// paper's operators (b and c solved together) and with the gather's (the level solved without
+// the clutter, then kGatherConvergedSteps feedback steps with it), and five bounces with the
+// gather (drt_multi_bounce, 4 steps: what a backend without the solve shows). The gather's
+// converged answer must be at least as close in the scene (noise allowance 0.005), its clutter
+// within the 0.15, and both closer than five bounces.
+TEST(Drt, ConvergedGatherAgainstAManyBouncePathTracer) {
+  for (const ClutterScene& s : {box_room_two_boxes(), maze_block_four_pillars()}) {
+    const Level level = build_level(s.description, dict()).value();
+    const LevelScene scene(level, level.res, s.clutter);
+    const std::vector<float> albedo = level_sample_albedo(level);
+    const std::vector<float> ld = level_direct_light(scene, s.description.lights, albedo, 8);
+    const std::vector<float> clutter_ld = clutter_direct_light(scene, s.description.lights, 8);
+    std::vector<float> clutter_albedo;
+    for (const ClutterObject& o : s.clutter)
+      for (int t = 0; t < clutter_texel_count(o); ++t)
+        for (int ch = 0; ch < 3; ++ch) clutter_albedo.push_back(float(o.albedo[ch]));
+    const LevelBufferSizes sz = level_buffer_sizes(level, dict());
+    struct Run {
+      std::vector<float> lightmap, clutter;
+    };
+    const auto run = [&](bool gather, bool converged) {
+      DrtBuildSettings settings;
+      settings.rays = 512;
+      settings.gather = gather;
+      const DrtOperators drt = DrtBuilder(level, dict(), settings).build(s.clutter).value();
+      const DrtBufferSizes d = drt_buffer_sizes(drt);
+      Run out;
+      out.lightmap.resize(sz.lightmap);
+      out.clutter.resize(d.clutter_lightmap);
+      std::vector<float> b(sz.b), r(sz.r), c(d.c), last_ld(sz.ld), last_x(d.clutter_ld);
+      if (converged) {
+        ConvergedBounceSettings cs;
+        cs.solve.tolerance = 1e-5f;
+        EXPECT_TRUE(drt_converged_bounce(level, dict(), drt, ld, albedo, clutter_ld, clutter_albedo, cs, b, r,
+                                         out.lightmap, c, last_ld, last_x)
+                        .ok());
+      } else {
+        MultiBounceSettings mb;
+        mb.max_iterations = 4;
+        mb.tolerance = 0.0f;
+        EXPECT_TRUE(drt_multi_bounce(level, dict(), drt, ld, albedo, clutter_ld, clutter_albedo, mb, b, r,
+                                     out.lightmap, c, last_ld, last_x)
+                        .ok());
+      }
+      drt_clutter_indirect(drt, b, c, last_ld, last_x, out.clutter);
+      return out;
+    };
+    const Run paper = run(false, true), gather = run(true, true), five = run(true, false);
+    PathTracerSettings pt;
+    pt.paths = 256;
+    pt.bounces = 16;
+    pt.light_vertex_sources = level_light_centres(s.description);
+    const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
+    const SurfaceAlbedo surface_albedo = level_surface_albedo(scene, s.description);
+    const LevelSampleGeometry& g = scene.samples();
+    const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, surface_albedo, pt);
+    const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
+    std::vector<glm::dvec3> cp, cn;
+    clutter_texel_points(s.clutter, cp, cn);
+    const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, surface_albedo, pt);
+    const std::vector<std::uint8_t> none(cp.size(), 0);
+    const double scene_paper = rel_l2(paper.lightmap, truth.value, skip),
+                 scene_gather = rel_l2(gather.lightmap, truth.value, skip),
+                 scene_five = rel_l2(five.lightmap, truth.value, skip);
+    const double clutter_paper = rel_l2(paper.clutter, clutter_truth.value, none),
+                 clutter_gather = rel_l2(gather.clutter, clutter_truth.value, none),
+                 clutter_five = rel_l2(five.clutter, clutter_truth.value, none);
+    std::printf(
+        "%zu objects, converged against 16 bounces: scene relL2 paper operators %.4f, gather %.4f (5 bounces "
+        "%.4f); clutter %.4f, %.4f (%.4f); truth noise %.4f / %.4f\n",
+        s.clutter.size(), scene_paper, scene_gather, scene_five, clutter_paper, clutter_gather, clutter_five,
+        noise_floor(truth, skip), noise_floor(clutter_truth, {}));
+    EXPECT_LE(scene_gather, scene_paper + 0.005);
+    EXPECT_LE(clutter_gather, 0.15);
+    EXPECT_LT(scene_gather, scene_five);
+    EXPECT_LT(clutter_gather, clutter_five);
   }
 }
 

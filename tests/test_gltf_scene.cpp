@@ -914,7 +914,7 @@ TEST(GltfScene, ClutterSampleBuildsDrtOperators) {
   for (const Mesh& m : r->meshes) drawn += m.clutter >= 0;
   EXPECT_EQ(drawn, 2);
   // The DRT build accepts the objects and its operators pass the runtime's checks; the box
-  // and the pillar see each other across the open side (Cc).
+  // and the pillar see each other across the open side (the gather's Gt).
   Result<Level> level = precompute::build_level(r->level, test::small_test_dictionary());
   ASSERT_TRUE(level.ok()) << level.status().to_string();
   precompute::DrtBuildSettings settings;
@@ -924,7 +924,7 @@ TEST(GltfScene, ClutterSampleBuildsDrtOperators) {
   ASSERT_TRUE(drt.ok()) << drt.status().to_string();
   EXPECT_TRUE(check_drt_operators(level.value(), drt.value()).ok());
   ASSERT_EQ(drt->objects.size(), 2u);
-  EXPECT_FALSE(drt->objects[0].Cc_objects.empty());
+  EXPECT_FALSE(drt->objects[0].Gt.index.empty());
 }
 
 TEST(GltfScene, ClutterErrorsNameTheNode) {

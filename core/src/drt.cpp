@@ -669,13 +669,17 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
                                            std::span<const float> clutter_albedo,
                                            const MultiBounceSettings& settings, std::span<float> b,
                                            std::span<float> r, std::span<float> lightmap, std::span<float> c,
-                                           std::span<float> last_ld, std::span<float> last_clutter_radiance) {
+                                           std::span<float> last_ld, std::span<float> last_clutter_radiance,
+                                           bool from_evaluation) {
   const DrtBufferSizes sizes = drt_buffer_sizes(drt);
   if (c.size() != sizes.c) return Status::error(ErrorCode::invalid_argument, "c: wrong size");
   if (!clutter_albedo.empty())
     if (Status s = validate_light_signal(clutter_albedo, sizes.clutter_texels, "clutter_albedo"); !s.ok())
       return s;
-  if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;
+  std::vector<float> c_given;
+  if (from_evaluation) c_given.assign(c.begin(), c.end());
+  if (Status s = drt_compute_c(drt, clutter_ld, c); !s.ok()) return s;  // validates clutter_ld
+  if (from_evaluation) std::copy(c_given.begin(), c_given.end(), c.begin());
   if (!last_ld.empty() && last_ld.size() != ld_direct.size())
     return Status::error(ErrorCode::invalid_argument, "last_ld: wrong size");
   if (!last_clutter_radiance.empty() && last_clutter_radiance.size() != sizes.clutter_ld)
@@ -707,7 +711,8 @@ Result<MultiBounceReport> drt_multi_bounce(const Level& level, const Dictionary&
     clamp_lightmap(lightmap);  // the corrected lightmap is a lightmap too (reference_runtime.h)
     return Status::success();
   };
-  if (Status s = evaluate(); !s.ok()) return s;
+  if (!from_evaluation)
+    if (Status s = evaluate(); !s.ok()) return s;
   for (int it = 1; it <= settings.max_iterations; ++it) {
     if (!rho_c.empty()) {
       drt_clutter_indirect(drt, b, c, ld, clutter_radiance, indirect);

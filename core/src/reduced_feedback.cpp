@@ -307,6 +307,10 @@ void reference_gemv_channels(const ChannelMatrix& M, const float* in, float* out
   }
 }
 
+const DrtOperators* reduced_solve_clutter(const DrtOperators* drt) {
+  return drt && !drt->has_gather() ? drt : nullptr;
+}
+
 Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Dictionary& dict,
                                                const LevelDependencies& deps, std::span<const float> rho,
                                                const ReducedApply& apply, const DrtOperators* drt,
@@ -316,12 +320,11 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
                          "reduced feedback: albedo has " + std::to_string(rho.size()) + " floats, expected " +
                              std::to_string(3 * std::size_t(level.sample_count)));
   // The gather's terms read ld and the clutter's light directly, not through b and c.
-  if (drt && drt->has_gather())
+  if (drt && reduced_solve_clutter(drt) != drt)
     return Status::error(
         ErrorCode::invalid_argument,
         "reduced feedback: the clutter operators gather the real radiance (DrtObjectOperators::Gs, "
-        "Hs), which the reduced solve in b and c cannot express: use multi_bounce_step(), or build "
-        "the operators with DrtBuildSettings::gather = false");
+        "Hs), which the reduced solve in b and c cannot express (reduced_solve_clutter)");
   // M itself: A = Td_b diag(rho) Ub per block, B = Td_b diag(rho) Ur turned per slot.
   ReducedFeedback plain;
   plain.kb = level.kb, plain.kr = level.kr, plain.block_jacobi = false;
@@ -685,7 +688,8 @@ Result<ConvergedBounceReport> converged_bounce(
     const char* who, const Level& level, const Dictionary& dict, const DrtOperators* drt,
     std::span<const float> ld_direct, std::span<const float> albedo, std::span<const float> clutter_ld,
     std::span<const float> clutter_albedo, const ConvergedBounceSettings& settings, std::span<float> b,
-    std::span<float> r, std::span<float> lightmap, std::span<float> c) {
+    std::span<float> r, std::span<float> lightmap, std::span<float> c, std::span<float> last_ld,
+    std::span<float> last_clutter_radiance) {
   if (Status s = check_max_albedo(settings.max_albedo, who); !s.ok()) return s;
   if (Status s = validate_light_signal(albedo, level.sample_count, "albedo"); !s.ok()) return s;
   if (drt) {
@@ -706,7 +710,8 @@ Result<ConvergedBounceReport> converged_bounce(
   if (!rho_c.empty())
     report.albedo_clamped |= clamp_albedo(clutter_albedo, settings.max_albedo, rho_c).clamped;
   const LevelDependencies deps = level_dependencies(level);
-  Result<ReducedFeedback> op = build_reduced_feedback(level, dict, deps, rho, {}, drt, rho_c);
+  Result<ReducedFeedback> op =
+      build_reduced_feedback(level, dict, deps, rho, {}, reduced_solve_clutter(drt), rho_c);
   if (!op.ok()) return op.status();
   report.spectral_radius = op->spectral_radius;
   report.damping = op->damping;
@@ -737,7 +742,21 @@ Result<ConvergedBounceReport> converged_bounce(
     level_compute_tile(level, dict, deps, b, r, i, lightmap);
   if (drt) {
     drt_apply(level, *drt, b, c, lightmap);
+    drt_apply_gather(*drt, ld_direct, clutter_ld, lightmap);
     clamp_lightmap(lightmap);
+  }
+  if (!last_ld.empty()) std::copy(ld_direct.begin(), ld_direct.end(), last_ld.begin());
+  if (!last_clutter_radiance.empty())
+    std::copy(clutter_ld.begin(), clutter_ld.end(), last_clutter_radiance.begin());
+  if (drt && !with_clutter && drt->has_gather()) {  // the steps with the clutter (drt.h)
+    MultiBounceSettings steps;
+    steps.max_iterations = kGatherConvergedSteps;
+    steps.tolerance = 0.0f;
+    steps.max_albedo = settings.max_albedo;
+    Result<MultiBounceReport> fed =
+        drt_multi_bounce(level, dict, *drt, ld_direct, albedo, clutter_ld, clutter_albedo, steps, b, r,
+                         lightmap, c, last_ld, last_clutter_radiance, true);
+    if (!fed.ok()) return fed.status();
   }
   return report;
 }
@@ -751,16 +770,17 @@ Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const D
                                                      std::span<float> b, std::span<float> r,
                                                      std::span<float> lightmap) {
   return converged_bounce("level_converged_bounce", level, dict, nullptr, ld_direct, albedo, {}, {}, settings,
-                          b, r, lightmap, {});
+                          b, r, lightmap, {}, {}, {});
 }
 
 Result<ConvergedBounceReport> drt_converged_bounce(
     const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
     std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
     const ConvergedBounceSettings& settings, std::span<float> b, std::span<float> r,
-    std::span<float> lightmap, std::span<float> c) {
+    std::span<float> lightmap, std::span<float> c, std::span<float> last_ld,
+    std::span<float> last_clutter_radiance) {
   return converged_bounce("drt_converged_bounce", level, dict, &drt, ld_direct, albedo, clutter_ld,
-                          clutter_albedo, settings, b, r, lightmap, c);
+                          clutter_albedo, settings, b, r, lightmap, c, last_ld, last_clutter_radiance);
 }
 
 }  // namespace modrt

@@ -452,10 +452,7 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
   if (!stage_solve_available())
     return refused(std::string(fn) + ": no converged solve" + (drt_ ? " with clutter" : "") +
                    " in this backend: use multi_bounce_step()");
-  if (gather_)
-    return refused(std::string(fn) +
-                   ": the clutter operators gather the real radiance (DrtObjectOperators::Gs, Hs), which the "
-                   "reduced solve in b and c cannot express: use multi_bounce_step()");
+
   if (!has_albedo_) return refused(std::string(fn) + ": call set_albedo first");
   if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
     return refused(std::string(fn) + ": tolerance must be in (0, 1) and max_iterations at least 1");
@@ -468,7 +465,7 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
         [this](const ReducedFeedback& o, std::span<const float> x, std::span<float> y) {
           stage_reduced_apply(o, x, y);
         },
-        drt_, rho_c_);
+        reduced_solve_clutter(drt_), rho_c_);
     if (!op.ok()) return op.status();
     reduced_.emplace(std::move(op).value());
     const std::size_t unknowns = reduced_->unknowns(level_);
@@ -476,7 +473,7 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
       solver_ =
           ReducedSolver::create(unknowns, ReducedSolver::kMaxHistory, 3 * std::size_t(level_.kb), sizes_.r);
     x_.assign(unknowns, 0.0f);
-    if (drt_) clutter_scratch_.allocate(level_, level_.kb, *drt_);
+    if (reduced_->clutter.drt) clutter_scratch_.allocate(level_, level_.kb, *drt_);
     warm_ = false;
     converged_.spectral_radius = reduced_->spectral_radius;
     converged_.damping = reduced_->damping;
@@ -522,6 +519,13 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
   }
   count(work);
   updated_ = true;
+  // Gather operators: the solve left the clutter out (reduced_solve_clutter); its light and
+  // shadows bounce on in kGatherConvergedSteps feedback steps (drt.h, drt_converged_bounce).
+  if (gather_)
+    for (int step = 0; step < kGatherConvergedSteps; ++step)
+      if (Status fed = texture ? multi_bounce_step_from_texture(ld_texture) : multi_bounce_step(ld_direct);
+          !fed.ok())
+        return fed;
   return Status::success();
 }
 

@@ -122,6 +122,8 @@ class Backend {
   // (invalid_argument) by a backend without a reduced solve (none today). With clutter
   // the solve includes the clutter's c (its light fed back with set_clutter_albedo's albedo, DRT
   // deltas in the feedback: drt_converged_bounce); set_clutter / set_clutter_albedo rebuild it.
+  // With clutter operators that gather the real radiance the solve leaves the clutter out and
+  // kGatherConvergedSteps multi_bounce_step()s with it follow (drt.h, drt_converged_bounce).
   // GLES solves on the GPU from b0 with an a-priori iteration count (staged_backend.h).
   virtual Status update_converged(std::span<const float> ld_direct,
                                   const ReducedSolveSettings& settings = {}) {
@@ -138,8 +140,7 @@ class Backend {
                          std::string(backend_kind_name(kind())) + ": no converged solve from a texture");
   }
   virtual ConvergedStats converged_stats() const { return {}; }
-  // Whether update_converged can run (a backend with a reduced solve, and no clutter operators
-  // that gather the real radiance: DrtObjectOperators::has_gather).
+  // Whether update_converged can run (a backend with a reduced solve).
   virtual bool converged_available() const { return false; }
 
   // Skip what the camera cannot see (issue 20): visible[i] != 0 marks block i potentially

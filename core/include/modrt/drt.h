@@ -306,6 +306,15 @@ void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const floa
                                    std::span<const float> clutter_direct, std::span<float> out,
                                    std::span<float> indirect = {});
 
+// The converged multi-bounce with gather operators (docs/drt.md "The real-radiance gather"):
+// the reduced solve in b and c cannot express the gather (it reads ld and the clutter's light,
+// not b and c), so it converges the level without the clutter's terms, and this many feedback
+// steps with the clutter (drt_multi_bounce's, from that evaluation) follow. The clutter changes
+// the light locally and each step carries its error on with at most the largest albedo: after
+// three, what is left of it is rho^3 (0.34 at rho 0.7) of the clutter's own share, against
+// the whole scene's rho^5 / (1 - rho) that five feedback steps from the direct light leave.
+inline constexpr int kGatherConvergedSteps = 3;
+
 // Multi-bounce with clutter (docs/drt.md, "Multi-bounce"): level_multi_bounce where every
 // evaluation is followed by drt_apply(b, c), so the feedback reads the lightmap with the DRT
 // delta (shadows and clutter light bounce on). c starts as Td_c clutter_ld (the clutter's
@@ -319,13 +328,17 @@ void drt_evaluate_clutter_lightmap(const DrtOperators& drt, std::span<const floa
 // and x_t the clutter's light (clutter_ld, or with clutter_albedo its fed-back light, the
 // previous evaluation's indirect light drt_clutter_indirect fed back); last_ld and
 // last_clutter_radiance, when not empty (3 per sample, 3 per clutter texel), receive the last
-// evaluation's, the inputs of its clutter lightmap (drt_evaluate_clutter_lightmap).
+// evaluation's, the inputs of its clutter lightmap (drt_evaluate_clutter_lightmap). With
+// from_evaluation, b, r, lightmap and c on entry are already an evaluation of ld_direct and
+// clutter_ld (its deltas included, the lightmap clamped): it is not recomputed, and the
+// iterations continue from it (the converged solve's steps, kGatherConvergedSteps).
 // The oracle for the backends' multi_bounce_step with clutter; allocates per call.
 Result<MultiBounceReport> drt_multi_bounce(
     const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
     std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
     const MultiBounceSettings& settings, std::span<float> b, std::span<float> r, std::span<float> lightmap,
-    std::span<float> c, std::span<float> last_ld = {}, std::span<float> last_clutter_radiance = {});
+    std::span<float> c, std::span<float> last_ld = {}, std::span<float> last_clutter_radiance = {},
+    bool from_evaluation = false);
 
 // The clutter's light for the next bounce: out = clutter_ld + rho_c * min(max(indirect, 0),
 // bound), rho_c the clutter albedo clamped to max_albedo and indirect = Cb b + Cc c of the

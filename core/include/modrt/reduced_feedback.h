@@ -106,6 +106,12 @@ struct ReducedFeedback {
   }
 };
 
+// The clutter the reduced solve includes: `drt`, or none for operators that gather the real
+// radiance (DrtObjectOperators::has_gather: their terms read ld and the clutter's light, which
+// the unknowns b and c do not carry; the converged update then takes kGatherConvergedSteps
+// feedback steps with the clutter after the solve, drt.h).
+const DrtOperators* reduced_solve_clutter(const DrtOperators* drt);
+
 // Builds the operators from the clamped albedo rho (3 x samples, validated: finite, in [0, 1))
 // in double (per-face products where rho is constant per face), stores float, and estimates
 // the radii (header) by 24 power iterations each through `apply`
@@ -388,11 +394,16 @@ Result<ConvergedBounceReport> level_converged_bounce(const Level& level, const D
 // update_converged with clutter: drt_multi_bounce's fixed point (without its clamps) in the
 // reduced space, b* and c* (3 per clutter face), r of the last application, and the lightmap
 // Ub b* + Ur r + dUb b* + dUc c* clamped at 0. clutter_albedo may be empty (c* = Td_c clutter_ld).
-// Allocates per call.
+// With gather operators (reduced_solve_clutter): the level's solve without the clutter, its
+// evaluation with the clutter's deltas (x_s = ld_direct, x_t = clutter_ld), then
+// kGatherConvergedSteps steps of drt_multi_bounce from it; last_ld and last_clutter_radiance
+// (when not empty) receive the last evaluation's x_s and x_t (ld_direct and clutter_ld without
+// the gather), the inputs of drt_evaluate_clutter_lightmap. Allocates per call.
 Result<ConvergedBounceReport> drt_converged_bounce(
     const Level& level, const Dictionary& dict, const DrtOperators& drt, std::span<const float> ld_direct,
     std::span<const float> albedo, std::span<const float> clutter_ld, std::span<const float> clutter_albedo,
     const ConvergedBounceSettings& settings, std::span<float> b, std::span<float> r,
-    std::span<float> lightmap, std::span<float> c);
+    std::span<float> lightmap, std::span<float> c, std::span<float> last_ld = {},
+    std::span<float> last_clutter_radiance = {});
 
 }  // namespace modrt

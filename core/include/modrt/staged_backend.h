@@ -128,9 +128,7 @@ class StagedBackend : public Backend {
   Status update_converged_from_texture(std::uint32_t ld_texture,
                                        const ReducedSolveSettings& settings = {}) final;
   ConvergedStats converged_stats() const final { return converged_; }
-  // Not with clutter operators that gather the real radiance (the reduced solve in b and c
-  // cannot express them; the frame pipeline then runs its feedback steps).
-  bool converged_available() const final { return stage_solve_available() && !gather_; }
+  bool converged_available() const final { return stage_solve_available(); }
   Status read_lightmap(std::span<float> lightmap) final;
   Status read_atlas(std::span<float> atlas) final;
   Status read_probes(std::span<float> probes) final;
