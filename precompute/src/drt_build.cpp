@@ -485,7 +485,8 @@ struct DrtBuilder::Pass {
       }
       if (wall.block >= 0) gather.add(wall, w);
     }
-    gather.flush(result.cb, records() ? &result.samples : nullptr);
+    // The gather builds no Cb: its texels keep the weights alone.
+    gather.flush(result.cb, records() ? &result.samples : nullptr, !b.settings_.gather);
     std::sort(result.cc.begin(), result.cc.end());
     merge_sorted_duplicates(result.texels);
     return result;

@@ -393,11 +393,17 @@ class LimpGather {
   // Adds the gathered Limp rows to `rows` and clears the gather. Samples are taken in the
   // order the rays first touched them, fixed by the work item's directions, so the sums do
   // not depend on scheduling. `samples`, when given, also receives each touched sample's
-  // weight itself (DrtBuildSettings::sample_gather), ascending by sample.
-  void flush(BlockRows& rows, std::vector<std::pair<std::uint32_t, float>>* samples = nullptr) {
+  // weight itself (DrtBuildSettings::gather or sample_gather), ascending by sample. Without
+  // `with_limp` the Limp rows are not formed (the gather's clutter texels need the weights alone).
+  void flush(BlockRows& rows, std::vector<std::pair<std::uint32_t, float>>* samples = nullptr, bool with_limp = true) {
     if (samples) {
       for (std::size_t idx : touched_) samples->emplace_back(std::uint32_t(idx), float(weight_[idx]));
       std::sort(samples->begin(), samples->end());
+    }
+    if (!with_limp) {
+      for (std::size_t idx : touched_) weight_[idx] = 0.0, touched_flag_[idx] = 0;
+      touched_.clear();
+      return;
     }
     for (std::size_t idx : touched_) {
       const int blk = sample_block_[idx];
