@@ -168,6 +168,9 @@ struct DrtBuilder::Pass {
 
   std::span<const glm::dvec3> sets() const { return b.direction_sets_; }
   int rays() const { return int(b.direction_sets_.size() / kDirectionSets); }
+  // The clutter texels' cosine-weighted sets (DrtBuildSettings::max_clutter_rays).
+  std::span<const glm::dvec3> texel_sets() const { return b.texel_sets(); }
+  int texel_rays() const { return int(texel_sets().size() / kDirectionSets); }
 
   // dUb and dUc (DRT §4.1, §4.2) of every object at scene sample s: cosine-weighted gather
   // rays; a ray that enters an object before any wall is light that object takes away (the
@@ -462,10 +465,10 @@ struct DrtBuilder::Pass {
     const glm::dvec3 n = cg.normal[i];
     glm::dvec3 x;
     if (!texel_candidates(k, cg.position[i], n, cand, x)) return result;
-    texel_directions(sets(), b.settings_.seed ^ 0x436200ull, texel_stream(k, i), n, dirs);
+    texel_directions(texel_sets(), b.settings_.seed ^ 0x436200ull, texel_stream(k, i), n, dirs);
     walls.resize(dirs.size());
     b.walls_.intersect_many(x, dirs, walls);
-    const double w = 1.0 / rays();
+    const double w = 1.0 / texel_rays();
     for (std::size_t r = 0; r < dirs.size(); ++r) {
       const LevelHit& wall = walls[r];
       if (!cand.empty()) {
@@ -562,11 +565,11 @@ struct DrtBuilder::Pass {
   // rays whose nearest object can change). Exact: an item for which this is false for a
   // box's old and new place gives the same result before and after the move.
   bool depends_on(const ObjectQuery& query, const glm::dvec3& p, const glm::dvec3& origin,
-                  const glm::dvec3& n, std::uint64_t seed, std::uint64_t stream,
-                  std::vector<glm::dvec3>& dirs) const {
+                  const glm::dvec3& n, std::span<const glm::dvec3> direction_sets, std::uint64_t seed,
+                  std::uint64_t stream, std::vector<glm::dvec3>& dirs) const {
     if (query.contains(p, n)) return true;
     if (b.settings_.cull && !query.in_front(p, n)) return false;
-    texel_directions(sets(), seed, stream, n, dirs);
+    texel_directions(direction_sets, seed, stream, n, dirs);
     const std::vector<ObjectQuery> one{query};
     Candidates cand;
     cand.add(0, query, origin);
@@ -592,11 +595,11 @@ struct DrtBuilder::Pass {
   }
   bool sample_depends_on(std::size_t s, const ObjectQuery& query, std::vector<glm::dvec3>& dirs) const {
     const LevelSampleGeometry& g = b.walls_.samples();
-    return depends_on(query, g.position[s], g.position[s], g.normal[s], b.settings_.seed, s, dirs);
+    return depends_on(query, g.position[s], g.position[s], g.normal[s], sets(), b.settings_.seed, s, dirs);
   }
   bool texel_depends_on(std::size_t k, std::size_t i, const ClutterTexelGeometry& cg,
                         const ObjectQuery& query, std::vector<glm::dvec3>& dirs) const {
-    return depends_on(query, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i],
+    return depends_on(query, cg.position[i], cg.position[i] + 1e-6 * cg.normal[i], cg.normal[i], texel_sets(),
                       b.settings_.seed ^ 0x436200ull, texel_stream(k, i), dirs);
   }
   // The same for the vector clutter pass's rays of texel i of object k.
@@ -1044,6 +1047,8 @@ Status validate_drt_build_settings(const DrtBuildSettings& s) {
     return bad("clutter_prior_modes", std::to_string(s.clutter_prior_modes), range(0, kMaxDrtModeCap));
   if (s.clutter_prior_grid < 1 || std::int64_t(s.clutter_prior_grid) > std::int64_t(kMaxSettingsPriorGrid))
     return bad("clutter_prior_grid", std::to_string(s.clutter_prior_grid), range(1, kMaxSettingsPriorGrid));
+  if (s.max_clutter_rays < 0 || std::int64_t(s.max_clutter_rays) > std::int64_t(kMaxSettingsRays))
+    return bad("max_clutter_rays", std::to_string(s.max_clutter_rays), range(0, kMaxSettingsRays));
   if (!(s.drop_tolerance >= 0.0 && s.drop_tolerance <= 1.0))
     return bad("drop_tolerance", std::to_string(s.drop_tolerance), "[0, 1]");
   return Status::success();
@@ -1057,6 +1062,9 @@ DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuil
       walls_(level, level.res) {
   if (!settings_status_.ok()) return;  // build and rebuild_object report it; nothing allocated
   direction_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x736574ull);
+  // The texels' own sets only when they have fewer rays (else the same sets as the samples).
+  if (settings.max_clutter_rays > 0 && settings.max_clutter_rays < settings.rays)
+    texel_sets_ = make_direction_sets(settings.max_clutter_rays, settings.seed ^ 0x746578ull);
   if (settings.vector)
     uniform_sets_ = make_direction_sets(settings.rays, settings.seed ^ 0x756e69ull, Directions::hemisphere);
   if (settings.probes)

@@ -76,6 +76,7 @@ void hash_settings(Fnv& f, const DrtBuildSettings& s) {
   f.value(s.clutter_prior_grid);
   f.value(s.seed);
   f.value(std::uint8_t(s.gather));
+  f.value(s.max_clutter_rays);
   // sample_gather is left out: it keeps extra data in the DrtBuildState, the operators are
   // the same.
 }

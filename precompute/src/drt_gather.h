@@ -395,7 +395,8 @@ class LimpGather {
   // not depend on scheduling. `samples`, when given, also receives each touched sample's
   // weight itself (DrtBuildSettings::gather or sample_gather), ascending by sample. Without
   // `with_limp` the Limp rows are not formed (the gather's clutter texels need the weights alone).
-  void flush(BlockRows& rows, std::vector<std::pair<std::uint32_t, float>>* samples = nullptr, bool with_limp = true) {
+  void flush(BlockRows& rows, std::vector<std::pair<std::uint32_t, float>>* samples = nullptr,
+             bool with_limp = true) {
     if (samples) {
       for (std::size_t idx : touched_) samples->emplace_back(std::uint32_t(idx), float(weight_[idx]));
       std::sort(samples->begin(), samples->end());

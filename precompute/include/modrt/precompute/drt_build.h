@@ -33,7 +33,13 @@
 namespace modrt::precompute {
 
 struct DrtBuildSettings {
-  int rays = 1024;      // cosine-weighted stratified rays per scene sample and clutter texel
+  int rays = 1024;  // cosine-weighted stratified rays per scene sample and clutter texel
+  // At most this many rays per clutter texel (Cb, Cc, the gather's Gs / Gt; not the vector
+  // pass): min(rays, max_clutter_rays), 0 = rays. The clutter pass is nine tenths of a build,
+  // and a texel's gather is an integral over the hemisphere that 512 rays estimate within the
+  // path tracer's noise (docs/drt.md "Build time"), while the scene's shadow deltas keep 1024
+  // (their mottling shows at 256, docs/demo.md).
+  int max_clutter_rays = 512;
   int cb_modes = 5;     // modes kept of Cb's SVD (DRT §5: "5 x 16^2 values per clutter face")
   bool inpaint = true;  // DRT §5: samples inside clutter take their neighbours' shadowed Ub
   bool cull = true;     // box-behind-the-plane culling (exact; off only to test that it is)
@@ -74,8 +80,8 @@ struct DrtBuildSettings {
   std::uint64_t seed = 0x647274ull;
 };
 
-// rays in [1, kMaxSettingsRays], clutter_prior_grid in [1, kMaxSettingsPriorGrid]
-// (dictionary.h), cb_modes in [1, kMaxDrtModeCap] and clutter_prior_modes in [0,
+// rays in [1, kMaxSettingsRays], max_clutter_rays in [0, kMaxSettingsRays], clutter_prior_grid in [1,
+// kMaxSettingsPriorGrid] (dictionary.h), cb_modes in [1, kMaxDrtModeCap] and clutter_prior_modes in [0,
 // kMaxDrtModeCap] (caps: each is min'ed with the rank found, so a value above it keeps every
 // mode and sizes nothing), drop_tolerance in [0, 1]; invalid_argument naming the setting.
 // DrtBuilder checks it before allocating anything; build and rebuild_object return its error.
@@ -166,6 +172,11 @@ class DrtBuilder {
   // Cosine-weighted stratified direction sets in the local frame (z = normal), shared by the
   // gathers (drt_build.cpp, DirectionSets).
   std::vector<glm::dvec3> direction_sets_;
+  // The clutter texels' (max_clutter_rays below rays), else empty: they use direction_sets_.
+  std::vector<glm::dvec3> texel_sets_;
+  std::span<const glm::dvec3> texel_sets() const {
+    return texel_sets_.empty() ? direction_sets_ : texel_sets_;
+  }
   std::vector<glm::dvec3> uniform_sets_;  // the same, uniform over the hemisphere (vector)
   std::vector<glm::dvec3> sphere_sets_;   // the same, uniform over the sphere (probes)
 };
