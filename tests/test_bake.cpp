@@ -342,6 +342,10 @@ TEST(Bake, EverySettingsStructBoundsItsCounts) {
   EXPECT_EQ(validate_drt_build_settings(drt).message(),
             "DRT build settings: cb_modes = 0: must be in [1, 1048576]");
   drt = {};
+  drt.max_clutter_rays = -1;
+  EXPECT_EQ(validate_drt_build_settings(drt).message(),
+            "DRT build settings: max_clutter_rays = -1: must be in [0, 1048576]");
+  drt = {};
   drt.clutter_prior_grid = 100000;
   EXPECT_EQ(validate_drt_build_settings(drt).message(),
             "DRT build settings: clutter_prior_grid = 100000: must be in [1, 16]");

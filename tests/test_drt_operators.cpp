@@ -410,6 +410,37 @@ TEST(Drt, DroppedDUbRowsStayWithinTheirBound) {
               report.dropped_rows, rows_all, all.storage_bytes(), kept.storage_bytes());
 }
 
+// max_clutter_rays caps the clutter texels' rays alone: 0 or a cap at or above `rays` gives the
+// same operators bit for bit; a lower cap changes the clutter rows (Gs, Gt) and leaves the
+// scene's (H_sample, Hs, Ht, dUb, dUc) as they were; every texel row's weights sum to at most 1
+// (each ray at most one hit, bilinear taps summing to its weight).
+TEST(Drt, MaxClutterRaysCapsTheTexelRaysOnly) {
+  const ClutterScene s = box_room_two_boxes();
+  const Level level = build_level(s.description, dict()).value();
+  const auto build = [&](int cap) {
+    DrtBuildSettings settings;
+    settings.rays = 128;
+    settings.max_clutter_rays = cap;
+    return DrtBuilder(level, dict(), settings).build(s.clutter).value();
+  };
+  const DrtOperators all = build(0), same = build(128), above = build(4096), capped = build(32);
+  for (std::size_t k = 0; k < all.objects.size(); ++k) {
+    const DrtObjectOperators &a = all.objects[k], &c = capped.objects[k];
+    EXPECT_TRUE(operators_equal(a, same.objects[k]));
+    EXPECT_TRUE(operators_equal(a, above.objects[k]));
+    EXPECT_FALSE(sparse_equal(a.Gs, c.Gs));
+    EXPECT_TRUE(a.H_sample == c.H_sample && sparse_equal(a.Hs, c.Hs) && sparse_equal(a.Ht, c.Ht));
+    EXPECT_EQ(a.dUb.data, c.dUb.data);
+    for (const DrtObjectOperators* o : {&a, &c})
+      for (std::uint32_t t = 0; t < o->texel_count; ++t) {
+        double sum = 0.0;
+        for (std::uint32_t e = o->Gs.start[t]; e < o->Gs.start[t + 1]; ++e) sum += o->Gs.weight[e];
+        for (std::uint32_t e = o->Gt.start[t]; e < o->Gt.start[t + 1]; ++e) sum += o->Gt.weight[e];
+        ASSERT_LE(sum, 1.0 + 1e-5) << "object " << k << " texel " << t;
+      }
+  }
+}
+
 // Objects see each other, so moving one changes the others' operators; the incremental
 // rebuild re-traces what the move can change and equals a full build bit for bit, over a
 // sequence of moves of different objects (one of them a turn and a new face mask).
