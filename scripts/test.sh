@@ -117,7 +117,7 @@ ctest_args=(--output-on-failure -j2 --timeout 900)
 # - the SSE4.1 and AVX2 backends on one thread: their kernels run on two threads, and the
 #   one-thread partition runs in the scalar backend (~125 s); the scalar backend on two threads:
 #   its kernels run on one, and the two-thread partition with SSE4.1 and AVX2 (~75 s);
-# - the accuracy comparisons against ray-traced references (DRT's four against the path tracer,
+# - the accuracy comparisons against ray-traced references (DRT's five against the path tracer,
 #   LevelAccuracy's against the one-bounce reference, the imported flat's against the path tracer
 #   on its triangles): the tracers, the DRT build, the import and the demo's frame run under
 #   ASan in the shorter DRT, path-tracer, level, import and demo tests (~190 s);
@@ -163,6 +163,7 @@ asan_excluded=(
   'Drt.LowersTheError*'
   'Drt.MultiBounceLowersTheError*'
   'DrtMesh.LowersTheError*'
+  'Drt.ConvergedGatherAgainstAManyBouncePathTracer'
   'LevelAccuracy.InterfaceTransportMatchesOneBounceReference'
   'DemoRender.AnimatedLightFollowsItsTrack'
   'LevelAccuracy.ResponseIsZeroWithoutAPathAndNonZeroWithOne'
