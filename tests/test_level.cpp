@@ -15,6 +15,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 
+#include "modrt/level_geometry.h"
 #include "modrt/level_runtime.h"
 #include "modrt/precompute/level_build.h"
 #include "modrt/precompute/level_scene.h"
@@ -246,6 +247,56 @@ TEST(LevelSymmetry, MirrorImageAgreesWithinDiscretisation) {
 }
 
 // Bilinear lookups at every point of every shared tile edge agree from both sides.
+// level_sample_area: a closed unit cube's samples sum to 6, each face's to 1; two blocks
+// joined along x lose the shared faces (5 each); a block warped to 2 x 1 x 0.5 sums to its
+// box's area (2 (2 + 1 + 0.5)); level_block_means weighs each sample by its area (a signal
+// constant per face gives the faces' area-weighted mean) and is 0 for a zero signal.
+TEST(LevelGeometry, SampleAreasSumToTheFacesAndBlockMeansWeighThem) {
+  LevelDescription d;
+  BlockDescription cube;
+  d.blocks.push_back(cube);  // (0, 0, 0): closed
+  BlockDescription a, b;
+  a.cell = glm::ivec3(3, 0, 0);
+  a.faces = FaceMask(kAllFaces & ~(1u << kFacePosX));
+  b.cell = glm::ivec3(4, 0, 0);
+  b.faces = FaceMask(kAllFaces & ~(1u << kFaceNegX));
+  d.blocks.push_back(a);
+  d.blocks.push_back(b);
+  BlockDescription warped;
+  warped.cell = glm::ivec3(0, 0, 5);
+  warped.warped = true;
+  for (int i = 0; i < 8; ++i)
+    warped.corners[std::size_t(i)] =
+        glm::dvec3(0, 0, 5) + glm::dvec3(2.0 * (i & 1), (i >> 1) & 1, 0.5 * ((i >> 2) & 1));
+  d.blocks.push_back(warped);
+  const Level level = build(d);
+  ASSERT_EQ(level.blocks.size(), 4u);
+  const std::vector<double> area = level_sample_area(level);
+  const auto block_area = [&](std::size_t i) {
+    double sum = 0.0;
+    for (std::uint32_t s = 0; s < level.blocks[i].sample_count; ++s)
+      sum += area[level.blocks[i].sample_offset + s];
+    return sum;
+  };
+  EXPECT_NEAR(block_area(0), 6.0, 1e-9);
+  EXPECT_NEAR(block_area(1), 5.0, 1e-9);
+  EXPECT_NEAR(block_area(2), 5.0, 1e-9);
+  EXPECT_NEAR(block_area(3), 2.0 * (2.0 + 1.0 + 0.5), 1e-9);
+  // A signal of 1 on the warped block's two 2 x 1 faces (z = const) and 0 elsewhere: its mean is
+  // their share of the area, 4 / 7; the red channel only.
+  const LevelSampleGeometry g = level_sample_geometry(level);
+  std::vector<float> signal(3 * std::size_t(level.sample_count), 0.0f);
+  for (std::size_t s = 0; s < g.position.size(); ++s)
+    if (g.block[s] == 3 && std::abs(g.normal[s].z) > 0.99) signal[3 * s] = 1.0f;
+  const std::vector<double> means = level_block_means(level, signal);
+  ASSERT_EQ(means.size(), 12u);
+  EXPECT_NEAR(means[9], 4.0 / 7.0, 1e-6);
+  EXPECT_EQ(means[10], 0.0);
+  for (std::size_t i = 0; i < 9; ++i) EXPECT_EQ(means[i], 0.0);
+  std::fill(signal.begin(), signal.end(), 0.25f);
+  for (double m : level_block_means(level, signal)) EXPECT_NEAR(m, 0.25, 1e-6);
+}
+
 TEST(LevelSeams, BilinearLookupsAgreeAcrossEveryEdge) {
   const LevelDescription maze = maze_level(11).value();
   const Level level = build(maze);

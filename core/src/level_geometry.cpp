@@ -70,6 +70,45 @@ LevelSampleGeometry level_sample_geometry(const Level& level) {
   return g;
 }
 
+std::vector<double> level_sample_area(const Level& level) {
+  std::vector<double> area(level.sample_count, 0.0);
+  const double res = double(level.res);
+  for (const LevelBlock& b : level.blocks) {
+    const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);
+    for (int s = 0; s < layout.sample_count(); ++s) {
+      const int f = layout.face_of(s);
+      const int t = s % layout.texels_per_face();
+      const double u0 = (t % level.res) / res, v0 = (t / level.res) / res, u1 = u0 + 1.0 / res,
+                   v1 = v0 + 1.0 / res;
+      const glm::dvec3 p00 = block_to_world(b, face_point(f, u0, v0)),
+                       p10 = block_to_world(b, face_point(f, u1, v0)),
+                       p01 = block_to_world(b, face_point(f, u0, v1)),
+                       p11 = block_to_world(b, face_point(f, u1, v1));
+      area[b.sample_offset + std::size_t(s)] = 0.5 * (glm::length(glm::cross(p10 - p00, p11 - p00)) +
+                                                      glm::length(glm::cross(p11 - p00, p01 - p00)));
+    }
+  }
+  return area;
+}
+
+std::vector<double> level_block_means(const Level& level, std::span<const float> signal) {
+  std::vector<double> means(3 * level.blocks.size(), 0.0);
+  if (signal.size() < 3 * std::size_t(level.sample_count)) return means;
+  const std::vector<double> area = level_sample_area(level);
+  for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
+    const LevelBlock& b = level.blocks[bi];
+    double sum[3] = {0, 0, 0}, total = 0.0;
+    for (std::uint32_t s = b.sample_offset; s < b.sample_offset + b.sample_count; ++s) {
+      total += area[s];
+      for (int ch = 0; ch < 3; ++ch)
+        sum[ch] += area[s] * double(signal[3 * std::size_t(s) + std::size_t(ch)]);
+    }
+    if (total > 0.0)
+      for (int ch = 0; ch < 3; ++ch) means[3 * bi + std::size_t(ch)] = sum[ch] / total;
+  }
+  return means;
+}
+
 void level_sample_albedo(const Level& level, std::span<float> out) {
   for (const LevelBlock& b : level.blocks) {
     const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(b.shape), level.res);

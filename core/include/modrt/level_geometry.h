@@ -41,4 +41,15 @@ LevelSampleGeometry level_sample_geometry(const Level& level);
 std::vector<float> level_sample_albedo(const Level& level);
 void level_sample_albedo(const Level& level, std::span<float> out);
 
+// World area each level sample stands for: its texel's quad on the face (the four texel
+// corners through block_to_world, two triangles), in level sample order. A unit cell's closed
+// cube sums to 6; a stretched or warped block's faces to their own areas.
+std::vector<double> level_sample_area(const Level& level);
+
+// Per block, the mean of a per-sample RGB signal (3 floats per sample: ld, the indirect
+// lightmap E/pi, ...) weighted by level_sample_area: 3 doubles per block (RGB), in block order,
+// so that levels are compared block by block without images (modrt-level --stats). A block
+// without samples (or of zero area) gets 0. signal must hold 3 x samples floats.
+std::vector<double> level_block_means(const Level& level, std::span<const float> signal);
+
 }  // namespace modrt
