@@ -91,6 +91,33 @@ inline IndirectEstimate clutter_one_bounce_truth(const LevelScene& scene, const 
                         level_surface_albedo(scene, s.description), pt);
 }
 
+// The path tracer's indirect light on the real geometry with the clutter (`paths` paths,
+// `bounces` bounces, light-vertex sources; the accuracy tests' direct-light model): at the
+// level samples, with the mask of those inside clutter (invisible), and at the clutter texels.
+struct ClutterSceneTruth {
+  IndirectEstimate scene, clutter;
+  std::vector<std::uint8_t> skip;           // per level sample: inside clutter
+  std::vector<std::uint8_t> none;           // per clutter texel: 0 (every texel counts)
+  std::vector<glm::dvec3> texels, normals;  // the clutter texels' points
+};
+inline ClutterSceneTruth clutter_scene_truth(const LevelScene& scene, const ClutterScene& s, int paths,
+                                             int bounces) {
+  PathTracerSettings pt;
+  pt.paths = paths;
+  pt.bounces = bounces;
+  pt.light_vertex_sources = level_light_centres(s.description);
+  const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
+  const SurfaceAlbedo albedo = level_surface_albedo(scene, s.description);
+  const LevelSampleGeometry& g = scene.samples();
+  ClutterSceneTruth t;
+  t.scene = trace_indirect(scene, g.position, g.normal, direct, albedo, pt);
+  t.skip = samples_inside_clutter(g, s.clutter);
+  clutter_texel_points(s.clutter, t.texels, t.normals);
+  t.clutter = trace_indirect(scene, t.texels, t.normals, direct, albedo, pt);
+  t.none.assign(t.texels.size(), 0);
+  return t;
+}
+
 // The truth's own relative noise: sqrt(sum se^2 / sum value^2) over the points not skipped.
 inline double noise_floor(const IndirectEstimate& truth, const std::vector<std::uint8_t>& skip) {
   double se = 0, v = 0;
@@ -241,18 +268,11 @@ inline AccuracyResult accuracy(const ClutterScene& s, const char* name,
   drt_apply(level, alone, f.b, c, lightmap_alone);
   drt_clutter_lightmap(alone, f.b, {}, clutter_alone);
 
-  PathTracerSettings pt;
-  pt.paths = 512;
-  pt.bounces = 1;
-  pt.light_vertex_sources = level_light_centres(s.description);
-  const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
-  const SurfaceAlbedo albedo = level_surface_albedo(scene, s.description);
+  const ClutterSceneTruth t = clutter_scene_truth(scene, s, 512, 1);
+  const IndirectEstimate &truth = t.scene, &clutter_truth = t.clutter;
+  const std::vector<std::uint8_t>& skip = t.skip;
+  const std::vector<glm::dvec3>& cp = t.texels;
   const LevelSampleGeometry& g = scene.samples();
-  const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, albedo, pt);
-  const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
-  std::vector<glm::dvec3> cp, cn;
-  clutter_texel_points(s.clutter, cp, cn);
-  const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, albedo, pt);
   const LevelBufferSizes sz = level_buffer_sizes(level, dict());
   std::vector<float> probes(sz.probes);
   level_compute_probes(level, dict(), f.b, f.r, probes);

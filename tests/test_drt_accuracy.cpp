@@ -110,18 +110,10 @@ MultiBounceAccuracy multi_bounce_accuracy(const ClutterScene& s, const char* nam
   EXPECT_TRUE(gm.ok());
   drt_clutter_indirect(gather, b, c_gather, last_ld, last_x, clutter_gather);
 
-  PathTracerSettings pt;
-  pt.paths = 256;
-  pt.bounces = bounces;
-  pt.light_vertex_sources = level_light_centres(s.description);
-  const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
-  const SurfaceAlbedo surface_albedo = level_surface_albedo(scene, s.description);
-  const LevelSampleGeometry& g = scene.samples();
-  const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, surface_albedo, pt);
-  const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
-  std::vector<glm::dvec3> cp, cn;
-  clutter_texel_points(s.clutter, cp, cn);
-  const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, surface_albedo, pt);
+  const ClutterSceneTruth t = clutter_scene_truth(scene, s, 256, bounces);
+  const IndirectEstimate &truth = t.scene, &clutter_truth = t.clutter;
+  const std::vector<std::uint8_t>& skip = t.skip;
+  const std::vector<glm::dvec3>& cp = t.texels;
   MultiBounceAccuracy a;
   a.mrt = rel_l2(mrt, truth.value, skip);
   a.drt = rel_l2(with_drt, truth.value, skip);
@@ -260,19 +252,9 @@ TEST(Drt, ConvergedGatherAgainstAManyBouncePathTracer) {
       return out;
     };
     const Run paper = run(false, true), gather = run(true, true), five = run(true, false);
-    PathTracerSettings pt;
-    pt.paths = 256;
-    pt.bounces = 16;
-    pt.light_vertex_sources = level_light_centres(s.description);
-    const DirectRadiance direct = level_direct_radiance(scene, s.description, 8);
-    const SurfaceAlbedo surface_albedo = level_surface_albedo(scene, s.description);
-    const LevelSampleGeometry& g = scene.samples();
-    const IndirectEstimate truth = trace_indirect(scene, g.position, g.normal, direct, surface_albedo, pt);
-    const std::vector<std::uint8_t> skip = samples_inside_clutter(g, s.clutter);
-    std::vector<glm::dvec3> cp, cn;
-    clutter_texel_points(s.clutter, cp, cn);
-    const IndirectEstimate clutter_truth = trace_indirect(scene, cp, cn, direct, surface_albedo, pt);
-    const std::vector<std::uint8_t> none(cp.size(), 0);
+    const ClutterSceneTruth t = clutter_scene_truth(scene, s, 256, 16);
+    const IndirectEstimate &truth = t.scene, &clutter_truth = t.clutter;
+    const std::vector<std::uint8_t>&skip = t.skip, &none = t.none;
     const double scene_paper = rel_l2(paper.lightmap, truth.value, skip),
                  scene_gather = rel_l2(gather.lightmap, truth.value, skip),
                  scene_five = rel_l2(five.lightmap, truth.value, skip);
