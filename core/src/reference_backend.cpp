@@ -152,21 +152,18 @@ class ReferenceBackend final : public StagedBackend {
                              std::span<const float> clutter_direct) override {
     cl_.set_light(clutter_ld, clutter_direct);
     if (Status s = drt_compute_c(*clutter(), cl_.clutter_ld, cl_.c_direct); !s.ok()) return s;
-    cl_.c = cl_.c_direct;
-    cl_.fed_back = false;
+    cl_.use_direct_light();
     return Status::success();
   }
   Status stage_clutter_albedo(std::span<const float>) override {
-    cl_.c = cl_.c_direct;
-    cl_.fed_back = false;
+    cl_.use_direct_light();
     return Status::success();
   }
   // DRT §4.4: the clutter's indirect light of the last evaluation (cl_.indirect, kept by its
   // clutter lightmap stage) fed back.
   Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
     if (source == ClutterCSource::direct) {
-      cl_.c = cl_.c_direct;
-      cl_.fed_back = false;
+      cl_.use_direct_light();
       return Status::success();
     }
     drt_clutter_feedback(cl_.clutter_ld, clutter_albedo(), cl_.indirect, feedback.bound(), cl_.fed);

@@ -452,7 +452,6 @@ Status StagedBackend::run_converged(bool texture, std::span<const float> ld_dire
   if (!stage_solve_available())
     return refused(std::string(fn) + ": no converged solve" + (drt_ ? " with clutter" : "") +
                    " in this backend: use multi_bounce_step()");
-
   if (!has_albedo_) return refused(std::string(fn) + ": call set_albedo first");
   if (!(settings.tolerance > 0.0f && settings.tolerance < 1.0f) || settings.max_iterations < 1)
     return refused(std::string(fn) + ": tolerance must be in (0, 1) and max_iterations at least 1");

@@ -43,8 +43,8 @@ class CpuBackend final : public StagedBackend {
 
  protected:
   Status stage_ld(std::span<const float> ld, const StageWork&) override {
-    ld_ = ld;       // read in place by stage_b, within this evaluation
-    if (gather_) {  // the gather reads it after the evaluation too (the camera skip's catch-up)
+    ld_ = ld;         // read in place by stage_b, within this evaluation
+    if (gathers()) {  // the gather reads it after the evaluation too (the camera skip's catch-up)
       std::copy(ld.begin(), ld.end(), ld_gather_.begin());
       ld_ = ld_gather_;
     }
@@ -135,7 +135,7 @@ class CpuBackend final : public StagedBackend {
   Status stage_deltas(const StageWork&) override {
     std::copy(base_.begin(), base_.end(), lightmap_.begin());
     if (Status s = drt_->apply(rt_.b(), cl_.c, lightmap_); !s.ok()) return s;
-    if (gather_)
+    if (gathers())
       if (Status s = drt_->apply_gather(ld_, cl_.radiance(), lightmap_); !s.ok()) return s;
     clamp_nonnegative(rt_.isa(), lightmap_.data(), lightmap_.size());
     return Status::success();
@@ -176,7 +176,6 @@ class CpuBackend final : public StagedBackend {
     if (!drt) {
       drt_.reset();
       base_ = {}, cl_ = {}, ld_gather_ = {};
-      gather_ = false;
       return Status::success();
     }
     Result<CpuDrtRuntime> rt = CpuDrtRuntime::create(level(), *drt, rt_.isa());
@@ -184,29 +183,25 @@ class CpuBackend final : public StagedBackend {
     drt_.emplace(std::move(rt).value());
     base_.assign(lightmap_.size(), 0.0f);
     cl_.allocate(drt_->sizes());
-    gather_ = drt->has_gather();
-    ld_gather_.assign(gather_ ? sizes().ld : 0, 0.0f);
+    ld_gather_.assign(drt->has_gather() ? sizes().ld : 0, 0.0f);
     return Status::success();
   }
   Status stage_clutter_light(std::span<const float> clutter_ld,
                              std::span<const float> clutter_direct) override {
     cl_.set_light(clutter_ld, clutter_direct);
     if (Status s = drt_->compute_c(cl_.clutter_ld, cl_.c_direct); !s.ok()) return s;
-    cl_.c = cl_.c_direct;
-    cl_.fed_back = false;
+    cl_.use_direct_light();
     return Status::success();
   }
   Status stage_clutter_albedo(std::span<const float>) override {
-    cl_.c = cl_.c_direct;
-    cl_.fed_back = false;
+    cl_.use_direct_light();
     return Status::success();
   }
   // DRT §4.4: the clutter's indirect light of the last evaluation (cl_.indirect, kept by its
   // clutter lightmap stage) fed back.
   Status stage_clutter_c(ClutterCSource source, const ClutterFeedback& feedback) override {
     if (source == ClutterCSource::direct) {
-      cl_.c = cl_.c_direct;
-      cl_.fed_back = false;
+      cl_.use_direct_light();
       return Status::success();
     }
     drt_clutter_feedback(cl_.clutter_ld, clutter_albedo(), cl_.indirect, feedback.bound(), cl_.fed);
@@ -218,7 +213,7 @@ class CpuBackend final : public StagedBackend {
   Status stage_clutter_lightmap() override {
     if (Status s = drt_->clutter_lightmap(rt_.b(), {}, cl_.indirect); !s.ok()) return s;
     if (Status s = drt_->clutter_add_cc(cl_.c, cl_.indirect); !s.ok()) return s;
-    if (gather_)
+    if (gathers())
       if (Status s = drt_->clutter_add_gather(ld_, cl_.radiance(), cl_.indirect); !s.ok()) return s;
     std::copy(cl_.indirect.begin(), cl_.indirect.end(), cl_.clutter_lightmap.begin());
     if (!cl_.clutter_direct.empty())
@@ -233,9 +228,9 @@ class CpuBackend final : public StagedBackend {
   std::string description_;
   std::vector<float> lightmap_, atlas_, probes_, rho_, ld_feedback_;
   std::span<const float> ld_;  // this evaluation's ld: the caller's, ld_feedback_ or ld_gather_
-  // With the real-radiance gather: the caller's ld kept past the evaluation.
-  bool gather_ = false;
+  // With the real-radiance gather (only then not empty): the caller's ld kept past the evaluation.
   std::vector<float> ld_gather_;
+  bool gathers() const { return !ld_gather_.empty(); }
   // The converged solve's b0 = Td_b ld_direct per block (stage_solve_keeps_b0), and the blocks
   // whose b the last b stage computed.
   std::vector<float> b0_;

@@ -109,6 +109,11 @@ struct ClutterBuffers {
   // clutter_ld and clutter_direct (may be empty) copied in; c_direct is then the caller's.
   void set_light(std::span<const float> clutter_ld, std::span<const float> clutter_direct);
   std::span<const float> radiance() const { return fed_back ? fed : clutter_ld; }
+  // c of the direct light again (and x_t its light): a new light, albedo or plain update.
+  void use_direct_light() {
+    c = c_direct;
+    fed_back = false;
+  }
 };
 
 struct StagedBackendOptions {
