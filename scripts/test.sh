@@ -176,6 +176,11 @@ asan_excluded=(
   'LevelSeams.BilinearLookupsAgreeAcrossEveryEdge'
   'LevelSymmetry.MirrorImageAgreesWithinDiscretisation'
   'LevelEnergy.IndirectNeverExceedsTheClosedBoxBoundAndGrowsWithDmax'
+  # Brute-force references over many rays (numerics, no new code path: 30-50 s each under
+  # ASan); the default build runs them.
+  'LevelProbes.ProbesAroundACornerMatchBruteForceGather'
+  'LevelVectorIrradiance.InterfaceResponseMatchesBruteForceOhlsh'
+  'ReducedFeedback.IncrementalSolveAppliesFewerBlocksWithinTheBound'
 )
 for sequence in CameraFlightThroughMaze41KeepsVisibleTilesExact CameraSkipKeepsEveryVisibleBlockExact \
   SkippingUnchangedWorkIsExact ConvergedUpdateMatchesLevelConvergedBounce \
