@@ -572,6 +572,29 @@ TEST(FileIo, Crc32CheckValue) {
   EXPECT_EQ(crc32({}), 0u);
 }
 
+// Eight bytes at a time (slicing-by-8) against the bitwise definition, on every length from 0
+// to 40 at every start offset 0..7 (the tail and the alignment paths) and in pieces.
+TEST(FileIo, Crc32OfAnySliceIsTheBitwiseCrc) {
+  std::vector<std::byte> data(48);
+  std::uint32_t x = 12345;
+  for (std::byte& b : data) b = std::byte((x = x * 1103515245u + 12345u) >> 24);
+  auto bitwise = [](std::span<const std::byte> bytes) {
+    std::uint32_t c = 0xFFFFFFFFu;
+    for (std::byte b : bytes) {
+      c ^= std::to_integer<std::uint32_t>(b);
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? (0xEDB88320u ^ (c >> 1)) : (c >> 1);
+    }
+    return c ^ 0xFFFFFFFFu;
+  };
+  const std::span<const std::byte> all(data);
+  for (std::size_t at = 0; at < 8; ++at)
+    for (std::size_t n = 0; at + n <= 40; ++n) {
+      const std::span<const std::byte> slice = all.subspan(at, n);
+      ASSERT_EQ(crc32(slice), bitwise(slice)) << "offset " << at << ", " << n << " bytes";
+      ASSERT_EQ(crc32(slice.subspan(n / 3), crc32(slice.first(n / 3))), bitwise(slice));
+    }
+}
+
 TEST(FileIo, AtomicWriteLeavesNoTemporaryFiles) {
   TempDir dir;
   ASSERT_TRUE(save_dictionary(dir.file("a.modrt"), make_dictionary()).ok());
