@@ -254,10 +254,19 @@ int main(int argc, char** argv) {
   }
   if (const DrtStartup& d = run.value()->drt_startup(); d.objects > 0) {
     if (!d.rebuilt.empty()) std::printf("  DRT: cached operators not used (%s)\n", d.rebuilt.c_str());
+    if (!d.state_unused.empty()) std::printf("  DRT: build state not used (%s)\n", d.state_unused.c_str());
+    std::string how = precompute::drt_cache_source_name(d.source);
+    if (d.source == precompute::DrtCacheSource::incremental) {
+      how += d.retraced.size() == 1 ? " (re-traced object" : " (re-traced objects";
+      for (std::size_t i = 0; i < d.retraced.size(); ++i)
+        how += (i ? ", " : " ") + std::to_string(d.retraced[i]);
+      how += ")";
+    }
+    const bool loaded = d.source == precompute::DrtCacheSource::loaded;
     std::printf("  DRT: %zu clutter objects, %zu texels; operators %s in %.2f s, %.2f MB%s%s\n", d.objects,
-                d.texels, d.loaded ? "loaded" : "built", d.seconds, double(d.bytes) / 1e6,
+                d.texels, how.c_str(), d.seconds, double(d.bytes) / 1e6,
                 d.cache_file.empty() ? ""
-                : d.loaded           ? " from "
+                : loaded             ? " from "
                                      : ", saved to ",
                 d.cache_file.c_str());
   } else if (!drt)

@@ -173,9 +173,11 @@ Result<std::unique_ptr<DemoRun>> DemoRun::create(const DemoScene& scene, const D
     Result<precompute::DrtCacheResult> drt =
         precompute::load_or_build_drt(lv, dict, scene.clutter, settings, options.drt_cache_dir);
     if (!drt.ok()) return drt.status();
-    run->drt_startup_.loaded = drt->loaded;
+    run->drt_startup_.source = drt->source;
+    run->drt_startup_.retraced = drt->retraced;
     run->drt_startup_.cache_file = drt->path;
     run->drt_startup_.rebuilt = drt->rebuilt;
+    run->drt_startup_.state_unused = drt->state_unused;
     run->drt_ = std::make_unique<DrtOperators>(std::move(drt->operators));
     run->drt_startup_.seconds = ms_since(t0) * 1e-3;
     run->drt_startup_.objects = scene.clutter.size();

@@ -18,6 +18,7 @@
 #include "modrt/level.h"
 #include "modrt/level_visibility.h"
 #include "modrt/platform/gl_context.h"
+#include "modrt/precompute/drt_cache.h"
 #include "modrt/precompute/level_scene.h"
 #include "modrt/probe_sampler.h"
 #include "render/scene_renderer.h"
@@ -85,9 +86,13 @@ struct StageTimes {
 struct DrtStartup {
   std::size_t objects = 0, texels = 0, bytes = 0;
   double seconds = 0.0;
-  bool loaded = false;     // from DemoRunOptions::drt_cache_dir, not built
-  std::string cache_file;  // where they were loaded from or saved (empty: no cache)
-  std::string rebuilt;     // why a cached file was not used (it was replaced), or empty
+  // Loaded from DemoRunOptions::drt_cache_dir, rebuilt there incrementally from the scene's
+  // build state (only the objects in `retraced` changed since its build) or built.
+  precompute::DrtCacheSource source = precompute::DrtCacheSource::built;
+  std::vector<std::size_t> retraced;
+  std::string cache_file;    // where they were loaded from or saved (empty: no cache)
+  std::string rebuilt;       // why a cached file was not used (it was replaced), or empty
+  std::string state_unused;  // why the scene's build state was not used (a full build), or empty
 };
 
 class DemoRun {

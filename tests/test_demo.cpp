@@ -16,6 +16,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -478,8 +479,8 @@ TEST(DemoRender, SaveClutterWithoutClutterIsAnError) {
 }
 
 // The default scene (its clutter pillar) plus a clutter box (a mesh with lightmap UVs) in
-// block 0.
-DemoScene scene_with_clutter_box() {
+// block 0, `shift` along x from its place.
+DemoScene scene_with_clutter_box(double shift = 0.0) {
   DemoScene s = scene();
   const std::array<glm::dvec3, 8> c0 = block_corners(s.level, s.level.blocks[0]);
   const glm::dvec3 centre = trilinear(c0, glm::dvec3(0.5));
@@ -487,7 +488,7 @@ DemoScene scene_with_clutter_box() {
   box.name = "test clutter box";
   s.materials.push_back(Material{"clutter", glm::vec3(0.7f, 0.4f, 0.3f)});
   box.material = int(s.materials.size()) - 1;
-  const double x = centre.x + 0.15, z = centre.z + 0.15;
+  const double x = centre.x + 0.15 + shift, z = centre.z + 0.15;
   box.polygon = {{x, z}, {x + 0.15, z}, {x + 0.15, z + 0.15}, {x, z + 0.15}};
   box.cap_triangles = {0, 1, 2, 0, 2, 3};
   box.y0 = centre.y - 0.3, box.y1 = centre.y;
@@ -555,6 +556,39 @@ TEST(DemoRender, ClutterLightmapAgreesAcrossBackends) {
   EXPECT_LT(e.p99, 0.5);
   std::printf("  with clutter, GLES vs CPU: clutter lightmap rel L2 %.2e, image %.2e, Delta E p99 %.3f\n",
               rel_l2(clutter[0], clutter[1]), rel_l2(linear[0], linear[1]), e.p99);
+}
+
+// Across starts (DrtStartup, precompute's drt_cache.h): the first start builds the operators
+// into the cache, a start after the clutter box moved re-traces the box alone from the scene's
+// build state, and the next start loads what that one saved.
+TEST(DemoRender, MovedClutterIsRebuiltAloneOnTheNextStart) {
+  platform::GlContext* ctx = osmesa();
+  if (!ctx) GTEST_SKIP() << "no OSMesa context";
+  const std::filesystem::path cache =
+      std::filesystem::path(MODRT_TEST_CACHE_DIR) / ("drt-moved-" + std::to_string(long(::getpid())));
+  std::filesystem::remove_all(cache);
+  DemoRunOptions options = run_options();
+  options.drt_cache_dir = cache.string();
+  options.drt_rays = 32;
+  options.renderer.width = 32, options.renderer.height = 18;
+  const DemoScene before = scene_with_clutter_box(), after = scene_with_clutter_box(0.05);
+  const std::size_t box = before.clutter.size() - 1;
+  ASSERT_GE(before.clutter.size(), 2u);
+  using precompute::DrtCacheSource;
+  for (const auto& [scene, source, retraced] :
+       {std::tuple<const DemoScene*, DrtCacheSource, std::vector<std::size_t>>{
+            &before, DrtCacheSource::built, {}},
+        {&after, DrtCacheSource::incremental, {box}},
+        {&after, DrtCacheSource::loaded, {}}}) {
+    Result<std::unique_ptr<DemoRun>> run = DemoRun::create(*scene, dict(), *ctx, options);
+    ASSERT_TRUE(run.ok()) << run.status().to_string();
+    const DrtStartup& d = run.value()->drt_startup();
+    EXPECT_EQ(d.source, source) << precompute::drt_cache_source_name(d.source) << "; " << d.state_unused;
+    EXPECT_EQ(d.retraced, retraced);
+    EXPECT_EQ(d.objects, scene->clutter.size());
+    EXPECT_EQ(d.cache_file.rfind(cache.string(), 0), 0u) << d.cache_file;
+  }
+  std::filesystem::remove_all(cache);
 }
 
 // The dynamic mesh's indirect light is the probe volume where the mesh is, sampled in the

@@ -70,6 +70,14 @@ class Reader {
     return v;
   }
   std::int32_t i32(const std::string& field) { return std::int32_t(u32(field)); }
+  // The next n bytes, for a decoder that reads a run of values at once (empty, and the reader
+  // failed naming the field, when fewer are left).
+  std::span<const std::byte> take(const std::string& field, std::size_t n) {
+    if (!fits(field, n, 1)) return {};
+    const std::span<const std::byte> out = bytes_.subspan(at_, n);
+    at_ += n;
+    return out;
+  }
   std::uint64_t u64(const std::string& field) {
     const std::uint64_t lo = u32(field), hi = u32(field);
     return lo | (hi << 32);

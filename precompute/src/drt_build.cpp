@@ -17,6 +17,7 @@
 #include "modrt/precompute/svd.h"
 
 #include "drt_gather.h"
+#include "drt_state.h"
 #include "modrt/precompute/block_scene.h"
 #include "modrt/precompute/direct_light.h"
 #include "modrt/precompute/linalg.h"
@@ -28,21 +29,14 @@ namespace modrt::precompute {
 
 using namespace drt_detail;
 
-struct DrtBuildState::Impl {
-  std::vector<ClutterObject> objects;
-  std::vector<SampleResult> samples;                    // scene pass, before inpainting
-  std::vector<SampleResult> vector_samples;             // vector scene pass (empty unless built)
-  std::vector<SampleResult> probes;                     // U_dyn pass (empty unless built)
-  std::vector<std::vector<TexelResult>> texels;         // clutter pass, per object
-  std::vector<std::vector<TexelResult>> vector_texels;  // vector clutter pass (empty unless built)
-  std::vector<ClutterTexelGeometry> geometry;           // per object
-};
-
 DrtBuildState::DrtBuildState() = default;
 DrtBuildState::~DrtBuildState() = default;
 DrtBuildState::DrtBuildState(DrtBuildState&&) noexcept = default;
 DrtBuildState& DrtBuildState::operator=(DrtBuildState&&) noexcept = default;
 bool DrtBuildState::empty() const { return !impl_; }
+std::span<const ClutterObject> DrtBuildState::objects() const {
+  return impl_ ? std::span<const ClutterObject>(impl_->objects) : std::span<const ClutterObject>();
+}
 
 namespace {
 
@@ -1073,6 +1067,25 @@ DrtBuilder::DrtBuilder(const Level& level, const Dictionary& dict, const DrtBuil
 
 namespace {
 
+// The first setting in which a and b differ ("rays"), or "": those a state records and a
+// rebuild must share (every field changes what is traced or kept).
+std::string settings_difference(const DrtBuildSettings& a, const DrtBuildSettings& b) {
+  if (a.rays != b.rays) return "rays";
+  if (a.max_clutter_rays != b.max_clutter_rays) return "max_clutter_rays";
+  if (a.cb_modes != b.cb_modes) return "cb_modes";
+  if (a.inpaint != b.inpaint) return "inpaint";
+  if (a.cull != b.cull) return "cull";
+  if (a.drop_tolerance != b.drop_tolerance) return "drop_tolerance";
+  if (a.vector != b.vector) return "vector";
+  if (a.probes != b.probes) return "probes";
+  if (a.clutter_prior_modes != b.clutter_prior_modes) return "clutter_prior_modes";
+  if (a.clutter_prior_grid != b.clutter_prior_grid) return "clutter_prior_grid";
+  if (a.sample_gather != b.sample_gather) return "sample_gather";
+  if (a.gather != b.gather) return "gather";
+  if (a.seed != b.seed) return "seed";
+  return {};
+}
+
 Status check_dictionary(const Level& level, const Dictionary& dict, bool vector) {
   for (const LevelBlock& b : level.blocks) {
     const ShapeOperators& op = block_operators(dict, level, b);
@@ -1179,6 +1192,12 @@ Result<DrtOperators> DrtBuilder::build(std::span<const ClutterObject> objects, D
   if (Status s = check_dictionary(level_, dict_, settings_.vector); !s.ok()) return s;
   DrtOperators drt;
   auto impl = std::make_unique<DrtBuildState::Impl>();
+  impl->settings = settings_;
+  impl->kb = level_.kb;
+  impl->level_blocks = std::uint32_t(level_.blocks.size());
+  impl->level_samples = std::uint32_t(walls_.samples().position.size());
+  const std::uint32_t g = dict_.settings.probe_grid;
+  impl->probes_per_block = settings_.probes ? g * g * g : 0;
   impl->objects.assign(objects.begin(), objects.end());
   if (!objects.empty()) {
     drt.kb = level_.kb;
@@ -1259,6 +1278,24 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
   if (st.samples.size() != samples || st.vector_samples.size() != (settings_.vector ? samples : 0) ||
       st.probes.size() != (settings_.probes ? level_.blocks.size() * std::size_t(g * g * g) : 0))
     return fail("the build state was made for another level or with other vector / probe settings");
+  if (st.kb != level_.kb || st.level_blocks != level_.blocks.size() || st.level_samples != samples ||
+      st.probes_per_block != (settings_.probes ? std::uint32_t(g * g * g) : 0u))
+    return fail("the build state was made for another level (kb " + std::to_string(st.kb) + ", " +
+                std::to_string(st.level_blocks) + " blocks, " + std::to_string(st.level_samples) +
+                " samples; the level has " + std::to_string(level_.kb) + ", " +
+                std::to_string(level_.blocks.size()) + ", " + std::to_string(samples) + ")");
+  if (const std::string field = settings_difference(st.settings, settings_); !field.empty())
+    return fail("the build state was made with another " + field + " (DrtBuildSettings)");
+  // One result per texel of every object, as the passes below index them.
+  if (st.texels.size() != objects.size() || st.geometry.size() != objects.size() ||
+      st.vector_texels.size() != (settings_.vector ? objects.size() : 0))
+    return fail("the build state's texel results are not one list per object");
+  for (std::size_t k = 0; k < objects.size(); ++k)
+    if (st.texels[k].size() != st.geometry[k].position.size() ||
+        st.geometry[k].position.size() != std::size_t(clutter_texel_count(st.objects[k])) ||
+        (settings_.vector && st.vector_texels[k].size() != st.texels[k].size()))
+      return fail("the build state's texel results of object " + std::to_string(k) +
+                  " do not match its texel count");
   // The moved object's queries at its old and new place.
   Result<ObjectQueries> old_q = ObjectQueries::make(std::span<const ClutterObject>(&st.objects[index], 1));
   Result<ObjectQueries> new_q = ObjectQueries::make(objects.subspan(index, 1));
@@ -1284,8 +1321,6 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
       });
   const std::size_t retraced = std::size_t(std::count(retrace.begin(), retrace.end(), 1));
   if (retraced > 0) pass.scene_pass(st.samples, retrace);
-  DrtBuildReport scene_report;
-  pass.assemble_scene(st.samples, drt, &scene_report);
   if (settings_.vector) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 32),
                       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -1295,7 +1330,6 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
                                        pass.sample_vector_depends_on(s, new_box, local, dirs);
                       });
     pass.scene_pass_vector(st.vector_samples, retrace);
-    pass.assemble_scene(st.vector_samples, drt, nullptr, true);
   }
   if (settings_.probes) {
     std::vector<std::uint8_t> again(st.probes.size(), 0);
@@ -1305,7 +1339,6 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
           pass.probe_depends_on(p, old_box, local, dirs) || pass.probe_depends_on(p, new_box, local, dirs);
     });
     pass.probe_pass(st.probes, again);
-    pass.assemble_probes(st.probes, drt);
   }
 
   // Clutter texels: all of the moved object's, and the others' that can see it.
@@ -1340,6 +1373,24 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
       dirty[candidates[c].first] = 1;
     }
   pass.clutter_pass(st.texels, st.vector_texels, st.geometry, work);
+  const auto t2 = std::chrono::steady_clock::now();
+
+  // The kept results must fit what the assembly indexes: always so for a state this builder
+  // filled, not for a damaged file's (drt_state_io.h checks what it can without the level).
+  StateBounds bounds{level_.kb, std::uint32_t(level_.blocks.size()), std::uint32_t(n), {}, {}, true};
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    bounds.texels.push_back(std::uint32_t(st.geometry[k].position.size()));
+    bounds.columns.push_back(std::uint32_t(pass.queries[k].columns));
+  }
+  if (const std::string why = check_state_rows(st, bounds); !why.empty())
+    return Status::error(ErrorCode::format_error, "DRT rebuild of object " + std::to_string(index) +
+                                                      ": the build state does not fit: " + why);
+
+  DrtBuildReport scene_report;
+  pass.assemble_scene(st.samples, drt, &scene_report);
+  if (settings_.vector) pass.assemble_scene(st.vector_samples, drt, nullptr, true);
+  if (settings_.probes) pass.assemble_probes(st.probes, drt);
+  const auto t3 = std::chrono::steady_clock::now();
   // The gather's Gt names texels by their clutter-wide index, which a new texel count of the
   // moved object shifts for every object after it: all are reassembled (copies of kept rows).
   if (settings_.gather) std::fill(dirty.begin(), dirty.end(), std::uint8_t(1));
@@ -1350,8 +1401,9 @@ Status DrtBuilder::rebuild_object(std::span<const ClutterObject> objects, std::s
     report->inpainted_samples += scene_report.inpainted_samples;
     report->dropped_rows += scene_report.dropped_rows;
     report->traced_texels += work.size();
-    report->scene_seconds += std::chrono::duration<double>(t1 - t0).count();
-    report->clutter_seconds += seconds_since(t1);
+    using Seconds = std::chrono::duration<double>;
+    report->scene_seconds += Seconds(t1 - t0).count() + Seconds(t3 - t2).count();
+    report->clutter_seconds += Seconds(t2 - t1).count() + seconds_since(t3);
   }
   return Status::success();
 }

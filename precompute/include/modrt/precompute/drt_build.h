@@ -111,9 +111,15 @@ struct ClutterSampleGather {
 void clutter_gather_radiance(const ClutterSampleGather& gather, std::span<const float> radiance,
                              std::span<float> out);
 
+namespace drt_detail {
+struct StateAccess;
+}
+
 // What a build traced (per scene sample and clutter texel, before inpainting, dropping and
-// the SVD) and the objects it traced, so that rebuild_object re-traces only what a move can
-// change. Move-only; filled by DrtBuilder::build.
+// the SVD), the objects it traced and what it was built for (the level's sizes, the build
+// settings), so that rebuild_object re-traces only what a move can change. Move-only; filled
+// by DrtBuilder::build and rebuild_object, or read from a file (drt_state_io.h), which keeps
+// it across program starts.
 class DrtBuildState {
  public:
   DrtBuildState();
@@ -121,6 +127,9 @@ class DrtBuildState {
   DrtBuildState(DrtBuildState&&) noexcept;
   DrtBuildState& operator=(DrtBuildState&&) noexcept;
   bool empty() const;
+  // The objects of the build (after a rebuild_object, with the moved one at its new place);
+  // empty when empty().
+  std::span<const ClutterObject> objects() const;
   // With DrtBuildSettings::sample_gather, per object (in the build's order): row t of its
   // clutter texels' gather, the weights of the scene samples their rays' first wall hits
   // reach (bilinear taps, 1 / rays a ray; rays that enter clutter first or leave the level
@@ -135,6 +144,7 @@ class DrtBuildState {
 
  private:
   friend class DrtBuilder;
+  friend struct drt_detail::StateAccess;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
@@ -157,6 +167,10 @@ class DrtBuilder {
   // Re-traces the scene samples and the other objects' texels that can see the object at its
   // old or new place and all of its own texels, and rebuilds every object's operators from
   // the kept and re-traced results: equal to build(objects). Updates `state`.
+  // invalid_argument, with `drt` and `state` untouched, when the state is not one of this
+  // level, these settings and these objects (sizes, the settings it records); format_error,
+  // with `drt` untouched and `state` spent (discard it), when a kept result indexes past the
+  // objects, texels, blocks or samples (a damaged state file).
   Status rebuild_object(std::span<const ClutterObject> objects, std::size_t index, DrtOperators& drt,
                         DrtBuildState& state, DrtBuildReport* report = nullptr) const;
 
