@@ -21,7 +21,7 @@ if [[ ${1:-} == --reuse ]]; then
   shift 2
 fi
 seconds="${1:-60}"
-harnesses=(fuzz_dictionary fuzz_level_file fuzz_drt_file fuzz_level_json fuzz_gltf fuzz_scene_import fuzz_settings fuzz_c_api)
+harnesses=(fuzz_dictionary fuzz_level_file fuzz_drt_file fuzz_drt_state fuzz_level_json fuzz_gltf fuzz_scene_import fuzz_settings fuzz_c_api)
 
 scripts/install-deps.sh
 if ((reuse)); then
@@ -35,7 +35,7 @@ else
 fi
 cmake --build "$build" -j"$(nproc)" --target "${harnesses[@]}"
 mkdir -p "$build/artifacts"
-for name in dictionary level_file drt_file level_json gltf scene_import settings c_api; do
+for name in dictionary level_file drt_file drt_state level_json gltf scene_import settings c_api; do
   corpus_name="$name"
   [[ $name == level_json ]] && corpus_name=level
   work="$build/corpus-$name"
