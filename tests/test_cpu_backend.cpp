@@ -57,11 +57,11 @@ using Reference = modrt::test::LevelReference;
 std::vector<double> b_magnitudes(const Level& level, std::span<const float> ld) {
   std::vector<double> out;
   for (const LevelBlock& blk : level.blocks) {
-    const Matrix& T = dict().shapes[std::size_t(blk.shape)].Td_b;
-    for (std::uint32_t k = 0; k < T.rows; ++k)
+    const Matrix& T = block_operators(dict(), level, blk).Td_b;
+    for (std::uint32_t k = 0; k < level.kb; ++k)  // b's stride; zero past the block's modes
       for (int c = 0; c < 3; ++c) {
         double acc = 0.0;
-        for (std::uint32_t j = 0; j < T.cols; ++j)
+        for (std::uint32_t j = 0; k < T.rows && j < T.cols; ++j)
           acc += std::abs(double(T(k, j))) * ld[3 * (std::size_t(blk.sample_offset) + j) + std::size_t(c)];
         out.push_back(acc);
       }
@@ -519,10 +519,10 @@ TEST(CpuLevelRuntime, SpikeInLdGivesNoNegativeTexelOnEveryIsa) {
   double unclamped_min = 0.0;
   for (std::size_t i = 0; i < t.level.blocks.size(); ++i) {
     const LevelBlock& blk = t.level.blocks[i];
-    const Matrix& Ub = dict().shapes[std::size_t(blk.shape)].Ub;
+    const Matrix& Ub = block_operators(dict(), t.level, blk).Ub;
     std::vector<double> tile(3 * std::size_t(blk.sample_count), 0.0);
     for (std::uint32_t s = 0; s < blk.sample_count; ++s)
-      for (std::uint32_t k = 0; k < t.level.kb; ++k)
+      for (std::uint32_t k = 0; k < Ub.cols; ++k)
         for (std::size_t c = 0; c < 3; ++c)
           tile[3 * s + c] += double(Ub(s, k)) * b[3 * (t.level.kb * i + k) + c];
     for (std::size_t q = 0; q < t.level.slots.size(); ++q) {
@@ -638,9 +638,10 @@ Reference reference_on(const Level& level, const Dictionary& d, std::span<const 
 }
 
 // Float16 rounding against float32 operators, relative L2 per output (printed by the test;
-// docs/cpu.md): the largest measured on the four test levels is 5.3e-4 (b of "single"; the
-// lightmap 1.8e-4), the same on every ISA; the limit is about twice that.
-constexpr double kFloat16Tolerance = 1e-3;
+// docs/cpu.md): the largest measured on the test levels is 1.05e-3 (r of "stretched", whose
+// shaped sets keep up to three cubes' modes; b of "single" 5.3e-4, lightmaps <= 2e-4), the
+// same on every ISA; the limit is about twice that.
+constexpr double kFloat16Tolerance = 2e-3;
 
 // A float16 runtime computes what core's scalar reference computes with the half-rounded
 // operators (within 1e-5, like float32 against the original ones), and is ~1e-3 from the

@@ -144,9 +144,9 @@ TEST(Drt, ClutterSeesClutterAsTheBruteForceGatherDoes) {
   std::vector<float> v(3 * std::size_t(level.sample_count), 0.0f);
   for (const LevelBlock& blk : level.blocks)
     for (std::uint32_t q = 0; q < blk.sample_count; ++q) {
-      const std::span<const float> limp = dict().shapes[std::size_t(blk.shape)].Limp.row(q);
+      const std::span<const float> limp = block_operators(dict(), level, blk).Limp.row(q);
       const std::size_t blk_index = std::size_t(&blk - level.blocks.data());
-      for (std::uint32_t k = 0; k < level.kb; ++k)
+      for (std::uint32_t k = 0; k < limp.size(); ++k)
         for (int ch = 0; ch < 3; ++ch)
           v[3 * (blk.sample_offset + q) + std::size_t(ch)] +=
               limp[k] * f.b[3 * (std::size_t(level.kb) * blk_index + k) + std::size_t(ch)];
@@ -271,8 +271,8 @@ TEST(Drt, VectorDeltasMatchTheBruteForceGather) {
   for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
     const LevelBlock& blk = level.blocks[bi];
     for (std::uint32_t q = 0; q < blk.sample_count; ++q) {
-      const std::span<const float> limp = dict().shapes[std::size_t(blk.shape)].Limp.row(q);
-      for (std::uint32_t k = 0; k < level.kb; ++k)
+      const std::span<const float> limp = block_operators(dict(), level, blk).Limp.row(q);
+      for (std::uint32_t k = 0; k < limp.size(); ++k)
         for (int ch = 0; ch < 3; ++ch)
           v[3 * (blk.sample_offset + q) + std::size_t(ch)] +=
               limp[k] * f.b[3 * (std::size_t(level.kb) * bi + k) + std::size_t(ch)];
@@ -378,8 +378,8 @@ TEST(Drt, VectorCbMatchesTheBruteForceGather) {
   for (std::size_t bi = 0; bi < level.blocks.size(); ++bi) {
     const LevelBlock& blk = level.blocks[bi];
     for (std::uint32_t q = 0; q < blk.sample_count; ++q) {
-      const std::span<const float> limp = dict().shapes[std::size_t(blk.shape)].Limp.row(q);
-      for (std::uint32_t k = 0; k < level.kb; ++k)
+      const std::span<const float> limp = block_operators(dict(), level, blk).Limp.row(q);
+      for (std::uint32_t k = 0; k < limp.size(); ++k)
         for (int ch = 0; ch < 3; ++ch)
           v[3 * (blk.sample_offset + q) + std::size_t(ch)] +=
               limp[k] * f.b[3 * (std::size_t(level.kb) * bi + k) + std::size_t(ch)];
@@ -459,8 +459,8 @@ TEST(Drt, ClutterAwareProbesMatchTheBruteForceGather) {
   std::vector<float> v(3 * std::size_t(level.sample_count), 0.0f);
   const LevelBlock& blk = level.blocks[0];
   for (std::uint32_t q = 0; q < blk.sample_count; ++q) {
-    const std::span<const float> limp = dict().shapes[std::size_t(blk.shape)].Limp.row(q);
-    for (std::uint32_t k = 0; k < level.kb; ++k)
+    const std::span<const float> limp = block_operators(dict(), level, blk).Limp.row(q);
+    for (std::uint32_t k = 0; k < limp.size(); ++k)
       for (int ch = 0; ch < 3; ++ch) v[3 * q + std::size_t(ch)] += limp[k] * f.b[3 * k + std::size_t(ch)];
   }
   std::vector<float> probes(27 * std::size_t(count), 0.0f);

@@ -35,7 +35,7 @@ std::vector<double> unclamped_lightmap(const Level& level, const std::vector<flo
   const Matrix& Ur = dict().interfaces.Ur;
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    const Matrix& Ub = dict().shapes[std::size_t(blk.shape)].Ub;
+    const Matrix& Ub = block_operators(dict(), level, blk).Ub;
     double* dst = L.data() + 3 * std::size_t(blk.sample_offset);
     for (std::uint32_t s = 0; s < Ub.rows; ++s)
       for (std::uint32_t k = 0; k < Ub.cols; ++k)
@@ -65,7 +65,7 @@ std::vector<float> brute_force_bounce(const Level& level, std::span<const float>
   std::vector<float> out(b.size(), 0.0f);
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     const LevelBlock& blk = level.blocks[i];
-    const Matrix& Td = dict().shapes[std::size_t(blk.shape)].Td_b;
+    const Matrix& Td = block_operators(dict(), level, blk).Td_b;
     for (std::uint32_t k = 0; k < Td.rows; ++k)
       for (int c = 0; c < 3; ++c) {
         double acc = 0.0;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "modrt/level_io.h"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -108,11 +109,18 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
     const std::uint32_t n =
         std::uint32_t(face_count(dictionary_shape_mask(so.shape)) * level.res * level.res);
     const ShapeOperators& op = so.operators;
-    if (op.Ub.rows != n || op.Ub.cols != level.kb || op.Td_b.rows != level.kb || op.Td_b.cols != n ||
-        op.Limp.rows != n || op.Limp.cols != level.kb || (!op.Ub_vec.empty() && op.Ub_vec.rows != 4 * n))
+    // A shaped set keeps its own modes (Ub's columns), at most the level's kb (b's stride).
+    const std::uint32_t kb = op.Ub.cols;
+    if (kb == 0 || kb > level.kb)
       return invalid(code, what,
-                     name + ": Ub, Td_b, Limp or Ub_vec is not sized for " + std::to_string(n) +
-                         " samples and kb " + std::to_string(level.kb));
+                     name + ": " + std::to_string(kb) + " modes, not 1.." + std::to_string(level.kb) +
+                         " (the level's kb)");
+    if (op.Ub.rows != n || op.Td_b.rows != kb || op.Td_b.cols != n || op.Limp.rows != n ||
+        op.Limp.cols != kb || (!op.Ub_vec.empty() && (op.Ub_vec.rows != 4 * n || op.Ub_vec.cols != kb)) ||
+        (!op.Ubvol.empty() && op.Ubvol.cols != kb))
+      return invalid(code, what,
+                     name + ": Ub, Td_b, Limp, Ub_vec or Ubvol is not sized for " + std::to_string(n) +
+                         " samples and " + std::to_string(kb) + " modes");
     for (const Matrix* m : {&op.Ub, &op.Td_b, &op.Limp, &op.Ub_vec, &op.Ubvol})
       if (!finite_matrix(*m)) return invalid(ErrorCode::non_finite, what, name + ": NaN or Inf");
   }
@@ -131,6 +139,8 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
     for (std::int32_t m : slot.ur_row_to_sample)
       if (m < -1 || m >= n) return invalid(code, what, name + ": Ur row maps past the block's samples");
   }
+  std::uint32_t cube_kb = 0, most_modes = 0;
+  for (const ShapedOperators& so : level.shaped) most_modes = std::max(most_modes, so.operators.Ub.cols);
   for (std::size_t i = 0; i < level.records.size(); ++i) {
     const ResponseRecord& rec = level.records[i];
     const std::string name = "record " + std::to_string(i);
@@ -138,12 +148,29 @@ Status check_level_structure(const Level& level, const std::string& what, ErrorC
       return invalid(code, what, name + ": source block or slot out of range");
     if (i > 0 && rec.slot < level.records[i - 1].slot)
       return invalid(code, what, name + ": records are not sorted by slot");
-    if (rec.T.rows != level.kr || rec.T.cols != level.kb)
+    // T's columns are its source block's modes: a shaped set's own, else the dictionary's
+    // (at most the level's kb; check_level_operators compares them with the dictionary).
+    // Records from cube blocks all have the dictionary's modes.
+    const LevelBlock& source = level.blocks[rec.source_block];
+    if (source.shaped < 0 && cube_kb == 0) cube_kb = rec.T.cols;
+    const std::uint32_t source_kb =
+        source.shaped >= 0 ? level.shaped[std::size_t(source.shaped)].operators.Ub.cols : cube_kb;
+    if (rec.T.rows != level.kr || rec.T.cols != source_kb || rec.T.cols == 0 || rec.T.cols > level.kb)
       return invalid(code, what,
                      name + ": T is " + std::to_string(rec.T.rows) + "x" + std::to_string(rec.T.cols) +
-                         ", not kr x kb = " + std::to_string(level.kr) + "x" + std::to_string(level.kb));
+                         ", not kr x kb of its source block (kr " + std::to_string(level.kr) + ", kb " +
+                         std::to_string(source_kb) + ", at most the level's " + std::to_string(level.kb) +
+                         ")");
+    most_modes = std::max(most_modes, rec.T.cols);
     if (!finite_matrix(rec.T)) return invalid(ErrorCode::non_finite, what, name + ": T has NaN or Inf");
   }
+  // kb is b's stride, the most modes of any operator set: no wider than the operators it holds
+  // show (check_level_operators compares a level without records or shaped sets with the
+  // dictionary).
+  if (most_modes > 0 && most_modes != level.kb)
+    return invalid(code, what,
+                   "kb " + std::to_string(level.kb) + " is not the most modes of the level's operators (" +
+                       std::to_string(most_modes) + "): not kr x kb");
   for (int f = 0; f < kFaceCount; ++f) {
     if (!finite_matrix(level.probe_response[std::size_t(f)]))
       return invalid(ErrorCode::non_finite, what, "probe_response " + std::to_string(f) + " has NaN or Inf");

@@ -35,22 +35,24 @@ LevelBufferSizes level_buffer_sizes(const Level& level, const Dictionary& dict) 
 }
 
 Status check_level_matches(const Level& level, const Dictionary& dict) {
-  if (std::uint32_t(level.res) != dict.settings.res || level.kb != dict.settings.kb ||
+  if (std::uint32_t(level.res) != dict.settings.res || level.kb != level_b_stride(dict, level) ||
       level.kr != dict.interfaces.Ur.cols)
-    return Status::error(ErrorCode::invalid_argument,
-                         "level was built for res " + std::to_string(level.res) + ", kb " +
-                             std::to_string(level.kb) + ", kr " + std::to_string(level.kr) +
-                             " but the dictionary has res " + std::to_string(dict.settings.res) + ", kb " +
-                             std::to_string(dict.settings.kb) + ", kr " +
-                             std::to_string(dict.interfaces.Ur.cols) + ": rebuild the level");
+    return Status::error(
+        ErrorCode::invalid_argument,
+        "level was built for res " + std::to_string(level.res) + ", kb " + std::to_string(level.kb) +
+            ", kr " + std::to_string(level.kr) + " but the dictionary (and its shaped sets) have res " +
+            std::to_string(dict.settings.res) + ", kb " + std::to_string(level_b_stride(dict, level)) +
+            ", kr " + std::to_string(dict.interfaces.Ur.cols) + ": rebuild the level");
   return Status::success();
 }
 
 void level_compute_block_b(const Level& level, const Dictionary& dict, std::span<const float> ld,
                            std::size_t block, std::span<float> b) {
   const LevelBlock& blk = level.blocks[block];
-  reference_gemv_rgb(block_operators(dict, level, blk).Td_b, ld.data() + 3 * std::size_t(blk.sample_offset),
-                     b.data() + 3 * std::size_t(level.kb) * block, false);
+  const Matrix& Td_b = block_operators(dict, level, blk).Td_b;
+  float* bi = b.data() + 3 * std::size_t(level.kb) * block;
+  reference_gemv_rgb(Td_b, ld.data() + 3 * std::size_t(blk.sample_offset), bi, false);
+  std::fill(bi + 3 * std::size_t(Td_b.rows), bi + 3 * std::size_t(level.kb), 0.0f);  // past its modes
 }
 
 void level_compute_slot_r(const Level& level, const LevelDependencies& deps, std::span<const float> b,
@@ -182,7 +184,8 @@ Status check_level_vector_operators(const Level& level, const Dictionary& dict) 
         (blk.shaped >= 0 && std::size_t(blk.shaped) >= level.shaped.size()))
       return Status::error(ErrorCode::invalid_argument,
                            "vector irradiance: block " + std::to_string(i) + " has no dictionary shape");
-    if (!has_size(block_operators(dict, level, blk).Ub_vec, 4 * std::size_t(blk.sample_count), level.kb))
+    if (!has_size(block_operators(dict, level, blk).Ub_vec, 4 * std::size_t(blk.sample_count),
+                  block_kb(dict, level, blk)))
       return Status::error(ErrorCode::invalid_argument, "vector irradiance: block " + std::to_string(i) +
                                                             ": the dictionary has no Ub_vec of 4n x kb");
   }
@@ -244,11 +247,12 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
       return mismatch(name + " uses shaped operators " + std::to_string(blk.shaped) + ", the level has " +
                       std::to_string(level.shaped.size()));
     const ShapeOperators& op = block_operators(dict, level, blk);
-    const std::size_t n = blk.sample_count;
-    if (!has_size(op.Td_b, kb, n) || !has_size(op.Ub, n, kb) ||
-        (probes > 0 && !has_size(op.Ubvol, probes, kb)))
+    const std::size_t n = blk.sample_count, kb_block = op.Ub.cols;
+    if (kb_block == 0 || kb_block > kb || !has_size(op.Td_b, kb_block, n) || !has_size(op.Ub, n, kb_block) ||
+        (probes > 0 && !has_size(op.Ubvol, probes, kb_block)))
       return mismatch(name + ": shape " + std::to_string(blk.shape) + " operators are not " +
-                      std::to_string(kb) + " x " + std::to_string(n) + " samples");
+                      std::to_string(kb_block) + " (at most kb " + std::to_string(kb) + ") x " +
+                      std::to_string(n) + " samples");
     if (blk.sample_offset != offset) return mismatch(name + ": sample offsets are not contiguous");
     offset += n;
   }
@@ -271,8 +275,9 @@ Status check_level_operators(const Level& level, const Dictionary& dict) {
   }
   for (std::size_t i = 0; i < level.records.size(); ++i) {
     const ResponseRecord& rec = level.records[i];
-    if (rec.source_block >= level.blocks.size() || rec.slot >= level.slots.size() || !has_size(rec.T, kr, kb))
-      return mismatch("record " + std::to_string(i) + " is out of range or not kr x kb");
+    if (rec.source_block >= level.blocks.size() || rec.slot >= level.slots.size() ||
+        !has_size(rec.T, kr, block_kb(dict, level, level.blocks[rec.source_block])))
+      return mismatch("record " + std::to_string(i) + " is out of range or not kr x its source block's kb");
   }
   const std::size_t texels =
       std::size_t(std::max(level.atlas.width, 0)) * std::size_t(std::max(level.atlas.height, 0));

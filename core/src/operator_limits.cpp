@@ -136,7 +136,7 @@ std::vector<OperatorMeasure> measure_level_operators(const Level& level) {
 }
 
 std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictionary& dict) {
-  const std::uint32_t kb = level.kb, kr = level.kr;
+  const std::uint32_t kr = level.kr;
   // b_k <= ||Td_b,k||_1 max(ld): per operator set (dictionary shape or shaped) and mode.
   std::vector<std::vector<double>> tdb(operator_set_count(dict, level));
   OperatorMeasure b{"b", "gain ld -> b", 0.0, kMaxOutputGain};
@@ -157,7 +157,7 @@ std::vector<OperatorMeasure> measure_level_gain(const Level& level, const Dictio
     const std::vector<double>& g = block_gain(rec.source_block);
     for (std::uint32_t i = 0; i < kr; ++i) {
       double acc = 0.0;
-      for (std::uint32_t k = 0; k < kb; ++k) acc += std::abs(double(rec.T(i, k))) * g[k];
+      for (std::uint32_t k = 0; k < rec.T.cols; ++k) acc += std::abs(double(rec.T(i, k))) * g[k];
       rgain[std::size_t(kr) * rec.slot + i] += acc;
     }
   }

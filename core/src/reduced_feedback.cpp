@@ -204,9 +204,9 @@ ReducedClutter build_reduced_clutter(const Level& level, const Dictionary& dict,
       cl.position[s] = std::int32_t(cl.samples.size());
       cl.samples.push_back(s);
       cl.sample_block.push_back(std::uint32_t(i));
-      for (std::size_t k = 0; k < kb; ++k)
+      for (std::size_t k = 0; k < kb; ++k)  // level.kb wide, zero past the block's modes
         for (std::size_t ch = 0; ch < 3; ++ch)
-          cl.w.push_back(Td(std::uint32_t(k), local) * rho[3 * std::size_t(s) + ch]);
+          cl.w.push_back(k < Td.rows ? Td(std::uint32_t(k), local) * rho[3 * std::size_t(s) + ch] : 0.0f);
     }
   }
   return cl;
@@ -258,7 +258,7 @@ void reduced_clutter_feedback(const Level& level, const ReducedFeedback& op, Red
       for (std::size_t e = 0; e < bsz; ++e) dst[e] += t[e];
     } else {
       reference_gemv_channels(op.P[blk], t, pt, false);
-      for (std::size_t e = 0; e < bsz; ++e) dst[e] += pt[e];
+      for (std::size_t e = 0; e < 3 * std::size_t(op.P[blk].rows); ++e) dst[e] += pt[e];
     }
     first = p;
   }
@@ -331,9 +331,10 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
   plain.A.reserve(level.blocks.size());
   std::vector<double> acc;
   std::vector<ShapeFaceProducts> shape_products(operator_set_count(dict, level));
-  const std::size_t kb2 = std::size_t(plain.kb) * plain.kb;
   for (const LevelBlock& blk : level.blocks) {
     const ShapeOperators& shape = block_operators(dict, level, blk);
+    const std::uint32_t kb = shape.Td_b.rows;  // the block's modes (block_kb)
+    const std::size_t kb2 = std::size_t(kb) * kb;
     const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
     const SampleLayout layout = SampleLayout::make(dictionary_shape_mask(blk.shape), level.res);
     const std::size_t per_face = std::size_t(layout.texels_per_face());
@@ -356,16 +357,16 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     } else {
       accumulate_weighted_product(shape.Td_b, rho_block, shape.Ub, nullptr, acc);
     }
-    plain.A.push_back(to_channel_matrix(plain.kb, plain.kb, acc));
+    plain.A.push_back(to_channel_matrix(kb, kb, acc));
   }
   plain.B.reserve(level.slots.size());
   const Matrix& Ur = dict.interfaces.Ur;
   std::vector<EntryProduct> entry_products;
-  const std::size_t kbr = std::size_t(plain.kb) * plain.kr;
   std::vector<float> ones;
   for (const ResponseSlot& slot : level.slots) {
     const LevelBlock& blk = level.blocks[slot.block];
     const Matrix& Td = block_operators(dict, level, blk).Td_b;
+    const std::size_t kbr = std::size_t(Td.rows) * plain.kr;
     const std::span<const float> rho_block = rho.subspan(3 * std::size_t(blk.sample_offset));
     // The mapped samples all lie on the entry face: one albedo when that face's is constant.
     float entry_rho[3] = {0.0f, 0.0f, 0.0f};
@@ -401,7 +402,7 @@ Result<ReducedFeedback> build_reduced_feedback(const Level& level, const Diction
     } else {
       accumulate_weighted_product(Td, rho_block, Ur, slot.ur_row_to_sample.data(), acc);
     }
-    plain.B.push_back(to_channel_matrix(plain.kb, plain.kr, acc));
+    plain.B.push_back(to_channel_matrix(Td.rows, plain.kr, acc));
   }
   if (drt && !drt->empty()) plain.clutter = build_reduced_clutter(level, dict, rho, *drt, rho_c);
   const std::size_t n = plain.unknowns(level);
@@ -462,8 +463,11 @@ void reference_reduced_rhs(const Level& level, const ReducedFeedback& op, std::s
     return;
   }
   const std::size_t bsz = 3 * std::size_t(op.kb);
-  for (std::size_t i = 0; i < level.blocks.size(); ++i)
-    reference_gemv_channels(op.P[i], b0.data() + bsz * i, c.data() + bsz * i, false);
+  for (std::size_t i = 0; i < level.blocks.size(); ++i) {
+    float* ci = c.data() + bsz * i;
+    reference_gemv_channels(op.P[i], b0.data() + bsz * i, ci, false);
+    std::fill(ci + 3 * std::size_t(op.P[i].rows), ci + bsz, 0.0f);  // past the block's modes
+  }
 }
 
 void reference_apply_reduced_feedback(const Level& level, const LevelDependencies& deps,
@@ -480,10 +484,8 @@ void reference_apply_reduced_feedback(const Level& level, const LevelDependencie
   }
   for (std::size_t i = 0; i < level.blocks.size(); ++i) {
     float* dst = out.data() + bsz * i;
-    if (op.A.empty())
-      std::fill(dst, dst + bsz, 0.0f);
-    else
-      reference_gemv_channels(op.A[i], x.data() + bsz * i, dst, false);
+    std::fill(dst, dst + bsz, 0.0f);  // zero past the block's modes too
+    if (!op.A.empty()) reference_gemv_channels(op.A[i], x.data() + bsz * i, dst, false);
     for (std::uint32_t s : deps.slots_of_block(i))
       reference_gemv_channels(op.B[s], r_scratch.data() + rsz * s, dst, true);
   }

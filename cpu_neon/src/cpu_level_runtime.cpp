@@ -259,6 +259,7 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
     rt.max_block_samples_ = std::max<std::size_t>(rt.max_block_samples_, blk.sample_count);
   rt.b_.assign(rt.sizes_.b, 0.0f);
   rt.b_planar_.assign(rt.sizes_.b, 0.0f);
+  for (const LevelBlock& blk : level.blocks) rt.block_kb_.push_back(block_kb(dict, level, blk));
   rt.r_.assign(rt.sizes_.r, 0.0f);
   rt.r_planar_.assign(rt.sizes_.r, 0.0f);
   rt.x_planar_.assign(rt.sizes_.b, 0.0f);
@@ -300,14 +301,17 @@ Result<CpuLevelRuntime> CpuLevelRuntime::create(const Level& level, const Dictio
     const ShapeRefs& refs = rt.shape_ops_[sh];
     const Matrix& Ub = kernel_values(operator_set_at(dict, level, sh).Ub, refs.ub.f16, decoded_ub);
     const Matrix& Td_b = kernel_values(operator_set_at(dict, level, sh).Td_b, refs.td_b.f16, decoded_td_b);
+    const std::size_t kb_set = Ub.cols;  // kept kb apart in shape_d_ (the level's stride)
     std::vector<double> d(kb, 0.0);
     for (std::uint32_t r = 0; r < Ub.rows; ++r)
-      for (std::size_t k = 0; k < kb; ++k) d[k] += double(Ub(r, std::uint32_t(k))) * Ub(r, std::uint32_t(k));
+      for (std::size_t k = 0; k < kb_set; ++k)
+        d[k] += double(Ub(r, std::uint32_t(k))) * Ub(r, std::uint32_t(k));
     for (double& v : d) v = std::max(std::sqrt(v), 1e-30);
     const std::vector<double> td_gram = gram_rows(Td_b, nullptr);
     // ||Ub Td_b||_2^2 = rho((Ub^T Ub)(Td_b Td_b^T)); ||D Td_b||_2^2 = rho(D Td_b Td_b^T D).
-    rt.shape_ub_td_norm_.push_back(std::sqrt(spectral_radius_bound(matmul(gram(Ub), td_gram, kb), kb)));
-    rt.shape_d_td_norm_.push_back(std::sqrt(spectral_radius_bound(gram_rows(Td_b, d.data()), kb)));
+    rt.shape_ub_td_norm_.push_back(
+        std::sqrt(spectral_radius_bound(matmul(gram(Ub), td_gram, kb_set), kb_set)));
+    rt.shape_d_td_norm_.push_back(std::sqrt(spectral_radius_bound(gram_rows(Td_b, d.data()), kb_set)));
     rt.shape_d_.insert(rt.shape_d_.end(), d.begin(), d.end());
   }
   rt.ur_norm_ = std::sqrt(
@@ -398,7 +402,7 @@ Status CpuLevelRuntime::set_skip_options(const CpuSkipOptions& skip) {
 // Phase 1 with skipping (CpuSkipOptions (a), (b)) for block i.
 void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int thread) {
   const LevelBlock& blk = level_->blocks[i];
-  const std::size_t n = blk.sample_count, kb = level_->kb;
+  const std::size_t n = blk.sample_count, kb = level_->kb, kb_i = block_kb_[i];
   const float* l = ld.data() + 3 * std::size_t(blk.sample_offset);
   float* ref = ld_ref_.data() + 3 * std::size_t(blk.sample_offset);
   float* b = b_.data() + 3 * kb * i;
@@ -433,14 +437,14 @@ void CpuLevelRuntime::skip_block_b(std::size_t i, std::span<const float> ld, int
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   float* b_new = b_scratch_.data() + 3 * kb * std::size_t(thread);
   deinterleave_rgb(l, n, scratch, n);
-  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb, n, scratch, b_new, false);
-  const bool changed = force || !same_bits(b_new, b, 3 * kb);
+  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb_i, n, scratch, b_new, false);
+  const bool changed = force || !same_bits(b_new, b, 3 * kb_i);  // past kb_i, b stays zero
   if (changed) {
-    std::copy(b_new, b_new + 3 * kb, b);
-    deinterleave_rgb(b, kb, bp, kb);
+    std::copy(b_new, b_new + 3 * kb_i, b);
+    deinterleave_rgb(b, kb_i, bp, kb_i);
     const double* dk = shape_d_.data() + kb * operator_set(*dict_, blk);
     double n2 = 0.0, dn2 = 0.0;
-    for (std::size_t k = 0; k < kb; ++k)
+    for (std::size_t k = 0; k < kb_i; ++k)
       for (std::size_t c = 0; c < 3; ++c) {
         const double v = b[3 * k + c];
         n2 += v * v;
@@ -493,7 +497,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
           ++skipped;
           continue;
         }
-        gemv(record_ops_[rec], kr, kb, b_planar_.data() + 3 * kb * src, r_new, true);
+        gemv(record_ops_[rec], kr, block_kb_[src], b_planar_.data() + 3 * kb * src, r_new, true);
         ++computed;
       }
       slot_rho_[s] = left_out;
@@ -541,7 +545,7 @@ void CpuLevelRuntime::skip_block_lightmap(std::size_t i, std::span<float> lightm
   const std::size_t count = 3 * std::size_t(level.blocks[i].sample_count);
   if (force || b_changed_[i]) {
     const std::size_t shape = operator_set(*dict_, level.blocks[i]);
-    gemv(shape_ops_[shape].ub, operator_set_at(*dict_, *level_, shape).Ub.rows, kb,
+    gemv(shape_ops_[shape].ub, operator_set_at(*dict_, *level_, shape).Ub.rows, block_kb_[i],
          b_planar_.data() + 3 * kb * i, self, false);
   }
   std::copy(self, self + count, tile);
@@ -583,11 +587,11 @@ void CpuLevelRuntime::finish_skip_stats() {
 // Step 2 for block i: b_i = Td_b ld_i through thread's planar ld scratch; b_i kept planar too.
 void CpuLevelRuntime::compute_block_b(std::size_t i, std::span<const float> ld, int thread) {
   const LevelBlock& blk = level_->blocks[i];
-  const std::size_t n = blk.sample_count, kb = level_->kb;
+  const std::size_t n = blk.sample_count, kb = level_->kb, kb_i = block_kb_[i];
   float* scratch = ld_planar_.data() + 3 * max_block_samples_ * std::size_t(thread);
   deinterleave_rgb(ld.data() + 3 * std::size_t(blk.sample_offset), n, scratch, n);
-  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb, n, scratch, b_.data() + 3 * kb * i, false);
-  deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
+  gemv(shape_ops_[operator_set(*dict_, blk)].td_b, kb_i, n, scratch, b_.data() + 3 * kb * i, false);
+  deinterleave_rgb(b_.data() + 3 * kb * i, kb_i, b_planar_.data() + 3 * kb * i, kb_i);
 }
 
 void CpuLevelRuntime::build_padding_rows() {
@@ -630,7 +634,8 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
     std::fill(r, r + 3 * kr, 0.0f);
     for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
       const std::size_t rec = slot_records_[q];
-      gemv(record_ops_[rec], kr, kb, b_planar_.data() + 3 * kb * level.records[rec].source_block, r, true);
+      const std::size_t src = level.records[rec].source_block;
+      gemv(record_ops_[rec], kr, block_kb_[src], b_planar_.data() + 3 * kb * src, r, true);
     }
     deinterleave_rgb(r, kr, r_planar_.data() + 3 * kr * s, kr);
   }
@@ -642,10 +647,10 @@ void CpuLevelRuntime::compute_block_lightmap(std::size_t i, std::span<float> lig
   // which rows beside it are masked), so the samples written equal the whole tile's bit for bit.
   const bool sources_only = write_tile == kPaddingSourcesOnly;
   if (sources_only)
-    gemv_masked(shape_ops_[shape].ub, ub_rows, kb, padding_ub_rows_.data() + level.blocks[i].sample_offset,
-                b_planar_.data() + 3 * kb * i, tile);
+    gemv_masked(shape_ops_[shape].ub, ub_rows, block_kb_[i],
+                padding_ub_rows_.data() + level.blocks[i].sample_offset, b_planar_.data() + 3 * kb * i, tile);
   else
-    gemv(shape_ops_[shape].ub, ub_rows, kb, b_planar_.data() + 3 * kb * i, tile, false);
+    gemv(shape_ops_[shape].ub, ub_rows, block_kb_[i], b_planar_.data() + 3 * kb * i, tile, false);
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j];
     const std::int32_t* rows =
@@ -693,7 +698,7 @@ void CpuLevelRuntime::compute_block_probes(std::size_t i, std::span<float> probe
   const std::size_t per_block = 3 * std::size_t(dict_->shapes[0].Ubvol.rows);
   float* out = probes.data() + per_block * i;
   const std::size_t shape = operator_set(*dict_, level.blocks[i]);
-  gemv(shape_ops_[shape].ubvol, operator_set_at(*dict_, *level_, shape).Ubvol.rows, kb,
+  gemv(shape_ops_[shape].ubvol, operator_set_at(*dict_, *level_, shape).Ubvol.rows, block_kb_[i],
        b_planar_.data() + 3 * kb * i, out, false);
   for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
     const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);
@@ -769,7 +774,7 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
   const Level& level = *level_;
   const std::size_t kb = level.kb, kr = level.kr;
   auto planar_phase = [&](std::size_t i, int) {
-    deinterleave_rgb(x.data() + 3 * kb * i, kb, x_planar_.data() + 3 * kb * i, kb);
+    deinterleave_rgb(x.data() + 3 * kb * i, block_kb_[i], x_planar_.data() + 3 * kb * i, block_kb_[i]);
   };
   parallel_for(level.blocks.size(), planar_phase);
   auto r_phase = [&](std::size_t s, int) {
@@ -777,19 +782,20 @@ void CpuLevelRuntime::apply_reduced_feedback(const ReducedFeedback& op, std::spa
     std::fill(r, r + 3 * kr, 0.0f);
     for (std::uint32_t q = slot_record_begin_[s]; q < slot_record_begin_[s + 1]; ++q) {
       const std::size_t rec = slot_records_[q];
-      gemv(record_ops_[rec], kr, kb, x_planar_.data() + 3 * kb * level.records[rec].source_block, r, true);
+      const std::size_t src = level.records[rec].source_block;
+      gemv(record_ops_[rec], kr, block_kb_[src], x_planar_.data() + 3 * kb * src, r, true);
     }
   };
   parallel_for(level.slots.size(), r_phase);
   auto b_phase = [&](std::size_t i, int) {
     float* dst = out.data() + 3 * kb * i;
-    if (op.A.empty())
-      std::fill(dst, dst + 3 * kb, 0.0f);
-    else
-      gemv_channels(isa_, op.A[i].data.data(), kb, kb, x.data() + 3 * kb * i, dst, false);
+    const std::size_t kb_i = block_kb_[i];
+    if (op.A.empty() || kb_i < kb) std::fill(dst, dst + 3 * kb, 0.0f);  // zero past kb_i too
+    if (!op.A.empty())
+      gemv_channels(isa_, op.A[i].data.data(), kb_i, kb_i, x.data() + 3 * kb * i, dst, false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j];
-      gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_.data() + 3 * kr * s, dst, true);
+      gemv_channels(isa_, op.B[s].data.data(), kb_i, kr, r_.data() + 3 * kr * s, dst, true);
     }
   };
   parallel_for(level.blocks.size(), b_phase);
@@ -803,7 +809,7 @@ void CpuLevelRuntime::apply_reduced_feedback_delta(const ReducedFeedback& op, st
   const std::span<const std::uint32_t> items = flagged(blocks);
   auto planar_phase = [&](std::size_t k, int) {
     const std::size_t i = items[k];
-    deinterleave_rgb(d.data() + 3 * kb * i, kb, x_planar_.data() + 3 * kb * i, kb);
+    deinterleave_rgb(d.data() + 3 * kb * i, block_kb_[i], x_planar_.data() + 3 * kb * i, block_kb_[i]);
   };
   parallel_for(items.size(), planar_phase);
   auto r_phase = [&](std::size_t s, int) {
@@ -814,7 +820,7 @@ void CpuLevelRuntime::apply_reduced_feedback_delta(const ReducedFeedback& op, st
       if (!blocks[src]) continue;
       if (!touched) std::fill(rd, rd + 3 * kr, 0.0f);
       touched = true;
-      gemv(record_ops_[rec], kr, kb, x_planar_.data() + 3 * kb * src, rd, true);
+      gemv(record_ops_[rec], kr, block_kb_[src], x_planar_.data() + 3 * kb * src, rd, true);
     }
     slot_touched_[s] = touched ? 1 : 0;
     if (touched) {
@@ -826,11 +832,11 @@ void CpuLevelRuntime::apply_reduced_feedback_delta(const ReducedFeedback& op, st
   auto b_phase = [&](std::size_t i, int) {
     float* dst = y.data() + 3 * kb * i;
     if (!op.A.empty() && blocks[i])
-      gemv_channels(isa_, op.A[i].data.data(), kb, kb, d.data() + 3 * kb * i, dst, true);
+      gemv_channels(isa_, op.A[i].data.data(), block_kb_[i], block_kb_[i], d.data() + 3 * kb * i, dst, true);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j];
       if (slot_touched_[s])
-        gemv_channels(isa_, op.B[s].data.data(), kb, kr, r_delta_.data() + 3 * kr * s, dst, true);
+        gemv_channels(isa_, op.B[s].data.data(), block_kb_[i], kr, r_delta_.data() + 3 * kr * s, dst, true);
     }
   };
   parallel_for(level.blocks.size(), b_phase);
@@ -843,7 +849,9 @@ void CpuLevelRuntime::reduced_rhs(const ReducedFeedback& op, std::span<const flo
   }
   const std::size_t kb = level_->kb;
   auto rhs_phase = [&](std::size_t i, int) {
-    gemv_channels(isa_, op.P[i].data.data(), kb, kb, b0.data() + 3 * kb * i, c.data() + 3 * kb * i, false);
+    float* ci = c.data() + 3 * kb * i;
+    gemv_channels(isa_, op.P[i].data.data(), block_kb_[i], block_kb_[i], b0.data() + 3 * kb * i, ci, false);
+    std::fill(ci + 3 * std::size_t(block_kb_[i]), ci + 3 * kb, 0.0f);
   };
   parallel_for(level_->blocks.size(), rhs_phase);
 }
@@ -853,7 +861,7 @@ void CpuLevelRuntime::finish_reduced_solve(std::span<const float> b_new, std::sp
   std::copy(r.begin(), r.end(), r_.begin());
   const std::size_t kb = level_->kb, kr = level_->kr;
   for (std::size_t i = 0; i < level_->blocks.size(); ++i)
-    deinterleave_rgb(b_.data() + 3 * kb * i, kb, b_planar_.data() + 3 * kb * i, kb);
+    deinterleave_rgb(b_.data() + 3 * kb * i, block_kb_[i], b_planar_.data() + 3 * kb * i, block_kb_[i]);
   for (std::size_t s = 0; s < level_->slots.size(); ++s)
     deinterleave_rgb(r_.data() + 3 * kr * s, kr, r_planar_.data() + 3 * kr * s, kr);
 }
@@ -878,7 +886,7 @@ Status CpuLevelRuntime::compute_vector_irradiance(std::span<float> vector_lightm
     const LevelBlock& blk = level.blocks[i];
     float* out = vector_lightmap.data() + 12 * std::size_t(blk.sample_offset);
     const std::size_t shape = operator_set(*dict_, blk);
-    gemv(shape_ops_[shape].ub_vec, operator_set_at(*dict_, *level_, shape).Ub_vec.rows, kb,
+    gemv(shape_ops_[shape].ub_vec, operator_set_at(*dict_, *level_, shape).Ub_vec.rows, block_kb_[i],
          b_planar_.data() + 3 * kb * i, out, false);
     for (std::uint32_t j = block_slot_begin_[i]; j < block_slot_begin_[i + 1]; ++j) {
       const std::size_t s = block_slots_[j], face = std::size_t(level.slots[s].entry_face);

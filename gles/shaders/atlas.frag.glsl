@@ -23,9 +23,9 @@ void main() {
   vec3 acc = vec3(0.0);
   if (s >= 0) {
     ivec4 info = load_int(u_sample_info, s);
-    int shape = load_int(u_block_info, info.x).x;
-    acc = dot_rgb(u_ub, (shape * N_MAX + info.y) * GROUPS, u_b_red, u_b_green, u_b_blue, info.x * GROUPS,
-                  GROUPS);
+    ivec4 block = load_int(u_block_info, info.x);
+    acc = dot_rgb_b(u_ub, (block.x * N_MAX + info.y) * GROUPS, u_b_red, u_b_green, u_b_blue, info.x * GROUPS,
+                    block_groups(block));
     ivec4 slots = load_int(u_sample_slots, s);
     ivec4 rows = load_int(u_sample_rows, s);
     for (int k = 0; k < 4; ++k) {

@@ -36,7 +36,7 @@ void main() {
     int t0 = chunk * B_CHUNK;
     int base = (info.x * GROUPS + g) * N_MAX + t0;
     int first = info.y + t0;
-    int n = min(B_CHUNK, info.z - t0);
+    int n = g < block_groups(info) ? min(B_CHUNK, info.z - t0) : 0;  // past its modes: 0
     for (int k = 0; k < B_CHUNK; ++k) {
       if (k >= n) break;
       vec4 w = load(u_td_b, base + k);

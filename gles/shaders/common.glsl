@@ -65,3 +65,21 @@ vec3 dot_rgb(sampler2D op, int u, usampler2D red, usampler2D green, usampler2D b
   }
   return acc;
 }
+// A block's modes in groups of four: its operator set's kb (level.h block_kb), at most GROUPS
+// (b's stride); packed above the quarter turns in the block table's w.
+int block_groups(ivec4 block_info) { return block_info.w >> 2; }
+// Only where b exists (the level runtime's passes; the direct-light pass has none).
+#ifdef GROUPS
+// dot_rgb over the first `n` of a b row's GROUPS groups (the rest of a block's b is zero, its
+// operators' too): a cube block beside a shaped set with more modes costs its own modes.
+vec3 dot_rgb_b(sampler2D op, int u, usampler2D red, usampler2D green, usampler2D blue, int s, int n) {
+  vec3 acc = vec3(0.0);
+  for (int g = 0; g < GROUPS; ++g) {
+    if (g >= n) break;
+    vec4 w = load(op, u + g);
+    acc += vec3(dot(w, load_signal(red, s + g)), dot(w, load_signal(green, s + g)),
+                dot(w, load_signal(blue, s + g)));
+  }
+  return acc;
+}
+#endif

@@ -24,9 +24,9 @@ void main() {
   if (i < u_count) {
     int block = i / PROBE_ROWS;
     int row = i - block * PROBE_ROWS;
-    int shape = load_int(u_block_info, block).x;
-    acc = dot_rgb(u_ubvol, (shape * PROBE_ROWS + row) * GROUPS, u_b_red, u_b_green, u_b_blue, block * GROUPS,
-                  GROUPS);
+    ivec4 binfo = load_int(u_block_info, block);
+    acc = dot_rgb_b(u_ubvol, (binfo.x * PROBE_ROWS + row) * GROUPS, u_b_red, u_b_green, u_b_blue, block * GROUPS,
+                    block_groups(binfo));
     ivec4 slots = load_int(u_block_slots, block);
     for (int k = 0; k < 4; ++k) {
       if (slots[k] < 0) break;

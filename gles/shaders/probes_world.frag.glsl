@@ -18,7 +18,7 @@ void main() {
     int block = i / PROBE_ROWS;
     int k = i % 9;
     int first = i - k;
-    int turns = load_int(u_block_info, block).w;
+    int turns = load_int(u_block_info, block).w & 3;
     for (int j = 0; j < 9; ++j)
       acc += texelFetch(u_rotation, ivec2(9 * k + j, turns), 0).r * load_output_2d(u_probes, lin(first + j)).rgb;
   }

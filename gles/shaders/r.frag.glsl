@@ -7,7 +7,7 @@
 // texel ((j * r_groups + go) * groups + gi) * 4 + c = T[4go..4go+3][4gi + c].
 uniform sampler2D u_t;
 uniform isampler2D u_slot_info;     // per slot: (first record, record count, block, entry face)
-uniform isampler2D u_record_block;  // per record: (source block, 0, 0, 0)
+uniform isampler2D u_record_block;  // per record: (source block, its groups of modes, 0, 0)
 uniform usampler2D u_b_red, u_b_green, u_b_blue;
 uniform int u_count;  // slots * R_GROUPS * GROUPS
 
@@ -25,7 +25,9 @@ void main() {
     int go = so - slot * R_GROUPS;
     ivec4 info = load_int(u_slot_info, slot);
     for (int j = info.x; j < info.x + info.y; ++j) {
-      int source = load_int(u_record_block, j).x * GROUPS + gi;
+      ivec4 record = load_int(u_record_block, j);
+      if (gi >= record.y) continue;  // past the source block's modes: T and b are zero there
+      int source = record.x * GROUPS + gi;
       int t = ((j * R_GROUPS + go) * GROUPS + gi) * 4;
       mat4 m = mat4(load(u_t, t), load(u_t, t + 1), load(u_t, t + 2), load(u_t, t + 3));
       red += m * load_signal(u_b_red, source);

@@ -14,6 +14,11 @@
 //   texel (((item * GROUPS + go) * COLS + gi) * 3 + channel) * 4 + j = M[4go..4go+3][4gi + j]
 // with COLS = GROUPS for P and A, R_GROUPS for B (gles_reduced_solve.cpp, pack_channel_blocks).
 uniform int u_count;  // blocks * GROUPS
+#if STAGE == 1 || STAGE == 2
+// Per block: its modes in groups (common.glsl block_groups); a group past them stays 0 (P, A
+// and B have no rows there, b0 and c are 0) and the matrices' columns stop there too.
+uniform isampler2D u_block_info;
+#endif
 #if STAGE == 1 || STAGE == 2 || STAGE == 4
 layout(location = 0) out uvec4 o_red;
 layout(location = 1) out uvec4 o_green;
@@ -39,10 +44,10 @@ uniform usampler2D u_b0_red, u_b0_green, u_b0_blue;
 void main() {
   int i = fragment_index();
   vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
-  if (i < u_count) {
-    int block = i / GROUPS;
-    add_blocks(red, green, blue, u_p, i * GROUPS * 12, GROUPS, u_b0_red, u_b0_green, u_b0_blue, block * GROUPS);
-  }
+  int block = i / GROUPS;
+  int n = i < u_count ? block_groups(load_int(u_block_info, block)) : 0;
+  if (i - block * GROUPS < n)
+    add_blocks(red, green, blue, u_p, i * GROUPS * 12, n, u_b0_red, u_b0_green, u_b0_blue, block * GROUPS);
   o_red = store_signal(red);
   o_green = store_signal(green);
   o_blue = store_signal(blue);
@@ -61,14 +66,15 @@ uniform usampler2D u_x_red, u_x_green, u_x_blue;
 void main() {
   int i = fragment_index();
   vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
-  if (i < u_count) {
-    int block = i / GROUPS;
-    int go = i - block * GROUPS;
+  int block = i / GROUPS;
+  int go = i - block * GROUPS;
+  int n = i < u_count ? block_groups(load_int(u_block_info, block)) : 0;
+  if (go < n) {
     red = load_signal(u_c_red, i);
     green = load_signal(u_c_green, i);
     blue = load_signal(u_c_blue, i);
 #if PLAIN
-    add_blocks(red, green, blue, u_a, i * GROUPS * 12, GROUPS, u_x_red, u_x_green, u_x_blue, block * GROUPS);
+    add_blocks(red, green, blue, u_a, i * GROUPS * 12, n, u_x_red, u_x_green, u_x_blue, block * GROUPS);
 #endif
     ivec4 slots = load_int(u_block_slots, block);
     for (int k = 0; k < 4; ++k) {

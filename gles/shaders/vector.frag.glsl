@@ -29,10 +29,10 @@ void main() {
   vec3 a[4] = vec3[4](vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
   if (s >= 0) {
     ivec4 info = load_int(u_sample_info, s);
-    int shape = load_int(u_block_info, info.x).x;
+    ivec4 block = load_int(u_block_info, info.x);
     for (int i = 0; i < 4; ++i)
-      a[i] = dot_rgb(u_ub_vec, ((shape * N_MAX + info.y) * 4 + i) * GROUPS, u_b_red, u_b_green, u_b_blue,
-                     info.x * GROUPS, GROUPS);
+      a[i] = dot_rgb_b(u_ub_vec, ((block.x * N_MAX + info.y) * 4 + i) * GROUPS, u_b_red, u_b_green, u_b_blue,
+                       info.x * GROUPS, block_groups(block));
     ivec4 slots = load_int(u_sample_slots, s);
     ivec4 rows = load_int(u_sample_rows, s);
     for (int k = 0; k < 4; ++k) {

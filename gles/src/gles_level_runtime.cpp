@@ -180,7 +180,8 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
     block_info[4 * i + 0] = int(operator_set(dict, b));
     block_info[4 * i + 1] = std::int32_t(b.sample_offset);
     block_info[4 * i + 2] = std::int32_t(b.sample_count);
-    block_info[4 * i + 3] = b.quarter_turns & 3;  // probes_world.frag
+    // probes_world.frag reads the turns, common.glsl's block_groups the modes.
+    block_info[4 * i + 3] = (b.quarter_turns & 3) | (groups_of(block_kb(dict, level, b)) << 2);
   }
   // Records grouped by slot (stable), so r.frag walks one contiguous range per slot.
   std::vector<std::uint32_t> order(level.records.size());
@@ -197,6 +198,7 @@ Status GlesLevelRuntime::build(const Level& level, const Dictionary& dict, bool 
   for (std::size_t j = 0; j < order.size(); ++j) {
     const ResponseRecord& rec = level.records[order[j]];
     record_block[4 * j] = std::int32_t(rec.source_block);
+    record_block[4 * j + 1] = groups_of(rec.T.cols);  // r.frag: the source's modes
     if (slot_info[4 * rec.slot + 1]++ == 0) slot_info[4 * rec.slot] = std::int32_t(j);
   }
   std::vector<std::int32_t> sample_info(4 * std::max<std::size_t>(samples, 1), 0);

@@ -55,19 +55,19 @@ Status GlesLevelRuntime::build_reduced_programs() {
   };
   const std::string& d = defines_;
   if (Status s = program("reduced_solve.frag (c = P b0)", d + "#define STAGE 1\n", kReducedSolveFrag,
-                         solve_.rhs_program, {"u_p", "u_b0_red", "u_b0_green", "u_b0_blue"});
+                         solve_.rhs_program, {"u_p", "u_b0_red", "u_b0_green", "u_b0_blue", "u_block_info"});
       !s.ok())
     return s;
-  if (Status s = program(
-          "reduced_solve.frag (apply)", d + "#define STAGE 2\n#define PLAIN 0\n", kReducedSolveFrag,
-          solve_.apply_program,
-          {"u_b", "u_block_slots", "u_c_red", "u_c_green", "u_c_blue", "u_r_red", "u_r_green", "u_r_blue"});
+  if (Status s = program("reduced_solve.frag (apply)", d + "#define STAGE 2\n#define PLAIN 0\n",
+                         kReducedSolveFrag, solve_.apply_program,
+                         {"u_b", "u_block_slots", "u_c_red", "u_c_green", "u_c_blue", "u_r_red", "u_r_green",
+                          "u_r_blue", "u_block_info"});
       !s.ok())
     return s;
   if (Status s = program("reduced_solve.frag (apply, plain)", d + "#define STAGE 2\n#define PLAIN 1\n",
                          kReducedSolveFrag, solve_.apply_plain_program,
                          {"u_b", "u_block_slots", "u_c_red", "u_c_green", "u_c_blue", "u_r_red", "u_r_green",
-                          "u_r_blue", "u_a", "u_x_red", "u_x_green", "u_x_blue"});
+                          "u_r_blue", "u_a", "u_x_red", "u_x_green", "u_x_blue", "u_block_info"});
       !s.ok())
     return s;
   if (Status s =
@@ -188,7 +188,7 @@ Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, 
   const auto rhs = [&](const Signal3& from) {
     if (solve_.plain) return &from;
     draw(solve_.rhs_program, solve_.rhs.framebuffer, solve_.rhs.width, solve_.rhs.height,
-         {solve_.block_matrices, from.textures[0], from.textures[1], from.textures[2]});
+         {solve_.block_matrices, from.textures[0], from.textures[1], from.textures[2], block_info_});
     return static_cast<const Signal3*>(&solve_.rhs);
   };
   const Signal3* c = clutter ? nullptr : rhs(b_);
@@ -215,11 +215,11 @@ Status GlesLevelRuntime::stage_solve(const ReducedFeedback& op, ReducedSolver&, 
       draw(solve_.apply_plain_program, out.framebuffer, out.width, out.height,
            {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2],
             r_.textures[0], r_.textures[1], r_.textures[2], solve_.block_matrices, in->textures[0],
-            in->textures[1], in->textures[2]});
+            in->textures[1], in->textures[2], block_info_});
     else
       draw(solve_.apply_program, out.framebuffer, out.width, out.height,
            {solve_.slot_matrices, block_slots_, c->textures[0], c->textures[1], c->textures[2],
-            r_.textures[0], r_.textures[1], r_.textures[2]});
+            r_.textures[0], r_.textures[1], r_.textures[2], block_info_});
     if (it + 1 == k && timing())
       draw(solve_.residual_program, solve_.residual.framebuffer, 1, 1,
            {out.textures[0], out.textures[1], out.textures[2], in->textures[0], in->textures[1],

@@ -686,7 +686,9 @@ struct DrtBuilder::Pass {
     const std::uint32_t W = vector ? 4 : 1, kb = level.kb;
     std::vector<SampleResult> result = traced;
     // Row i, column c of a sample's unshadowed transport, i < W (Ub or Ub_vec).
+    // Zero past the block's modes (block_kb; the rows are level.kb wide).
     auto unshadowed = [&](const ShapeOperators& op, int local, std::uint32_t i, std::uint32_t c) {
+      if (c >= op.Ub.cols) return 0.0;
       return vector ? double(op.Ub_vec(std::uint32_t(4 * local) + i, c))
                     : double(op.Ub(std::uint32_t(local), c));
     };
@@ -1089,10 +1091,10 @@ std::string settings_difference(const DrtBuildSettings& a, const DrtBuildSetting
 Status check_dictionary(const Level& level, const Dictionary& dict, bool vector) {
   for (const LevelBlock& b : level.blocks) {
     const ShapeOperators& op = block_operators(dict, level, b);
-    if (op.Limp.rows != b.sample_count || op.Limp.cols != level.kb || op.Ub.cols != level.kb)
+    if (op.Limp.rows != b.sample_count || op.Limp.cols != op.Ub.cols || op.Ub.cols > level.kb)
       return Status::error(ErrorCode::invalid_argument,
                            "DRT build: dictionary Limp / Ub do not match the level");
-    if (vector && (op.Ub_vec.rows != 4 * b.sample_count || op.Ub_vec.cols != level.kb))
+    if (vector && (op.Ub_vec.rows != 4 * b.sample_count || op.Ub_vec.cols != op.Ub.cols))
       return Status::error(
           ErrorCode::invalid_argument,
           "DRT build: vector operators asked for, but the dictionary has no Ub_vec of 4n x kb");

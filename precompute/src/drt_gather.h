@@ -412,8 +412,8 @@ class LimpGather {
       const std::span<const float> limp =
           block_operators(dict_, level_, lb).Limp.row(std::uint32_t(idx - lb.sample_offset));
       std::vector<double>& row = rows[std::uint32_t(blk)];
-      row.resize(level_.kb, 0.0);
-      for (std::uint32_t c = 0; c < level_.kb; ++c) row[c] += weight_[idx] * double(limp[c]);
+      row.resize(level_.kb, 0.0);  // level.kb wide; a block with fewer modes leaves the rest 0
+      for (std::size_t c = 0; c < limp.size(); ++c) row[c] += weight_[idx] * double(limp[c]);
       weight_[idx] = 0.0;
       touched_flag_[idx] = 0;
     }

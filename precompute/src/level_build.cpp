@@ -335,6 +335,7 @@ Result<Level> build_level(const LevelDescription& description, const Dictionary&
     if (!assigned.ok()) return assigned.status();
     shaped_interfaces = std::move(assigned.value());
   }
+  level.kb = level_b_stride(dict, level);  // shaped sets may keep more modes than a cube
   // The interface operators of block b: its box's where they were traced, else the cube's.
   auto box_interfaces = [&](const LevelBlock& b) -> const ShapedInterfaces* {
     return b.shaped >= 0 && !shaped_interfaces[std::size_t(b.shaped)].empty()

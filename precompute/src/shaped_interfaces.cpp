@@ -30,7 +30,7 @@ ShapedInterfaces bake_shaped_interfaces(const Dictionary& dict, const Matrix& Hr
     throw std::invalid_argument("shaped interfaces: the interface basis is " + std::to_string(Hrlf_f.rows) +
                                 " x " + std::to_string(Hrlf_f.cols) + ", the dictionary's is " +
                                 std::to_string(lf) + " x " + std::to_string(dict.settings.krlf));
-  if (Limp_f.rows != std::uint32_t(face_count(mask) * res * res) || Limp_f.cols != dict.settings.kb)
+  if (Limp_f.rows != std::uint32_t(face_count(mask) * res * res) || Limp_f.cols == 0)
     throw std::invalid_argument("shaped interfaces: Limp does not match shape " + std::to_string(shape));
   const MatrixXd Hrlf = to_eigen(Hrlf_f);
   const MatrixXd Limp = to_eigen(Limp_f);

@@ -62,6 +62,31 @@ glm::dvec3 proportions_extent(const ProportionSteps& steps, int steps_per_octave
   return e;
 }
 
+int shaped_mode_factor(const glm::dvec3& extent) {
+  double e[3] = {extent.x, extent.y, extent.z};
+  std::sort(e, e + 3);
+  const double shortest = std::max(e[0], 0.5 * e[1]);
+  if (!(shortest > 0.0) || !std::isfinite(e[2])) return 1;
+  const double cubes = e[0] * e[1] * e[2] / (shortest * shortest * shortest);
+  // 1.1: the proportion lattice's rounding (a 3 x 1 x 1 box is baked as 2.83 cubes at 8 steps
+  // an octave) must not cost a mode factor.
+  return int(std::clamp(std::floor(1.1 * cubes), 1.0, double(kMaxShapedModeFactor)));
+}
+
+DictionarySettings shaped_bake_settings(const DictionarySettings& dict, FaceMask mask,
+                                        const glm::dvec3& extent) {
+  DictionarySettings s = dict;
+  const std::uint32_t m = std::uint32_t(shaped_mode_factor(extent));
+  const std::uint32_t samples = std::uint32_t(face_count(mask)) * dict.res * dict.res;
+  s.kb = std::max(dict.kb, std::min(dict.kb * m, samples));
+  // The prior keeps kd (3m - 1) modes: the stretched lattice holds m times the lights, and Ub
+  // reduced from a richer prior is closer to F (docs/precompute.md: the 3 x 1 x 1 room's
+  // camera error 0.057 / 0.053 / 0.052 / 0.051 / 0.051 at kd x 3 / 5 / 6 / 8 / 12).
+  const std::uint32_t prior = m > 1 ? dict.kd * (3 * m - 1) : dict.kd;
+  s.kd = std::max(dict.kd, std::min(prior, std::max(samples, s.kb)));
+  return s;
+}
+
 Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape, const glm::dvec3& extent) {
   const std::string what =
       "shaped operators for shape " + std::to_string(shape) + ", box " + extent_text(extent);
@@ -73,7 +98,8 @@ Result<ShapedOperators> bake_shaped_operators(const Dictionary& dict, int shape,
   try {
     const ShapeOperators& cube = dict.shapes[std::size_t(shape)];
     const bool with_sh = !cube.Ub_vec.empty();
-    ShapeBake bake = bake_box_shape(cube.face_mask, extent, dict.settings, with_sh);
+    ShapeBake bake = bake_box_shape(cube.face_mask, extent,
+                                    shaped_bake_settings(dict.settings, cube.face_mask, extent), with_sh);
     ShapedOperators out;
     out.shape = shape;
     out.extent = glm::vec3(extent);
@@ -111,7 +137,10 @@ Result<ShapedOperators> ShapedOperatorCache::get(const Dictionary& dict, int sha
 
 std::string ShapedOperatorCache::file_name(const DictionarySettings& settings, int shape,
                                            const ProportionSteps& steps, int steps_per_octave) {
-  std::string stem = cache_file_name(settings);
+  // Named by the settings the set is baked with (its kb and kd: shaped_bake_settings), so a
+  // change of that policy never loads an older bake.
+  const glm::dvec3 extent = proportions_extent(steps, steps_per_octave);
+  std::string stem = cache_file_name(shaped_bake_settings(settings, dictionary_shape_mask(shape), extent));
   if (const std::size_t dot = stem.rfind('.'); dot != std::string::npos) stem.resize(dot);
   return "shaped-" + stem + "-s" + std::to_string(shape) + "-o" + std::to_string(steps_per_octave) + "-" +
          std::to_string(steps[0]) + "_" + std::to_string(steps[1]) + "_" + std::to_string(steps[2]) +
@@ -130,7 +159,10 @@ Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict
     // The entry must be what its name says (a file renamed or written by another build).
     if (saved.ok() && saved->shaped.size() == 1 && saved->shaped[0].shape == shape &&
         saved->shaped[0].extent == extent && std::uint32_t(saved->res) == dict.settings.res &&
-        saved->kb == dict.settings.kb && saved->shaped[0].operators.Ubvol.rows == dict.shapes[0].Ubvol.rows) {
+        saved->kb <=
+            shaped_bake_settings(dict.settings, dictionary_shape_mask(shape), glm::dvec3(extent)).kb &&
+        saved->shaped[0].operators.Ub.cols == saved->kb &&
+        saved->shaped[0].operators.Ubvol.rows == dict.shapes[0].Ubvol.rows) {
       ShapedOperators out = std::move(saved->shaped[0]);
       const std::lock_guard<std::mutex> lock(mutex_);
       ++disk_loads_;
@@ -148,7 +180,7 @@ Result<ShapedOperators> ShapedOperatorCache::load_or_bake(const Dictionary& dict
     // costs the next process a bake.
     Level entry;
     entry.res = int(dict.settings.res);
-    entry.kb = dict.settings.kb;
+    entry.kb = baked->operators.Ub.cols;  // the set's modes (shaped_bake_settings)
     entry.kr = dict.interfaces.Ur.cols;
     entry.shaped.push_back(baked.value());
     std::error_code ec;
@@ -211,7 +243,7 @@ Result<ShapedInterfaces> ShapedOperatorCache::load_or_bake_interfaces(const Dict
                            extent_text(glm::dvec3(ops.extent));
   // The sizes a bake produces: the shape's missing side faces, the dictionary's counts.
   const FaceMask mask = dictionary_shape_mask(ops.shape);
-  const std::uint32_t krlf = dict.settings.krlf, kb = dict.settings.kb, kr = dict.interfaces.Ur.cols;
+  const std::uint32_t krlf = dict.settings.krlf, kb = ops.operators.Ub.cols, kr = dict.interfaces.Ur.cols;
   ShapedInterfaces expected;
   for (int e : {kFaceNegX, kFacePosX, kFaceNegZ, kFacePosZ}) {
     if (face_present(mask, e)) continue;

@@ -79,13 +79,18 @@ struct LightmapAtlas {
 // Operators baked for a box that is not a cube (MRT §8, Figure 12), shared by every block of
 // the level whose dictionary shape and (quantised) proportions they were baked for.
 struct ShapedOperators {
-  int shape = 0;             // dictionary shape (face mask) of the blocks that use them
-  glm::vec3 extent{1.0f};    // the canonical box's edge lengths (x, y, z), geometric mean 1
-  ShapeOperators operators;  // sizes as the dictionary shape's; Rb_rlf for its missing side faces
+  int shape = 0;           // dictionary shape (face mask) of the blocks that use them
+  glm::vec3 extent{1.0f};  // the canonical box's edge lengths (x, y, z), geometric mean 1
+  // Sizes as the dictionary shape's but for the modes: Ub's columns (block_kb) may be more
+  // than the dictionary's kb (precompute's shaped_mode_factor); Rb_rlf for its missing side faces.
+  ShapeOperators operators;
 };
 
 struct Level {
   int res = 0;
+  // kb: the stride of b, the most modes of any operator set the level's blocks use (the
+  // dictionary's kb, or more where shaped sets carry more modes: block_kb below). Block i's b
+  // is 3 kb floats at 3 kb i; a block with fewer modes leaves the rest of its stride zero.
   std::uint32_t kb = 0, kr = 0;
   std::vector<LevelBlock> blocks;
   std::uint32_t sample_count = 0;
@@ -117,6 +122,17 @@ inline const ShapeOperators& operator_set_at(const Dictionary& dict, const Level
 inline const ShapeOperators& block_operators(const Dictionary& dict, const Level& level,
                                              const LevelBlock& block) {
   return operator_set_at(dict, level, operator_set(dict, block));
+}
+// What Level::kb must be: the dictionary's kb or the most modes of a shaped set, if more.
+inline std::uint32_t level_b_stride(const Dictionary& dict, const Level& level) {
+  std::uint32_t kb = dict.settings.kb;
+  for (const ShapedOperators& s : level.shaped) kb = s.operators.Ub.cols > kb ? s.operators.Ub.cols : kb;
+  return kb;
+}
+// The modes of block's b (its operator set's Ub columns): a shaped set baked for a long box
+// keeps more modes than a cube's (ShapedOperators; the b of every block is level.kb wide).
+inline std::uint32_t block_kb(const Dictionary& dict, const Level& level, const LevelBlock& block) {
+  return block_operators(dict, level, block).Ub.cols;
 }
 
 }  // namespace modrt

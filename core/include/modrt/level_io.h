@@ -16,7 +16,7 @@
 //     8  u32      format version (kLevelFileVersion)
 //    12  u32      header byte size (64)
 //    16  u32      res
-//    20  u32      kb
+//    20  u32      kb (b's stride: the most modes of any operator set, level.h)
 //    24  u32      kr
 //    28  u32      block count
 //    32  u32      sample count
@@ -34,12 +34,14 @@
 //               f32 albedo[6][3] (per canonical face, linear RGB in [0, 1])
 //   slots       per slot: u32 block, i32 entry_face, u32 n, i32 ur_row_to_sample[n]
 //   records     per record: u32 source_block, u32 slot, u32 rows, u32 cols, f32 T[rows*cols]
+//               (kr x the source block's modes: its shaped set's, else the dictionary's)
 //   probe_response[6], then vector_response[6]: u32 rows, u32 cols, f32 values[rows*cols]
 //   atlas       i32 width, i32 height, i32 tile, u32 n, u32 sample_texel[n],
 //               u32 has_tiles (0 or 1), when 1 per block: i32 tile_origin_x[6],
 //               i32 tile_origin_y[6]; u32 padding count p, (u32 dst, u32 src)[p]
 //   shaped      per set: i32 shape, f32 extent[3], then Ub, Td_b, Limp, Ub_vec, Ubvol each
-//               as u32 rows, u32 cols, f32 values; when the count is > 0, per block i32
+//               as u32 rows, u32 cols, f32 values (the set's own modes, Ub's columns, in
+//               [1, kb]: a long box keeps more than a cube); when the count is > 0, per block i32
 //               shaped (-1: the dictionary shape's operators). Rb_rlf is not stored: only
 //               the level build uses it.
 //

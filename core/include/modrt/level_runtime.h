@@ -3,7 +3,8 @@
 //
 // Level-wide signals are RGB-interleaved and concatenate the blocks (level.h):
 //   ld, lightmap, albedo: 3 * level.sample_count
-//   b: 3 * kb per block (block i at 3 * kb * i)
+//   b: 3 * kb per block (block i at 3 * kb * i; its first 3 * block_kb are its modes, the
+//      rest zero: level.h)
 //   r: 3 * kr per response slot
 #pragma once
 

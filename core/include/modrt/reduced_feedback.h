@@ -9,8 +9,9 @@
 // per block i, where b0 = Td_b ld_direct and, per channel c,
 //   A_i = Td_b diag(rho_c) Ub          (kb x kb, block i's own light fed back)
 //   B_s = Td_b diag(rho_c) Ur(turned)  (kb x kr, the light that entered through slot s fed back)
-// built once when the albedo is set. A bounce then costs O(kb^2 + kb kr) per block instead of
-// O(n kb), and the converged answer b* = (I - M)^-1 b0 is reached every frame by iterating
+// built once when the albedo is set (kb: the block's own modes, block_kb; the unknowns keep
+// the level's kb per block, zero past them). A bounce then costs O(kb^2 + kb kr) per block
+// instead of O(n kb), and the converged answer b* = (I - M)^-1 b0 is reached every frame by iterating
 // from the last frame's b* (ReducedSolver).
 //
 // The solve (block Jacobi): most of a bounce's light stays in its block (A), so each block's

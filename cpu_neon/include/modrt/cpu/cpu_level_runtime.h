@@ -318,6 +318,9 @@ class CpuLevelRuntime {
   LevelBufferSizes sizes_;
   std::size_t max_block_samples_ = 0;
   std::vector<float> b_, b_planar_, r_, r_planar_, ld_planar_;
+  // Per block, its modes (block_kb): b_ keeps level.kb floats a channel a block, a block's
+  // planar copy (b_planar_, x_planar_) has channel stride block_kb_[i] inside that space.
+  std::vector<std::uint32_t> block_kb_;
   std::vector<float> x_planar_;  // apply_reduced_feedback's planar x
   // apply_reduced_feedback_delta: Tb->r d, and per slot whether a flagged record entered it.
   std::vector<float> r_delta_;

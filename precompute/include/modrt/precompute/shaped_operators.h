@@ -35,7 +35,22 @@ ProportionSteps quantise_proportions(const glm::dvec3& extent, int steps_per_oct
 // The box of quantised proportions, scaled to geometric mean 1.
 glm::dvec3 proportions_extent(const ProportionSteps& steps, int steps_per_octave);
 
-// bake_box_shape of dictionary shape `shape` for `extent` at the dictionary's settings,
+// How many cubes' modes a box's operators keep (MRT §8's "U-vector scaled" bake, with the
+// modes to match): one block has kb modes for its whole surface, so a 3 x 1 x 1 room as one
+// block with the cube's 32 modes stays 1.7x the error of three cubes (docs/proportions.md,
+// the rank study). The factor is the box's volume in cubes of its shortest edge (a slab's
+// shortest edge counted as at least half its middle one, so a thin slab is not a stack of
+// cubes), rounded down after a 10 % allowance for the proportion lattice's rounding, in
+// [1, kMaxShapedModeFactor]: a block of factor m costs m cube blocks at run time, never more
+// than the cubes it stands for would.
+inline constexpr int kMaxShapedModeFactor = 4;
+int shaped_mode_factor(const glm::dvec3& extent);
+// The dictionary's settings with kb times m = shaped_mode_factor(extent) and, for m > 1, kd
+// times 3m - 1 (both at most the box's sample count): what bake_shaped_operators bakes with.
+DictionarySettings shaped_bake_settings(const DictionarySettings& dict, FaceMask mask,
+                                        const glm::dvec3& extent);
+
+// bake_box_shape of dictionary shape `shape` for `extent` at shaped_bake_settings,
 // converted to the run-time operators. Rb_rlf stays empty: a connected block's comes from
 // its traced interfaces (ShapedOperatorCache::interfaces, the level build fills it in).
 // Errors name the shape and the extent.
