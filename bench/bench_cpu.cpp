@@ -233,7 +233,7 @@ double frame_flops(const Level& level, const Dictionary& dict) {
     const ShapeOperators& op = block_operators(dict, level, blk);
     madds += double(op.Td_b.rows) * op.Td_b.cols + double(op.Ub.rows) * op.Ub.cols;
   }
-  madds += double(level.records.size()) * level.kr * level.kb;
+  for (const ResponseRecord& rec : level.records) madds += double(rec.T.rows) * rec.T.cols;
   for (const ResponseSlot& slot : level.slots)
     madds += double(std::count_if(slot.ur_row_to_sample.begin(), slot.ur_row_to_sample.end(),
                                   [](std::int32_t s) { return s >= 0; })) *
@@ -323,6 +323,53 @@ void BM_CpuIsa(benchmark::State& state) {
   const cpu::Isa isa = cpu::Isa(state.range(1));
   if (!cpu::isa_supported(isa)) return state.SkipWithError("ISA not supported here");
   cpu_frame(state, preset_level(int(state.range(0)), 16, 32), isa, 1);
+}
+
+// ---- blocks of different modes (issue 21) ----
+// The 11-block maze alone (room 0), with a 3 x 1 x 1 room of its own, away from the maze, on
+// its box's operators (1: three cubes' modes, so b's stride is 96 for every block) and on the
+// cube's (2: 32 modes). A cube block costs its own modes whatever the stride: (1) - (0) should
+// be about three times (2) - (0), the room's modes, and the maze's part the same in all three.
+const PresetLevel* mixed_modes_level(int room) {
+  static std::map<int, std::unique_ptr<PresetLevel>> cache;
+  if (auto it = cache.find(room); it != cache.end()) return it->second.get();
+  std::unique_ptr<PresetLevel> out;
+  Result<LevelDescription> desc = precompute::maze_level(11);
+  const Dictionary* dict = preset_dictionary(16, 32);
+  if (dict && desc.ok()) {
+    LevelDescription d = desc.value();
+    if (room > 0) {
+      BlockDescription b;
+      b.cell = {40, 0, 0};
+      b.faces = FaceMask(kAllFaces & ~(1u << kFacePosZ));
+      b.warped = true;
+      for (int k = 0; k < 8; ++k)
+        b.corners[std::size_t(k)] =
+            glm::dvec3(40.0 + ((k & 1) ? 3.0 : 0.0), (k >> 1) & 1, (k >> 2) & 1) * d.cell_size;
+      d.blocks.push_back(b);
+    }
+    precompute::LevelBuildSettings settings;
+    settings.shaped_operators = room == 1;
+    Result<Level> level = precompute::build_level(d, *dict, settings);
+    if (level.ok()) {
+      out = std::make_unique<PresetLevel>();
+      out->dict = dict;
+      out->description = d;
+      out->level = std::move(level).value();
+      out->ld.resize(3 * std::size_t(out->level.sample_count));
+      for (std::size_t i = 0; i < out->ld.size(); ++i) out->ld[i] = float((i * 7919) % 1000) / 1000.0f;
+      out->flops = frame_flops(out->level, *dict);
+    } else {
+      std::fprintf(stderr, "bench: mixed modes %d: %s\n", room, level.status().to_string().c_str());
+    }
+  }
+  return (cache[room] = std::move(out)).get();
+}
+
+void BM_CpuMixedModes(benchmark::State& state) {
+  const PresetLevel* pl = mixed_modes_level(int(state.range(0)));
+  cpu_frame(state, pl, cpu::best_isa(), 1);
+  if (pl) state.counters["kb_stride"] = double(pl->level.kb);
 }
 
 // ---- a moving light, with and without skipping ----
@@ -992,6 +1039,7 @@ BENCHMARK(BM_CpuFrame)
     ->ArgsProduct({{11, 41, 1000}, {6, 16}, {12, 32}, {1, 2}})
     ->ArgNames({"blocks", "res", "kb", "threads"})
     ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CpuMixedModes)->DenseRange(0, 2)->ArgName("room")->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CpuIsa)
     ->ArgsProduct({{11, 41}, {0, 1, 2, 3}})
     ->ArgNames({"blocks", "isa"})
