@@ -6,7 +6,8 @@
 // block. Each lit face of a box carries a res x res texel grid; a mesh carries the texels of
 // its lightmap UV atlas (clutter_mesh.h), its UV charts standing in for faces.
 // The operators of one object:
-//   dUb  (DRT §4.1) rows = (level sample, source block) pairs, kb columns: the antiradiance
+//   dUb  (DRT §4.1) rows = (level sample, source block) pairs, kb columns (the level's kb, b's
+//        stride: zero past the source block's own modes, level.h block_kb): the antiradiance
 //        of the clutter; the row's sample gets dUb_row . b(source block). The source block
 //        is the block whose Limp the occluded ray sampled, so shadows cast across a block
 //        boundary use the b that lit the hidden wall.
