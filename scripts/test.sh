@@ -181,6 +181,10 @@ asan_excluded=(
   'LevelProbes.ProbesAroundACornerMatchBruteForceGather'
   'LevelVectorIrradiance.InterfaceResponseMatchesBruteForceOhlsh'
   'ReducedFeedback.IncrementalSolveAppliesFewerBlocksWithinTheBound'
+  # GLES render-target formats: bits32 and float16 targets differ from float32 in shader code,
+  # which ASan does not see; float32 and float16 operators (host-side packing) stay.
+  '*/egl_surfaceless_bits32'
+  '*/egl_surfaceless_float16_targets'
 )
 for sequence in CameraFlightThroughMaze41KeepsVisibleTilesExact CameraSkipKeepsEveryVisibleBlockExact \
   SkippingUnchangedWorkIsExact ConvergedUpdateMatchesLevelConvergedBounce \
